@@ -1,0 +1,117 @@
+"""The ``dualmech`` command line: a thin shell over importable functions.
+
+Every subcommand calls a library function and prints its result; bad input
+(a :class:`ValueError` from the library) becomes one line on stderr and exit
+code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import functools
+import sys
+from pathlib import Path
+from typing import Callable
+
+import click
+import numpy as np
+
+from dualmech.core.table import ResultTable
+from dualmech.models.case import load_case, preset_names, preset_path
+from dualmech.validation.engines import ENGINES, run_engine
+
+
+def _one_line_errors(func: Callable) -> Callable:
+    """Turn ValueError/OSError raised by the library into one line and exit code 2."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        try:
+            return func(*args, **kwargs)
+        except (ValueError, OSError) as err:
+            click.echo(f"dualmech: error: {err}", err=True)
+            sys.exit(2)
+
+    return wrapper
+
+
+@click.group()
+@click.version_option(package_name="dualmech")
+def main() -> None:
+    """Dual-number solver for the generalized slider crank, judged by Pinocchio and MuJoCo."""
+
+
+@main.command()
+def cases() -> None:
+    """List the bundled case presets."""
+    for name in preset_names():
+        case = load_case(name)
+        g = case.geometry
+        click.echo(
+            f"{name:28s} a1={g.crank_length:g} a2={g.rod_length:g} a4={g.slider_offset:g} "
+            f"alpha4={g.slider_twist_deg:g} S1={g.crank_axial_shift:g}  {case.raw.get('description', '')}"
+        )
+
+
+def summarize(table: ResultTable) -> str:
+    """A short text summary of one solved case: stroke, extremes, statuses, worst residual."""
+    s4 = table["S4"]
+    theta = table["theta1_deg"]
+    finite = np.isfinite(s4)
+    lines = [f"case {table.case} ({table.engine}): {len(table)} positions"]
+    counts = {w: int(np.sum(table.status == w)) for w in np.unique(table.status)}
+    lines.append("status: " + ", ".join(f"{w} {n}" for w, n in sorted(counts.items())))
+    if finite.any():
+        imax = np.nanargmax(s4)
+        imin = np.nanargmin(s4)
+        lines.append(
+            f"stroke: {s4[imax] - s4[imin]:.9g} (max S4 {s4[imax]:.9g} at {theta[imax]:g} deg, "
+            f"min S4 {s4[imin]:.9g} at {theta[imin]:g} deg)"
+        )
+    res = table["residual"]
+    if np.isfinite(res).any():
+        lines.append(f"worst closure residual: {np.nanmax(res):.3g}")
+    for reason in table.meta.get("messages", []):
+        lines.append(reason)
+    return "\n".join(lines)
+
+
+@main.command()
+@click.argument("case")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), help="CSV file for the table.")
+@click.option("--engine", type=click.Choice(list(ENGINES)), default="dualmech", show_default=True)
+@click.option("--frames", type=click.Choice(["world", "joint"]), default="world", show_default=True,
+              help="'joint' also writes the thesis's joint-frame components (OUT.joint.csv).")
+@_one_line_errors
+def solve(case: str, output: str | None, engine: str, frames: str) -> None:
+    """Solve CASE (a TOML file or a preset name) and write one row per crank position."""
+    c = load_case(case)
+    table = run_engine(engine, c)
+    if output:
+        table.to_csv(output)
+        if frames == "joint":
+            from dualmech.models.joint_frames import write_joint_frame_csv
+
+            write_joint_frame_csv(c, table, Path(output).with_suffix(".joint.csv"))
+    else:
+        sys.stdout.write(table.to_csv())
+    click.echo(summarize(table), err=output is None)
+
+
+@main.command()
+@click.argument("case")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), required=True)
+@_one_line_errors
+def mjcf(case: str, output: str) -> None:
+    """Write the MuJoCo MJCF model of CASE (open it in MuJoCo's viewer)."""
+    from dualmech.models.mjcf import case_to_mjcf
+
+    Path(output).write_text(case_to_mjcf(load_case(case)))
+    click.echo(f"wrote {output}")
+
+
+@main.command(name="case-path")
+@click.argument("name")
+@_one_line_errors
+def case_path(name: str) -> None:
+    """Print the file of a bundled preset (to copy and edit)."""
+    click.echo(str(preset_path(name)))
