@@ -1,0 +1,240 @@
+"""Displacement analysis: close the dual loop equation at every position at once.
+
+Newton-Raphson on the loop-closure equation (thesis eq. 5) with the screws of
+:mod:`dualmech.core.loop` as derivative operators (eq. 8-17) and a least-squares
+solve of the primary and dual equations (eq. 20-26, 23a).  Positions where
+Newton stalls go to a Davidon-Fletcher-Powell minimization of the closure
+error (Hall, Root & Sandgren's dependable method, thesis section 2.6.1).  A
+position whose closure error has a non-zero stationary minimum cannot assemble.
+
+All positions iterate together: every step is a numpy operation over the
+batch of still-active positions, never a Python loop over positions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from dualmech.core.loop import Loop, LoopState, closure_error, closure_residual, evaluate, gauge_rows, jacobian
+
+#: Closure residual (dimensionless, see :func:`~dualmech.core.loop.closure_residual`) at which a position counts as closed.
+CLOSURE_TOL = 1e-14
+#: A residual this small that Newton can no longer halve is rounding noise: also closed.
+ROUNDING_TOL = 1e-12
+#: A stationary point of the closure error: the error is this nearly orthogonal to every achievable change.
+STATIONARY_COSINE = 1e-7
+
+
+class ClosureStatus(IntEnum):
+    """Outcome of the closure at one position."""
+
+    OK = 0
+    NOT_CONVERGED = 1
+    NO_ASSEMBLY = 2
+
+
+@dataclass(frozen=True)
+class ClosureResult:
+    """Solved loop at ``n`` positions.
+
+    Attributes
+    ----------
+    state : LoopState
+        The unknowns (NaN-free; meaningful where ``status == OK``).
+    status : numpy.ndarray of ClosureStatus codes, shape (n,)
+    iterations : numpy.ndarray of int, shape (n,)
+        Newton iterations plus DFP iterations.
+    residual : numpy.ndarray, shape (n,)
+        Final closure residual (:func:`~dualmech.core.loop.closure_residual`).
+    used_dfp : numpy.ndarray of bool, shape (n,)
+        Whether the DFP fallback was needed.
+    """
+
+    state: LoopState
+    status: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    used_dfp: np.ndarray
+
+
+def _gauged_system(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState):
+    """Newton matrix ``(n, 6+g, k)`` with the spin-gauge rows, the closure error ``(n, 6)`` and the residual ``(n,)``."""
+    chain = evaluate(loop, inputs, state)
+    jac = jacobian(chain, loop)
+    if loop.spin_gauges:
+        rows, _ = gauge_rows(chain, loop)
+        gauge = np.zeros(rows.shape[:2] + (loop.n_unknown,))
+        for j, s in enumerate(chain.screws):
+            if s.var[0] == "unknown":
+                gauge[:, :, s.var[1]] = rows[:, :, j]
+        jac_g = np.concatenate([jac, gauge], axis=1)
+    else:
+        jac_g = jac
+    return jac_g, jac, closure_error(chain, loop), closure_residual(chain, loop)
+
+
+def least_squares(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Batched solution of ``a x = b`` in the least-squares sense (thesis eq. 23a).
+
+    ``a`` ``(n, m, k)`` with ``m >= k``, ``b`` ``(n, m)``.  Square systems are solved
+    directly; otherwise :math:`x = (A^TA)^{-1}A^Tb`.  A batch whose matrix is
+    exactly singular falls back to the pseudo-inverse.
+    """
+    if a.shape[1] != a.shape[2]:
+        at = np.swapaxes(a, 1, 2)
+        a, b = at @ a, np.einsum("nkm,nm->nk", at, b)
+    try:
+        return np.linalg.solve(a, b[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        return np.einsum("nkm,nm->nk", np.linalg.pinv(a), b)
+
+
+def _newton(loop, inputs, state, active, iters, residual, max_iter):
+    """Damped Newton over the active positions; returns the updated arrays."""
+    stalls = np.zeros(active.shape[0], dtype=int)
+    for _ in range(max_iter):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        sub_in = {k: v[idx] for k, v in inputs.items()}
+        sub = state.take(idx)
+        jac_g, _, err, res = _gauged_system(loop, sub_in, sub)
+        rhs = np.concatenate([-err, np.zeros((idx.size, jac_g.shape[1] - 6))], axis=1)
+        step = least_squares(jac_g, rhs)
+        new, new_res = _line_search(loop, sub_in, sub, step, res)
+        improved = new_res < 0.5 * res
+        stalls[idx] = np.where(improved, 0, stalls[idx] + 1)
+        state = state.put(idx, new)
+        residual[idx] = new_res
+        iters[idx] += 1
+        done = (new_res <= CLOSURE_TOL) | (~improved & (new_res <= ROUNDING_TOL))
+        active[idx] = ~done & (stalls[idx] < 3)
+    return state, active, iters, residual
+
+
+def _line_search(loop, inputs, state, step, res, halvings: int = 6):
+    """Take the Newton step, halving it where it would increase the residual."""
+    scale = np.ones(step.shape[0])
+    best = state.retract(step, loop)
+    best_res = closure_residual(evaluate(loop, inputs, best), loop)
+    for _ in range(halvings):
+        worse = best_res > res
+        if not worse.any():
+            break
+        scale[worse] *= 0.5
+        trial = state.retract(step * scale[:, None], loop)
+        trial_res = closure_residual(evaluate(loop, inputs, trial), loop)
+        take = worse & (trial_res < best_res)
+        best = best.put(np.flatnonzero(take), trial.take(np.flatnonzero(take)))
+        best_res = np.where(take, trial_res, best_res)
+    return best, best_res
+
+
+def _objective(loop, inputs, state):
+    """Half squared closure error, its tangent gradient, the cosine of stationarity, the residual."""
+    _, jac, err, res = _gauged_system(loop, inputs, state)
+    grad = np.einsum("nmk,nm->nk", jac, err)
+    f = 0.5 * np.einsum("nm,nm->n", err, err)
+    cosine = np.linalg.norm(grad, axis=1) / np.maximum(
+        np.linalg.norm(jac, axis=(1, 2)) * np.linalg.norm(err, axis=1), 1e-300
+    )
+    return f, grad, jac, cosine, res
+
+
+def davidon_fletcher_powell(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState,
+                            max_iter: int = 200) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndarray]:
+    """Minimize :math:`\\tfrac12\\|\\hat e\\|^2` by DFP with an Armijo line search, batched.
+
+    Returns the state, iterations, final residual and the stationarity cosine
+    :math:`\\|J^T e\\| / (\\|J\\|\\|e\\|)` at every position.
+    """
+    n, k = state.scalars.shape[0], loop.n_unknown
+    f, grad, jac, cosine, res = _objective(loop, inputs, state)
+    h = np.linalg.inv(np.swapaxes(jac, 1, 2) @ jac + 1e-10 * np.eye(k))
+    iters = np.zeros(n, dtype=int)
+    active = (res > CLOSURE_TOL) & (cosine > STATIONARY_COSINE)
+    for _ in range(max_iter):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        sub_in = {key: v[idx] for key, v in inputs.items()}
+        p = -np.einsum("nij,nj->ni", h[idx], grad[idx])
+        slope = np.einsum("ni,ni->n", p, grad[idx])
+        alpha = np.ones(idx.size)
+        sub = state.take(idx)
+        accepted = np.zeros(idx.size, dtype=bool)
+        new = sub
+        for _ in range(40):
+            trial = sub.retract(p * alpha[:, None], loop)
+            f_t, g_t, j_t, c_t, r_t = _objective(loop, sub_in, trial)
+            ok = (f_t <= f[idx] + 1e-4 * alpha * slope) & ~accepted
+            if ok.any():
+                sel = np.flatnonzero(ok)
+                new = new.put(sel, trial.take(sel))
+                gi, fi = idx[sel], f_t[sel]
+                s_vec = p[sel] * alpha[sel, None]
+                y_vec = g_t[sel] - grad[gi]
+                h[gi] = _dfp_update(h[gi], s_vec, y_vec)
+                f[gi], grad[gi], cosine[gi], res[gi] = fi, g_t[sel], c_t[sel], r_t[sel]
+                accepted |= ok
+            if accepted.all():
+                break
+            alpha = np.where(accepted, alpha, 0.5 * alpha)
+        state = state.put(idx, new)
+        iters[idx] += 1
+        active[idx] = accepted & (res[idx] > CLOSURE_TOL) & (cosine[idx] > STATIONARY_COSINE)
+    return state, iters, res, cosine
+
+
+def _dfp_update(h: np.ndarray, s: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """DFP update of the inverse Hessian: :math:`H + ss^T/s^Ty - Hyy^TH/y^THy` (skipped where not positive)."""
+    sy = np.einsum("ni,ni->n", s, y)
+    hy = np.einsum("nij,nj->ni", h, y)
+    yhy = np.einsum("ni,ni->n", y, hy)
+    good = (sy > 1e-300) & (yhy > 1e-300)
+    sy, yhy = np.where(good, sy, 1.0), np.where(good, yhy, 1.0)
+    upd = h + np.einsum("ni,nj->nij", s, s) / sy[:, None, None] - np.einsum("ni,nj->nij", hy, hy) / yhy[:, None, None]
+    return np.where(good[:, None, None], upd, h)
+
+
+def solve_closure(loop: Loop, inputs: dict[str, np.ndarray], guess: LoopState,
+                  max_newton: int = 30, max_dfp: int = 200) -> ClosureResult:
+    """Close ``loop`` at every position, starting from ``guess``.
+
+    Parameters
+    ----------
+    loop : Loop
+    inputs : dict of name -> ``(n,)`` array
+        Values of the prescribed inputs.
+    guess : LoopState
+        Initial estimates of the unknowns at the ``n`` positions.
+
+    Returns
+    -------
+    ClosureResult
+    """
+    n = guess.scalars.shape[0]
+    iters = np.zeros(n, dtype=int)
+    residual = np.full(n, np.inf)
+    active = np.ones(n, dtype=bool)
+    state, stalled, iters, residual = _newton(loop, inputs, guess, active, iters, residual, max_newton)
+    status = np.full(n, ClosureStatus.OK, dtype=np.int8)
+    used_dfp = residual > ROUNDING_TOL
+    idx = np.flatnonzero(used_dfp)
+    if idx.size:
+        sub_in = {k: v[idx] for k, v in inputs.items()}
+        sub, it, res, cosine = davidon_fletcher_powell(loop, sub_in, state.take(idx), max_dfp)
+        # a DFP point that is close enough for Newton to finish quadratically
+        act = res > ROUNDING_TOL
+        it_n = np.zeros(idx.size, dtype=int)
+        sub, _, it_n, res = _newton(loop, sub_in, sub, act.copy(), it_n, res, max_newton)
+        state = state.put(idx, sub)
+        iters[idx] += it + it_n
+        residual[idx] = res
+        failed = res > ROUNDING_TOL
+        status[idx[failed]] = np.where(cosine[failed] <= STATIONARY_COSINE,
+                                       ClosureStatus.NO_ASSEMBLY, ClosureStatus.NOT_CONVERGED)
+    return ClosureResult(state, status, iters, residual, used_dfp)
