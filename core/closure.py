@@ -135,13 +135,13 @@ def _line_search(loop, inputs, state, step, res, halvings: int = 6):
 
 def _objective(loop, inputs, state):
     """Half squared closure error, its tangent gradient, the cosine of stationarity, the residual."""
-    _, jac, err, res = _gauged_system(loop, inputs, state)
+    jac_g, jac, err, res = _gauged_system(loop, inputs, state)
     grad = np.einsum("nmk,nm->nk", jac, err)
     f = 0.5 * np.einsum("nm,nm->n", err, err)
     cosine = np.linalg.norm(grad, axis=1) / np.maximum(
         np.linalg.norm(jac, axis=(1, 2)) * np.linalg.norm(err, axis=1), 1e-300
     )
-    return f, grad, jac, cosine, res
+    return f, grad, jac_g, cosine, res
 
 
 def davidon_fletcher_powell(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState,
@@ -152,8 +152,11 @@ def davidon_fletcher_powell(loop: Loop, inputs: dict[str, np.ndarray], state: Lo
     :math:`\\|J^T e\\| / (\\|J\\|\\|e\\|)` at every position.
     """
     n, k = state.scalars.shape[0], loop.n_unknown
-    f, grad, jac, cosine, res = _objective(loop, inputs, state)
-    h = np.linalg.inv(np.swapaxes(jac, 1, 2) @ jac + 1e-10 * np.eye(k))
+    f, grad, jac_g, cosine, res = _objective(loop, inputs, state)
+    # initial inverse Hessian: Gauss-Newton with the gauge rows (full rank off singular poses)
+    gram = np.swapaxes(jac_g, 1, 2) @ jac_g
+    gram += 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] * np.eye(k)
+    h = np.linalg.pinv(gram, hermitian=True)
     iters = np.zeros(n, dtype=int)
     active = (res > CLOSURE_TOL) & (cosine > STATIONARY_COSINE)
     for _ in range(max_iter):

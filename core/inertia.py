@@ -65,3 +65,28 @@ def solid_cylinder_x(mass: float, length: float, radius: float) -> np.ndarray:
 def solid_cube(mass: float, side: float) -> np.ndarray:
     """Central inertia of a uniform solid cube, :math:`m s^2/6` on the diagonal (thesis 3.1)."""
     return np.eye(3) * mass * side**2 / 6.0
+
+
+@dataclass(frozen=True)
+class MassArrays:
+    """Batched twin of :class:`BodyInertia`: one body's mass properties per position.
+
+    ``mass`` ``(n,)``, ``com`` ``(n, 3)`` (body frame), ``inertia`` ``(n, 3, 3)`` (about the
+    centre of mass, body axes).  Lets positions of different cases share one batch.
+    """
+
+    mass: np.ndarray
+    com: np.ndarray
+    inertia: np.ndarray
+
+    @staticmethod
+    def repeat(bodies: list[BodyInertia], counts: list[int]) -> "MassArrays":
+        """Body ``bodies[i]`` repeated ``counts[i]`` times, concatenated."""
+        return MassArrays(
+            np.repeat([b.mass for b in bodies], counts),
+            np.repeat([b.com for b in bodies], counts, axis=0),
+            np.repeat([b.inertia for b in bodies], counts, axis=0),
+        )
+
+    def take(self, index: np.ndarray | slice) -> "MassArrays":
+        return MassArrays(self.mass[index], self.com[index], self.inertia[index])

@@ -6,8 +6,9 @@ Row ``i`` of the table carries frame {i} to frame {i+1} by
 
 (thesis eq. 1-4), and the loop closes when
 :math:`\\hat T_1 \\hat T_2 \\cdots \\hat T_n = \\hat I` (eq. 5).  Each of
-:math:`\\theta, S, \\eta, \\alpha, a` is a constant, a prescribed input, or an
-unknown.  A *spherical* row replaces :math:`Z(\\theta)Y(\\eta)` by a free rotation
+:math:`\\theta, S, \\eta, \\alpha, a` is a constant, a prescribed input, a
+per-position parameter (a constant that differs between the cases of a batch)
+or an unknown.  A *spherical* row replaces :math:`Z(\\theta)Y(\\eta)` by a free rotation
 matrix ``R`` (three unknowns): the thesis's Z-Y angles of a ball joint (eq. 2-3)
 are singular at some poses and cannot represent the rod's spin, a rotation
 state cannot fail there.
@@ -35,19 +36,26 @@ _FIELDS = ("theta", "s", "eta", "alpha", "a")
 
 @dataclass(frozen=True)
 class Var:
-    """A variable slot of the table: an input named ``name`` or an unknown named ``name``."""
+    """A slot of the table filled per position: a prescribed ``input`` (it moves, so it has a
+    rate and a screw), a ``param`` (constant in time, e.g. a link length that differs
+    between batched cases) or an ``unknown``."""
 
-    kind: str  # "input" or "unknown"
+    kind: str  # "input", "param" or "unknown"
     name: str
 
     def __post_init__(self) -> None:
-        if self.kind not in ("input", "unknown"):
-            raise ValueError(f"Var.kind: expected 'input' or 'unknown', got {self.kind!r}")
+        if self.kind not in ("input", "param", "unknown"):
+            raise ValueError(f"Var.kind: expected 'input', 'param' or 'unknown', got {self.kind!r}")
 
 
 def inp(name: str) -> Var:
     """A prescribed input variable (its values are given per position)."""
     return Var("input", name)
+
+
+def par(name: str) -> Var:
+    """A per-position constant (no rate): its values are given with the inputs."""
+    return Var("param", name)
 
 
 def unk(name: str) -> Var:
@@ -88,13 +96,14 @@ class Loop:
         another spherical row, so it could spin freely about the line joining the
         two ball centres.  The gauge fixes that spin: the link's angular velocity
         and acceleration have no component along that line.
-    length_scale : float
-        Length used to make the dual (translational) residual dimensionless.
+    length_scale : str
+        Name of the parameter (or input) whose value makes the dual
+        (translational) residual dimensionless at each position.
     """
 
     rows: tuple[Row, ...]
     spin_gauges: tuple[int, ...] = ()
-    length_scale: float = 1.0
+    length_scale: str = ""
     unknowns: tuple[str, ...] = field(init=False)
     inputs: tuple[str, ...] = field(init=False)
     spherical_rows: tuple[int, ...] = field(init=False)
@@ -104,7 +113,7 @@ class Loop:
         for row in self.rows:
             for f in _FIELDS:
                 v = getattr(row, f)
-                if isinstance(v, Var):
+                if isinstance(v, Var) and v.kind != "param":
                     (unknowns if v.kind == "unknown" else inputs).append(v.name)
         spherical = tuple(i for i, r in enumerate(self.rows) if r.spherical)
         for g in self.spin_gauges:
@@ -167,7 +176,7 @@ def rodrigues(w: np.ndarray) -> np.ndarray:
 
 def _value(v: float | Var, inputs: dict[str, np.ndarray], unknowns: dict[str, np.ndarray], n: int) -> np.ndarray:
     if isinstance(v, Var):
-        return (inputs if v.kind == "input" else unknowns)[v.name]
+        return (unknowns if v.kind == "unknown" else inputs)[v.name]
     return np.full(n, float(v))
 
 
@@ -196,6 +205,7 @@ class Chain:
     frames: list[Dual]  # frames[i] = T_1 ... T_i (frame {i+1} in world), i = 0..len(rows)-1
     closure: Dual  # B = T_1 ... T_n (thesis eq. 18)
     screws: list[Screw]
+    scale: np.ndarray  # (n,) the loop's length scale at each position
 
 
 def evaluate(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState) -> Chain:
@@ -204,6 +214,7 @@ def evaluate(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState) -> Cha
     Parameters
     ----------
     inputs : dict of name -> ``(n,)`` array
+        Values of the inputs and parameters.
     state : LoopState with ``n`` positions
     """
     n = state.scalars.shape[0]
@@ -233,12 +244,13 @@ def evaluate(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState) -> Cha
         alpha = Dual.of(_value(row.alpha, inputs, unknowns, n), _value(row.a, inputs, unknowns, n))
         prefix = prefix @ rot_x(alpha)
         frames.append(prefix)
-    return Chain(frames, prefix, screws)
+    scale = inputs[loop.length_scale] if loop.length_scale else np.ones(n)
+    return Chain(frames, prefix, screws, scale)
 
 
 def _add_screw(screws: list[Screw], v: float | Var, frame: Dual, axis: int, slide: bool,
                row: int, carrier: int, loop: Loop) -> None:
-    if not isinstance(v, Var):
+    if not isinstance(v, Var) or v.kind == "param":
         return
     line = frame.column(axis)
     if slide:
@@ -255,7 +267,7 @@ def closure_error(chain: Chain, loop: Loop) -> np.ndarray:
     :math:`\\hat B^T - \\hat I` entries (12), (13), (23) of eq. (20)-(21), taken
     symmetrically.
     """
-    return np.concatenate([vee(chain.closure.re), vee(chain.closure.du) / loop.length_scale], axis=-1)
+    return np.concatenate([vee(chain.closure.re), vee(chain.closure.du) / chain.scale[:, None]], axis=-1)
 
 
 def closure_residual(chain: Chain, loop: Loop) -> np.ndarray:
@@ -267,21 +279,27 @@ def closure_residual(chain: Chain, loop: Loop) -> np.ndarray:
     """
     b = chain.closure
     prim = np.abs(b.re - np.eye(3)).max(axis=(-1, -2))
-    dual = np.abs(b.du).max(axis=(-1, -2)) / loop.length_scale
+    dual = np.abs(b.du).max(axis=(-1, -2)) / chain.scale
     return np.maximum(prim, dual)
 
 
 def jacobian(chain: Chain, loop: Loop) -> np.ndarray:
-    """Columns of the unknowns' screws as real 6-vectors, ``(n, 6, loop.n_unknown)``.
+    """Derivative of :func:`closure_error` with respect to the tangent step, ``(n, 6, loop.n_unknown)``.
 
-    The dual rows are divided by ``loop.length_scale`` like :func:`closure_error`.
+    Moving unknown ``j`` turns the loop product as :math:`d\\hat B = [\\hat s_j]_\\times \\hat B\\, dx_j`
+    (eq. 11 with :math:`\\hat H_j = [\\hat s_j]_\\times`, eq. 12-17), so the column is the
+    skew part of :math:`[\\hat s_j]_\\times\\hat B`.  At closure (:math:`\\hat B = \\hat I`) it is
+    the screw itself; away from closure the exact form keeps the DFP gradient
+    right where a position cannot assemble.  Dual rows are divided by the length scale.
     """
     n = chain.closure.re.shape[0]
+    b = chain.closure
     jac = np.zeros((n, 6, loop.n_unknown))
     for s in chain.screws:
         if s.var[0] == "unknown":
-            jac[:, :3, s.var[1]] = s.line.re
-            jac[:, 3:, s.var[1]] = s.line.du / loop.length_scale
+            sk_re, sk_du = skew(s.line.re), skew(s.line.du)
+            jac[:, :3, s.var[1]] = vee(sk_re @ b.re)
+            jac[:, 3:, s.var[1]] = vee(sk_re @ b.du + sk_du @ b.re) / chain.scale[:, None]
     return jac
 
 
@@ -321,6 +339,6 @@ def pose(chain: Chain, i: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 __all__ = [
-    "Var", "inp", "unk", "Row", "Loop", "LoopState", "Screw", "Chain", "evaluate", "closure_error",
+    "Var", "inp", "par", "unk", "Row", "Loop", "LoopState", "Screw", "Chain", "evaluate", "closure_error",
     "closure_residual", "jacobian", "gauge_rows", "frame_origins", "pose", "rodrigues", "from_pose",
 ]

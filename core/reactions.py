@@ -37,7 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from dualmech.core.dual import Dual
-from dualmech.core.inertia import BodyInertia
+from dualmech.core.inertia import BodyInertia, MassArrays
+
+Body = BodyInertia | MassArrays
 
 
 @dataclass(frozen=True)
@@ -58,29 +60,38 @@ class BodyMotion:
     omega_dot: np.ndarray
 
 
-def body_motion(body: BodyInertia, rotation: np.ndarray, origin: np.ndarray, twist: Dual, accel: Dual) -> BodyMotion:
+def _mass(body: Body) -> np.ndarray:
+    """Mass broadcastable against ``(n, 3)`` arrays."""
+    return np.asarray(body.mass, dtype=float)[..., None]
+
+
+def _world_inertia(body: Body, rotation: np.ndarray) -> np.ndarray:
+    return rotation @ body.inertia @ np.swapaxes(rotation, -1, -2)
+
+
+def body_motion(body: Body, rotation: np.ndarray, origin: np.ndarray, twist: Dual, accel: Dual) -> BodyMotion:
     """Centre-of-mass motion from a body's twist :math:`\\omega + \\varepsilon v_O` and its rate.
 
     .. math:: v_G = v_O + \\omega\\times G, \\qquad a_G = \\dot v_O + \\dot\\omega\\times G + \\omega\\times v_G
     """
-    com = origin + np.einsum("nij,j->ni", rotation, body.com)
+    com = origin + (rotation @ np.asarray(body.com)[..., None])[..., 0]
     omega, omega_dot = twist.re, accel.re
     vel = twist.du + np.cross(omega, com)
     acc = accel.du + np.cross(omega_dot, com) + np.cross(omega, vel)
     return BodyMotion(rotation, origin, com, vel, acc, omega, omega_dot)
 
 
-def momentum(body: BodyInertia, motion: BodyMotion) -> Dual:
+def momentum(body: Body, motion: BodyMotion) -> Dual:
     """Dual momentum about the world origin, :math:`m v_G + \\varepsilon(I_G\\omega + G\\times m v_G)`, ``(n, 3)``."""
-    i_world = motion.rotation @ body.inertia @ np.swapaxes(motion.rotation, 1, 2)
-    lin = body.mass * motion.com_vel
+    i_world = _world_inertia(body, motion.rotation)
+    lin = _mass(body) * motion.com_vel
     return Dual(lin, np.einsum("nij,nj->ni", i_world, motion.omega) + np.cross(motion.com, lin))
 
 
-def momentum_rate(body: BodyInertia, motion: BodyMotion) -> Dual:
+def momentum_rate(body: Body, motion: BodyMotion) -> Dual:
     """Rate of the dual momentum about the (fixed) world origin, ``(n, 3)`` (dual Euler equation)."""
-    i_world = motion.rotation @ body.inertia @ np.swapaxes(motion.rotation, 1, 2)
-    lin = body.mass * motion.com_acc
+    i_world = _world_inertia(body, motion.rotation)
+    lin = _mass(body) * motion.com_acc
     spin = np.einsum("nij,nj->ni", i_world, motion.omega)
     ang = np.einsum("nij,nj->ni", i_world, motion.omega_dot) + np.cross(motion.omega, spin)
     return Dual(lin, ang + np.cross(motion.com, lin))
@@ -91,11 +102,10 @@ def force_at(point: np.ndarray, force: np.ndarray) -> Dual:
     return Dual(force, np.cross(point, force))
 
 
-def kinetic_energy(body: BodyInertia, motion: BodyMotion) -> np.ndarray:
+def kinetic_energy(body: Body, motion: BodyMotion) -> np.ndarray:
     """:math:`\\tfrac12 m v_G^2 + \\tfrac12 \\omega\\cdot I_G\\omega`, shape ``(n,)``."""
-    i_world = motion.rotation @ body.inertia @ np.swapaxes(motion.rotation, 1, 2)
-    rot = np.einsum("ni,nij,nj->n", motion.omega, i_world, motion.omega)
-    return 0.5 * body.mass * np.einsum("ni,ni->n", motion.com_vel, motion.com_vel) + 0.5 * rot
+    rot = np.einsum("ni,nij,nj->n", motion.omega, _world_inertia(body, motion.rotation), motion.omega)
+    return 0.5 * _mass(body)[..., 0] * np.einsum("ni,ni->n", motion.com_vel, motion.com_vel) + 0.5 * rot
 
 
 @dataclass(frozen=True)
@@ -120,48 +130,47 @@ class Reactions:
     residual: np.ndarray
 
 
-def solve_reactions(bodies: tuple[BodyInertia, BodyInertia, BodyInertia],
-                    motions: tuple[BodyMotion, BodyMotion, BodyMotion],
+def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, BodyMotion, BodyMotion],
                     p2: np.ndarray, p3: np.ndarray, k4: np.ndarray, gravity: np.ndarray,
-                    drive_torque: float | None = None, slider_load: float | None = None) -> Reactions:
+                    drive_torque: np.ndarray, slider_load: np.ndarray) -> Reactions:
     """Solve the 17 unknown reaction components for crank, rod and slider.
 
     Parameters
     ----------
     bodies, motions : (crank, rod, slider)
     p2, p3 : ``(n, 3)`` crank pin and slider pin
-    k4 : ``(3,)`` slider direction
-    gravity : ``(3,)`` gravitational acceleration
-    drive_torque, slider_load : float
-        Exactly one is given; the other is solved.
+    k4 : ``(3,)`` or ``(n, 3)`` slider direction
+    gravity : ``(3,)`` or ``(n, 3)`` gravitational acceleration
+    drive_torque, slider_load : float or ``(n,)``
+        At each position exactly one is finite (given); the other is NaN and solved.
 
     Notes
     -----
     At a dead centre in torque mode the division by :math:`z\\cdot(P_2\\times u)`
     gives ``inf``/``nan``; callers flag those positions.
     """
-    if (drive_torque is None) == (slider_load is None):
-        raise ValueError("solve_reactions: give exactly one of drive_torque / slider_load")
-    crank, rod, slider = bodies
-    rates = [momentum_rate(b, m) for b, m in zip(bodies, motions)]
-    weights = [force_at(m.com, b.mass * np.broadcast_to(gravity, m.com.shape)) for b, m in zip(bodies, motions)]
+    n = p2.shape[0]
+    torque = np.broadcast_to(np.asarray(drive_torque, dtype=float), (n,))
+    load = np.broadcast_to(np.asarray(slider_load, dtype=float), (n,))
+    torque_mode = np.isfinite(torque)
+    if np.any(torque_mode == np.isfinite(load)):
+        raise ValueError("solve_reactions: at every position give exactly one of drive_torque / slider_load")
+    k4 = np.broadcast_to(k4, p2.shape)
+    weights = [force_at(m.com, _mass(b) * np.broadcast_to(gravity, m.com.shape)) for b, m in zip(bodies, motions)]
     # D'Alembert: what the joints must supply to each body, f + eps m_O
-    need = [r - w for r, w in zip(rates, weights)]
+    need = [momentum_rate(b, m) - w for b, m, w in zip(bodies, motions, weights)]
     d = p3 - p2
     a2 = np.linalg.norm(d, axis=1, keepdims=True)
     u = d / a2
-    # rod moments about P2: P2-terms cancel in -(P3 - P2) x j3 = K2
+    # rod moments about P2: -(P3 - P2) x j3 = K2, hence the part of j3 across the rod
     k2 = need[1].du - np.cross(p2, need[1].re)
     j3_perp = np.cross(u, k2) / a2
     # the axial rod force lambda, from the given load
     j2_perp = need[1].re + j3_perp
     tau0 = need[0].du[:, 2] + np.cross(p2, j2_perp)[:, 2]
     lever = np.cross(p2, u)[:, 2]
-    s0 = need[2].re @ k4 - j3_perp @ k4
-    if drive_torque is not None:
-        lam = (drive_torque - tau0) / lever
-    else:
-        lam = (s0 - slider_load) / (u @ k4)
+    s0 = np.einsum("ni,ni->n", need[2].re - j3_perp, k4)
+    lam = np.where(torque_mode, (torque - tau0) / lever, (s0 - load) / np.einsum("ni,ni->n", u, k4))
     j3 = j3_perp + lam[:, None] * u
     j2 = need[1].re + j3
     j1_force = need[0].re + j2
@@ -170,7 +179,8 @@ def solve_reactions(bodies: tuple[BodyInertia, BodyInertia, BodyInertia],
     j4_moment_o = need[2].du - np.cross(p3, j3)
     j4_moment = j4_moment_o - np.cross(p3, j4_force)
     residual = _newton_euler_residual(need, p2, p3, j1_force, j1_moment, j2, j3, j4_force, j4_moment_o)
-    return Reactions(j1_force, j1_moment, j2, j3, j4_force, j4_moment, j4_force @ k4, j1_moment[:, 2], residual)
+    return Reactions(j1_force, j1_moment, j2, j3, j4_force, j4_moment,
+                     np.einsum("ni,ni->n", j4_force, k4), j1_moment[:, 2], residual)
 
 
 def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, f4, m4_o) -> np.ndarray:

@@ -15,50 +15,89 @@ five unknowns cannot close a spatial loop (errata E2), so each ball here is a
 free rotation and the rod's spin is fixed by the zero-spin gauge
 (``docs/conventions.md``).
 
-:func:`analyze` runs displacement, velocity, acceleration and inverse
-dynamics for all positions of a case at once; :func:`solve_case` turns the
-result into the common :class:`~dualmech.core.table.ResultTable`.
+:func:`analyze_many` runs displacement, velocity, acceleration and inverse
+dynamics for all positions of many cases at once (the geometry is a
+per-position parameter of the loop, so cases share one batch);
+:func:`solve_case` turns the result into the common
+:class:`~dualmech.core.table.ResultTable`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Iterator, Sequence
 
 import numpy as np
 
 from dualmech.core.closure import ClosureStatus, solve_closure
-from dualmech.core.loop import Loop, LoopState, Row, evaluate, inp, unk
+from dualmech.core.dual import origin
+from dualmech.core.inertia import MassArrays
+from dualmech.core.loop import Loop, LoopState, Row, closure_residual, evaluate, inp, par, unk
 from dualmech.core.motion import CrankState
 from dualmech.core.rates import Rates, solve_rates
 from dualmech.core.reactions import BodyMotion, Reactions, body_motion, solve_reactions
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
-from dualmech.models.case import Case, Geometry
+from dualmech.models.case import Case
 
-#: |transmission| below which a torque-mode position is a dead centre (see validation/tolerances.py).
+#: |transmission| below which a torque-mode position is a dead centre (validation/tolerances.py, DEAD_CENTRE_TRANSMISSION).
 DEAD_CENTRE = 1e-9
 #: Geometry steps of the continuation fallback (from the planar mechanism to the case).
 CONTINUATION_STEPS = 8
+#: Positions analysed together at most (bounds memory; about 2 kB of work arrays per position).
+CHUNK_POSITIONS = 200_000
+
+LOOP = Loop(
+    rows=(
+        Row("joint1", theta=inp("theta1"), s=inp("S1"), a=par("a1")),
+        Row("joint2", spherical=True, a=par("a2")),
+        Row("joint3", spherical=True, alpha=math.pi / 2),
+        Row("joint4", s=unk("S4"), alpha=par("alpha4"), a=par("a4")),
+    ),
+    spin_gauges=(1,),
+    length_scale="a2",
+)
 
 
-def build_loop(geom: Geometry) -> Loop:
-    """The slider-crank loop of ``geom`` (rows as in the module docstring)."""
-    return Loop(
-        rows=(
-            Row("joint1", theta=inp("theta1"), s=inp("S1"), a=geom.crank_length),
-            Row("joint2", spherical=True, a=geom.rod_length),
-            Row("joint3", spherical=True, alpha=math.pi / 2),
-            Row("joint4", s=unk("S4"), alpha=geom.slider_twist, a=geom.slider_offset),
-        ),
-        spin_gauges=(1,),
-        length_scale=geom.rod_length,
-    )
+@dataclass(frozen=True)
+class Batch:
+    """Positions of one or more cases, concatenated: crank state and geometry per position (``(n,)``)."""
 
+    crank: CrankState
+    a1: np.ndarray
+    a2: np.ndarray
+    a4: np.ndarray
+    alpha4: np.ndarray  # radians
 
-def slider_axis(geom: Geometry) -> tuple[np.ndarray, np.ndarray]:
-    """Foot ``F`` of the common normal on the slider line, and the slider direction ``k4``."""
-    a = geom.slider_twist
-    return np.array([-geom.slider_offset, 0.0, 0.0]), np.array([0.0, math.sin(a), math.cos(a)])
+    @staticmethod
+    def of(cases: Sequence[Case], cranks: Sequence[CrankState]) -> "Batch":
+        counts = [len(c) for c in cranks]
+        crank = CrankState(*(np.concatenate([getattr(c, f.name) for c in cranks]) for f in fields(CrankState)))
+        geo = [(c.geometry.crank_length, c.geometry.rod_length, c.geometry.slider_offset, c.geometry.slider_twist)
+               for c in cases]
+        return Batch(crank, *(np.repeat(col, counts) for col in zip(*geo)))
+
+    def __len__(self) -> int:
+        return len(self.crank)
+
+    def take(self, index: np.ndarray) -> "Batch":
+        return Batch(self.crank.take(index), self.a1[index], self.a2[index], self.a4[index], self.alpha4[index])
+
+    def inputs(self) -> dict[str, np.ndarray]:
+        """Inputs and parameters of :data:`LOOP`."""
+        return {"theta1": self.crank.theta, "S1": self.crank.s, "a1": self.a1, "a2": self.a2,
+                "a4": self.a4, "alpha4": self.alpha4}
+
+    def slider_axis(self) -> tuple[np.ndarray, np.ndarray]:
+        """``F`` and ``k4`` per position, ``(n, 3)`` each."""
+        zero = np.zeros_like(self.a4)
+        return (np.stack([-self.a4, zero, zero], 1),
+                np.stack([zero, np.sin(self.alpha4), np.cos(self.alpha4)], 1))
+
+    def crank_pin(self) -> np.ndarray:
+        """``P2`` ``(n, 3)`` from the prescribed crank state."""
+        th = self.crank.theta
+        return np.stack([self.a1 * np.cos(th), self.a1 * np.sin(th), self.crank.s], 1)
 
 
 def _rod_frame(u: np.ndarray) -> np.ndarray:
@@ -69,97 +108,108 @@ def _rod_frame(u: np.ndarray) -> np.ndarray:
     return np.stack([u, v, np.cross(u, v)], axis=2)
 
 
-def _rz(theta: np.ndarray) -> np.ndarray:
-    c, s = np.cos(theta), np.sin(theta)
-    out = np.zeros(theta.shape + (3, 3))
-    out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1], out[:, 2, 2] = c, -s, s, c, 1.0
+def _rot(axis: int, angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    out = np.zeros(angle.shape + (3, 3))
+    out[:, axis, axis] = 1.0
+    out[:, i, i], out[:, j, j], out[:, i, j], out[:, j, i] = c, c, -s, s
     return out
 
 
-def _rx(alpha: float) -> np.ndarray:
-    c, s = math.cos(alpha), math.sin(alpha)
-    return np.array([[1.0, 0, 0], [0, c, -s], [0, s, c]])
-
-
-def state_from_slider(geom: Geometry, crank: CrankState, s4: np.ndarray) -> LoopState:
+def state_from_slider(batch: Batch, s4: np.ndarray) -> LoopState:
     """Loop unknowns that point the rod from the crank pin toward the slider at ``s4``.
 
     The rotation part of the loop closes exactly; the rod length generally does
     not (unless ``s4`` is the solution).  Used for initial estimates.
     """
-    f, k4 = slider_axis(geom)
-    p2 = np.stack([geom.crank_length * np.cos(crank.theta), geom.crank_length * np.sin(crank.theta), crank.s], 1)
+    f, k4 = batch.slider_axis()
+    p2 = batch.crank_pin()
     p3 = f - s4[:, None] * k4
-    rz = _rz(crank.theta)
+    rz = _rot(2, batch.crank.theta)
     r_rod = _rod_frame((p3 - p2) / np.linalg.norm(p3 - p2, axis=1, keepdims=True))
     ball2 = np.swapaxes(rz, 1, 2) @ r_rod
-    ball3 = np.swapaxes(r_rod, 1, 2) @ _rx(-geom.slider_twist - math.pi / 2)
+    ball3 = np.swapaxes(r_rod, 1, 2) @ _rot(0, -batch.alpha4 - math.pi / 2)
     return LoopState(s4[:, None].copy(), np.stack([ball2, ball3], axis=1))
 
 
-def planar_estimate(geom: Geometry, crank: CrankState) -> np.ndarray:
+def planar_estimate(batch: Batch) -> np.ndarray:
     """Plane-geometry estimate of ``S4`` (thesis section 2.6.2, extended to every crank angle).
 
     The mechanism is treated as the planar offset slider crank (``S1 = 0``, twist
     270° or 90°, whichever is nearer); where even that cannot assemble the rod is
     laid at right angles to the slider line.
     """
-    a1, a2, a4 = geom.crank_length, geom.rod_length, geom.slider_offset
-    side = 1.0 if math.sin(geom.slider_twist) < 0 else -1.0
-    reach = a2**2 - (a1 * np.cos(crank.theta) + a4) ** 2
-    return side * a1 * np.sin(crank.theta) + np.sqrt(np.maximum(reach, 0.0))
+    side = np.where(np.sin(batch.alpha4) < 0, 1.0, -1.0)
+    th = batch.crank.theta
+    reach = batch.a2**2 - (batch.a1 * np.cos(th) + batch.a4) ** 2
+    return side * batch.a1 * np.sin(th) + np.sqrt(np.maximum(reach, 0.0))
 
 
-def _inputs(crank: CrankState) -> dict[str, np.ndarray]:
-    return {"theta1": crank.theta, "S1": crank.s}
+def on_branch(batch: Batch, s4: np.ndarray) -> np.ndarray:
+    """``(P3 - P2)·k4 < 0``: the assembly branch of the conventions."""
+    f, k4 = batch.slider_axis()
+    return np.einsum("ni,ni->n", f - s4[:, None] * k4 - batch.crank_pin(), k4) < 0
 
 
-def _on_branch(geom: Geometry, crank: CrankState, s4: np.ndarray) -> np.ndarray:
-    """``(P3 - P2)·k4 < 0`` (the assembly branch of the conventions)."""
-    f, k4 = slider_axis(geom)
-    p2 = np.stack([geom.crank_length * np.cos(crank.theta), geom.crank_length * np.sin(crank.theta), crank.s], 1)
-    return (f - s4[:, None] * k4 - p2) @ k4 < 0
+def _blend(batch: Batch, lam: float) -> Batch:
+    """Geometry ``lam`` of the way from the planar reference (S1 = 0, twist 270° or 90°) to ``batch``."""
+    ref = np.where(np.sin(batch.alpha4) < 0, 1.5 * math.pi, 0.5 * math.pi)
+    diff = (batch.alpha4 - ref + math.pi) % (2 * math.pi) - math.pi
+    c = batch.crank
+    crank = CrankState(c.theta, lam * c.s, c.theta_dot, c.s_dot, c.theta_ddot, c.s_ddot)
+    return Batch(crank, batch.a1, batch.a2, batch.a4, ref + lam * diff)
 
 
-def _planar_reference(geom: Geometry) -> Geometry:
-    twist = 270.0 if math.sin(geom.slider_twist) < 0 else 90.0
-    return Geometry(geom.crank_length, geom.rod_length, geom.slider_offset, twist, 0.0)
+def continuation(batch: Batch) -> tuple[LoopState, np.ndarray]:
+    """Close the loop by continuation in the geometry, from the planar mechanism to ``batch``.
 
-
-def _blend(a: Geometry, b: Geometry, lam: float) -> Geometry:
-    def mix(x: float, y: float) -> float:
-        return (1 - lam) * x + lam * y
-
-    return Geometry(a.crank_length, a.rod_length, mix(a.slider_offset, b.slider_offset),
-                    mix(a.slider_twist_deg, b.slider_twist_deg), mix(a.crank_axial_shift, b.crank_axial_shift))
-
-
-def _continuation(geom: Geometry, crank: CrankState) -> tuple[LoopState, np.ndarray]:
-    """Close the loop by continuation in the geometry, from the planar mechanism to ``geom``.
-
-    The axial position is blended too: ``S1(lam) = lam * S1``.  Returns the state
-    and whether each position closed on the branch at the end.
+    Returns the state and whether each position stayed closed and on the branch
+    at every step.
     """
-    start = _planar_reference(geom)
-    state = state_from_slider(start, crank, planar_estimate(start, crank))
-    ok = np.ones(len(crank), dtype=bool)
+    start = _blend(batch, 0.0)
+    state = state_from_slider(start, planar_estimate(start))
+    ok = np.ones(len(batch), dtype=bool)
     for lam in np.linspace(0.0, 1.0, CONTINUATION_STEPS + 1):
-        g = _blend(start, geom, float(lam))
-        c = CrankState(crank.theta, lam * crank.s, crank.theta_dot, crank.s_dot, crank.theta_ddot, crank.s_ddot)
-        res = solve_closure(build_loop(g), _inputs(c), state)
-        ok &= (res.status == ClosureStatus.OK) & _on_branch(g, c, res.state.scalars[:, 0])
+        b = _blend(batch, float(lam))
+        res = solve_closure(LOOP, b.inputs(), state)
+        ok &= (res.status == ClosureStatus.OK) & on_branch(b, res.state.scalars[:, 0])
         state = res.state
     return state, ok
 
 
+def close_loop(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndarray]:
+    """Displacement analysis of every position: state, status words, iterations, residual.
+
+    Newton (with its DFP fallback) from the plane-geometry estimate; positions that
+    fail or land on the other branch are retried by :func:`continuation`.
+    """
+    res = solve_closure(LOOP, batch.inputs(), state_from_slider(batch, planar_estimate(batch)))
+    state, iters, residual = res.state, res.iterations.copy(), res.residual.copy()
+    good = (res.status == ClosureStatus.OK) & on_branch(batch, state.scalars[:, 0])
+    status = np.full(len(batch), "ok", dtype=object)
+    retry = np.flatnonzero(~good)
+    if retry.size:
+        sub_batch = batch.take(retry)
+        sub, sub_ok = continuation(sub_batch)
+        fixed = np.flatnonzero(sub_ok)
+        state = state.put(retry[fixed], sub.take(fixed))
+        residual[retry] = closure_residual(evaluate(LOOP, sub_batch.inputs(), state.take(retry)), LOOP)
+        failed = retry[~sub_ok]
+        codes = res.status[failed]
+        status[failed] = np.where(codes == ClosureStatus.NO_ASSEMBLY, "no_assembly",
+                                  np.where(codes == ClosureStatus.OK, "branch_jump", "not_converged"))
+    return state, status, iters, residual
+
+
 @dataclass(frozen=True)
 class Analysis:
-    """Everything the in-house solver computes for one case.
+    """Everything the in-house solver computes for one case (arrays over its ``n`` positions).
 
     ``status`` is an object array of status words (``docs/conventions.md``);
     ``iterations`` and ``closure_residual`` per position; ``motions`` the crank,
     rod and slider :class:`BodyMotion`; ``rates`` the loop :class:`Rates`;
-    ``reactions`` the :class:`Reactions` (NaN where not ``ok``).
+    ``reactions`` the :class:`Reactions` (not masked: see :func:`to_table`).
     """
 
     case: Case
@@ -176,84 +226,93 @@ class Analysis:
     reactions: Reactions
 
 
-def close_loop(geom: Geometry, crank: CrankState) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndarray]:
-    """Displacement analysis of every position: state, status words, iterations, residual."""
-    loop = build_loop(geom)
-    inputs = _inputs(crank)
-    res = solve_closure(loop, inputs, state_from_slider(geom, crank, planar_estimate(geom, crank)))
-    state, iters, residual = res.state, res.iterations.copy(), res.residual.copy()
-    good = (res.status == ClosureStatus.OK) & _on_branch(geom, crank, state.scalars[:, 0])
-    retry = np.flatnonzero(~good)
-    status = np.full(len(crank), "ok", dtype=object)
-    if retry.size:
-        sub, sub_ok = _continuation(geom, crank.take(retry))
-        state = state.put(retry[sub_ok], sub.take(np.flatnonzero(sub_ok)))
-        closed = evaluate(loop, {k: v[retry] for k, v in inputs.items()}, state.take(retry))
-        from dualmech.core.loop import closure_residual
+def _take(obj, index: slice):
+    """Slice every array field of a dataclass (recursively through lists and tuples) along axis 0."""
+    if isinstance(obj, np.ndarray):
+        return obj[index]
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(_take(o, index) for o in obj)
+    if hasattr(obj, "__dataclass_fields__"):
+        return type(obj)(**{f.name: _take(getattr(obj, f.name), index) for f in fields(obj)})
+    return obj
 
-        residual[retry] = closure_residual(closed, loop)
-        failed = retry[~sub_ok]
-        codes = res.status[failed]
-        status[failed] = np.where(
-            codes == ClosureStatus.NO_ASSEMBLY, "no_assembly",
-            np.where(codes == ClosureStatus.OK, "branch_jump", "not_converged"),
-        )
-    return state, status, iters, residual
+
+def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[Analysis]:
+    batch = Batch.of(cases, cranks)
+    counts = [len(c) for c in cranks]
+    state, status, iters, residual = close_loop(batch)
+    chain = evaluate(LOOP, batch.inputs(), state)
+    c = batch.crank
+    rates = solve_rates(chain, LOOP, {"theta1": c.theta_dot, "S1": c.s_dot}, {"theta1": c.theta_ddot, "S1": c.s_ddot})
+    p2, p3 = origin(chain.frames[0]), origin(chain.frames[1])
+    u = (p3 - p2) / batch.a2[:, None]
+    hub = np.stack([np.zeros_like(c.s), np.zeros_like(c.s), c.s], 1)
+    transmission = np.cross(p2 - hub, u)[:, 2] / batch.a1
+    frames = ((chain.frames[0].re, hub), (chain.frames[1].re, p2),
+              (np.broadcast_to(np.eye(3), chain.frames[0].re.shape), p3))
+    bodies = tuple(MassArrays.repeat([getattr(k.bodies, name) for k in cases], counts)
+                   for name in ("crank", "rod", "slider"))
+    motions = tuple(body_motion(b, r, o, rates.link_twist[i], rates.link_accel[i])
+                    for i, (b, (r, o)) in enumerate(zip(bodies, frames)))
+    _, k4 = batch.slider_axis()
+    given = np.array([[np.nan if k.loads.drive_torque is None else k.loads.drive_torque,
+                       np.nan if k.loads.slider_force is None else k.loads.slider_force] for k in cases])
+    gravity = np.repeat([k.loads.gravity for k in cases], counts, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reactions = solve_reactions(bodies, motions, p2, p3, k4, gravity,
+                                    np.repeat(given[:, 0], counts), np.repeat(given[:, 1], counts))
+    torque_mode = np.repeat(np.isfinite(given[:, 0]), counts)
+    status[(status == "ok") & torque_mode & (np.abs(transmission) < DEAD_CENTRE)] = "dead_centre"
+    out, start = [], 0
+    for case, crank, n in zip(cases, cranks, counts):
+        sl = slice(start, start + n)
+        start += n
+        out.append(Analysis(case, crank, state.scalars[sl, 0], status[sl], iters[sl], residual[sl], p2[sl], p3[sl],
+                            transmission[sl], _take(rates, sl), _take(motions, sl), _take(reactions, sl)))
+    return out
+
+
+def iter_analyses(cases: Sequence[Case], cranks: Sequence[CrankState] | None = None,
+                  chunk_positions: int = CHUNK_POSITIONS) -> Iterator[Analysis]:
+    """Analyse many cases, batching up to ``chunk_positions`` positions at a time; yields one per case.
+
+    Memory stays bounded by the chunk size however many positions there are in all.
+    """
+    if cranks is None:
+        cranks = [c.motion.state(c.geometry.crank_axial_shift) for c in cases]
+    group: list[int] = []
+    size = 0
+    for i, crank in enumerate(cranks):
+        if group and size + len(crank) > chunk_positions:
+            yield from _analyze_batch([cases[j] for j in group], [cranks[j] for j in group])
+            group, size = [], 0
+        group.append(i)
+        size += len(crank)
+    if group:
+        yield from _analyze_batch([cases[j] for j in group], [cranks[j] for j in group])
+
+
+def analyze_many(cases: Sequence[Case], cranks: Sequence[CrankState] | None = None) -> list[Analysis]:
+    """Displacement, velocity, acceleration and inverse dynamics of every case, batched together."""
+    return list(iter_analyses(cases, cranks))
 
 
 def analyze(case: Case, crank: CrankState | None = None) -> Analysis:
-    """Displacement, velocity, acceleration and inverse dynamics of ``case`` at every position.
+    """:func:`analyze_many` for one case (optionally at given crank states)."""
+    return analyze_many([case], None if crank is None else [crank])[0]
 
-    Parameters
-    ----------
-    case : Case
-    crank : CrankState, optional
-        Crank states to analyse; default: the case's angles and motion.
-    """
-    geom = case.geometry
-    crank = case.motion.state(geom.crank_axial_shift) if crank is None else crank
-    loop = build_loop(geom)
-    state, status, iters, residual = close_loop(geom, crank)
-    chain = evaluate(loop, _inputs(crank), state)
-    rates = solve_rates(chain, loop, {"theta1": crank.theta_dot, "S1": crank.s_dot},
-                        {"theta1": crank.theta_ddot, "S1": crank.s_ddot})
-    from dualmech.core.dual import origin
 
-    p2, p3 = origin(chain.frames[0]), origin(chain.frames[1])
-    u = (p3 - p2) / geom.rod_length
-    hub = np.stack([np.zeros_like(crank.s), np.zeros_like(crank.s), crank.s], 1)
-    transmission = np.cross(p2 - hub, u)[:, 2] / geom.crank_length
-    frames = (
-        (chain.frames[0].re, hub),
-        (chain.frames[1].re, p2),
-        (np.broadcast_to(np.eye(3), chain.frames[0].re.shape), p3),
-    )
-    bodies = (case.bodies.crank, case.bodies.rod, case.bodies.slider)
-    motions = tuple(
-        body_motion(b, r, o, rates.link_twist[i], rates.link_accel[i]) for i, (b, (r, o)) in enumerate(zip(bodies, frames))
-    )
-    _, k4 = slider_axis(geom)
-    loads = case.loads
-    with np.errstate(divide="ignore", invalid="ignore"):
-        reactions = solve_reactions(bodies, motions, p2, p3, k4, loads.gravity,
-                                    drive_torque=loads.drive_torque, slider_load=loads.slider_force)
-    if loads.mode == "torque":
-        status[(status == "ok") & (np.abs(transmission) < DEAD_CENTRE)] = "dead_centre"
-    return Analysis(case, crank, state.scalars[:, 0], status, iters, residual, p2, p3, transmission, rates,
-                    motions, reactions)
+def slider_axis(case: Case) -> tuple[np.ndarray, np.ndarray]:
+    """``F`` and ``k4`` of a case, ``(3,)`` each."""
+    a = case.geometry.slider_twist
+    return np.array([-case.geometry.slider_offset, 0.0, 0.0]), np.array([0.0, math.sin(a), math.cos(a)])
 
 
 def no_assembly_ranges(theta_deg: np.ndarray, mask: np.ndarray) -> list[tuple[float, float]]:
     """Contiguous runs of ``mask`` as (first, last) crank angles in degrees."""
-    runs, start = [], None
-    for i, m in enumerate(mask):
-        if m and start is None:
-            start = i
-        if start is not None and (not m or i == len(mask) - 1):
-            end = i if m else i - 1
-            runs.append((float(theta_deg[start]), float(theta_deg[end])))
-            start = None
-    return runs
+    edges = np.diff(np.concatenate([[0], mask.astype(int), [0]]))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return [(float(theta_deg[a]), float(theta_deg[b])) for a, b in zip(starts, ends)]
 
 
 def to_table(an: Analysis) -> ResultTable:

@@ -1,0 +1,131 @@
+"""In-house kinematics of the generalized slider crank against closed-form oracles."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+from dualmech.core.motion import CrankState
+from dualmech.models.case import load_case
+from dualmech.models.slider_crank import analyze, analyze_many, solve_case
+from tests.conftest import assembly_margin, exact_slider_motion
+from tests.tolerances import BATCH_VS_SINGLE, RATES_VS_EXACT, S4_VS_CLOSED_FORM
+
+BASE = load_case("a4-30-s1-3.5")
+
+
+def _check_against_closed_form(case):
+    an = analyze(case)
+    ok = an.status != "no_assembly"
+    s4, v, a = exact_slider_motion(case, an.crank.theta)
+    a2 = case.geometry.rod_length
+    assert_allclose(an.s4[ok], s4[ok], rtol=0, atol=S4_VS_CLOSED_FORM * a2)
+    assert_allclose(an.rates.q_dot[ok, 0], v[ok], rtol=0, atol=RATES_VS_EXACT * np.abs(v[ok]).max())
+    assert_allclose(an.rates.q_ddot[ok, 0], a[ok], rtol=0, atol=RATES_VS_EXACT * np.abs(a[ok]).max())
+    assert an.closure_residual[ok].max() <= 1e-12
+    return an
+
+
+def test_every_bundled_case_matches_closed_form(thesis_cases):
+    for case in thesis_cases:
+        an = _check_against_closed_form(case)
+        assert set(an.status) <= {"ok", "dead_centre"}, case.name
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    a4=st.floats(-25.0, 30.0),
+    twist=st.one_of(st.floats(185.0, 355.0), st.floats(5.0, 175.0), st.sampled_from([181.0, 359.0, 1.0, 179.0])),
+    s1=st.floats(-6.0, 6.0),
+    amp=st.floats(0.0, 3.0),
+    cycles=st.sampled_from([0.0, 1.0, 2.0, 3.0]),
+    accel=st.floats(-20.0, 20.0),
+)
+def test_random_geometries_close_exactly(a4, twist, s1, amp, cycles, accel):
+    """Loop closure, rates and the branch for seeded random geometries (both twist signs, near 180/360)."""
+    case = BASE.with_values({
+        "geometry.slider_offset": a4, "geometry.slider_twist_deg": twist, "geometry.crank_axial_shift": s1,
+        "motion.axial_amplitude": amp, "motion.axial_cycles": cycles, "motion.crank_accel": accel,
+        "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 5.0},
+    })
+    theta = np.radians(case.motion.angles_deg)
+    margin = assembly_margin(case, theta)
+    an = analyze(case)
+    # where the rod reaches the line with room to spare the solver must close; where it cannot, it must say so
+    assert np.all(an.status[margin > 1e-6 * case.geometry.rod_length**2] != "no_assembly")
+    assert np.all(an.status[margin < 0] == "no_assembly")
+    assert not np.isin(an.status, ["not_converged", "branch_jump"]).any()
+    if (margin > 1e-3).all():
+        _check_against_closed_form(case)
+
+
+def test_batched_equals_one_position_at_a_time():
+    rng = np.random.default_rng(11)
+    cases = [BASE.with_values({"geometry.slider_offset": float(rng.uniform(0, 30)),
+                               "geometry.slider_twist_deg": float(rng.uniform(230, 310)),
+                               "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 30.0}}) for _ in range(3)]
+    batched = analyze_many(cases)
+    for case, an in zip(cases, batched):
+        for i in range(len(an.s4)):
+            single = analyze(case, an.crank.take(slice(i, i + 1)))
+            assert_allclose(single.s4, an.s4[i], rtol=BATCH_VS_SINGLE)
+            assert_allclose(single.rates.q_ddot[:, 0], an.rates.q_ddot[i, 0], rtol=BATCH_VS_SINGLE, atol=1e-9)
+            assert_allclose(single.reactions.j1_force, an.reactions.j1_force[i:i + 1], rtol=BATCH_VS_SINGLE, atol=1e-9)
+
+
+def test_no_assembly_reports_angle_ranges():
+    """a4 large enough that the rod cannot reach the slider line around theta1 = 0."""
+    case = BASE.with_values({"geometry.slider_offset": 45.0, "geometry.crank_axial_shift": 0.0})
+    table = solve_case(case)
+    theta = np.radians(table["theta1_deg"])
+    cannot = assembly_margin(case, theta) < 0
+    assert cannot.any() and not cannot.all()
+    assert np.array_equal(table.status == "no_assembly", cannot)
+    assert np.isnan(table["S4"][cannot]).all()
+    assert np.isfinite(table["S4"][~cannot]).all()
+    (message,) = table.meta["messages"]
+    assert "no_assembly" in message and "deg" in message
+    first_bad = float(table["theta1_deg"][np.flatnonzero(cannot)[0]])
+    assert f"{first_bad:g}" in message
+
+
+def test_vertical_rod_pose_where_zy_angles_are_singular():
+    """a4 = a1, S1 = -a2: at theta1 = 180 deg the rod is parallel to the crank axis.
+
+    There the thesis's Z-Y ball angles (eq. 2-3) lose a degree of freedom (eta2 = 90 deg);
+    the rotation-state solver and twist-based rates must stay exact right next to it.
+    """
+    case = BASE.with_values({"geometry.slider_offset": 12.0, "geometry.crank_axial_shift": -50.0,
+                             "geometry.slider_twist_deg": 200.0,
+                             "motion.angles_deg": {"start": 179.0, "stop": 181.001, "step": 0.25}})
+    an = _check_against_closed_form(case)
+    u = (an.p3 - an.p2) / 50.0
+    assert np.abs(u[:, 2]).max() > 1 - 1e-9  # the pose is really reached
+    assert set(an.status) <= {"ok", "dead_centre"}  # a vertical rod has no lever about the crank axis
+
+
+def test_dead_centres_are_flagged_not_dropped():
+    table = solve_case(load_case("ideal"))
+    assert len(table) == 360
+    dead = table.status == "dead_centre"
+    assert_allclose(np.sort(table["theta1_deg"][dead]), [90.0, 270.0])  # slider line = y axis
+    assert np.isnan(table["j2_fx"][dead]).all() and np.isfinite(table["S4"][dead]).all()
+    assert np.isfinite(table["j2_fx"][~dead]).all()
+
+
+def test_force_mode_is_regular_everywhere():
+    case = load_case("ideal").with_values({"loads": {"slider_force": -50.0, "gravity": [0.0, 0.0, 0.0]}})
+    table = solve_case(case)
+    assert (table.status == "ok").all()
+    assert_allclose(table["slider_load"], -50.0, rtol=1e-12)
+
+
+def test_crank_state_is_the_prescribed_motion():
+    case = BASE.with_values({"motion.axial_amplitude": 1.5, "motion.axial_cycles": 2.0})
+    st_ = case.motion.state(3.5)
+    assert isinstance(st_, CrankState)
+    assert_allclose(st_.s, 3.5 + 1.5 * np.sin(2 * np.radians(case.motion.angles_deg)), rtol=1e-15)
+    assert_allclose(st_.theta_dot, 2 * math.pi * 50 / 60)
