@@ -1,0 +1,5 @@
+"""``python -m dualmech.validation``: the same as the ``dualmech`` command."""
+
+from dualmech.validation.cli import main
+
+main()
