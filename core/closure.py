@@ -18,7 +18,8 @@ from enum import IntEnum
 
 import numpy as np
 
-from dualmech.core.loop import Loop, LoopState, closure_error, closure_residual, evaluate, gauge_rows, jacobian
+from dualmech.core.loop import (Chain, Loop, LoopState, Screw, closure_error, closure_residual, evaluate, gauge_rows,
+                                jacobian, screw_jacobian)
 
 #: Closure residual (dimensionless, see :func:`~dualmech.core.loop.closure_residual`) at which a position counts as closed.
 CLOSURE_TOL = 1e-14
@@ -60,19 +61,21 @@ class ClosureResult:
     used_dfp: np.ndarray
 
 
+def _gauge_block(chain, loop: Loop) -> np.ndarray:
+    """Spin-gauge rows over the tangent step, ``(n, g, k)``."""
+    rows, _ = gauge_rows(chain, loop)
+    gauge = np.zeros(rows.shape[:2] + (loop.n_unknown,))
+    for j, s in enumerate(chain.screws):
+        if s.var[0] == "unknown":
+            gauge[:, :, s.var[1]] = rows[:, :, j]
+    return gauge
+
+
 def _gauged_system(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState):
-    """Newton matrix ``(n, 6+g, k)`` with the spin-gauge rows, the closure error ``(n, 6)`` and the residual ``(n,)``."""
+    """Exact Jacobian ``(n, 6+g, k)`` with the spin-gauge rows, without them ``(n, 6, k)``, error ``(n, 6)``, residual."""
     chain = evaluate(loop, inputs, state)
     jac = jacobian(chain, loop)
-    if loop.spin_gauges:
-        rows, _ = gauge_rows(chain, loop)
-        gauge = np.zeros(rows.shape[:2] + (loop.n_unknown,))
-        for j, s in enumerate(chain.screws):
-            if s.var[0] == "unknown":
-                gauge[:, :, s.var[1]] = rows[:, :, j]
-        jac_g = np.concatenate([jac, gauge], axis=1)
-    else:
-        jac_g = jac
+    jac_g = np.concatenate([jac, _gauge_block(chain, loop)], axis=1) if loop.spin_gauges else jac
     return jac_g, jac, closure_error(chain, loop), closure_residual(chain, loop)
 
 
@@ -92,45 +95,78 @@ def least_squares(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.einsum("nkm,nm->nk", np.linalg.pinv(a), b)
 
 
+def _newton_step(chain, loop: Loop) -> np.ndarray:
+    """Newton step: screws times step = minus the closure error (eq. 11, 23a), with the spin gauge."""
+    jac = screw_jacobian(chain, loop)
+    err = closure_error(chain, loop)
+    if loop.spin_gauges:
+        jac = np.concatenate([jac, _gauge_block(chain, loop)], axis=1)
+        err = np.concatenate([err, np.zeros((err.shape[0], len(loop.spin_gauges)))], axis=1)
+    return least_squares(jac, -err)
+
+
 def _newton(loop, inputs, state, active, iters, residual, max_iter):
-    """Damped Newton over the active positions; returns the updated arrays."""
-    stalls = np.zeros(active.shape[0], dtype=int)
-    for _ in range(max_iter):
+    """Newton with step halving, one loop evaluation per iteration, over the active positions.
+
+    A step that increases the residual is halved (up to 6 times) before a new
+    Newton step is taken from the accepted point.  Returns the updated state and
+    arrays; ``active`` ends true where Newton stalled or ran out of iterations.
+    """
+    n = active.shape[0]
+    stalls = np.zeros(n, dtype=int)
+    halvings = np.zeros(n, dtype=int)
+    base, step = state, np.zeros((n, loop.n_unknown))
+    base_res = np.full(n, np.inf)
+    for _ in range(max_iter + 1):
         idx = np.flatnonzero(active)
         if idx.size == 0:
             break
         sub_in = {k: v[idx] for k, v in inputs.items()}
-        sub = state.take(idx)
-        jac_g, _, err, res = _gauged_system(loop, sub_in, sub)
-        rhs = np.concatenate([-err, np.zeros((idx.size, jac_g.shape[1] - 6))], axis=1)
-        step = least_squares(jac_g, rhs)
-        new, new_res = _line_search(loop, sub_in, sub, step, res)
-        improved = new_res < 0.5 * res
-        stalls[idx] = np.where(improved, 0, stalls[idx] + 1)
-        state = state.put(idx, new)
-        residual[idx] = new_res
-        iters[idx] += 1
-        done = (new_res <= CLOSURE_TOL) | (~improved & (new_res <= ROUNDING_TOL))
-        active[idx] = ~done & (stalls[idx] < 3)
+        chain = evaluate(loop, sub_in, state.take(idx))
+        res = closure_residual(chain, loop)
+        residual[idx] = res
+        worse = (res > base_res[idx]) & (halvings[idx] < 6)
+        done = res <= CLOSURE_TOL
+        # back off where the step made things worse
+        back = idx[worse & ~done]
+        if back.size:
+            halvings[back] += 1
+            step[back] *= 0.5
+            state = state.put(back, base.take(back).retract(step[back], loop))
+        # accept elsewhere, and take a new Newton step
+        acc = ~worse & ~done
+        good = idx[acc]
+        improved = res[acc] < 0.5 * base_res[good]
+        stalls[good] = np.where(improved, 0, stalls[good] + 1)
+        rounding = ~improved & (res[acc] <= ROUNDING_TOL)
+        active[good[rounding]] = False
+        active[idx[done]] = False
+        go = acc.copy()
+        go[acc] = ~rounding & (stalls[good] < 3)
+        active[idx[acc][~go[acc]]] = False
+        take = np.flatnonzero(go)
+        if take.size:
+            sel = idx[take]
+            sub_chain = _take_chain(chain, take)
+            step[sel] = _newton_step(sub_chain, loop)
+            base = base.put(sel, state.take(sel))
+            base_res[sel] = res[take]
+            halvings[sel] = 0
+            state = state.put(sel, state.take(sel).retract(step[sel], loop))
+            iters[sel] += 1
+    # positions still marked active ran out of iterations at an unevaluated trial point: step back
+    left = np.flatnonzero(active & np.isfinite(base_res))
+    if left.size:
+        state = state.put(left, base.take(left))
+        residual[left] = base_res[left]
     return state, active, iters, residual
 
 
-def _line_search(loop, inputs, state, step, res, halvings: int = 6):
-    """Take the Newton step, halving it where it would increase the residual."""
-    scale = np.ones(step.shape[0])
-    best = state.retract(step, loop)
-    best_res = closure_residual(evaluate(loop, inputs, best), loop)
-    for _ in range(halvings):
-        worse = best_res > res
-        if not worse.any():
-            break
-        scale[worse] *= 0.5
-        trial = state.retract(step * scale[:, None], loop)
-        trial_res = closure_residual(evaluate(loop, inputs, trial), loop)
-        take = worse & (trial_res < best_res)
-        best = best.put(np.flatnonzero(take), trial.take(np.flatnonzero(take)))
-        best_res = np.where(take, trial_res, best_res)
-    return best, best_res
+def _take_chain(chain, index: np.ndarray):
+    """The chain at a subset of its positions."""
+    frames = [f.take(index) for f in chain.frames]
+    screws = [Screw(s.line.take(index), s.var, s.row, s.carrier) for s in chain.screws]
+    return Chain(frames, chain.closure.take(index), screws, chain.scale[index])
 
 
 def _objective(loop, inputs, state):
