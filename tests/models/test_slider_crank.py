@@ -129,3 +129,31 @@ def test_crank_state_is_the_prescribed_motion():
     assert isinstance(st_, CrankState)
     assert_allclose(st_.s, 3.5 + 1.5 * np.sin(2 * np.radians(case.motion.angles_deg)), rtol=1e-15)
     assert_allclose(st_.theta_dot, 2 * math.pi * 50 / 60)
+
+
+def test_other_branch_is_detected_and_refused(monkeypatch):
+    """Seed Newton on the other assembly branch: the jump is caught and continuation recovers the right one."""
+    import dualmech.models.slider_crank as sc
+    from tests.conftest import closed_form_s4
+    from dualmech.core.dual import Dual
+
+    case = BASE.with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 15.0}})
+    theta = np.radians(case.motion.angles_deg)
+    right = closed_form_s4(case, Dual(theta, np.zeros_like(theta))).re
+    f, k4 = sc.slider_axis(case)
+    p2 = np.stack([12 * np.cos(theta), 12 * np.sin(theta), np.full_like(theta, 3.5)], 1)
+    other = -2 * ((p2 - f) @ k4) - right  # the second root of the sphere-line quadratic
+    batch = sc.Batch.of([case], [case.motion.state(3.5)])
+    assert sc.on_branch(batch, right).all() and not sc.on_branch(batch, other).any()
+    calls = []
+    original = sc.planar_estimate
+
+    def wrong_guess(b):
+        calls.append(len(b))
+        return other if len(calls) == 1 else original(b)
+
+    monkeypatch.setattr(sc, "planar_estimate", wrong_guess)
+    state, status, _, _ = sc.close_loop(batch)
+    assert len(calls) >= 2  # the continuation fallback ran
+    assert (status == "ok").all()
+    assert_allclose(state.scalars[:, 0], right, rtol=0, atol=S4_VS_CLOSED_FORM * 50)
