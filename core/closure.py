@@ -199,32 +199,27 @@ def davidon_fletcher_powell(loop: Loop, inputs: dict[str, np.ndarray], state: Lo
         idx = np.flatnonzero(active)
         if idx.size == 0:
             break
-        sub_in = {key: v[idx] for key, v in inputs.items()}
         p = -np.einsum("nij,nj->ni", h[idx], grad[idx])
         slope = np.einsum("ni,ni->n", p, grad[idx])
         alpha = np.ones(idx.size)
-        sub = state.take(idx)
-        accepted = np.zeros(idx.size, dtype=bool)
-        new = sub
-        for _ in range(40):
-            trial = sub.retract(p * alpha[:, None], loop)
-            f_t, g_t, j_t, c_t, r_t = _objective(loop, sub_in, trial)
-            ok = (f_t <= f[idx] + 1e-4 * alpha * slope) & ~accepted
-            if ok.any():
-                sel = np.flatnonzero(ok)
-                new = new.put(sel, trial.take(sel))
-                gi, fi = idx[sel], f_t[sel]
-                s_vec = p[sel] * alpha[sel, None]
-                y_vec = g_t[sel] - grad[gi]
-                h[gi] = _dfp_update(h[gi], s_vec, y_vec)
-                f[gi], grad[gi], cosine[gi], res[gi] = fi, g_t[sel], c_t[sel], r_t[sel]
-                accepted |= ok
-            if accepted.all():
+        pending = np.ones(idx.size, dtype=bool)
+        for _ in range(40):  # Armijo backtracking, evaluating only the positions still searching
+            loc = np.flatnonzero(pending)
+            if loc.size == 0:
                 break
-            alpha = np.where(accepted, alpha, 0.5 * alpha)
-        state = state.put(idx, new)
+            gi = idx[loc]
+            trial = state.take(gi).retract(p[loc] * alpha[loc, None], loop)
+            f_t, g_t, _, c_t, r_t = _objective(loop, {key: v[gi] for key, v in inputs.items()}, trial)
+            ok = f_t <= f[gi] + 1e-4 * alpha[loc] * slope[loc]
+            if ok.any():
+                sel, acc = loc[ok], gi[ok]
+                state = state.put(acc, trial.take(np.flatnonzero(ok)))
+                h[acc] = _dfp_update(h[acc], p[sel] * alpha[sel, None], g_t[ok] - grad[acc])
+                f[acc], grad[acc], cosine[acc], res[acc] = f_t[ok], g_t[ok], c_t[ok], r_t[ok]
+                pending[sel] = False
+            alpha[loc[~ok]] *= 0.5
         iters[idx] += 1
-        active[idx] = accepted & (res[idx] > CLOSURE_TOL) & (cosine[idx] > STATIONARY_COSINE)
+        active[idx] = ~pending & (res[idx] > CLOSURE_TOL) & (cosine[idx] > STATIONARY_COSINE)
     return state, iters, res, cosine
 
 

@@ -192,11 +192,6 @@ def _geometry(g: dict) -> Geometry:
     a4 = _check_number("geometry.slider_offset", g["slider_offset"])
     alpha = _check_number("geometry.slider_twist_deg", g["slider_twist_deg"])
     s1 = _check_number("geometry.crank_axial_shift", g["crank_axial_shift"])
-    if math.isclose(math.sin(math.radians(alpha)), 0.0, abs_tol=1e-12):
-        raise CaseError(
-            f"geometry.slider_twist_deg: {alpha!r} makes the slider axis parallel to the crank axis; "
-            "the slider crank needs a twist with sin(alpha4) != 0 (e.g. 270 for the planar mechanism)"
-        )
     return Geometry(a1, a2, a4, alpha, s1)
 
 

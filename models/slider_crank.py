@@ -44,8 +44,8 @@ from dualmech.models.case import Case
 DEAD_CENTRE = 1e-9
 #: Geometry steps of the continuation fallback (from the planar mechanism to the case).
 CONTINUATION_STEPS = 8
-#: Positions analysed together at most (bounds memory; about 2 kB of work arrays per position).
-CHUNK_POSITIONS = 200_000
+#: Positions analysed together at most: bounds memory (about 9 kB of work arrays per position).
+CHUNK_POSITIONS = 50_000
 
 LOOP = Loop(
     rows=(
@@ -165,16 +165,19 @@ def continuation(batch: Batch) -> tuple[LoopState, np.ndarray]:
     """Close the loop by continuation in the geometry, from the planar mechanism to ``batch``.
 
     Returns the state and whether each position stayed closed and on the branch
-    at every step.
+    at every step (a position that fails a step is not carried further).
     """
     start = _blend(batch, 0.0)
     state = state_from_slider(start, planar_estimate(start))
     ok = np.ones(len(batch), dtype=bool)
     for lam in np.linspace(0.0, 1.0, CONTINUATION_STEPS + 1):
-        b = _blend(batch, float(lam))
-        res = solve_closure(LOOP, b.inputs(), state)
-        ok &= (res.status == ClosureStatus.OK) & on_branch(b, res.state.scalars[:, 0])
-        state = res.state
+        idx = np.flatnonzero(ok)
+        if idx.size == 0:
+            break
+        b = _blend(batch.take(idx), float(lam))
+        res = solve_closure(LOOP, b.inputs(), state.take(idx))
+        ok[idx] = (res.status == ClosureStatus.OK) & on_branch(b, res.state.scalars[:, 0])
+        state = state.put(idx, res.state)
     return state, ok
 
 
@@ -182,13 +185,16 @@ def close_loop(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndar
     """Displacement analysis of every position: state, status words, iterations, residual.
 
     Newton (with its DFP fallback) from the plane-geometry estimate; positions that
-    fail or land on the other branch are retried by :func:`continuation`.
+    did not converge or landed on the other branch are retried by
+    :func:`continuation`.  Positions where DFP found a non-zero stationary
+    closure error are ``no_assembly`` (the rod cannot reach the slider line).
     """
     res = solve_closure(LOOP, batch.inputs(), state_from_slider(batch, planar_estimate(batch)))
     state, iters, residual = res.state, res.iterations.copy(), res.residual.copy()
-    good = (res.status == ClosureStatus.OK) & on_branch(batch, state.scalars[:, 0])
+    branch = on_branch(batch, state.scalars[:, 0])
     status = np.full(len(batch), "ok", dtype=object)
-    retry = np.flatnonzero(~good)
+    status[res.status == ClosureStatus.NO_ASSEMBLY] = "no_assembly"
+    retry = np.flatnonzero((res.status == ClosureStatus.NOT_CONVERGED) | ((res.status == ClosureStatus.OK) & ~branch))
     if retry.size:
         sub_batch = batch.take(retry)
         sub, sub_ok = continuation(sub_batch)
@@ -196,9 +202,7 @@ def close_loop(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndar
         state = state.put(retry[fixed], sub.take(fixed))
         residual[retry] = closure_residual(evaluate(LOOP, sub_batch.inputs(), state.take(retry)), LOOP)
         failed = retry[~sub_ok]
-        codes = res.status[failed]
-        status[failed] = np.where(codes == ClosureStatus.NO_ASSEMBLY, "no_assembly",
-                                  np.where(codes == ClosureStatus.OK, "branch_jump", "not_converged"))
+        status[failed] = np.where(res.status[failed] == ClosureStatus.OK, "branch_jump", "not_converged")
     return state, status, iters, residual
 
 

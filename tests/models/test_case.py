@@ -39,7 +39,6 @@ def test_presets_cover_the_thesis_example():
     (lambda d: d["motion"].update(angles_deg={"step": 0.0}), ["motion.angles_deg.step", "non-zero"]),
     (lambda d: d["loads"].update(slider_force=5.0), ["both", "exactly one"]),
     (lambda d: d["loads"].pop("drive_torque"), ["neither", "exactly one"]),
-    (lambda d: d["geometry"].update(slider_twist_deg=180.0), ["slider_twist_deg", "180.0", "sin"]),
     (lambda d: d["bodies"].update(rod={"com": [25.0, 1.0, 0.0]}), ["bodies.rod.com", "axis"]),
     (lambda d: d["bodies"].update(density=-1.0), ["bodies.density", "positive"]),
     (lambda d: d.update(colour="red"), ["colour", "unknown"]),
