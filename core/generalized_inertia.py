@@ -94,7 +94,7 @@ def generalized_inertia_derivative(masses: np.ndarray, inertia_world: np.ndarray
 
 
 def coriolis_coefficient(inertia_derivative: np.ndarray, theta_dot: np.ndarray | float) -> np.ndarray:
-    """:math:`C(\\theta,\\dot\\theta) = -\\tfrac12 I'(\\theta)\\dot\\theta` of :math:`I\\ddot\\theta = C\\dot\\theta + \\tau`.
+    """:math:`C = -\\tfrac12 I'(\\theta)\\dot\\theta`, so that :math:`I\\ddot\\theta = C\\dot\\theta + \\tau`.
 
     Sinatra–Angeles eq. (39), (41): :math:`C\\dot\\psi = -u^T M \\dot u\\,\\dot\\psi`
     and, with a constant planar inertia dyad, :math:`u^T M u' = \\tfrac12 I'`.
@@ -112,7 +112,10 @@ def gravity_force(masses: np.ndarray, gravity: np.ndarray, coeffs: InfluenceCoef
 
 
 def potential_energy(masses: np.ndarray, gravity: np.ndarray, com: np.ndarray) -> np.ndarray:
-    """:math:`V = -\\sum_b m_b\\, g\\cdot c_b`, shape ``(n,)``; ``com`` ``(b, n, 3)`` (so :math:`\\tau^G = -dV/d\\theta`)."""
+    """:math:`V = -\\sum_b m_b\\, g\\cdot c_b`, shape ``(n,)``, from ``com`` ``(b, n, 3)``.
+
+    So :math:`\\tau^G = -dV/d\\theta`.
+    """
     m = np.asarray(masses, dtype=float)
     return -np.einsum("b,bni,i->n", m, com, np.asarray(gravity, dtype=float))
 

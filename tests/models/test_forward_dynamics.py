@@ -1,0 +1,210 @@
+"""Forward dynamics: the paper's planar I(psi) against the in-house velocity analysis, energy
+conservation, the work-energy balance, and inverse dynamics along the simulated trajectory."""
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from numpy.testing import assert_allclose
+from scipy.integrate import solve_ivp
+
+from dualmech.core import planar as P
+from dualmech.core.reactions import kinetic_energy
+from dualmech.models import forward_dynamics as fd
+from dualmech.models.case import case_from_dict, load_case
+from dualmech.models.slider_crank import analyze
+from dualmech.validation.tolerances import (DYN_ENERGY_CONSERVATION, DYN_INVERSE_CONSISTENCY, DYN_PLANAR_INERTIA,
+                                            DYN_WORK_ENERGY)
+
+
+def _bodies(case):
+    return case.bodies.crank, case.bodies.rod, case.bodies.slider
+
+
+def _textbook_case(**loads):
+    """A common SI textbook problem: crank 0.2 m / 1 kg, rod 0.5 m / 3 kg (uniform bars), slider 2 kg.
+
+    Planar, in line, slider along the textbook's +x: slider_twist_deg = 270 (module docstring of
+    models/forward_dynamics.py), textbook gravity (0, -9.81) is world (9.81, 0, 0).
+    """
+    return case_from_dict({
+        "name": "textbook-si", "units": "m-kg-s",
+        "geometry": {"crank_length": 0.2, "rod_length": 0.5, "slider_offset": 0.0, "slider_twist_deg": 270.0,
+                     "crank_axial_shift": 0.0},
+        "motion": {"crank_rpm": 0.0},
+        "bodies": {"crank": {"mass": 1.0, "com": [0.1, 0.0, 0.0], "inertia": [0.0, 1 * 0.2**2 / 12, 1 * 0.2**2 / 12]},
+                   "rod": {"mass": 3.0, "com": [0.25, 0.0, 0.0], "inertia": [0.0, 3 * 0.5**2 / 12, 3 * 0.5**2 / 12]},
+                   "slider": {"mass": 2.0, "com": [0.0, 0.0, 0.0], "inertia": [1e-3, 1e-3, 1e-3]}},
+        "loads": {"drive_torque": 0.0, "gravity": [9.81, 0.0, 0.0], **loads},
+    })
+
+
+PLANAR_CASES = {
+    "ideal": {},
+    "offset-270": {"geometry.slider_offset": 10.0, "bodies.crank": {"com": [4.0, 1.5, 0.7]},
+                   "bodies.rod": {"com": [18.0, 0.0, 0.0]}},
+    "offset-90": {"geometry.slider_offset": -8.0, "geometry.slider_twist_deg": 90.0,
+                  "loads.gravity": [100.0, -300.0, 50.0]},
+}
+
+
+@pytest.mark.parametrize("name", sorted(PLANAR_CASES))
+def test_planar_inertia_eq40_equals_twice_the_in_house_kinetic_energy(name):
+    """Done-when: I(psi) of eq. (40) = 2 T / psidot^2 of the in-house velocity analysis, 1e-12 relative."""
+    rng = np.random.default_rng(30)
+    case = load_case("ideal").with_values(PLANAR_CASES[name]) if PLANAR_CASES[name] else load_case("ideal")
+    model, phi = fd.planar_model(case)
+    theta = rng.uniform(0, 2 * np.pi, 50)
+    speed = rng.uniform(0.5, 20.0)
+    an = analyze(case, fd.crank_state(case, theta, speed, 0.0))
+    kinetic = sum(kinetic_energy(b, m) for b, m in zip(_bodies(case), an.motions))
+    paper = P.generalized_inertia(model, theta - phi)
+    assert_allclose(paper, 2 * kinetic / speed**2, rtol=DYN_PLANAR_INERTIA.value)
+    assert_allclose(P.pose(model, theta - phi).s, an.s4, rtol=0,
+                    atol=DYN_PLANAR_INERTIA.value * case.geometry.rod_length)
+    # the spatial coefficients reduce to the paper's derivative and gravity torque in the plane
+    co = fd.coefficients(case, theta)
+    scale = paper.max()
+    assert_allclose(co.inertia_derivative, P.generalized_inertia_derivative(model, theta - phi),
+                    rtol=0, atol=DYN_PLANAR_INERTIA.value * scale)
+    g_scale = max(np.abs(co.gravity_force).max(), 1e-300)
+    assert_allclose(co.gravity_force, P.gravity_torque(model, theta - phi), rtol=0,
+                    atol=DYN_PLANAR_INERTIA.value * g_scale)
+
+
+def test_inertia_derivative_is_the_derivative_of_the_tabulated_inertia():
+    """I' from the in-house accelerations = d/dpsi of the (spectrally exact) interpolant of I, spatial case."""
+    case = load_case("a4-30-s1-3.5").with_values({"motion.axial_amplitude": 1.0, "motion.axial_cycles": 2.0})
+    model = fd.coefficient_model(case)
+    assert model.mode == "table" and model.error <= 1e-12
+    interp = model.interpolant
+    k = np.arange(interp.coefficients.shape[1])
+    rng = np.random.default_rng(31)
+    theta = rng.uniform(0, 2 * np.pi, 30)
+    d_inertia = (interp.coefficients[0] * 1j * k) @ np.exp(1j * np.outer(k, theta))
+    exact = fd.coefficients(case, theta)
+    assert_allclose(exact.inertia_derivative, d_inertia.real, rtol=0, atol=1e-10 * exact.inertia.max())
+    for got, want in zip(model(theta), exact.stacked()):
+        assert_allclose(got, want, rtol=0, atol=1e-11 * np.abs(want).max())
+
+
+def test_free_motion_conserves_energy_over_ten_revolutions():
+    """Done-when: no drive, no damping: T + V constant to 1e-8 relative over 10 revolutions (with gravity)."""
+    case = load_case("a4-20-alpha-232").with_values({"loads.gravity": [30.0, -200.0, -386.4]})
+    sim = fd.simulate(case, 5.5, torque=0.0, psidot0=15.0, samples=801)
+    assert (sim.psi[-1] - sim.psi[0]) / (2 * np.pi) >= 10.0
+    energy = sim.kinetic + sim.potential
+    assert_allclose(energy, energy[0], rtol=0, atol=DYN_ENERGY_CONSERVATION.value * sim.kinetic[0])
+    assert np.ptp(sim.potential) > 0.1 * sim.kinetic[0]  # gravity does matter in this run
+
+
+def test_run_up_under_constant_torque_satisfies_work_energy():
+    """Done-when: T(t) - T(0) = tau (psi(t) - psi(0)) for a run-up from rest (no gravity, no damping)."""
+    case = load_case("a4-30-s1-3.5")
+    tau = 100.0
+    sim = fd.simulate(case, 2.0, torque=tau, psi0=0.3, psidot0=0.0, samples=201)
+    work = tau * (sim.psi - sim.psi[0])
+    assert_allclose(sim.kinetic - sim.kinetic[0], work, rtol=0, atol=DYN_WORK_ENERGY.value * work.max())
+    assert_allclose(sim.work_drive, work, rtol=0, atol=DYN_WORK_ENERGY.value * work.max())
+    assert sim.psi[-1] - sim.psi[0] > 2 * np.pi  # through both dead centres
+
+
+def test_work_energy_with_gravity_damping_slider_spring_and_axial_motion():
+    case = load_case("a4-20-s1-3.5").with_values({"motion.axial_amplitude": 1.2, "motion.axial_cycles": 1.0,
+                                                  "loads.gravity": [0.0, 150.0, -386.4]})
+    sim = fd.simulate(case, 1.5, torque="150*(1 - psidot/30)", psidot0=2.0, damping=0.4, slider_damping=0.02,
+                      slider_load="0.5*(s4 - 45)", samples=151)
+    scale = max(np.abs(sim.kinetic).max(), np.abs(sim.potential - sim.potential[0]).max(), sim.work_drive.max())
+    assert_allclose(sim.energy_residual(), 0.0, rtol=0, atol=DYN_WORK_ENERGY.value * scale)
+    assert sim.dissipated[-1] > 1e-3 * scale and np.all(np.diff(sim.dissipated) >= 0)
+
+
+def test_inverse_dynamics_along_the_trajectory_reproduces_the_loads():
+    """j1_mz = tau - c1 psidot - j1_fz S1' (workless axial constraint) and slider_load = F + c4 S4dot."""
+    case = load_case("a4-30-s1-3.5").with_values({"motion.axial_amplitude": 1.5, "motion.axial_cycles": 2.0,
+                                                  "loads.gravity": [10.0, -50.0, -386.4]})
+    sim = fd.simulate(case, 1.0, torque="80 + 20*sin(psi)", psidot0=3.0, damping=0.3, slider_damping=0.01,
+                      slider_load=-2.0, samples=101)
+    r = sim.reactions
+    _, s1p, _ = fd.axial_motion(case, sim.psi)
+    expect = sim.torque - 0.3 * sim.psi_dot - r.j1_force[:, 2] * s1p
+    assert_allclose(r.drive_torque, expect, rtol=0, atol=DYN_INVERSE_CONSISTENCY.value * np.abs(sim.torque).max())
+    assert_allclose(r.slider_load, -2.0 + 0.01 * sim.s4_dot, rtol=1e-14)
+    assert np.all(sim.status == "ok")
+    assert r.residual.max() < 1e-10
+
+
+def test_textbook_si_problem_against_the_papers_planar_model():
+    """Constant torque 500 N m from rest at 30 deg, slider spring 1e4 N/m (free length 0.5 m) and damper
+    1e3 N s/m, gravity: the spatial model (in-house coefficients) and the paper's planar model
+    (core/planar.py integrated by itself) give the same motion."""
+    case = _textbook_case()
+    sim = fd.simulate(case, 0.5, torque=500.0, psi0=np.radians(30.0 + 90.0), psidot0=0.0, slider_damping=1000.0,
+                      slider_load="10000*(s4 - 0.5)", samples=51)
+    model, phi = fd.planar_model(case)
+    assert_allclose(model.gravity, [0.0, -9.81], atol=1e-15)
+
+    def rhs(t, y):
+        psi = np.array([y[0]])
+        s = P.pose(model, psi).s
+        force_i = -10000.0 * (s - 0.5)  # spring on the slider along i; the damper enters as slider_damping
+        tau = P.generalized_force(model, psi, y[1], drive_torque=500.0, slider_damping=1000.0, slider_force=force_i)
+        return [y[1], P.acceleration(model, psi, y[1], tau)[0]]
+
+    ref = solve_ivp(rhs, (0.0, 0.5), [np.radians(30.0), 0.0], method="DOP853", t_eval=sim.t, rtol=1e-12, atol=1e-12)
+    # two integrations of the same ODE at rtol 1e-12: agreement ~1e-10 of the angle travelled
+    assert_allclose(sim.psi - phi, ref.y[0], rtol=0, atol=1e-9 * np.ptp(ref.y[0]))
+    assert_allclose(sim.s4, P.pose(model, ref.y[0]).s, rtol=0, atol=1e-9 * 0.5)
+
+
+def test_direct_coefficients_agree_with_the_table():
+    case = load_case("a4-20-alpha-310")
+    table = fd.coefficient_model(case)
+    direct = fd.CoefficientModel(case, "direct")
+    kw = dict(torque=50.0, psidot0=4.0, samples=5, rtol=1e-10, atol=1e-10)
+    a = fd.simulate(case, 0.05, model=table, **kw)
+    b = fd.simulate(case, 0.05, model=direct, **kw)
+    assert_allclose(a.psi, b.psi, rtol=1e-9)
+    assert fd.coefficient_model(case.with_values({"motion.axial_amplitude": 0.5, "motion.axial_cycles": 1.5})
+                                ).mode == "direct"
+
+
+def test_load_expressions():
+    f = fd.load_expression("10000*(s4 - 0.5) + 1000*s4dot + (5 if t < 1 else 0) - sin(psi)*pi")
+    assert f(0.5, 0.0, 0.0, 0.6, 0.01) == pytest.approx(1000 + 10 + 5)
+    for bad, match in (("import os", "cannot parse"), ("__import__('os')", "only calls|unknown name"),
+                       ("x + 1", "unknown name"), ("psi.real", "not allowed"), ("'a'", "not a number")):
+        with pytest.raises(ValueError, match=match):
+            fd.load_expression(bad)
+    assert fd.as_load(None, 3.0, "torque")(0, 0, 0, 0, 0) == 3.0
+    with pytest.raises(ValueError, match="torque"):
+        fd.as_load(float("nan"), 0.0, "torque")
+
+
+def test_bad_inputs_are_refused():
+    case = load_case("ideal")
+    with pytest.raises(ValueError, match="duration"):
+        fd.simulate(case, -1.0)
+    with pytest.raises(ValueError, match="damping"):
+        fd.simulate(case, 1.0, damping=-0.1)
+    with pytest.raises(ValueError, match="samples"):
+        fd.simulate(case, 1.0, samples=1)
+    with pytest.raises(ValueError, match="full revolution"):
+        fd.coefficient_model(case.with_values({"geometry.slider_offset": 45.0}))
+    with pytest.raises(ValueError, match="slider_twist_deg"):
+        fd.planar_model(load_case("a4-20-alpha-232"))
+    with pytest.raises(ValueError, match="S1 = 0"):
+        fd.planar_model(load_case("a4-30-s1-3.5"))
+
+
+def test_cli_simulate(tmp_path):
+    from dualmech.validation.cli import main
+
+    out = tmp_path / "run.csv"
+    res = CliRunner().invoke(main, ["simulate", "ideal", "--duration", "0.5", "--torque", "100", "--psidot0", "0",
+                                    "--samples", "11", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    header = out.read_text().splitlines()[0].split(",")
+    assert header == [*fd.SIMULATION_COLUMNS, "status"]
+    assert len(out.read_text().splitlines()) == 12
+    bad = CliRunner().invoke(main, ["simulate", "ideal", "--duration", "0.5", "--torque", "os.system('x')"])
+    assert bad.exit_code == 2 and "error" in bad.output and "Traceback" not in bad.output
