@@ -9,7 +9,7 @@ import MuJoCo (engines stay at the edge, ``validation/``).
 Kinematic tree (one root body under ``<worldbody>``, as Pinocchio's parser wants)::
 
     world
-     └─ ground            fixed, no joint, no mass: the root of both branches
+     └─ ground            fixed (no joint), massless: the single root of both branches
          ├─ crank         joint 1 = hinge "crank_angle" + slide "crank_axial", both about/along +z
          │   └─ rod       joint 2 = ball "rod_ball" at the crank pin P2 = (a1, 0, 0) in the crank frame
          │       · site "rod_end" at (a2, 0, 0) in the rod frame
@@ -25,7 +25,8 @@ At ``qpos = 0`` (identity quaternion) the body frames are those of
 starts parallel to the crank frame; closing the loop turns its x axis onto
 ``u = (P3 - P2)/a2`` (the rod's y, z are free: it is axisymmetric).
 
-Actuators (for simulation; inert while ``ctrl = 0`` is not used by the rigid path):
+Actuators, connect softness and time step serve simulation (:class:`MjcfSettings`);
+the rigid path ignores them:
 
 * ``crank_angle_servo``, ``crank_axial_servo``: ``<general>`` servos with
   ``biastype="affine"`` (MuJoCo ignores ``biasprm`` otherwise), force
@@ -57,6 +58,16 @@ ACTUATOR_NAMES = ("crank_angle_servo", "crank_axial_servo", "slider_load")
 CONNECT_NAME = "joint3"
 
 
+#: Default simulation time step: this many steps per degree of the fastest prescribed phase ...
+STEPS_PER_DEGREE = 128
+#: ... and never longer than this (seconds; also the step when the crank is at rest).
+MAX_TIMESTEP = 1e-4
+#: Servo natural frequency (for the crank's own inertia) times the time step.
+SERVO_BANDWIDTH = 0.5
+#: Damping ratio of the connect's solref (2: see validation/mujoco_sim.py on implicitfast).
+CLOSURE_DAMPRATIO = 2.0
+
+
 @dataclass(frozen=True)
 class MjcfSettings:
     """Simulation settings written into the MJCF (the rigid path ignores all of them).
@@ -65,53 +76,82 @@ class MjcfSettings:
     ----------
     timestep : float
         ``<option timestep>``, seconds.
-    closure_timeconst : float
-        First ``solref`` value of the connect, seconds (MuJoCo clamps it to
-        ``>= 2*timestep`` unless the ``refsafe`` flag is disabled).
-    closure_impedance : float
-        ``solimp`` dmin = dmax of the connect, in (0, 1); MuJoCo's ceiling is 0.9999.
+    closure_solref : tuple[float, float]
+        ``solref`` of the connect: time constant (s; MuJoCo raises it to
+        ``2*timestep`` unless the ``refsafe`` flag is disabled) and damping ratio.
+    closure_solimp : tuple[float, float, float, float, float]
+        ``solimp`` of the connect: dmin, dmax (in (0, 1); MuJoCo's ceiling is
+        0.9999), width, midpoint, power.
     servo_kp : tuple[float, float]
         Position gains of the crank-angle (F·L/rad) and crank-axial (F/L) servos.
     servo_kv : tuple[float, float]
         Velocity gains of the same servos (F·L·s/rad, F·s/L).
     integrator : str
-        ``"implicitfast"`` treats the servos' velocity gains implicitly.
+        ``"implicitfast"`` integrates the servos' velocity gains implicitly, so
+        heavy damping never limits the step.
     """
 
     timestep: float
-    closure_timeconst: float
-    closure_impedance: float
+    closure_solref: tuple[float, float]
+    closure_solimp: tuple[float, float, float, float, float]
     servo_kp: tuple[float, float]
     servo_kv: tuple[float, float]
     integrator: str = "implicitfast"
 
 
-def default_settings(case: Case, timestep: float = 1e-4, bandwidth_steps: float = 0.25) -> MjcfSettings:
-    """Settings that keep a simulation of ``case`` stable at ``timestep``.
+def default_timestep(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> float:
+    """Seconds per step: one degree of the fastest prescribed phase / ``steps_per_degree``, <= :data:`MAX_TIMESTEP`.
 
-    The servos are critically damped with natural frequency
-    :math:`\\omega_n = \\text{bandwidth\\_steps}/\\Delta t` for an effective inertia
-    estimated from ``case.bodies`` (crank about its axis plus rod and slider
-    masses at the crank pin, an upper bound of the loop's reflected inertia
-    up to the transmission); ``kp = I\\,\\omega_n^2``, ``kv = 2 I \\omega_n``.
-    The connect is as stiff as MuJoCo allows: time constant ``2*timestep``
-    (critical damping) and impedance 0.9999.
+    The phases are the crank angle (speed :math:`|\\dot\\theta_1|`, or the time to
+    turn one degree from rest under :math:`\\ddot\\theta_1`) and the axial motion
+    :math:`\\alpha\\theta_1` of thesis eq. (27) (``axial_cycles`` times faster).
     """
-    if not (math.isfinite(timestep) and timestep > 0):
+    mo = case.motion
+    one = math.radians(1.0)
+    cycles = max(1.0, abs(mo.axial_cycles)) if mo.axial_amplitude != 0.0 else 1.0
+    times = [MAX_TIMESTEP * steps_per_degree]
+    if mo.speed != 0.0:
+        times.append(one / (abs(mo.speed) * cycles))
+    if mo.accel != 0.0:
+        times.append(math.sqrt(2.0 * one / (abs(mo.accel) * cycles)))
+    return min(times) / steps_per_degree
+
+
+def default_settings(case: Case, timestep: float | None = None, bandwidth_steps: float = SERVO_BANDWIDTH,
+                     inertia_high: tuple[float, float] | None = None) -> MjcfSettings:
+    """Settings that keep a simulation of ``case`` stiff and stable at ``timestep``.
+
+    Servo stiffness: ``kp = I_low ω_n²`` with :math:`\\omega_n = \\text{bandwidth\\_steps}/\\Delta t`
+    and ``I_low`` the crank's own inertia about its axis (its mass, for the axial
+    servo): a lower bound of what the servo sees, so the explicit stiffness stays
+    stable (``ω Δt <= bandwidth_steps``) in every configuration; the tracking lag
+    ``τ/kp`` shrinks like ``Δt²``.  Servo damping: ``kv = 2 sqrt(kp I_high)``,
+    critical or more for any effective inertia up to ``inertia_high`` (angle,
+    axial; default: crank plus rod and slider masses at the crank pin, times 2);
+    ``implicitfast`` integrates it implicitly, so it never limits the step.  The
+    connect is as stiff as MuJoCo allows: time constant ``2 Δt``, damping ratio
+    :data:`CLOSURE_DAMPRATIO`, impedance 0.9999.  ``timestep`` defaults to
+    :func:`default_timestep`.
+    """
+    dt = default_timestep(case) if timestep is None else timestep
+    if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"timestep: expected a positive number of seconds, got {timestep!r}")
+    if not (math.isfinite(bandwidth_steps) and bandwidth_steps > 0):
+        raise ValueError(f"bandwidth_steps: expected a positive number, got {bandwidth_steps!r}")
     b = case.bodies
-    a1 = case.geometry.crank_length
-    pin_mass = b.rod.mass + b.slider.mass
-    crank_izz = _about_axis_z(b.crank)
-    inertia_angle = crank_izz + pin_mass * a1**2
-    mass_axial = b.crank.mass + pin_mass
-    wn = bandwidth_steps / timestep
+    low = (_about_axis_z(b.crank), b.crank.mass)
+    if inertia_high is None:
+        pin_mass = b.rod.mass + b.slider.mass
+        inertia_high = (2.0 * (low[0] + pin_mass * case.geometry.crank_length**2), 2.0 * (low[1] + pin_mass))
+    high = tuple(max(h, lo) for h, lo in zip(inertia_high, low))
+    wn = bandwidth_steps / dt
+    kp = tuple(lo * wn**2 for lo in low)
     return MjcfSettings(
-        timestep=timestep,
-        closure_timeconst=2.0 * timestep,
-        closure_impedance=0.9999,
-        servo_kp=(inertia_angle * wn**2, mass_axial * wn**2),
-        servo_kv=(2.0 * inertia_angle * wn, 2.0 * mass_axial * wn),
+        timestep=dt,
+        closure_solref=(2.0 * dt, CLOSURE_DAMPRATIO),
+        closure_solimp=(0.9999, 0.9999, 0.001, 0.5, 2.0),
+        servo_kp=kp,
+        servo_kv=tuple(2.0 * math.sqrt(k * h) for k, h in zip(kp, high)),
     )
 
 
@@ -127,7 +167,7 @@ def slider_axis(case: Case) -> np.ndarray:
     return np.array([0.0, math.sin(alpha), math.cos(alpha)])
 
 
-def case_to_mjcf(case: Case, settings: MjcfSettings | None = None) -> str:
+def case_to_mjcf(case: Case, settings: MjcfSettings | None = None, keyframe: np.ndarray | None = None) -> str:
     """MJCF text of ``case``: bodies, joints, the loop-closing connect, servos, loads.
 
     Parameters
@@ -139,6 +179,11 @@ def case_to_mjcf(case: Case, settings: MjcfSettings | None = None) -> str:
     settings : MjcfSettings, optional
         Time step, closure softness and servo gains; default
         :func:`default_settings`.
+    keyframe : numpy.ndarray, shape (7,), optional
+        An assembled ``qpos`` (e.g. from the MuJoCo rigid path); written as
+        ``<key name="assembled">`` at rest, with servo controls that hold it, so
+        the viewer can start from a closed loop.  This module does not solve
+        the loop itself.
 
     Returns
     -------
@@ -165,29 +210,31 @@ def case_to_mjcf(case: Case, settings: MjcfSettings | None = None) -> str:
 
     world = ET.SubElement(root, "worldbody")
     ground = ET.SubElement(world, "body", name="ground", pos="0 0 0")
+    # massless, fixed; Pinocchio's parser wants an inertia on every body (inertiafromgeom is off)
+    ET.SubElement(ground, "inertial", pos="0 0 0", mass="0", diaginertia="0 0 0")
     ET.SubElement(ground, "geom", name="crank_axis", type="cylinder", size=f"{_num(0.3 * r_crank)} {_num(0.5 * a1)}",
                   rgba="0.5 0.5 0.5 0.4")
+    foot = np.array([-a4, 0.0, 0.0])
     ET.SubElement(ground, "geom", name="slider_line", type="capsule", size=_num(0.2 * r_rod),
-                  fromto=_vec(np.array([-a4, 0, 0]) + 0.6 * a2 * k4) + " " + _vec(np.array([-a4, 0, 0]) - 1.6 * a2 * k4),
-                  rgba="0.5 0.5 0.5 0.4")
+                  fromto=_vec(np.concatenate([foot + 0.6 * a2 * k4, foot - 1.6 * a2 * k4])), rgba="0.5 0.5 0.5 0.4")
 
     crank = ET.SubElement(ground, "body", name="crank", pos="0 0 0")
     ET.SubElement(crank, "joint", name="crank_angle", type="hinge", pos="0 0 0", axis="0 0 1")
     ET.SubElement(crank, "joint", name="crank_axial", type="slide", pos="0 0 0", axis="0 0 1")
-    _inertial(crank, case.bodies.crank)
+    _inertial(crank, case.bodies.crank, "crank")
     ET.SubElement(crank, "geom", name="crank", type="capsule", size=_num(r_crank),
                   fromto=f"0 0 0 {_num(a1)} 0 0", rgba="0.8 0.3 0.2 1")
 
     rod = ET.SubElement(crank, "body", name="rod", pos=f"{_num(a1)} 0 0")
     ET.SubElement(rod, "joint", name="rod_ball", type="ball", pos="0 0 0")
-    _inertial(rod, case.bodies.rod)
+    _inertial(rod, case.bodies.rod, "rod")
     ET.SubElement(rod, "geom", name="rod", type="capsule", size=_num(r_rod),
                   fromto=f"0 0 0 {_num(a2)} 0 0", rgba="0.2 0.5 0.8 1")
     ET.SubElement(rod, "site", name="rod_end", pos=f"{_num(a2)} 0 0", size=_num(1.2 * r_rod))
 
     slider = ET.SubElement(ground, "body", name="slider", pos=f"{_num(-a4)} 0 0")
     ET.SubElement(slider, "joint", name="slider_stroke", type="slide", pos="0 0 0", axis=_vec(-k4))
-    _inertial(slider, case.bodies.slider)
+    _inertial(slider, case.bodies.slider, "slider")
     ET.SubElement(slider, "geom", name="slider", type="box", size=_vec(np.full(3, 0.5 * side)),
                   rgba="0.3 0.7 0.3 1")
     ET.SubElement(slider, "site", name="slider_pin", pos="0 0 0", size=_num(1.2 * r_rod))
@@ -195,8 +242,7 @@ def case_to_mjcf(case: Case, settings: MjcfSettings | None = None) -> str:
     equality = ET.SubElement(root, "equality")
     ET.SubElement(
         equality, "connect", name=CONNECT_NAME, site1="slider_pin", site2="rod_end",
-        solref=f"{_num(s.closure_timeconst)} 1",
-        solimp=f"{_num(s.closure_impedance)} {_num(s.closure_impedance)} 0.001 0.5 2",
+        solref=_vec(s.closure_solref), solimp=_vec(s.closure_solimp),
     )
 
     actuator = ET.SubElement(root, "actuator")
@@ -207,14 +253,40 @@ def case_to_mjcf(case: Case, settings: MjcfSettings | None = None) -> str:
         )
     ET.SubElement(actuator, "motor", name="slider_load", joint="slider_stroke", gear="-1")
 
+    if keyframe is not None:
+        q = np.asarray(keyframe, dtype=float)
+        if q.shape != (7,) or not np.all(np.isfinite(q)):
+            raise ValueError(f"keyframe: expected 7 finite qpos values (theta1, S1, quat_rod, S4), got {keyframe!r}")
+        keys = ET.SubElement(root, "keyframe")
+        ET.SubElement(keys, "key", name="assembled", qpos=_vec(q), ctrl=_vec([q[0], q[1], 0.0]))
+
     ET.indent(root)
     header = "<!-- generated by dualmech (models/mjcf.py); frames and signs: docs/conventions.md -->\n"
     return header + ET.tostring(root, encoding="unicode") + "\n"
 
 
-def _inertial(parent: ET.Element, body: BodyInertia) -> None:
-    """``<inertial>`` in the body frame: centre of mass and the full central inertia tensor."""
+#: MuJoCo's mjMINVAL: it refuses a moving body whose mass or a principal moment is below this.
+MJ_MINVAL = 1e-15
+
+
+def _inertial(parent: ET.Element, body: BodyInertia, name: str) -> None:
+    """``<inertial>`` in the body frame: centre of mass and the full central inertia tensor.
+
+    Raises
+    ------
+    ValueError
+        A principal moment MuJoCo cannot take (point masses, thin rods: MuJoCo
+        needs every principal moment of a moving body above ``MJ_MINVAL``).
+    """
     i = body.inertia
+    low = float(np.linalg.eigvalsh(i).min())
+    if low < MJ_MINVAL:
+        hint = (" (the rod's axial moment does not enter the dynamics under the zero-spin gauge:"
+                " a tiny positive value such as 1e-9 * I_t is harmless)" if name == "rod" else "")
+        raise ValueError(
+            f"bodies.{name}.inertia: principal moments {np.linalg.eigvalsh(i).tolist()}; MuJoCo needs every "
+            f"principal moment of a moving body > {MJ_MINVAL:g}{hint}"
+        )
     off = (i[0, 1], i[0, 2], i[1, 2])
     attrs = {"pos": _vec(body.com), "mass": _num(body.mass)}
     if any(v != 0.0 for v in off):
