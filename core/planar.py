@@ -22,14 +22,14 @@ Link data: crank (1), rod (2), slider (3); masses ``m_i``; polar moments
 next joint) and rotated here.
 
 The paper's printed equations carry errors; this module implements the
-derived forms (``docs/errata.md``):
+derived forms (``docs/errata.md``, S1-S12):
 
-* eq. (30), (35): ``r_0`` is :math:`r_\\theta`;
+* eq. (30), (35): ``r_0`` is :math:`r_\\theta` (S3);
 * eq. (35): the rod block of ``u`` is :math:`-(r_{12} + r_\\theta r_2)^T E`
   (the printed :math:`r_{23}` gives the velocity of the slider pin, not of
-  the rod's mass centre; eq. 26 and 56 use :math:`r_2`);
+  the rod's mass centre; eq. 26 and 56 use :math:`r_2`) (S4);
 * eq. (41): the first rod term is :math:`r_\\theta'(r_{12} + r_\\theta r_2)^T r_2`
-  (printed :math:`(E r_{12} + r_\\theta r_2)^T r_2`).
+  (printed :math:`(E r_{12} + r_\\theta r_2)^T r_2`) (S5).
 
 The viscous part of :math:`\\tau` (eq. 43) is not given in the paper; here it is
 the Rayleigh dissipation of a crank-bearing damper :math:`c_1` and a slider
