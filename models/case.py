@@ -147,8 +147,9 @@ def _type_name(t: type | tuple) -> str:
     return {str: "a string", dict: "a table", list: "an array"}[t]
 
 
-def _check_number(key: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+def check_number(key: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
+    """``value`` as a float, or a :class:`CaseError` naming ``key`` if it is not a finite (positive, >= 0) number."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not math.isfinite(value):
         raise CaseError(f"{key}: expected a finite number, got {value!r}")
     if positive and value <= 0:
         raise CaseError(f"{key}: expected a positive number, got {value!r}")
@@ -187,11 +188,11 @@ def _check_keys(data: dict) -> None:
 # ----------------------------------------------------------------------------- sections
 
 def _geometry(g: dict) -> Geometry:
-    a1 = _check_number("geometry.crank_length", g["crank_length"], positive=True)
-    a2 = _check_number("geometry.rod_length", g["rod_length"], positive=True)
-    a4 = _check_number("geometry.slider_offset", g["slider_offset"])
-    alpha = _check_number("geometry.slider_twist_deg", g["slider_twist_deg"])
-    s1 = _check_number("geometry.crank_axial_shift", g["crank_axial_shift"])
+    a1 = check_number("geometry.crank_length", g["crank_length"], positive=True)
+    a2 = check_number("geometry.rod_length", g["rod_length"], positive=True)
+    a4 = check_number("geometry.slider_offset", g["slider_offset"])
+    alpha = check_number("geometry.slider_twist_deg", g["slider_twist_deg"])
+    s1 = check_number("geometry.crank_axial_shift", g["crank_axial_shift"])
     return Geometry(a1, a2, a4, alpha, s1)
 
 
@@ -200,9 +201,9 @@ def _angles(spec: dict) -> np.ndarray:
     for key in spec:
         if key not in allowed:
             raise CaseError(f"motion.angles_deg.{key}: unknown key (valid: start, step, stop)")
-    start = _check_number("motion.angles_deg.start", spec.get("start", 0.0))
-    stop = _check_number("motion.angles_deg.stop", spec.get("stop", 360.0))
-    step = _check_number("motion.angles_deg.step", spec.get("step", 1.0))
+    start = check_number("motion.angles_deg.start", spec.get("start", 0.0))
+    stop = check_number("motion.angles_deg.stop", spec.get("stop", 360.0))
+    step = check_number("motion.angles_deg.step", spec.get("step", 1.0))
     if step == 0:
         raise CaseError("motion.angles_deg.step: expected a non-zero number of degrees, got 0")
     count = math.ceil((stop - start) / step - 1e-9)
@@ -217,20 +218,20 @@ def _angles(spec: dict) -> np.ndarray:
 
 
 def _motion(m: dict) -> CrankMotion:
-    rpm = _check_number("motion.crank_rpm", m["crank_rpm"])
+    rpm = check_number("motion.crank_rpm", m["crank_rpm"])
     return CrankMotion(
         angles_deg=_angles(m.get("angles_deg", {})),
         speed=2.0 * math.pi * rpm / 60.0,
-        accel=_check_number("motion.crank_accel", m.get("crank_accel", 0.0)),
-        axial_amplitude=_check_number("motion.axial_amplitude", m.get("axial_amplitude", 0.0)),
-        axial_cycles=_check_number("motion.axial_cycles", m.get("axial_cycles", 0.0)),
+        accel=check_number("motion.crank_accel", m.get("crank_accel", 0.0)),
+        axial_amplitude=check_number("motion.axial_amplitude", m.get("axial_amplitude", 0.0)),
+        axial_cycles=check_number("motion.axial_cycles", m.get("axial_cycles", 0.0)),
     )
 
 
 def _vector(key: str, value: Any) -> np.ndarray:
     if not isinstance(value, list) or len(value) != 3:
         raise CaseError(f"{key}: expected an array of 3 numbers, got {value!r}")
-    return np.array([_check_number(f"{key}[{i}]", v) for i, v in enumerate(value)])
+    return np.array([check_number(f"{key}[{i}]", v) for i, v in enumerate(value)])
 
 
 def _tensor(key: str, value: Any) -> np.ndarray:
@@ -250,13 +251,13 @@ def _mass_per_volume(b: dict) -> float | None:
             "bodies.density: give either density or weight_density with gravity_constant, not both"
         )
     if has_density:
-        return _check_number("bodies.density", b["density"], positive=True)
+        return check_number("bodies.density", b["density"], positive=True)
     if has_weight:
         for key in ("weight_density", "gravity_constant"):
             if key not in b:
                 raise CaseError(f"bodies.{key}: required with the other weight-based key")
-        w = _check_number("bodies.weight_density", b["weight_density"], positive=True)
-        g = _check_number("bodies.gravity_constant", b["gravity_constant"], positive=True)
+        w = check_number("bodies.weight_density", b["weight_density"], positive=True)
+        g = check_number("bodies.gravity_constant", b["gravity_constant"], positive=True)
         return w / g
     return None
 
@@ -270,7 +271,7 @@ def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
     shape_key = {"crank": "crank_radius", "rod": "rod_radius", "slider": "slider_side"}[name]
     default = None
     if shape_key in b and rho is not None:
-        size = _check_number(f"bodies.{shape_key}", b[shape_key], positive=True)
+        size = check_number(f"bodies.{shape_key}", b[shape_key], positive=True)
         if name == "crank":
             m = rho * math.pi * size**2 * geom.crank_length
             default = (m, [geom.crank_length / 2, 0, 0], solid_cylinder_x(m, geom.crank_length, size))
@@ -281,7 +282,7 @@ def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
             m = rho * size**3
             default = (m, [0, 0, 0], solid_cube(m, size))
     elif shape_key in b:
-        _check_number(f"bodies.{shape_key}", b[shape_key], positive=True)
+        check_number(f"bodies.{shape_key}", b[shape_key], positive=True)
     missing = [k for k in ("mass", "com", "inertia") if k not in explicit]
     if default is None and missing:
         raise CaseError(
@@ -289,7 +290,7 @@ def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
             f"(density, or weight_density and gravity_constant), or bodies.{name}.{missing[0]}"
         )
     mass = (
-        _check_number(f"bodies.{name}.mass", explicit["mass"], positive=True)
+        check_number(f"bodies.{name}.mass", explicit["mass"], positive=True)
         if "mass" in explicit
         else default[0]
     )
@@ -336,8 +337,8 @@ def _loads(ld: dict) -> Loads:
         raise CaseError(f"loads: got {got} of drive_torque / slider_force; give exactly one")
     gravity = _vector("loads.gravity", ld.get("gravity", [0.0, 0.0, 0.0]))
     return Loads(
-        drive_torque=None if torque is None else _check_number("loads.drive_torque", torque),
-        slider_force=None if force is None else _check_number("loads.slider_force", force),
+        drive_torque=None if torque is None else check_number("loads.drive_torque", torque),
+        slider_force=None if force is None else check_number("loads.slider_force", force),
         gravity=gravity,
     )
 

@@ -58,7 +58,7 @@ from dualmech.core import generalized_inertia as gi
 from dualmech.core.motion import CrankState
 from dualmech.core.planar import PlanarSliderCrank
 from dualmech.core.reactions import Reactions, kinetic_energy, solve_reactions
-from dualmech.models.case import Case
+from dualmech.models.case import Case, check_number
 from dualmech.models.slider_crank import Analysis, analyze, no_assembly_ranges, slider_axis
 
 #: A load as a function of time and state: ``f(t, psi, psi_dot, s4, s4_dot) -> float``.
@@ -425,17 +425,6 @@ SIMULATION_COLUMNS: tuple[str, ...] = (
 )
 
 
-def _number(name: str, value, *, positive: bool = False, nonneg: bool = False) -> float:
-    real = isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
-    if not real or not math.isfinite(value):
-        raise ValueError(f"{name}: expected a finite number, got {value!r}")
-    if positive and value <= 0:
-        raise ValueError(f"{name}: expected a positive number, got {value!r}")
-    if nonneg and value < 0:
-        raise ValueError(f"{name}: expected a number >= 0, got {value!r}")
-    return float(value)
-
-
 def simulate(case: Case, duration: float, torque: float | str | LoadFunction | None = None,
              psi0: float | None = None, psidot0: float | None = None, damping: float = 0.0,
              slider_damping: float = 0.0, slider_load: float | str | LoadFunction | None = None,
@@ -475,16 +464,16 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
     -------
     Simulation
     """
-    duration = _number("duration", duration, positive=True)
-    damping = _number("damping", damping, nonneg=True)
-    slider_damping = _number("slider_damping", slider_damping, nonneg=True)
+    duration = check_number("duration", duration, positive=True)
+    damping = check_number("damping", damping, nonneg=True)
+    slider_damping = check_number("slider_damping", slider_damping, nonneg=True)
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 2:
         raise ValueError(f"samples: expected an integer >= 2, got {samples!r}")
     loads = case.loads
     tau_a = as_load(torque, loads.drive_torque if loads.mode == "torque" else 0.0, "torque")
     force = as_load(slider_load, loads.slider_force if loads.mode == "force" else 0.0, "slider_load")
-    psi0 = float(np.radians(case.motion.angles_deg[0])) if psi0 is None else _number("psi0", psi0)
-    psidot0 = case.motion.speed if psidot0 is None else _number("psidot0", psidot0)
+    psi0 = float(np.radians(case.motion.angles_deg[0])) if psi0 is None else check_number("psi0", psi0)
+    psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0)
     model = coefficient_model(case, interpolation_tol) if model is None else model
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
