@@ -27,6 +27,8 @@ CLOSURE_TOL = 1e-14
 ROUNDING_TOL = 1e-12
 #: A stationary point of the closure error: the error is this nearly orthogonal to every achievable change.
 STATIONARY_COSINE = 1e-7
+#: Below this residual a DFP point is taken to be near a root, and Newton finishes the job.
+NEAR_ROOT = 1e-4
 
 
 class ClosureStatus(IntEnum):
@@ -254,19 +256,30 @@ def solve_closure(loop: Loop, inputs: dict[str, np.ndarray], guess: LoopState,
     iters = np.zeros(n, dtype=int)
     residual = np.full(n, np.inf)
     active = np.ones(n, dtype=bool)
-    state, stalled, iters, residual = _newton(loop, inputs, guess, active, iters, residual, max_newton)
+    state, _, iters, residual = _newton(loop, inputs, guess, active, iters, residual, max_newton)
     status = np.full(n, ClosureStatus.OK, dtype=np.int8)
     used_dfp = residual > ROUNDING_TOL
     idx = np.flatnonzero(used_dfp)
     if idx.size:
         sub_in = {k: v[idx] for k, v in inputs.items()}
-        sub, it, res, cosine = davidon_fletcher_powell(loop, sub_in, state.take(idx), max_dfp)
-        # a DFP point that is close enough for Newton to finish quadratically
-        act = res > ROUNDING_TOL
-        it_n = np.zeros(idx.size, dtype=int)
-        sub, _, it_n, res = _newton(loop, sub_in, sub, act.copy(), it_n, res, max_newton)
+        # DFP starts from whichever is closer: the estimate, or where Newton stalled
+        start_res = closure_residual(evaluate(loop, sub_in, guess.take(idx)), loop)
+        from_guess = np.flatnonzero(start_res < residual[idx])
+        start = state.take(idx).put(from_guess, guess.take(idx).take(from_guess))
+        sub, it, res, cosine = davidon_fletcher_powell(loop, sub_in, start, max_dfp)
+        # Newton finishes quadratically where DFP has come near a root (not at a non-zero minimum)
+        near = (res > ROUNDING_TOL) & (res < NEAR_ROOT)
+        if near.any():
+            k = np.flatnonzero(near)
+            it_n = np.zeros(k.size, dtype=int)
+            polished, _, it_n, res_n = _newton(loop, {key: v[k] for key, v in sub_in.items()}, sub.take(k),
+                                               np.ones(k.size, dtype=bool), it_n, res[k].copy(), max_newton)
+            better = res_n < res[k]
+            sub = sub.put(k[better], polished.take(np.flatnonzero(better)))
+            res[k[better]] = res_n[better]
+            it[k] += it_n
         state = state.put(idx, sub)
-        iters[idx] += it + it_n
+        iters[idx] += it
         residual[idx] = res
         failed = res > ROUNDING_TOL
         status[idx[failed]] = np.where(cosine[failed] <= STATIONARY_COSINE,

@@ -146,6 +146,18 @@ def planar_estimate(batch: Batch) -> np.ndarray:
     return side * batch.a1 * np.sin(th) + np.sqrt(np.maximum(reach, 0.0))
 
 
+def along_slider_estimate(batch: Batch) -> np.ndarray:
+    """Branch-seeking estimate of ``S4``: the rod laid along the slider line, on the branch's side.
+
+    The slider pin is put one rod length from the foot of the perpendicular from
+    ``P2`` onto the slider line, toward ``-k4`` -- exact when ``P2`` lies on the line,
+    and always on the assembly branch of the conventions.  The second estimate
+    tried where the plane-geometry one fails or lands on the other branch.
+    """
+    f, k4 = batch.slider_axis()
+    return batch.a2 - np.einsum("ni,ni->n", batch.crank_pin() - f, k4)
+
+
 def on_branch(batch: Batch, s4: np.ndarray) -> np.ndarray:
     """``(P3 - P2)·k4 < 0``: the assembly branch of the conventions."""
     f, k4 = batch.slider_axis()
@@ -185,16 +197,27 @@ def close_loop(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndar
     """Displacement analysis of every position: state, status words, iterations, residual.
 
     Newton (with its DFP fallback) from the plane-geometry estimate; positions that
-    did not converge or landed on the other branch are retried by
-    :func:`continuation`.  Positions where DFP found a non-zero stationary
+    did not converge or landed on the other branch are retried from
+    :func:`along_slider_estimate`, then by :func:`continuation`.  Positions where DFP found a non-zero stationary
     closure error are ``no_assembly`` (the rod cannot reach the slider line).
     """
     res = solve_closure(LOOP, batch.inputs(), state_from_slider(batch, planar_estimate(batch)))
-    state, iters, residual = res.state, res.iterations.copy(), res.residual.copy()
-    branch = on_branch(batch, state.scalars[:, 0])
+    state, iters, residual, codes = res.state, res.iterations.copy(), res.residual.copy(), res.status.copy()
+    wrong = (codes == ClosureStatus.OK) & ~on_branch(batch, state.scalars[:, 0])
+    retry = np.flatnonzero((codes == ClosureStatus.NOT_CONVERGED) | wrong)
+    if retry.size:  # second estimate: the rod laid along the slider line
+        sub_batch = batch.take(retry)
+        again = solve_closure(LOOP, sub_batch.inputs(), state_from_slider(sub_batch, along_slider_estimate(sub_batch)))
+        fixed = (again.status != ClosureStatus.NOT_CONVERGED) & ~(
+            (again.status == ClosureStatus.OK) & ~on_branch(sub_batch, again.state.scalars[:, 0]))
+        sel = np.flatnonzero(fixed)
+        state = state.put(retry[sel], again.state.take(sel))
+        codes[retry[sel]], residual[retry[sel]] = again.status[sel], again.residual[sel]
+        iters[retry] += again.iterations
+        wrong[retry[sel]] = False
     status = np.full(len(batch), "ok", dtype=object)
-    status[res.status == ClosureStatus.NO_ASSEMBLY] = "no_assembly"
-    retry = np.flatnonzero((res.status == ClosureStatus.NOT_CONVERGED) | ((res.status == ClosureStatus.OK) & ~branch))
+    status[codes == ClosureStatus.NO_ASSEMBLY] = "no_assembly"
+    retry = np.flatnonzero((codes == ClosureStatus.NOT_CONVERGED) | wrong)
     if retry.size:
         sub_batch = batch.take(retry)
         sub, sub_ok = continuation(sub_batch)
@@ -202,7 +225,7 @@ def close_loop(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndar
         state = state.put(retry[fixed], sub.take(fixed))
         residual[retry] = closure_residual(evaluate(LOOP, sub_batch.inputs(), state.take(retry)), LOOP)
         failed = retry[~sub_ok]
-        status[failed] = np.where(res.status[failed] == ClosureStatus.OK, "branch_jump", "not_converged")
+        status[failed] = np.where(codes[failed] == ClosureStatus.OK, "branch_jump", "not_converged")
     return state, status, iters, residual
 
 
