@@ -18,8 +18,9 @@ from enum import IntEnum
 
 import numpy as np
 
+from dualmech.core.dual import skew
 from dualmech.core.loop import (Chain, Loop, LoopState, Screw, closure_error, closure_residual, evaluate, gauge_rows,
-                                jacobian, screw_jacobian)
+                                screw_jacobian)
 
 #: Closure residual (dimensionless, see :func:`~dualmech.core.loop.closure_residual`) at which a position counts as closed.
 CLOSURE_TOL = 1e-14
@@ -29,6 +30,9 @@ ROUNDING_TOL = 1e-12
 STATIONARY_COSINE = 1e-7
 #: Below this residual a DFP point is taken to be near a root, and Newton finishes the job.
 NEAR_ROOT = 1e-4
+#: DFP iterations between restarts of the inverse-Hessian estimate: the rotation unknowns are
+#: increments about axes that turn with the joints, so old secant pairs go stale.
+DFP_RESTART = 10
 
 
 class ClosureStatus(IntEnum):
@@ -71,14 +75,6 @@ def _gauge_block(chain, loop: Loop) -> np.ndarray:
         if s.var[0] == "unknown":
             gauge[:, :, s.var[1]] = rows[:, :, j]
     return gauge
-
-
-def _gauged_system(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState):
-    """Exact Jacobian ``(n, 6+g, k)`` with the spin-gauge rows, without them ``(n, 6, k)``, error ``(n, 6)``, residual."""
-    chain = evaluate(loop, inputs, state)
-    jac = jacobian(chain, loop)
-    jac_g = np.concatenate([jac, _gauge_block(chain, loop)], axis=1) if loop.spin_gauges else jac
-    return jac_g, jac, closure_error(chain, loop), closure_residual(chain, loop)
 
 
 def least_squares(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -172,35 +168,52 @@ def _take_chain(chain, index: np.ndarray):
 
 
 def _objective(loop, inputs, state):
-    """Half squared closure error, its tangent gradient, the cosine of stationarity, the residual."""
-    jac_g, jac, err, res = _gauged_system(loop, inputs, state)
-    grad = np.einsum("nmk,nm->nk", jac, err)
-    f = 0.5 * np.einsum("nm,nm->n", err, err)
+    """DFP objective :math:`\\tfrac12\\|\\hat B - \\hat I\\|^2`, gradient, Jacobian (+ gauge rows), stationarity cosine, residual.
+
+    The whole matrix, not only its skew part: a loop product rotated by :math:`\\pi`
+    has no skew part, and minimizing the skew part alone converges to such spurious
+    roots (the reason for the thesis's diagonal terms in eq. 22).  The dual part
+    is divided by the length scale.
+    """
+    chain = evaluate(loop, inputs, state)
+    b, scale = chain.closure, chain.scale[:, None, None]
+    n = b.re.shape[0]
+    r = np.concatenate([(b.re - np.eye(3)).reshape(n, 9), (b.du / scale).reshape(n, 9)], axis=1)
+    jac = np.zeros((n, 18, loop.n_unknown))
+    for s in chain.screws:
+        if s.var[0] == "unknown":
+            sk_re, sk_du = skew(s.line.re), skew(s.line.du)
+            jac[:, :9, s.var[1]] = (sk_re @ b.re).reshape(n, 9)
+            jac[:, 9:, s.var[1]] = ((sk_re @ b.du + sk_du @ b.re) / scale).reshape(n, 9)
+    grad = np.einsum("nmk,nm->nk", jac, r)
+    f = 0.5 * np.einsum("nm,nm->n", r, r)
     cosine = np.linalg.norm(grad, axis=1) / np.maximum(
-        np.linalg.norm(jac, axis=(1, 2)) * np.linalg.norm(err, axis=1), 1e-300
+        np.linalg.norm(jac, axis=(1, 2)) * np.linalg.norm(r, axis=1), 1e-300
     )
-    return f, grad, jac_g, cosine, res
+    jac_g = np.concatenate([jac, _gauge_block(chain, loop)], axis=1) if loop.spin_gauges else jac
+    return f, grad, jac_g, cosine, closure_residual(chain, loop)
 
 
 def davidon_fletcher_powell(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState,
                             max_iter: int = 200) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndarray]:
-    """Minimize :math:`\\tfrac12\\|\\hat e\\|^2` by DFP with an Armijo line search, batched.
+    """Minimize :math:`\\tfrac12\\|\\hat B - \\hat I\\|^2` by DFP with an Armijo line search, batched.
 
     Returns the state, iterations, final residual and the stationarity cosine
-    :math:`\\|J^T e\\| / (\\|J\\|\\|e\\|)` at every position.
+    :math:`\\|J^T r\\| / (\\|J\\|\\|r\\|)` at every position (``r`` the entries of
+    :math:`\\hat B - \\hat I`).
     """
-    n, k = state.scalars.shape[0], loop.n_unknown
+    n = state.scalars.shape[0]
     f, grad, jac_g, cosine, res = _objective(loop, inputs, state)
-    # initial inverse Hessian: Gauss-Newton with the gauge rows (full rank off singular poses)
-    gram = np.swapaxes(jac_g, 1, 2) @ jac_g
-    gram += 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] * np.eye(k)
-    h = np.linalg.pinv(gram, hermitian=True)
+    h = _gauss_newton_inverse(jac_g)
     iters = np.zeros(n, dtype=int)
     active = (res > CLOSURE_TOL) & (cosine > STATIONARY_COSINE)
-    for _ in range(max_iter):
+    for it in range(max_iter):
         idx = np.flatnonzero(active)
         if idx.size == 0:
             break
+        if it and it % DFP_RESTART == 0:  # the tangent axes turn with the joints: refresh the estimate
+            h[idx] = _gauss_newton_inverse(_objective(loop, {key: v[idx] for key, v in inputs.items()},
+                                                      state.take(idx))[2])
         p = -np.einsum("nij,nj->ni", h[idx], grad[idx])
         slope = np.einsum("ni,ni->n", p, grad[idx])
         alpha = np.ones(idx.size)
@@ -225,6 +238,13 @@ def davidon_fletcher_powell(loop: Loop, inputs: dict[str, np.ndarray], state: Lo
     return state, iters, res, cosine
 
 
+def _gauss_newton_inverse(jac_g: np.ndarray) -> np.ndarray:
+    """Inverse of the Gauss-Newton Hessian with the gauge rows (full rank off singular poses), ``(n, k, k)``."""
+    gram = np.swapaxes(jac_g, 1, 2) @ jac_g
+    gram += 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] * np.eye(gram.shape[-1])
+    return np.linalg.pinv(gram, hermitian=True)
+
+
 def _dfp_update(h: np.ndarray, s: np.ndarray, y: np.ndarray) -> np.ndarray:
     """DFP update of the inverse Hessian: :math:`H + ss^T/s^Ty - Hyy^TH/y^THy` (skipped where not positive)."""
     sy = np.einsum("ni,ni->n", s, y)
@@ -234,6 +254,15 @@ def _dfp_update(h: np.ndarray, s: np.ndarray, y: np.ndarray) -> np.ndarray:
     sy, yhy = np.where(good, sy, 1.0), np.where(good, yhy, 1.0)
     upd = h + np.einsum("ni,nj->nij", s, s) / sy[:, None, None] - np.einsum("ni,nj->nij", hy, hy) / yhy[:, None, None]
     return np.where(good[:, None, None], upd, h)
+
+
+def _better_run(res_a, cos_a, res_b, cos_b) -> np.ndarray:
+    """Whether DFP run b beats run a: closed beats stationary beats neither; ties go to the lower residual."""
+    def rank(res, cos):
+        return np.where(res <= ROUNDING_TOL, 0, np.where(cos <= STATIONARY_COSINE, 1, 2))
+
+    ra, rb = rank(res_a, cos_a), rank(res_b, cos_b)
+    return (rb < ra) | ((rb == ra) & (res_b < res_a))
 
 
 def solve_closure(loop: Loop, inputs: dict[str, np.ndarray], guess: LoopState,
@@ -262,11 +291,15 @@ def solve_closure(loop: Loop, inputs: dict[str, np.ndarray], guess: LoopState,
     idx = np.flatnonzero(used_dfp)
     if idx.size:
         sub_in = {k: v[idx] for k, v in inputs.items()}
-        # DFP starts from whichever is closer: the estimate, or where Newton stalled
-        start_res = closure_residual(evaluate(loop, sub_in, guess.take(idx)), loop)
-        from_guess = np.flatnonzero(start_res < residual[idx])
-        start = state.take(idx).put(from_guess, guess.take(idx).take(from_guess))
-        sub, it, res, cosine = davidon_fletcher_powell(loop, sub_in, start, max_dfp)
+        # DFP from both the estimate and where Newton stalled (batched together); keep the better outcome
+        k = idx.size
+        both_in = {key: np.concatenate([v, v]) for key, v in sub_in.items()}
+        starts = LoopState(np.concatenate([guess.scalars[idx], state.scalars[idx]]),
+                           np.concatenate([guess.rotations[idx], state.rotations[idx]]))
+        runs, it2, res2, cos2 = davidon_fletcher_powell(loop, both_in, starts, max_dfp)
+        pick = _better_run(res2[:k], cos2[:k], res2[k:], cos2[k:])
+        rows = np.where(pick, np.arange(k, 2 * k), np.arange(k))
+        sub, it, res, cosine = runs.take(rows), it2[:k] + it2[k:], res2[rows], cos2[rows]
         # Newton finishes quadratically where DFP has come near a root (not at a non-zero minimum)
         near = (res > ROUNDING_TOL) & (res < NEAR_ROOT)
         if near.any():

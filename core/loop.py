@@ -304,11 +304,13 @@ def closure_residual(chain: Chain, loop: Loop) -> np.ndarray:
 
 
 def screw_jacobian(chain: Chain, loop: Loop) -> np.ndarray:
-    """The unknowns' screws as columns, ``(n, 6, loop.n_unknown)``: :func:`jacobian` at closure.
+    """The unknowns' screws as columns, ``(n, 6, loop.n_unknown)``.
 
-    Newton uses this cheaper form: its error is of the order of the closure
-    residual, which keeps the convergence quadratic.  Dual rows are divided by the
-    length scale.
+    Moving unknown ``j`` turns the loop product as :math:`d\\hat B = [\\hat s_j]_\\times \\hat B\\, dx_j`
+    (eq. 11, with :math:`\\hat H_j = [\\hat s_j]_\\times` of eq. 12-17), so at closure
+    (:math:`\\hat B = \\hat I`) the screws are the derivative of
+    :func:`closure_error`; near closure the error is of the order of the residual,
+    which keeps Newton quadratic.  Dual rows are divided by the length scale.
     """
     n = chain.closure.re.shape[0]
     jac = np.zeros((n, 6, loop.n_unknown))
@@ -316,26 +318,6 @@ def screw_jacobian(chain: Chain, loop: Loop) -> np.ndarray:
         if s.var[0] == "unknown":
             jac[:, :3, s.var[1]] = s.line.re
             jac[:, 3:, s.var[1]] = s.line.du / chain.scale[:, None]
-    return jac
-
-
-def jacobian(chain: Chain, loop: Loop) -> np.ndarray:
-    """Derivative of :func:`closure_error` with respect to the tangent step, ``(n, 6, loop.n_unknown)``.
-
-    Moving unknown ``j`` turns the loop product as :math:`d\\hat B = [\\hat s_j]_\\times \\hat B\\, dx_j`
-    (eq. 11 with :math:`\\hat H_j = [\\hat s_j]_\\times`, eq. 12-17), so the column is the
-    skew part of :math:`[\\hat s_j]_\\times\\hat B`.  At closure (:math:`\\hat B = \\hat I`) it is
-    the screw itself; away from closure the exact form keeps the DFP gradient
-    right where a position cannot assemble.  Dual rows are divided by the length scale.
-    """
-    n = chain.closure.re.shape[0]
-    b = chain.closure
-    jac = np.zeros((n, 6, loop.n_unknown))
-    for s in chain.screws:
-        if s.var[0] == "unknown":
-            sk_re, sk_du = skew(s.line.re), skew(s.line.du)
-            jac[:, :3, s.var[1]] = vee(sk_re @ b.re)
-            jac[:, 3:, s.var[1]] = vee(sk_re @ b.du + sk_du @ b.re) / chain.scale[:, None]
     return jac
 
 
@@ -376,5 +358,5 @@ def pose(chain: Chain, i: int) -> tuple[np.ndarray, np.ndarray]:
 
 __all__ = [
     "Var", "inp", "par", "unk", "Row", "Loop", "LoopState", "Screw", "Chain", "evaluate", "closure_error",
-    "closure_residual", "jacobian", "screw_jacobian", "gauge_rows", "frame_origins", "pose", "rodrigues", "from_pose",
+    "closure_residual", "screw_jacobian", "gauge_rows", "frame_origins", "pose", "rodrigues", "from_pose",
 ]

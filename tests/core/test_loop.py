@@ -3,9 +3,10 @@
 import numpy as np
 from numpy.testing import assert_allclose
 
-from dualmech.core.loop import LoopState, closure_error, closure_residual, evaluate, jacobian, rodrigues
+from dualmech.core.loop import LoopState, closure_error, closure_residual, evaluate, rodrigues, screw_jacobian
 from dualmech.models.case import load_case
-from dualmech.models.slider_crank import LOOP, Batch, analyze, state_from_slider
+from dualmech.core.closure import _objective
+from dualmech.models.slider_crank import LOOP, Batch, close_loop, state_from_slider
 from tests.tolerances import FINITE_DIFFERENCE
 
 
@@ -16,15 +17,13 @@ def _batch(n=5, seed=0):
     return Batch.of([case], [case.motion.state(2.0, angles)]), rng
 
 
-def test_jacobian_is_derivative_of_closure_error():
-    """Column j of J is the derivative of the closure error along unknown j (eq. 11-17), by central differences.
-
-    Checked away from closure (random slider positions), where the screw alone would not do.
-    """
-    batch, rng = _batch()
-    state = state_from_slider(batch, rng.uniform(30, 50, len(batch)))
+def test_screws_are_the_derivative_of_the_closure_error_at_closure():
+    """At a closed position the screw columns (eq. 11-17) are d(error)/dx, by central differences."""
+    batch, _ = _batch()
+    state, status, _, _ = close_loop(batch)
+    assert (status == "ok").all()
     chain = evaluate(LOOP, batch.inputs(), state)
-    jac = jacobian(chain, LOOP)
+    jac = screw_jacobian(chain, LOOP)
     h = 1e-6
     for j in range(LOOP.n_unknown):
         step = np.zeros((len(batch), LOOP.n_unknown))
@@ -34,20 +33,19 @@ def test_jacobian_is_derivative_of_closure_error():
         assert_allclose((plus - minus) / (2 * h), jac[:, :, j], rtol=0, atol=FINITE_DIFFERENCE)
 
 
-def test_jacobian_at_closure_is_the_screws():
-    """At closure the columns are the unknowns' screws (Plücker lines of the joint axes)."""
-    case = load_case("a4-20-alpha-232")
-    an = analyze(case)
-    batch = Batch.of([case], [an.crank])
-    from dualmech.models.slider_crank import close_loop
-
-    state, *_ = close_loop(batch)
-    chain = evaluate(LOOP, batch.inputs(), state)
-    jac = jacobian(chain, LOOP)
-    for s in chain.screws:
-        if s.var[0] == "unknown":
-            expected = np.concatenate([s.line.re, s.line.du / batch.a2[:, None]], axis=1)
-            assert_allclose(jac[:, :, s.var[1]], expected, rtol=0, atol=1e-12)
+def test_dfp_gradient_is_the_derivative_of_its_objective_away_from_closure():
+    """The DFP objective 1/2 |B - I|^2 and its gradient, checked where the loop is open."""
+    batch, rng = _batch()
+    state = state_from_slider(batch, rng.uniform(30, 50, len(batch)))
+    f, grad, *_ = _objective(LOOP, batch.inputs(), state)
+    assert (f > 1e-6).all()  # really open
+    h = 1e-6
+    for j in range(LOOP.n_unknown):
+        step = np.zeros((len(batch), LOOP.n_unknown))
+        step[:, j] = h
+        f_p = _objective(LOOP, batch.inputs(), state.retract(step, LOOP))[0]
+        f_m = _objective(LOOP, batch.inputs(), state.retract(-step, LOOP))[0]
+        assert_allclose((f_p - f_m) / (2 * h), grad[:, j], rtol=0, atol=FINITE_DIFFERENCE)
 
 
 def test_residual_sees_half_turn_that_skew_part_misses():

@@ -158,3 +158,34 @@ def test_other_branch_is_detected_and_refused(monkeypatch):
     state, status, _, _ = sc.close_loop(batch)
     assert (status == "ok").all()
     assert_allclose(state.scalars[:, 0], right, rtol=0, atol=S4_VS_CLOSED_FORM * 50)
+
+
+def test_wild_random_geometries_are_classified_right():
+    """120 seeded geometries far from the thesis's (deep gaps, big offsets, any twist, axial motion).
+
+    Every position is either closed on the branch, matching the closed form, or ``no_assembly``
+    exactly where the rod cannot reach the slider line; nothing is left undecided.
+    """
+    rng = np.random.default_rng(2024)
+    cases = []
+    for _ in range(120):
+        a1 = rng.uniform(1, 20)
+        a2 = rng.uniform(0.5 * a1, 6 * a1)
+        cases.append(load_case("ideal").with_values({
+            "geometry.crank_length": a1, "geometry.rod_length": a2,
+            "geometry.slider_offset": float(rng.uniform(-1.5, 1.5) * a2),
+            "geometry.slider_twist_deg": float(rng.uniform(0, 360)),
+            "geometry.crank_axial_shift": float(rng.uniform(-0.7, 0.7) * a2),
+            "motion.axial_amplitude": float(rng.uniform(0, 0.2) * a1),
+            "motion.axial_cycles": float(rng.integers(0, 3)),
+            "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 6.0},
+        }))
+    for case, an in zip(cases, analyze_many(cases)):
+        margin = assembly_margin(case, an.crank.theta) / case.geometry.rod_length**2
+        clear = np.abs(margin) > 1e-9
+        assert np.array_equal((an.status == "no_assembly")[clear], (margin < 0)[clear]), case.name
+        closed = np.isin(an.status, ["ok", "dead_centre"])
+        assert np.all(closed | (an.status == "no_assembly")), case.name
+        s4, _, _ = exact_slider_motion(case, an.crank.theta)
+        good = closed & (margin > 1e-6)
+        assert_allclose(an.s4[good], s4[good], rtol=0, atol=S4_VS_CLOSED_FORM * case.geometry.rod_length)
