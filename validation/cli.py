@@ -102,11 +102,30 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True)
 @_one_line_errors
 def mjcf(case: str, output: str) -> None:
-    """Write the MuJoCo MJCF model of CASE (open it in MuJoCo's viewer)."""
-    from dualmech.models.mjcf import case_to_mjcf
+    """Write the MuJoCo MJCF model of CASE (open it in MuJoCo's viewer).
 
-    Path(output).write_text(case_to_mjcf(load_case(case)))
+    The model carries a keyframe with the loop closed at the case's first crank
+    angle (found by MuJoCo itself), so the viewer opens assembled.
+    """
+    from dualmech.models.mjcf import case_to_mjcf
+    from dualmech.validation.mujoco_engine import assembled_qpos
+
+    c = load_case(case)
+    Path(output).write_text(case_to_mjcf(c, keyframe=assembled_qpos(c)))
     click.echo(f"wrote {output}")
+
+
+@main.command()
+@click.option("--cases", default=1000, show_default=True, help="Random cases of 360 positions for the in-house solver.")
+@click.option("--judge-cases", default=5, show_default=True, help="How many of them the judges solve (they are slower).")
+@click.option("--big", default=0, show_default=True, help="Also stream this many positions in chunks (memory check).")
+@click.option("--no-profile", is_flag=True, help="Skip the profile of the in-house solver.")
+@_one_line_errors
+def benchmark(cases: int, judge_cases: int, big: int, no_profile: bool) -> None:
+    """Positions per second of the in-house solver and of the judges, in one run (Markdown)."""
+    from dualmech.validation.benchmark import run_benchmark
+
+    click.echo(run_benchmark(cases, judge_cases, big, profile=not no_profile))
 
 
 @main.command(name="case-path")
@@ -115,3 +134,13 @@ def mjcf(case: str, output: str) -> None:
 def case_path(name: str) -> None:
     """Print the file of a bundled preset (to copy and edit)."""
     click.echo(str(preset_path(name)))
+
+
+from dualmech.validation.cli_validate import report, validate  # noqa: E402
+
+main.add_command(validate)
+main.add_command(report)
+
+from dualmech.validation.cli_simulate import simulate  # noqa: E402
+
+main.add_command(simulate)

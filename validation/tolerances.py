@@ -34,8 +34,6 @@ MATRIX_KINEMATICS = Tolerance(1e-9, "closure solved to ~1e-13 of a2 by every rig
 MATRIX_REACTIONS = Tolerance(1e-8, "reactions are linear solves on the kinematics; 1e-8 of the case's force/moment scale allows their ~1e-10 round-off times conditioning")
 #: Kinematics of the MuJoCo simulation (integrated, soft-constrained motion).
 MATRIX_SIM_KINEMATICS = Tolerance(1e-3, "the simulation integrates the motion and holds the loop by soft constraints; 1e-3 of a2 is its drift budget")
-#: Reactions of the MuJoCo simulation.
-MATRIX_SIM_REACTIONS = Tolerance(1e-2, "constraint forces of a soft-constrained simulation carry its ~1e-3 motion error times the mechanism's conditioning")
 #: Regression gate (validation/baseline.py): a judge's worst relative difference may grow by this factor.
 BASELINE_AGREEMENT_FACTOR = Tolerance(10.0, "differences near round-off move with BLAS, compiler and library versions; an order of magnitude absorbs that")
 #: Regression gate: relative differences below this never count as a regression.

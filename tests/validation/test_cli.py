@@ -1,6 +1,7 @@
 """The dualmech command line: solve and cases (other subcommands are tested beside their modules)."""
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 from numpy.testing import assert_allclose
 
@@ -42,3 +43,16 @@ def test_unknown_preset_is_one_line(tmp_path):
     result = CliRunner().invoke(main, ["solve", "no-such-case"])
     assert result.exit_code == 2
     assert "no-such-case" in result.output and "presets:" in result.output
+
+
+def test_mjcf_opens_assembled(tmp_path):
+    mujoco = pytest.importorskip("mujoco")
+    out = tmp_path / "model.xml"
+    result = CliRunner().invoke(main, ["mjcf", "a4-30-s1-3.5", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    model = mujoco.MjModel.from_xml_path(str(out))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    gap = data.site("rod_end").xpos - data.site("slider_pin").xpos
+    assert np.linalg.norm(gap) < 1e-10 * 50.0

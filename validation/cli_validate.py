@@ -1,0 +1,182 @@
+"""``dualmech validate`` and ``dualmech report``: the suite's main job, as a thin shell.
+
+``validate`` runs a matrix (:mod:`dualmech.validation.runner`), compares every judge
+with the reference (:mod:`dualmech.validation.compare`), optionally writes JUnit XML
+and checks or writes a baseline, writes the report, prints a one-screen summary and
+exits 1 when any check fails or anything regressed (2 on bad input, 130 when
+interrupted -- finished cases are kept for ``--resume``).
+"""
+
+from __future__ import annotations
+
+import functools
+import sys
+from pathlib import Path
+from typing import Callable
+
+import click
+
+from dualmech.validation.engines import ENGINES
+
+#: How many failing checks / regressions ``validate`` lists under its table.
+SHOWN_FAILURES = 12
+
+
+def _errors_to_exit_code(func: Callable) -> Callable:
+    """ValueError/OSError from the library -> one line on stderr and exit code 2."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        try:
+            return func(*args, **kwargs)
+        except (ValueError, OSError) as err:
+            click.echo(f"dualmech: error: {err}", err=True)
+            sys.exit(2)
+
+    return wrapper
+
+
+def _engine_list(values: tuple[str, ...]) -> tuple[str, ...]:
+    names = tuple(n.strip() for v in values for n in v.split(",") if n.strip())
+    for n in names:
+        if n not in ENGINES:
+            raise ValueError(f"--engines: {n!r} is not an engine (valid: {', '.join(ENGINES)})")
+    return names
+
+
+def summary_table(matrix, comparison, title: str):
+    """The rich table ``validate`` prints: one row per case, one column per judge."""
+    from rich.table import Table
+
+    from dualmech.validation.report import summary_rows
+
+    table = Table(title=title, title_justify="left", pad_edge=False, show_edge=False)
+    table.add_column("case", no_wrap=True)
+    table.add_column(f"stroke ({matrix.reference})", justify="right")
+    table.add_column("dead c.", justify="right")
+    for e in matrix.judges:
+        table.add_column(e, no_wrap=True)
+    for row in summary_rows(matrix, comparison):
+        if not row["run"]:
+            table.add_row(row["case"], "[dim]not run[/]", "", *[""] * len(matrix.judges))
+            continue
+        if row["reference_error"]:
+            table.add_row(row["case"], "[red]failed[/]", "", *["[red]✗ no reference[/]"] * len(matrix.judges))
+            continue
+        cells = []
+        for e in matrix.judges:
+            v = row["judges"][e]
+            if v["passed"] is None:
+                cells.append("[dim]–[/]")
+            elif v["passed"]:
+                cells.append(f"[green]✓[/] {v['ratio']:.1e}")
+            else:
+                more = f" +{len(v['failed']) - 1}" if len(v["failed"]) > 1 else ""
+                cells.append(f"[red]✗ {v['failed'][0]}{more}[/]")
+        table.add_row(row["case"], f"{row['stroke']:.6f}", str(row["dead_centre"]), *cells)
+    return table
+
+
+@click.command()
+@click.argument("matrix_file", required=False, metavar="[MATRIX.toml]")
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False),
+              help="Run directory: one result file per case, run.json, the report [default: runs/<matrix name>].")
+@click.option("--jobs", type=click.IntRange(min=1), default=None,
+              help="Worker processes [default: all cores].")
+@click.option("--resume", is_flag=True, help="Keep finished cases stored in the run directory; run the rest.")
+@click.option("--scheduler", metavar="ADDRESS", help="Run the cases on a Dask distributed scheduler (tcp://host:port).")
+@click.option("--junit", "junit_file", type=click.Path(dir_okay=False), help="Write JUnit XML (one test per case x engine).")
+@click.option("--baseline", "baseline_file", type=click.Path(dir_okay=False),
+              help="Fail on any regression against this baseline summary.")
+@click.option("--write-baseline", "write_baseline_file", type=click.Path(dir_okay=False),
+              help="Write this run's summary as the new baseline.")
+@click.option("--engines", "engines", multiple=True, metavar="NAMES",
+              help=f"Run only these engines (comma-separated or repeated; the reference must be one). "
+                   f"Known: {', '.join(ENGINES)}.")
+@click.option("--report-dir", type=click.Path(file_okay=False), help="Write the report here [default: the run directory].")
+@_errors_to_exit_code
+def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_file, write_baseline_file,
+             engines, report_dir) -> None:
+    """Run every case of MATRIX.toml (default: the thesis's study) on every engine and compare.
+
+    Exits 1 when any judge disagrees with the reference beyond tolerance, an engine
+    fails, or (with --baseline) anything regressed.
+    """
+    from rich.console import Console
+
+    from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline
+    from dualmech.validation.compare import compare_run
+    from dualmech.validation.junit import describe, write_junit
+    from dualmech.validation.matrix import load_matrix
+    from dualmech.validation.report import write_report
+    from dualmech.validation.runner import load_entries, rich_progress, run_matrix, timings
+
+    matrix = load_matrix(matrix_file)
+    if engines:
+        matrix = matrix.with_engines(_engine_list(engines))
+    baseline = read_baseline(baseline_file) if baseline_file else None  # fail early on a bad file
+    outdir = Path(outdir) if outdir else Path("runs") / matrix.name
+    console = Console(stderr=False)
+    try:
+        with rich_progress(f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines") as bar:
+            outcome = run_matrix(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)
+    except KeyboardInterrupt:
+        click.echo(f"dualmech: interrupted; finished cases are kept in {outdir}; "
+                   "re-run with --resume to finish", err=True)
+        sys.exit(130)
+    comparison = compare_run(matrix, outcome.results)
+    if junit_file:
+        write_junit(junit_file, matrix, comparison, timings(load_entries(outdir, matrix)))
+    summary = baseline_summary(matrix, comparison, outcome.results)
+    regressions = compare_baseline(summary, baseline) if baseline is not None else []
+    if write_baseline_file:
+        write_baseline(write_baseline_file, summary)
+    files = write_report(outdir, report_dir, jobs=jobs or _cores(), comparison=comparison)
+
+    how = f"Dask {scheduler}" if scheduler else f"{jobs or _cores()} jobs"
+    title = (f"{matrix.name}: {len(matrix.cases)} cases, engines {', '.join(matrix.engines)} — "
+             f"solved in {outcome.seconds:.1f} s ({how}; {outcome.ran} run, {outcome.skipped} resumed)")
+    console.print(summary_table(matrix, comparison, title))
+    failures = comparison.failures()
+    n_ok = len(comparison.checks) - len(failures)
+    verdict = "[green]PASS[/]" if comparison.passed else "[red]FAIL[/]"
+    console.print(f"{verdict}: {n_ok} of {len(comparison.checks)} checks passed "
+                  f"(ratio = worst relative difference / tolerance; dead c. = dead-centre rows excluded, counted)")
+    for c in failures[:SHOWN_FAILURES]:
+        console.print(f"  [red]✗[/] {describe(c)}", markup=True, highlight=False)
+    if len(failures) > SHOWN_FAILURES:
+        console.print(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {files.markdown})")
+    if baseline is not None:
+        if regressions:
+            console.print(f"[red]REGRESSION[/] against {baseline_file}: {len(regressions)}")
+            for r in regressions[:SHOWN_FAILURES]:
+                console.print(f"  [red]✗[/] {r}", highlight=False)
+        else:
+            console.print(f"baseline {baseline_file}: no regression")
+    if write_baseline_file:
+        console.print(f"baseline written: {write_baseline_file}")
+    if junit_file:
+        console.print(f"JUnit: {junit_file}")
+    console.print(f"report: {files.html} and {files.markdown} ({files.seconds:.1f} s)")
+    if not comparison.passed or regressions:
+        sys.exit(1)
+
+
+def _cores() -> int:
+    from dualmech.validation.runner import default_jobs
+
+    return default_jobs()
+
+
+@click.command()
+@click.argument("rundir", type=click.Path(file_okay=False, exists=True))
+@click.option("-o", "--output", "outdir", type=click.Path(file_okay=False),
+              help="Write the report here [default: RUNDIR].")
+@click.option("--jobs", type=click.IntRange(min=1), default=None, help="Processes for the figures [default: all cores].")
+@_errors_to_exit_code
+def report(rundir, outdir, jobs) -> None:
+    """Write the report (HTML, Markdown, figures, summary.json) of the run stored in RUNDIR."""
+    from dualmech.validation.report import write_report
+
+    files = write_report(rundir, outdir, jobs=jobs or _cores())
+    click.echo(f"report: {files.html} and {files.markdown} ({len(files.figures)} figures, {files.seconds:.1f} s)")

@@ -1,0 +1,385 @@
+"""Run a validation matrix: every case on every engine, in parallel, stored as it finishes.
+
+A run directory holds::
+
+    run.json              the expanded matrix, machine, versions, timings
+    cases/<case id>.json  one file per case: every engine's table (or its error)
+
+Each case file is written atomically (a temporary file, then :func:`os.replace`)
+as soon as all its engines are done, so an interrupted run loses no finished case,
+and ``resume=True`` runs only the (case, engine) pairs that are missing, failed,
+or were made from a different case definition or engine.
+
+Work is spread over processes (:class:`concurrent.futures.ProcessPoolExecutor`,
+``jobs`` of them, default all cores) or, with ``scheduler``, over a Dask
+distributed cluster; one task is one (case, engine).  Results always come back
+to this process, which alone writes the files, so cluster workers need no shared
+file system.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import hashlib
+import json
+import os
+import platform
+import time
+import traceback
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from importlib import import_module, metadata
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+import numpy as np
+
+from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
+from dualmech.models.case import case_from_dict
+from dualmech.validation.engines import ENGINES
+from dualmech.validation.matrix import Matrix, matrix_from_dict
+
+CASES_DIR = "cases"
+RUN_FILE = "run.json"
+CASE_FORMAT = "dualmech-case/1"
+#: Distributions whose versions a run records (engines and the libraries the report uses).
+LIBRARIES: tuple[str, ...] = (
+    "dualmech", "numpy", "scipy", "pin", "mujoco", "matplotlib", "jinja2", "rich", "click", "dask", "distributed",
+)
+
+#: ``progress(done, total, label)``, called after each finished (case, engine).
+ProgressCallback = Callable[[int, int, str], None]
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """What :func:`run_matrix` did.
+
+    Attributes
+    ----------
+    results : dict
+        Case id -> engine -> :class:`ResultTable`, or the error text when it raised.
+    ran, skipped : int
+        (case, engine) tasks run now, and taken from earlier files (``resume``).
+    seconds : float
+        Wall time of this invocation.
+    """
+
+    results: dict[str, dict[str, ResultTable | str]]
+    ran: int
+    skipped: int
+    seconds: float
+
+
+# ----------------------------------------------------------------------------- files
+
+def write_json_atomic(path: Path, data: Any) -> None:
+    """Write ``data`` as JSON to ``path`` so that readers see the old file or the new one, never half."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with tmp.open("w") as fh:
+            json.dump(data, fh, allow_nan=True, default=_jsonable)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, (set, tuple)):
+        return list(obj)
+    return str(obj)
+
+
+def fingerprint(raw: dict) -> str:
+    """Stable hash of a case definition (decides whether a stored result is still valid)."""
+    return hashlib.sha256(json.dumps(raw, sort_keys=True, default=_jsonable).encode()).hexdigest()[:16]
+
+
+def table_to_dict(table: ResultTable) -> dict:
+    """JSON-ready form of a table (floats round-trip exactly; NaN is written as ``NaN``)."""
+    return {
+        "engine": table.engine,
+        "case": table.case,
+        "columns": {c: np.asarray(table.columns[c], dtype=float).tolist() for c in NUMERIC_COLUMNS},
+        "status": [str(s) for s in table.status],
+        "meta": json.loads(json.dumps(table.meta, default=_jsonable, allow_nan=True)),
+    }
+
+
+def table_from_dict(d: dict) -> ResultTable:
+    """Inverse of :func:`table_to_dict`."""
+    return ResultTable(
+        d["engine"], d["case"],
+        {c: np.asarray(d["columns"][c], dtype=float) for c in NUMERIC_COLUMNS},
+        np.asarray(d["status"], dtype=object), d.get("meta", {}),
+    )
+
+
+def case_file(outdir: Path, case_id: str) -> Path:
+    """Where the results of one case are stored."""
+    return Path(outdir) / CASES_DIR / f"{case_id}.json"
+
+
+def read_case_file(path: Path) -> dict | None:
+    """A stored case file, or ``None`` if absent or unreadable (e.g. from an older format)."""
+    try:
+        with Path(path).open() as fh:
+            data = json.load(fh)
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and data.get("format") == CASE_FORMAT else None
+
+
+def entry_result(entry: dict) -> ResultTable | str:
+    """A stored engine entry as a table, or its error text."""
+    return entry["error"] if entry.get("error") else table_from_dict(entry["table"])
+
+
+def load_entries(outdir: Path, matrix: Matrix) -> dict[str, dict[str, dict]]:
+    """Stored entries (see :func:`run_task`) of ``matrix``'s cases and engines in ``outdir``.
+
+    Cases without a file, or whose file was made from a different case definition, are left out.
+    """
+    entries = {}
+    for mc in matrix.cases:
+        data = read_case_file(case_file(outdir, mc.id))
+        if data is None or data.get("fingerprint") != fingerprint(mc.raw):
+            continue
+        per = {e: v for e, v in data["engines"].items() if e in matrix.engines}
+        if per:
+            entries[mc.id] = per
+    return entries
+
+
+def load_results(outdir: Path, matrix: Matrix) -> dict[str, dict[str, ResultTable | str]]:
+    """Every stored result of ``matrix`` in ``outdir``: case id -> engine -> table or error text."""
+    return {cid: {e: entry_result(v) for e, v in per.items()} for cid, per in load_entries(outdir, matrix).items()}
+
+
+def timings(entries: dict[str, dict[str, dict]]) -> dict[str, dict[str, float]]:
+    """Case id -> engine -> seconds, from stored entries."""
+    return {cid: {e: float(v.get("seconds", 0.0)) for e, v in per.items()} for cid, per in entries.items()}
+
+
+def load_run(outdir: Path) -> tuple[Matrix, dict]:
+    """The matrix and metadata of a stored run directory."""
+    path = Path(outdir) / RUN_FILE
+    try:
+        with path.open() as fh:
+            run = json.load(fh)
+    except OSError:
+        raise ValueError(f"run directory: {outdir} has no {RUN_FILE} (run `dualmech validate -o {outdir}` first)") from None
+    except ValueError as err:
+        raise ValueError(f"run directory: {path} is not valid JSON ({err})") from None
+    return matrix_from_dict(run["matrix"]), run
+
+
+# ----------------------------------------------------------------------------- environment
+
+def machine() -> dict:
+    """The computer a run happened on."""
+    return {
+        "host": platform.node(),
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpus": os.cpu_count(),
+        "python": platform.python_version(),
+    }
+
+
+def versions() -> dict[str, str]:
+    """Installed versions of :data:`LIBRARIES` (``"absent"`` if not installed)."""
+    out = {}
+    for name in LIBRARIES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "absent"
+    return out
+
+
+def default_jobs() -> int:
+    """All cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+# ----------------------------------------------------------------------------- work
+
+def run_task(case_id: str, case_raw: dict, engine: str, spec: str) -> dict:
+    """Solve one case with one engine (runs in a worker); never raises.
+
+    Returns a JSON-ready entry: ``engine``, ``spec``, ``seconds``, ``host``, and
+    either ``table`` (:func:`table_to_dict`) or ``error`` (the traceback text).
+    """
+    start = time.perf_counter()
+    entry: dict[str, Any] = {"case": case_id, "engine": engine, "spec": spec, "host": platform.node()}
+    try:
+        module, func = spec.split(":")
+        table = getattr(import_module(module), func)(case_from_dict(case_raw))
+        if not isinstance(table, ResultTable):
+            raise TypeError(f"{spec} returned {type(table).__name__}, not a ResultTable")
+        entry.update(table=table_to_dict(table), error=None)
+    except Exception:  # an engine's failure is a result to report, not a crash of the run
+        entry.update(table=None, error=traceback.format_exc(limit=8))
+    entry["seconds"] = time.perf_counter() - start
+    return entry
+
+
+def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: dict[str, str]
+          ) -> tuple[list[tuple[str, str]], dict[str, dict]]:
+    """Tasks to run, and the entries kept from earlier files, per case."""
+    tasks, kept = [], {}
+    for mc in matrix.cases:
+        old = read_case_file(case_file(outdir, mc.id)) if resume else None
+        entries = {}
+        if old is not None and old.get("fingerprint") == fingerprint(mc.raw):
+            entries = {e: v for e, v in old["engines"].items()
+                       if e in matrix.engines and v.get("spec") == registry[e] and not v.get("error")}
+        kept[mc.id] = entries
+        tasks += [(mc.id, e) for e in matrix.engines if e not in entries]
+    return tasks, kept
+
+
+def _execute(calls: list[tuple], jobs: int, scheduler: str | None) -> Iterator[dict]:
+    """Run ``run_task(*call)`` for every call; yield entries as they finish."""
+    if scheduler:
+        try:
+            from distributed import Client, as_completed
+        except ImportError:
+            raise ValueError("scheduler: Dask distributed is not installed (pip install 'dask[distributed]')") from None
+        try:
+            client = Client(scheduler, timeout="30s")
+        except (OSError, TimeoutError) as err:
+            raise ValueError(f"scheduler: cannot reach {scheduler!r} ({err})") from None
+        with client:
+            futures = [client.submit(run_task, *call, pure=False) for call in calls]
+            try:
+                for fut in as_completed(futures):
+                    yield fut.result()
+            finally:
+                client.cancel(futures)
+        return
+    if jobs <= 1:
+        for call in calls:
+            yield run_task(*call)
+        return
+    with cf.ProcessPoolExecutor(max_workers=jobs) as pool:
+        futures = [pool.submit(run_task, *call) for call in calls]
+        try:
+            for fut in cf.as_completed(futures):
+                yield fut.result()
+        finally:
+            for fut in futures:
+                fut.cancel()
+
+
+def run_matrix(
+    matrix: Matrix,
+    outdir: str | Path,
+    *,
+    jobs: int | None = None,
+    resume: bool = False,
+    scheduler: str | None = None,
+    progress: ProgressCallback | None = None,
+    registry: dict[str, str] | None = None,
+) -> RunOutcome:
+    """Run every case of ``matrix`` on every engine and store the results in ``outdir``.
+
+    Parameters
+    ----------
+    matrix : Matrix
+    outdir : path
+        Run directory (created).
+    jobs : int, optional
+        Worker processes; default all cores. 1 runs in this process.
+    resume : bool
+        Keep stored results that are still valid; run only the rest.
+    scheduler : str, optional
+        Address of a Dask distributed scheduler (``tcp://host:port``); replaces ``jobs``.
+    progress : callable, optional
+        ``progress(done, total, label)`` after each finished (case, engine).
+    registry : dict, optional
+        Engine name -> ``"module:function"``; default :data:`~dualmech.validation.engines.ENGINES`.
+    """
+    start = time.perf_counter()
+    registry = dict(ENGINES if registry is None else registry)
+    jobs = default_jobs() if jobs is None else jobs
+    if jobs < 1:
+        raise ValueError(f"jobs: expected a number of processes >= 1, got {jobs}")
+    missing = [e for e in matrix.engines if e not in registry]
+    if missing:
+        raise ValueError(f"engines: {missing[0]!r} is not registered (valid: {', '.join(registry)})")
+    outdir = Path(outdir)
+    (outdir / CASES_DIR).mkdir(parents=True, exist_ok=True)
+    tasks, kept = _plan(matrix, outdir, resume, registry)
+    raws = {mc.id: mc.raw for mc in matrix.cases}
+    info = {
+        "format": "dualmech-run/1",
+        "matrix": matrix.to_dict(),
+        "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "jobs": 1 if scheduler else jobs,
+        "scheduler": scheduler,
+        "machine": machine(),
+        "versions": versions(),
+        "registry": {e: registry[e] for e in matrix.engines},
+        "resumed": resume,
+    }
+    write_json_atomic(outdir / RUN_FILE, info)
+
+    waiting = {cid: {e for c, e in tasks if c == cid} for cid in raws}
+    done_entries: dict[str, dict] = {cid: dict(kept[cid]) for cid in raws}
+    calls = [(cid, raws[cid], e, registry[e]) for cid, e in tasks]
+    n_done = 0
+    for entry in _execute(calls, jobs, scheduler):
+        cid, e = entry["case"], entry["engine"]
+        done_entries[cid][e] = entry
+        waiting[cid].discard(e)
+        n_done += 1
+        if not waiting[cid]:
+            write_json_atomic(case_file(outdir, cid), {
+                "format": CASE_FORMAT, "id": cid, "fingerprint": fingerprint(raws[cid]),
+                "raw": raws[cid], "engines": {k: done_entries[cid][k] for k in matrix.engines if k in done_entries[cid]},
+            })
+        if progress is not None:
+            progress(n_done, len(calls), f"{cid} {e}")
+
+    seconds = time.perf_counter() - start
+    info.update(seconds=seconds, ran=len(calls), skipped=sum(len(v) for v in kept.values()))
+    write_json_atomic(outdir / RUN_FILE, info)
+    results = {cid: {e: entry_result(v) for e, v in entries.items()} for cid, entries in done_entries.items() if entries}
+    return RunOutcome(results, len(calls), info["skipped"], seconds)
+
+
+@contextlib.contextmanager
+def rich_progress(description: str = "solving") -> Iterator[ProgressCallback]:
+    """A rich progress bar (on stderr) as a :data:`ProgressCallback`.
+
+    It redraws only when called (no refresh thread), so that worker processes
+    forked while it is shown cannot inherit a lock held by another thread.
+    """
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    console = Console(stderr=True)
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.fields[last]}"), console=console, transient=False,
+                  auto_refresh=False) as bar:
+        task = bar.add_task(description, total=None, last="")
+
+        def update(done: int, total: int, label: str) -> None:
+            bar.update(task, completed=done, total=total, last=label)
+            bar.refresh()
+
+        yield update
