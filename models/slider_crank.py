@@ -44,8 +44,9 @@ from dualmech.models.case import Case
 DEAD_CENTRE = 1e-9
 #: Geometry steps of the continuation fallback (from the planar mechanism to the case).
 CONTINUATION_STEPS = 8
-#: Positions analysed together at most: bounds memory (about 9 kB of work arrays per position).
-CHUNK_POSITIONS = 50_000
+#: Positions analysed together at most: bounds memory (about 9 kB of work arrays per position) and keeps
+#: the work arrays near the CPU caches (10k: 67k positions/s, 50k: 62k, 2k: 59k on the CI machine).
+CHUNK_POSITIONS = 10_000
 
 LOOP = Loop(
     rows=(

@@ -20,7 +20,7 @@ from importlib import import_module
 import numpy as np
 
 from dualmech.models.case import Case, load_case
-from dualmech.models.slider_crank import Batch, close_loop, iter_analyses
+from dualmech.models.slider_crank import CHUNK_POSITIONS, Batch, close_loop, iter_analyses
 
 
 @dataclass(frozen=True)
@@ -67,9 +67,11 @@ def time_inhouse(cases: list[Case]) -> tuple[Timing, Timing]:
     cranks = [c.motion.state(c.geometry.crank_axial_shift) for c in cases]
     n = sum(len(c) for c in cranks)
 
-    def kinematics():
-        for lo in range(0, len(cases), 500):
-            close_loop(Batch.of(cases[lo:lo + 500], cranks[lo:lo + 500]))
+    per_chunk = max(1, CHUNK_POSITIONS // max(len(c) for c in cranks))
+
+    def kinematics():  # closure only, in the same chunks as the full analysis
+        for lo in range(0, len(cases), per_chunk):
+            close_loop(Batch.of(cases[lo:lo + per_chunk], cranks[lo:lo + per_chunk]))
 
     def full():
         for _ in iter_analyses(cases, cranks):
@@ -138,11 +140,12 @@ def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 0, profile
     ]
     pin = next((t for t in judges if t.label.startswith("pinocchio")), None)
     for t in (kin, full, *judges):
-        ratio = f"{pin.micro_per_position / t.micro_per_position:.2g}×" if pin else ""
+        comparable = pin is not None and t.label.endswith("full analysis")  # like for like
+        ratio = f"{pin.micro_per_position / t.micro_per_position:.2g}×" if comparable else ""
         lines.append(f"| {t.label} | {t.positions} | {t.seconds:.3f} | {t.rate:,.0f} | {t.micro_per_position:.2f} | {ratio} |")
     lines += ["", f"peak memory after the full analysis of {full.positions} positions: {mem_after_full:.0f} MiB"]
     if big:
-        t, mem = streaming_run(big, 200_000)
+        t, mem = streaming_run(big, CHUNK_POSITIONS)
         lines.append(f"streaming {t.positions} positions: {t.seconds:.1f} s ({t.rate:,.0f}/s), peak memory {mem:.0f} MiB")
     if profile:
         lines += ["", "Profile of the full analysis (100 cases, by own time):", "```",
