@@ -28,6 +28,7 @@ import io
 import math
 import os
 import re
+import tempfile
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
@@ -149,6 +150,41 @@ def findings() -> tuple[list[dict] | None, str]:
                  "evidence": str(r.get("evidence", ""))} for r in rows], ""
     except Exception as err:  # a broken findings module must not take the report down
         return None, f"not available ({FINDINGS_FUNCTION} failed: {type(err).__name__}: {err})"
+
+
+def balancing(matrix: Matrix) -> tuple[Figure | None, list[dict]]:
+    """Shaking force before and after force balancing (Sinatra–Angeles): a polar figure and a table.
+
+    The figure is for the matrix's base case; the table gives, for the base case and
+    the first case of each sweep (the spatial offsets), the peak shaking force and
+    shaking moment over the cycle for the original and the balanced design.
+    """
+    from dualmech.models.balancing import balanced_case, shaking, shaking_force_polar
+
+    base = next((c for c in matrix.cases if c.is_base), matrix.cases[0])
+    picks = [base] + [next(c for c in matrix.cases if c.id == s.case_ids[base.mode][-1])
+                      for s in matrix.sweeps if s.case_ids.get(base.mode)]
+    rows, seen = [], set()
+    for mc in picks:
+        if mc.id in seen:
+            continue
+        seen.add(mc.id)
+        case = mc.case()
+        before, after = shaking(case), shaking(balanced_case(case))
+        peak = {name: float(np.nanmax(np.linalg.norm(getattr(s, attr), axis=1)))
+                for name, s, attr in (("force_before", before, "force"), ("force_after", after, "force"),
+                                      ("moment_before", before, "moment"), ("moment_after", after, "moment"))}
+        rows.append({"case": mc.id, **peak, "ratio": peak["force_after"] / peak["force_before"]})
+    with tempfile.TemporaryDirectory() as tmp:
+        base_case = base.case()
+        path = shaking_force_polar(base_case, balanced_case(base_case), Path(tmp) / "shaking.png")
+        png = Path(path).read_bytes()
+    figure = Figure("balancing-shaking-force", "balancing", "balancing",
+                    f"shaking force, {base.id}: original and force-balanced design",
+                    "Tip of the shaking force's component normal to the crank axis over one revolution. "
+                    "Balanced: crank and rod mass centres at xi1 = -(1 + mu2)/mu1, xi2 = -1/mu2 "
+                    "(docs/conventions.md; errata S7).", png)
+    return figure, rows
 
 
 def tolerance_rows(matrix: Matrix) -> list[dict]:
@@ -563,6 +599,8 @@ def write_report(
     if comparison is None:
         comparison = compare_run(matrix, results)
     figures = render_figures(matrix, results, comparison, jobs=jobs)
+    balance_figure, balance_rows = balancing(matrix)
+    figures = [*figures, balance_figure]
     find, find_note = findings()
     figdir = outdir / "figures"
     figdir.mkdir(parents=True, exist_ok=True)
@@ -586,6 +624,7 @@ def write_report(
         "strokes": stroke_rows(matrix, comparison),
         "findings": find,
         "findings_note": find_note,
+        "balancing": balance_rows,
         "tolerances": tolerance_rows(matrix),
         "dead_centres": dead_centre_rows(matrix, results),
         "engine_versions": engine_versions(results),
