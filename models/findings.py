@@ -308,7 +308,7 @@ def _finding_d(solved) -> dict[str, Any]:
 def _finding_e(cases: list[Case], solved) -> dict[str, Any]:
     roots = dead_centres(cases)
     per_case, growth, accel_jump = {}, [], []
-    probe_cases, probe_cranks, probe_owner = [], [], []
+    probe_cases, probe_cranks = [], []
     for case, r in zip(cases, roots):
         per_case[case.name] = [round(float(x), 4) for x in r]
         for x in r:

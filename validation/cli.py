@@ -7,31 +7,16 @@ code 2, never a traceback.
 
 from __future__ import annotations
 
-import functools
 import sys
 from pathlib import Path
-from typing import Callable
 
 import click
 import numpy as np
 
 from dualmech.core.table import ResultTable
 from dualmech.models.case import load_case, preset_names, preset_path
+from dualmech.validation.cli_errors import one_line_errors
 from dualmech.validation.engines import ENGINES, run_engine
-
-
-def _one_line_errors(func: Callable) -> Callable:
-    """Turn ValueError/OSError raised by the library into one line and exit code 2."""
-
-    @functools.wraps(func)
-    def wrapper(*args, **kwargs):
-        try:
-            return func(*args, **kwargs)
-        except (ValueError, OSError) as err:
-            click.echo(f"dualmech: error: {err}", err=True)
-            sys.exit(2)
-
-    return wrapper
 
 
 @click.group()
@@ -81,7 +66,7 @@ def summarize(table: ResultTable) -> str:
 @click.option("--engine", type=click.Choice(list(ENGINES)), default="dualmech", show_default=True)
 @click.option("--frames", type=click.Choice(["world", "joint"]), default="world", show_default=True,
               help="'joint' also writes the thesis's joint-frame components (OUT.joint.csv).")
-@_one_line_errors
+@one_line_errors
 def solve(case: str, output: str | None, engine: str, frames: str) -> None:
     """Solve CASE (a TOML file or a preset name) and write one row per crank position."""
     c = load_case(case)
@@ -100,7 +85,7 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
 @main.command()
 @click.argument("case")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True)
-@_one_line_errors
+@one_line_errors
 def mjcf(case: str, output: str) -> None:
     """Write the MuJoCo MJCF model of CASE (open it in MuJoCo's viewer).
 
@@ -120,7 +105,7 @@ def mjcf(case: str, output: str) -> None:
 @click.option("--judge-cases", default=5, show_default=True, help="How many of them the judges solve (they are slower).")
 @click.option("--big", default=0, show_default=True, help="Also stream this many positions in chunks (memory check).")
 @click.option("--no-profile", is_flag=True, help="Skip the profile of the in-house solver.")
-@_one_line_errors
+@one_line_errors
 def benchmark(cases: int, judge_cases: int, big: int, no_profile: bool) -> None:
     """Positions per second of the in-house solver and of the judges, in one run (Markdown)."""
     from dualmech.validation.benchmark import run_benchmark
@@ -130,7 +115,7 @@ def benchmark(cases: int, judge_cases: int, big: int, no_profile: bool) -> None:
 
 @main.command(name="case-path")
 @click.argument("name")
-@_one_line_errors
+@one_line_errors
 def case_path(name: str) -> None:
     """Print the file of a bundled preset (to copy and edit)."""
     click.echo(str(preset_path(name)))

@@ -3,29 +3,13 @@
 
 from __future__ import annotations
 
-import functools
 import sys
-from typing import Callable
 
 import click
 import numpy as np
 
 from dualmech.models.case import load_case
-
-
-def _one_line_errors(func: Callable) -> Callable:
-    """ValueError/OSError from the library -> one line on stderr, exit code 2 (as ``validation/cli.py``;
-    not imported from there, which imports this module)."""
-
-    @functools.wraps(func)
-    def wrapper(*args, **kwargs):
-        try:
-            return func(*args, **kwargs)
-        except (ValueError, OSError) as err:
-            click.echo(f"dualmech: error: {err}", err=True)
-            sys.exit(2)
-
-    return wrapper
+from dualmech.validation.cli_errors import one_line_errors
 
 
 def summarize_simulation(sim) -> str:
@@ -68,7 +52,7 @@ def summarize_simulation(sim) -> str:
 @click.option("--atol", type=float, default=1e-12, show_default=True)
 @click.option("--method", default="DOP853", show_default=True, help="scipy solve_ivp method.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="CSV file (default: stdout).")
-@_one_line_errors
+@one_line_errors
 def simulate(case: str, duration: float, torque: str | None, slider_load: str | None, psi0: float | None,
              psidot0: float | None, damping: float, slider_damping: float, samples: int, rtol: float, atol: float,
              method: str, output: str | None) -> None:

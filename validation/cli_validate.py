@@ -9,31 +9,16 @@ interrupted -- finished cases are kept for ``--resume``).
 
 from __future__ import annotations
 
-import functools
 import sys
 from pathlib import Path
-from typing import Callable
 
 import click
 
+from dualmech.validation.cli_errors import one_line_errors
 from dualmech.validation.engines import ENGINES
 
 #: How many failing checks / regressions ``validate`` lists under its table.
 SHOWN_FAILURES = 12
-
-
-def _errors_to_exit_code(func: Callable) -> Callable:
-    """ValueError/OSError from the library -> one line on stderr and exit code 2."""
-
-    @functools.wraps(func)
-    def wrapper(*args, **kwargs):
-        try:
-            return func(*args, **kwargs)
-        except (ValueError, OSError) as err:
-            click.echo(f"dualmech: error: {err}", err=True)
-            sys.exit(2)
-
-    return wrapper
 
 
 def _engine_list(values: tuple[str, ...]) -> tuple[str, ...]:
@@ -94,7 +79,7 @@ def summary_table(matrix, comparison, title: str):
               help=f"Run only these engines (comma-separated or repeated; the reference must be one). "
                    f"Known: {', '.join(ENGINES)}.")
 @click.option("--report-dir", type=click.Path(file_okay=False), help="Write the report here [default: the run directory].")
-@_errors_to_exit_code
+@one_line_errors
 def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_file, write_baseline_file,
              engines, report_dir) -> None:
     """Run every case of MATRIX.toml (default: the thesis's study) on every engine and compare.
@@ -173,7 +158,7 @@ def _cores() -> int:
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False),
               help="Write the report here [default: RUNDIR].")
 @click.option("--jobs", type=click.IntRange(min=1), default=None, help="Processes for the figures [default: all cores].")
-@_errors_to_exit_code
+@one_line_errors
 def report(rundir, outdir, jobs) -> None:
     """Write the report (HTML, Markdown, figures, summary.json) of the run stored in RUNDIR."""
     from dualmech.validation.report import write_report

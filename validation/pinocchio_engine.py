@@ -610,7 +610,6 @@ def _angle_ranges(deg: np.ndarray, mask: np.ndarray) -> str:
 def to_table(case: Case, sol: PinocchioSolution, meta: dict | None = None) -> ResultTable:
     """The :class:`ResultTable` of ``sol`` in the conventions' columns, statuses and signs."""
     state = case.motion.state(case.geometry.crank_axial_shift)
-    n = len(state)
     status = sol.status
     t = transmission(sol, case.geometry.crank_length)
     w1, w2, w4 = sol.wrench1, sol.wrench2, sol.wrench4

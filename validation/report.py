@@ -473,8 +473,8 @@ def _figure_specs(matrix: Matrix, results: dict, comparison: Comparison) -> list
             kt = min((tols[q].value for q in kin_q), default=float("nan"))
             rt = min((tols[q].value for q in rea_q), default=float("nan"))
             specs.append((_file_key(f"difference-{e}"), "difference", e, f"{e}: relative difference against {matrix.reference}",
-                          f"Worst relative difference r over the compared columns at each crank position (log scale); "
-                          f"dashed: the tolerance. Gaps: rows not compared (dead centres, unassembled).",
+                          "Worst relative difference r over the compared columns at each crank position (log scale); "
+                          "dashed: the tolerance. Gaps: rows not compared (dead centres, unassembled).",
                           ("difference", (e, rows, (kt, rt)))))
     for e in matrix.judges:
         ids = [mc.id for mc in matrix.cases if comparison.for_engine(mc.id, e)]

@@ -132,7 +132,7 @@ def test_cli_writes_the_inhouse_table(tmp_path):
     path = tmp_path / "case.toml"
     src = load_case("thesis/a4-20-s1-3.5").raw
     text = (
-        f'name = "cli-sim"\n[geometry]\n' + "".join(f"{k} = {v!r}\n" for k, v in src["geometry"].items())
+        'name = "cli-sim"\n[geometry]\n' + "".join(f"{k} = {v!r}\n" for k, v in src["geometry"].items())
         + "[motion]\ncrank_rpm = 50.0\nangles_deg = { start = 0.0, stop = 360.0, step = 15.0 }\n[bodies]\n"
         + "".join(f"{k} = {v!r}\n" for k, v in src["bodies"].items())
         + "[loads]\ndrive_torque = 100.0\n"
