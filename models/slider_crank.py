@@ -304,20 +304,24 @@ def iter_analyses(cases: Sequence[Case], cranks: Sequence[CrankState] | None = N
                   chunk_positions: int = CHUNK_POSITIONS) -> Iterator[Analysis]:
     """Analyse many cases, batching up to ``chunk_positions`` positions at a time; yields one per case.
 
-    Memory stays bounded by the chunk size however many positions there are in all.
+    Crank states are built chunk by chunk, so memory stays bounded by the chunk
+    size (plus the case list) however many positions there are in all.
     """
-    if cranks is None:
-        cranks = [c.motion.state(c.geometry.crank_axial_shift) for c in cases]
+    def crank(i: int) -> CrankState:
+        c = cases[i]
+        return c.motion.state(c.geometry.crank_axial_shift) if cranks is None else cranks[i]
+
     group: list[int] = []
     size = 0
-    for i, crank in enumerate(cranks):
-        if group and size + len(crank) > chunk_positions:
-            yield from _analyze_batch([cases[j] for j in group], [cranks[j] for j in group])
+    for i, case in enumerate(cases):
+        n = len(case.motion.angles_deg) if cranks is None else len(cranks[i])
+        if group and size + n > chunk_positions:
+            yield from _analyze_batch([cases[j] for j in group], [crank(j) for j in group])
             group, size = [], 0
         group.append(i)
-        size += len(crank)
+        size += n
     if group:
-        yield from _analyze_batch([cases[j] for j in group], [cranks[j] for j in group])
+        yield from _analyze_batch([cases[j] for j in group], [crank(j) for j in group])
 
 
 def analyze_many(cases: Sequence[Case], cranks: Sequence[CrankState] | None = None) -> list[Analysis]:
