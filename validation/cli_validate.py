@@ -101,7 +101,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
         matrix = matrix.with_engines(_engine_list(engines))
     baseline = read_baseline(baseline_file) if baseline_file else None  # fail early on a bad file
     outdir = Path(outdir) if outdir else Path("runs") / matrix.name
-    console = Console(stderr=False)
+    console = Console(width=None if sys.stdout.isatty() else 120)  # CI logs: one row per line
     try:
         with rich_progress(f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines") as bar:
             outcome = run_matrix(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)

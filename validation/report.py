@@ -515,7 +515,7 @@ def render_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: 
     specs = _figure_specs(matrix, results, comparison)
     jobs_list = [spec[5] for spec in specs]
     if jobs > 1 and len(specs) > 1:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=runner.die_with_parent, initargs=(os.getpid(),)) as pool:
             pngs = list(pool.map(_render, jobs_list, chunksize=max(1, len(specs) // (4 * jobs))))
     else:
         pngs = [_render(j) for j in jobs_list]

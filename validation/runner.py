@@ -252,6 +252,26 @@ def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: dict[str, str]
     return tasks, kept
 
 
+def die_with_parent(parent: int) -> None:
+    """Worker initializer: end this worker when the process that started it dies.
+
+    A run killed hard (SIGKILL, an OOM kill) cannot shut its pool down, and idle
+    workers would otherwise wait on their queue forever.  On Linux the kernel
+    sends SIGTERM to the worker when its parent exits (``PR_SET_PDEATHSIG``);
+    elsewhere this does nothing.
+    """
+    try:
+        import ctypes
+        import signal
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent:  # the parent died before the request took effect
+        os._exit(1)
+
+
 def _execute(calls: list[tuple], jobs: int, scheduler: str | None) -> Iterator[dict]:
     """Run ``run_task(*call)`` for every call; yield entries as they finish."""
     if scheduler:
@@ -275,7 +295,7 @@ def _execute(calls: list[tuple], jobs: int, scheduler: str | None) -> Iterator[d
         for call in calls:
             yield run_task(*call)
         return
-    with cf.ProcessPoolExecutor(max_workers=jobs) as pool:
+    with cf.ProcessPoolExecutor(max_workers=jobs, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
         futures = [pool.submit(run_task, *call) for call in calls]
         try:
             for fut in cf.as_completed(futures):
@@ -318,6 +338,8 @@ def run_matrix(
     jobs = default_jobs() if jobs is None else jobs
     if jobs < 1:
         raise ValueError(f"jobs: expected a number of processes >= 1, got {jobs}")
+    if scheduler is not None and not scheduler.strip():
+        raise ValueError("scheduler: expected a Dask scheduler address such as tcp://127.0.0.1:8786, got ''")
     missing = [e for e in matrix.engines if e not in registry]
     if missing:
         raise ValueError(f"engines: {missing[0]!r} is not registered (valid: {', '.join(registry)})")
