@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from dualmech.core.status import STATUSES  # noqa: F401  (re-exported: the status words)
+
 KINEMATIC_COLUMNS: tuple[str, ...] = ("theta1_deg", "S1", "S4", "S4_dot", "S4_ddot")
 REACTION_COLUMNS: tuple[str, ...] = (
     "j1_fx", "j1_fy", "j1_fz", "j1_mx", "j1_my", "j1_mz",
@@ -34,8 +36,6 @@ MOMENT_COLUMNS: tuple[str, ...] = tuple(
     c for c in REACTION_COLUMNS if "_m" in c or c == "drive_torque"
 )
 
-#: Status words, in order of precedence when several apply.
-STATUSES: tuple[str, ...] = ("ok", "dead_centre", "branch_jump", "not_converged", "no_assembly")
 
 
 @dataclass(frozen=True)
