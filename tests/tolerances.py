@@ -10,3 +10,6 @@ BALANCE = 1e-10
 BATCH_VS_SINGLE = 1e-12
 #: Finite-difference checks of screws and twists (central differences, step 1e-6: error ~1e-10).
 FINITE_DIFFERENCE = 1e-7
+#: Shared inputs (mass properties, crank motion) against the same formula evaluated by hand: round-off only
+#: (measured <= 2e-16 relative).
+COMMON_MODE_INPUT = 1e-13
