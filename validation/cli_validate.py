@@ -3,8 +3,7 @@
 ``validate`` runs a matrix (:mod:`dualmech.validation.runner`), compares every judge
 with the reference (:mod:`dualmech.validation.compare`), optionally writes JUnit XML
 and checks or writes a baseline, writes the report, prints a one-screen summary and
-exits 1 when any check fails or anything regressed (2 on bad input, 130 when
-interrupted -- finished cases are kept for ``--resume``).
+exits with one of :data:`EXIT_CODES`.
 """
 
 from __future__ import annotations
@@ -19,6 +18,22 @@ from dualmech.validation.engines import ENGINES
 
 #: How many failing checks / regressions ``validate`` lists under its table.
 SHOWN_FAILURES = 12
+#: Exit codes of ``validate`` and ``report`` (also in the README).
+EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_INCOMPLETE, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+EXIT_CODES: dict[int, str] = {
+    EXIT_PASS: "PASS: every check of a complete run passed, no regression",
+    EXIT_FAIL: "FAIL: a check failed, an engine failed, or (with --baseline) something regressed",
+    EXIT_BAD_INPUT: "bad input (one line on stderr names it)",
+    EXIT_INCOMPLETE: "INCOMPLETE: no check failed, but work is missing (cases or engines not run)",
+    EXIT_INTERRUPTED: "interrupted (finished cases are kept; re-run with --resume)",
+}
+
+
+def exit_code(verdict: str, regressions: list) -> int:
+    """The exit code of a compared run: FAIL (or any regression) 1, INCOMPLETE 3, PASS 0."""
+    if verdict == "FAIL" or regressions:
+        return EXIT_FAIL
+    return EXIT_INCOMPLETE if verdict == "INCOMPLETE" else EXIT_PASS
 
 
 def _engine_list(values: tuple[str, ...]) -> tuple[str, ...]:
@@ -43,10 +58,10 @@ def summary_table(matrix, comparison, title: str):
         table.add_column(e, no_wrap=True)
     for row in summary_rows(matrix, comparison):
         if not row["run"]:
-            table.add_row(row["case"], "[dim]not run[/]", "", *[""] * len(matrix.judges))
+            table.add_row(row["case"], "[yellow]not run[/]", "", *["[yellow]? missing[/]"] * len(matrix.judges))
             continue
         if row["reference_error"]:
-            table.add_row(row["case"], "[red]failed[/]", "", *["[red]✗ no reference[/]"] * len(matrix.judges))
+            table.add_row(row["case"], "[red]✗ reference[/]", "", *["[red]✗ no reference[/]"] * len(matrix.judges))
             continue
         cells = []
         for e in matrix.judges:
@@ -108,12 +123,13 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     except KeyboardInterrupt:
         click.echo(f"dualmech: interrupted; finished cases are kept in {outdir}; "
                    "re-run with --resume to finish", err=True)
-        sys.exit(130)
+        sys.exit(EXIT_INTERRUPTED)
     comparison = compare_run(matrix, outcome.results)
-    if junit_file:
-        write_junit(junit_file, matrix, comparison, timings(load_entries(outdir, matrix)))
     summary = baseline_summary(matrix, comparison, outcome.results)
     regressions = compare_baseline(summary, baseline) if baseline is not None else []
+    if junit_file:
+        write_junit(junit_file, matrix, comparison, timings(load_entries(outdir, matrix)), regressions=regressions,
+                    versions=run_versions(outdir))
     if write_baseline_file:
         write_baseline(write_baseline_file, summary)
     files = write_report(outdir, report_dir, jobs=jobs or _cores(), comparison=comparison)
@@ -124,8 +140,9 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     console.print(summary_table(matrix, comparison, title))
     failures = comparison.failures()
     n_ok = len(comparison.checks) - len(failures)
-    verdict = "[green]PASS[/]" if comparison.passed else "[red]FAIL[/]"
-    console.print(f"{verdict}: {n_ok} of {len(comparison.checks)} checks passed "
+    colour = {"PASS": "green", "FAIL": "red", "INCOMPLETE": "yellow"}[str(comparison.verdict)]
+    missing = f"; {len(comparison.missing)} not run" if comparison.missing else ""
+    console.print(f"[{colour}]{comparison.verdict}[/]: {n_ok} of {len(comparison.checks)} checks passed{missing} "
                   f"(ratio = worst relative difference / tolerance; dead c. = dead-centre rows excluded, counted)")
     for c in failures[:SHOWN_FAILURES]:
         console.print(f"  [red]✗[/] {describe(c)}", markup=True, highlight=False)
@@ -143,8 +160,16 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     if junit_file:
         console.print(f"JUnit: {junit_file}")
     console.print(f"report: {files.html} and {files.markdown} ({files.seconds:.1f} s)")
-    if not comparison.passed or regressions:
-        sys.exit(1)
+    sys.exit(exit_code(comparison.verdict, regressions))
+
+
+def run_versions(outdir: Path) -> dict[str, str]:
+    """The key library versions recorded in the run directory's ``run.json``."""
+    from dualmech.validation.provenance import KEY_LIBRARIES
+    from dualmech.validation.runner import load_run
+
+    _, run = load_run(outdir)
+    return {k: run.get("versions", {}).get(k, "unknown") for k in KEY_LIBRARIES}
 
 
 def _cores() -> int:
@@ -164,4 +189,6 @@ def report(rundir, outdir, jobs) -> None:
     from dualmech.validation.report import write_report
 
     files = write_report(rundir, outdir, jobs=jobs or _cores())
-    click.echo(f"report: {files.html} and {files.markdown} ({len(files.figures)} figures, {files.seconds:.1f} s)")
+    click.echo(f"{files.verdict}: report {files.html} and {files.markdown} "
+               f"({len(files.figures)} figures, {files.seconds:.1f} s)")
+    sys.exit(exit_code(files.verdict, []))

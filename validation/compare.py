@@ -1,40 +1,52 @@
 """Judge against reference: per case, engine and quantity, how far apart and whether that is fine.
 
-For one case, the reference engine's table ``R`` (the in-house solver) and a
-judge's table ``J`` are compared row by row (one row per crank position):
+The gate is strict: it passes only on what it has actually compared.
+
+**Statuses first.**  Every engine says one word of :mod:`dualmech.core.status` per
+crank position.  ``ok``, ``dead_centre``, ``assembly_limit`` and ``no_assembly`` are
+verdicts about the mechanism; ``branch_jump``, ``not_converged`` and ``not_finite``
+are failures of the engine, and so is any non-finite number where the word says the
+value is given (an ``ok`` row with NaN or inf).  Per row, the judge's word must equal
+the reference's, except where a stated rule explains the difference:
+``ok`` against ``dead_centre`` where the reference's ``|transmission|`` is within the
+judge's ``dead_centre_band`` (``validation/tolerances.py``), since each engine flags
+dead centres from its own transmission.  Rows the two engines agree not to assemble
+are agreement, counted in ``n_excluded``.  The reference gets a ``status`` check of
+its own: engine failures, or no assembled position at all (unless the matrix case
+declares ``expect = "no_assembly"``, in which case every engine must say so at every
+position, and nothing else is compared).
+
+**Then the numbers.**  For one case, the reference's table ``R`` and a judge's
+table ``J`` are compared row by row on the rows where both give the quantity:
 
 .. math::
 
     d_i = |J_i - R_i|, \\qquad
     r_i = \\frac{d_i}{s_g\\, c_i}, \\qquad
-    \\text{pass} \\iff \\max_i r_i \\le \\text{tol}
+    \\text{pass} \\iff n_\\text{compared} > 0 \\text{ and } \\max_i r_i \\le \\text{tol}
 
 * ``c_i`` is the condition factor of the row (``docs/conventions.md``, "Dead
   centres"): ``1/|t_i|`` for reactions in drive-torque mode, with ``t`` the
-  reference's ``transmission`` column, else 1.  Near a dead centre the slider
-  load grows like ``1/t`` and so does every honest difference; the tolerance
-  grows with it instead of the row being dropped.
-* ``s_g`` is the scale of the quantity's unit group (:data:`UNIT_GROUP`):
-  the largest ``|R_i| / c_i`` over the case's comparable rows of every compared
-  quantity of that group (a normwise relative difference: a zero component, such
-  as a planar case's out-of-plane moments, is judged against the case's forces).
-* Rows that either engine flags ``dead_centre`` carry no reactions (NaN): they are
-  **excluded from the reaction comparisons but counted** (``n_excluded``) and
-  reported; their kinematics are compared.  Rows where one engine assembles and
-  the other does not (``branch_jump``, ``not_converged``, ``no_assembly``), or
-  where exactly one value is NaN, are mismatches and fail the check.
+  reference's ``transmission`` column, else 1.
+* ``s_g`` is the scale of the quantity's unit group (:data:`UNIT_GROUP`): the
+  largest ``|R_i| / c_i`` over the case's compared rows of every compared quantity
+  of that group, so every verdict is relative to the case's own scale and does not
+  depend on its unit system.
+* A quantity with no row compared fails: a gate that compared nothing says so.
 
-The stroke (max S4 - min S4 over the sampled crank angles) is compared per
-judge, relative to the length scale; a ``status`` check per (case, judge) fails
-on any assembly mismatch, an ``engine`` check when an engine raised.
+**Missing work.**  A case, or an engine of a case, absent from the results gives a
+failing ``engine`` check marked ``incomplete``; the run's :class:`Verdict` is then
+``INCOMPLETE`` (never ``PASS``), unless a comparison failed outright (``FAIL``).
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from enum import StrEnum
 
 import numpy as np
 
+from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
 from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.validation.matrix import Matrix, ResolvedTolerance
 
@@ -45,10 +57,25 @@ UNIT_GROUP: dict[str, str] = {
     **{c: "force" for c in FORCE_COLUMNS},
     **{c: "moment" for c in MOMENT_COLUMNS},
 }
-#: Status words under which the kinematics columns are given.
-ASSEMBLED: frozenset[str] = frozenset({"ok", "dead_centre"})
+#: Columns given under each status word (``docs/conventions.md``, "Status words").
+POSE_COLUMNS: tuple[str, ...] = ("S1", "S4")
+RATE_COLUMNS: tuple[str, ...] = ("S4_dot", "S4_ddot", "transmission")
+#: The column whose rows count as "assembled" (the stroke, and what a check reports as excluded).
+STROKE_PROXY = "S4"
+#: Status words that are verdicts about the mechanism (the others are engine failures).
+VERDICTS: frozenset[str] = frozenset({Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.NO_ASSEMBLY})
 #: Pseudo-quantities of :class:`Check` besides the table columns.
 STROKE, STATUS, ENGINE = "stroke", "status", "engine"
+#: The only declared expectation a matrix case may carry (``[[sweep]] expect = ...``).
+EXPECT_NO_ASSEMBLY = "no_assembly"
+
+
+class Verdict(StrEnum):
+    """Outcome of a whole run."""
+
+    PASS = "PASS"
+    FAIL = "FAIL"
+    INCOMPLETE = "INCOMPLETE"
 
 
 @dataclass(frozen=True)
@@ -58,8 +85,9 @@ class Check:
     Attributes
     ----------
     case, engine, quantity : str
-        Matrix case id, judge engine, and a column name, ``"stroke"``, ``"status"``
-        (assembly agreement) or ``"engine"`` (the engine ran).
+        Matrix case id, engine, and a column name, ``"stroke"``, ``"status"``
+        (status agreement; for the reference engine, its own failures) or
+        ``"engine"`` (the engine ran).
     max_abs : float
         Largest ``|judge - reference|`` over the compared rows, in the column's unit.
     max_rel : float
@@ -71,11 +99,13 @@ class Check:
     scale : float
         ``s_g`` used for ``max_rel``.
     n_compared, n_excluded, n_mismatch : int
-        Rows compared; rows excluded but counted (dead centres, rows neither engine
-        assembles); rows that disagree on assembly or on NaN.
+        Rows compared; rows not compared but accounted for (dead centres, positions
+        both engines agree do not assemble); rows that disagree or fail.
     passed : bool
     detail : str
         One line for reports (why it failed, what was excluded).
+    incomplete : bool
+        The check failed because work is missing (not run), not because of a result.
     """
 
     case: str
@@ -91,6 +121,7 @@ class Check:
     n_mismatch: int
     passed: bool
     detail: str = ""
+    incomplete: bool = False
 
     @property
     def ratio(self) -> float:
@@ -119,15 +150,30 @@ class Comparison:
     errors: dict[str, dict[str, str]] = field(default_factory=dict)  # case -> engine -> message
 
     @property
+    def verdict(self) -> Verdict:
+        """``FAIL`` if any check failed on a result, else ``INCOMPLETE`` if work is missing, else ``PASS``."""
+        failed = [c for c in self.checks if not c.passed]
+        if any(not c.incomplete for c in failed):
+            return Verdict.FAIL
+        if failed or not self.checks:
+            return Verdict.INCOMPLETE
+        return Verdict.PASS
+
+    @property
     def passed(self) -> bool:
-        return all(c.passed for c in self.checks) and not any(self.errors.values())
+        return self.verdict is Verdict.PASS
+
+    @property
+    def missing(self) -> list[Check]:
+        """The checks that failed because work is missing."""
+        return [c for c in self.checks if c.incomplete]
 
     def failures(self) -> list[Check]:
         """Failing checks, worst first within each case."""
         return [c for c in self.checks if not c.passed]
 
     def for_engine(self, case: str, engine: str) -> list[Check]:
-        """The checks of one (case, judge)."""
+        """The checks of one (case, engine)."""
         return [c for c in self.checks if c.case == case and c.engine == engine]
 
 
@@ -143,34 +189,45 @@ def condition_factor(reference: ResultTable, mode: str, quantity: str) -> np.nda
         return np.where(t > 0, 1.0 / np.where(t > 0, t, 1.0), np.inf)
 
 
-def _row_masks(reference: ResultTable, judge: ResultTable) -> dict[str, np.ndarray]:
-    rs = np.asarray(reference.status, dtype=str)
-    js = np.asarray(judge.status, dtype=str)
-    r_asm = np.isin(rs, list(ASSEMBLED))
-    j_asm = np.isin(js, list(ASSEMBLED))
-    return {
-        "kinematic": r_asm & j_asm,
-        "reaction": (rs == "ok") & (js == "ok"),
-        "dead_centre": r_asm & j_asm & ((rs == "dead_centre") | (js == "dead_centre")),
-        "mismatch": r_asm != j_asm,
-        "neither": ~r_asm & ~j_asm,
-    }
+def given_under(quantity: str) -> frozenset[str]:
+    """The status words under which an engine gives ``quantity``."""
+    if quantity in POSE_COLUMNS:
+        return ASSEMBLED
+    if quantity in RATE_COLUMNS:
+        return RATES_GIVEN
+    return frozenset({Status.OK})
 
 
-def _rows_for(quantity: str, masks: dict[str, np.ndarray]) -> np.ndarray:
-    return masks["reaction"] if quantity in REACTION_COLUMNS else masks["kinematic"]
+def rows_given(table: ResultTable, quantity: str) -> np.ndarray:
+    """Rows, shape ``(n,)`` bool, where ``table``'s status says ``quantity`` is given."""
+    return is_status(table.status, *given_under(quantity))
+
+
+def engine_failures(table: ResultTable, quantities: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Rows where the engine failed, shape ``(n,)`` each: by its own word, and by a non-finite given value.
+
+    Returns ``(failed_status, non_finite)``.
+    """
+    failed = ~is_status(table.status, *VERDICTS)
+    non_finite = np.zeros(len(table), dtype=bool)
+    for q in (*POSE_COLUMNS, *quantities):
+        non_finite |= rows_given(table, q) & ~np.isfinite(table[q])
+    return failed, non_finite & ~failed
+
+
+def _compared_rows(reference: ResultTable, judge: ResultTable, quantity: str) -> np.ndarray:
+    return rows_given(reference, quantity) & rows_given(judge, quantity)
 
 
 def unit_scales(reference: ResultTable, judge: ResultTable, mode: str, quantities: tuple[str, ...]) -> dict[str, float]:
-    """``s_g`` per unit group: the largest ``|R|/c`` over the comparable rows of the group's quantities.
+    """``s_g`` per unit group: the largest ``|R|/c`` over the compared rows of the group's quantities.
 
     A group whose reference values are all zero (or absent) gets scale 1, i.e. the
     comparison becomes absolute in the column's unit.
     """
-    masks = _row_masks(reference, judge)
     scales: dict[str, float] = {}
     for q in quantities:
-        rows = _rows_for(q, masks)
+        rows = _compared_rows(reference, judge, q)
         vals = np.abs(reference[q][rows]) / condition_factor(reference, mode, q)[rows]
         vals = vals[np.isfinite(vals)]
         g = UNIT_GROUP[q]
@@ -181,39 +238,142 @@ def unit_scales(reference: ResultTable, judge: ResultTable, mode: str, quantitie
 def relative_differences(
     reference: ResultTable, judge: ResultTable, mode: str, quantities: tuple[str, ...]
 ) -> dict[str, np.ndarray]:
-    """``r_i`` per quantity, each shape ``(n,)``; NaN on rows not compared, ``inf`` on NaN mismatches."""
-    masks = _row_masks(reference, judge)
+    """``r_i`` per quantity, each shape ``(n,)``; NaN on rows not compared, ``inf`` where a value is not finite."""
     scales = unit_scales(reference, judge, mode, quantities)
     out = {}
     for q in quantities:
-        rows = _rows_for(q, masks)
-        r, j = reference[q], judge[q]
-        with np.errstate(invalid="ignore"):
-            rel = np.abs(j - r) / (scales[UNIT_GROUP[q]] * condition_factor(reference, mode, q))
-        one_nan = np.isnan(r) != np.isnan(j)
-        rel = np.where(one_nan, np.inf, rel)
+        rows = _compared_rows(reference, judge, q)
+        with np.errstate(invalid="ignore", over="ignore"):
+            rel = np.abs(judge[q] - reference[q]) / (scales[UNIT_GROUP[q]] * condition_factor(reference, mode, q))
+        rel = np.where(np.isfinite(rel), rel, np.inf)
         out[q] = np.where(rows, rel, np.nan)
     return out
 
 
 def stroke(table: ResultTable) -> float:
     """``max S4 - min S4`` over the assembled rows (the case's sampled angles); NaN if none."""
-    s4 = table["S4"][np.isin(np.asarray(table.status, dtype=str), list(ASSEMBLED))]
+    s4 = table["S4"][is_status(table.status, *ASSEMBLED)]
     s4 = s4[np.isfinite(s4)]
     return float(s4.max() - s4.min()) if s4.size else float("nan")
 
 
 # ----------------------------------------------------------------------------- per case
 
-def _fail(case: str, engine: str, quantity: str, tol: ResolvedTolerance, detail: str) -> Check:
+def _fail(case: str, engine: str, quantity: str, tol: ResolvedTolerance, detail: str,
+          incomplete: bool = False) -> Check:
     nan = float("nan")
-    return Check(case, engine, quantity, nan, nan, nan, tol, nan, 0, 0, 0, False, detail)
+    return Check(case, engine, quantity, nan, nan, nan, tol, nan, 0, 0, 0, False, detail, incomplete)
 
 
 def _angles(rows: np.ndarray, theta: np.ndarray, limit: int = 4) -> str:
     idx = np.flatnonzero(rows)
     shown = ", ".join(f"{theta[i]:g}" for i in idx[:limit])
     return shown + (f", ... ({idx.size} rows)" if idx.size > limit else "")
+
+
+_EXACT = ResolvedTolerance("exact", 0.0, "statuses must agree row by row, except where a stated band explains it")
+
+
+def _failure_notes(who: str, table: ResultTable, failed: np.ndarray, non_finite: np.ndarray) -> list[str]:
+    theta = table["theta1_deg"]
+    notes = []
+    for word in sorted({str(w) for w in np.asarray(table.status, dtype=str)[failed]}):
+        rows = failed & is_status(table.status, word)
+        notes.append(f"{who} says {word} at theta1 = {_angles(rows, theta)} deg")
+    if non_finite.any():
+        notes.append(f"{who} gives a non-finite value in a row it calls given, at theta1 = "
+                     f"{_angles(non_finite, theta)} deg")
+    return notes
+
+
+def reference_check(case_id: str, reference: ResultTable, quantities: tuple[str, ...],
+                    expect: str | None) -> Check:
+    """The reference engine's own ``status`` check: no engine failure, and assembled somewhere (or as expected)."""
+    failed, non_finite = engine_failures(reference, quantities)
+    bad = failed | non_finite
+    notes = _failure_notes("the reference", reference, failed, non_finite)
+    assembled = is_status(reference.status, *ASSEMBLED)
+    if expect == EXPECT_NO_ASSEMBLY:
+        wrong = ~is_status(reference.status, Status.NO_ASSEMBLY) & ~bad
+        if wrong.any():
+            notes.append(f"expected no_assembly everywhere, assembles at theta1 = "
+                         f"{_angles(wrong, reference['theta1_deg'])} deg")
+        bad = bad | wrong
+    elif not assembled.any() and not bad.any():
+        notes.append('the reference assembles at no crank position (declare expect = "no_assembly" '
+                     "in the sweep if that is intended)")
+        bad = np.ones(len(reference), dtype=bool)
+    n_bad = int(bad.sum())
+    return Check(case_id, reference.engine, STATUS, float(n_bad), float(n_bad), float("nan"), _EXACT, 1.0,
+                 len(reference), 0, n_bad, n_bad == 0, "; ".join(notes))
+
+
+def status_check(case_id: str, reference: ResultTable, judge: ResultTable, quantities: tuple[str, ...],
+                 band: ResolvedTolerance | None) -> Check:
+    """The judge's ``status`` check: its own failures, and agreement with the reference row by row.
+
+    Rows where the reference itself failed are left to :func:`reference_check`.
+    """
+    theta = reference["theta1_deg"]
+    ref_failed, ref_non_finite = engine_failures(reference, quantities)
+    failed, non_finite = engine_failures(judge, quantities)
+    usable = ~(ref_failed | ref_non_finite)
+    failed, non_finite = failed & usable, non_finite & usable
+    rs, js = np.asarray(reference.status, dtype=str), np.asarray(judge.status, dtype=str)
+    differ = usable & ~failed & (rs != js)
+    explained = np.zeros_like(differ)
+    if band is not None:
+        pair = (is_status(rs, Status.OK) & is_status(js, Status.DEAD_CENTRE)) | (
+            is_status(rs, Status.DEAD_CENTRE) & is_status(js, Status.OK))
+        explained = pair & (np.abs(reference["transmission"]) <= band.value)
+    mismatch = differ & ~explained
+    notes = _failure_notes("the judge", judge, failed, non_finite)
+    for r_word, j_word in sorted({(r, j) for r, j in zip(rs[mismatch], js[mismatch])}):
+        rows = mismatch & (rs == r_word) & (js == j_word)
+        notes.append(f"reference {r_word}, judge {j_word} at theta1 = {_angles(rows, theta)} deg")
+    if explained.any():
+        notes.append(f"{int(explained.sum())} dead-centre flag(s) differ within |t| <= {band.value:g} ({band.name})")
+    bad = failed | non_finite | mismatch
+    n_bad = int(bad.sum())
+    agreed_unassembled = usable & ~bad & (rs == js) & ~is_status(rs, *ASSEMBLED)
+    return Check(case_id, judge.engine, STATUS, float(n_bad), float(n_bad), float("nan"), band or _EXACT, 1.0,
+                 int(usable.sum()), int(agreed_unassembled.sum()), n_bad, n_bad == 0, "; ".join(notes))
+
+
+def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: ResultTable, quantity: str,
+                   rel: np.ndarray, scale: float, tol: ResolvedTolerance) -> Check:
+    """One column's check (module docstring): every row both engines give, none non-finite, at least one."""
+    theta = reference["theta1_deg"]
+    rows = _compared_rows(reference, judge, quantity)
+    infinite = rows & np.isinf(rel)
+    finite = rows & np.isfinite(rel)
+    max_rel = float(rel[finite].max()) if finite.any() else float("nan")
+    worst = float(theta[np.flatnonzero(finite)[np.argmax(rel[finite])]]) if finite.any() else float("nan")
+    diff = np.abs(judge[quantity] - reference[quantity])[finite]
+    n_dead = int((rows_given(reference, STROKE_PROXY) & rows_given(judge, STROKE_PROXY) & ~rows).sum())
+    notes = []
+    if not rows.any():
+        notes.append("no row compared: no position where both engines give it")
+    if infinite.any():
+        notes.append(f"non-finite value at theta1 = {_angles(infinite, theta)} deg")
+    if np.isfinite(max_rel) and max_rel > tol.value:
+        notes.append(f"max rel {max_rel:.3g} > {tol.value:.3g} ({tol.name}) at theta1 = {worst:g} deg")
+    if n_dead:
+        notes.append(f"{n_dead} assembled rows without it (dead centres, assembly limits) excluded")
+    passed = bool(rows.any()) and not infinite.any() and max_rel <= tol.value
+    return Check(case_id, judge.engine, quantity, float(diff.max()) if diff.size else float("nan"), max_rel, worst,
+                 tol, scale, int(finite.sum()), n_dead, int(infinite.sum()), passed, "; ".join(notes))
+
+
+def stroke_check(case_id: str, mode: str, reference: ResultTable, judge: ResultTable,
+                 tol: ResolvedTolerance) -> Check:
+    """The stroke of the judge against the reference's, relative to the case's length scale."""
+    ref_stroke, judge_stroke = stroke(reference), stroke(judge)
+    length = unit_scales(reference, judge, mode, (STROKE_PROXY,))["length"]
+    d = abs(judge_stroke - ref_stroke)
+    ok = bool(np.isfinite(d) and d / length <= tol.value)
+    return Check(case_id, judge.engine, STROKE, d, d / length, float("nan"), tol, length, int(np.isfinite(d)), 0,
+                 int(not np.isfinite(d)), ok, "" if ok else f"stroke {judge_stroke:.12g} against {ref_stroke:.12g}")
 
 
 def compare_case(
@@ -223,6 +383,7 @@ def compare_case(
     judge: ResultTable,
     quantities: tuple[str, ...],
     tolerances: dict[str, ResolvedTolerance],
+    expect: str | None = None,
 ) -> list[Check]:
     """Every check of one judge on one case (module docstring).
 
@@ -235,59 +396,23 @@ def compare_case(
     quantities : tuple of str
         Columns to compare.
     tolerances : dict
-        Quantity (and ``"stroke"``) -> tolerance.
+        Quantity (and ``"stroke"``, optionally ``"dead_centre_band"``) -> tolerance.
+    expect : str, optional
+        ``"no_assembly"``: the case is declared to assemble nowhere; only statuses are checked.
     """
     engine = judge.engine
-    status_tol = ResolvedTolerance("exact", 0.0, "assembly must agree row by row")
     theta = reference["theta1_deg"]
     if len(judge) != len(reference) or not np.allclose(judge["theta1_deg"], theta, rtol=0, atol=1e-9):
         detail = f"rows differ: {len(judge)} crank angles against the reference's {len(reference)}"
-        return [_fail(case_id, engine, STATUS, status_tol, detail)] + [
-            _fail(case_id, engine, q, tolerances[q], detail) for q in (*quantities, STROKE)]
-    masks = _row_masks(reference, judge)
-    n_mis = int(masks["mismatch"].sum())
-    checks = [Check(
-        case_id, engine, STATUS, float(n_mis), float(n_mis), float("nan"), status_tol, 1.0,
-        len(reference), int(masks["neither"].sum()), n_mis, n_mis == 0,
-        f"assembly differs at theta1 = {_angles(masks['mismatch'], theta)} deg" if n_mis else "",
-    )]
+        return [_fail(case_id, engine, STATUS, _EXACT, detail)]
+    checks = [status_check(case_id, reference, judge, quantities, tolerances.get("dead_centre_band"))]
+    if expect == EXPECT_NO_ASSEMBLY:
+        return checks
     rel = relative_differences(reference, judge, mode, quantities)
     scales = unit_scales(reference, judge, mode, quantities)
-    n_dead = int(masks["dead_centre"].sum())
-    for q in quantities:
-        rows = _rows_for(q, masks)
-        r = rel[q]
-        nan_mis = rows & np.isinf(r) & (np.isnan(reference[q]) != np.isnan(judge[q]))
-        good = rows & np.isfinite(r)
-        diff = np.abs(judge[q] - reference[q])[good]
-        max_rel = float(np.nanmax(r[rows & ~nan_mis])) if (rows & ~nan_mis & ~np.isnan(r)).any() else float("nan")
-        worst = float(theta[np.nanargmax(np.where(rows & ~nan_mis, r, np.nan))]) if np.isfinite(max_rel) else float("nan")
-        excluded = (n_dead if q in REACTION_COLUMNS else 0) + int(masks["neither"].sum()) + int(
-            (rows & np.isnan(reference[q]) & np.isnan(judge[q])).sum())
-        n_nan = int(nan_mis.sum())
-        tol = tolerances[q]
-        passed = n_nan == 0 and n_mis == 0 and (not np.isfinite(max_rel) or max_rel <= tol.value)
-        notes = []
-        if n_nan:
-            notes.append(f"NaN in one engine only at theta1 = {_angles(nan_mis, theta)} deg")
-        if np.isfinite(max_rel) and max_rel > tol.value:
-            notes.append(f"max rel {max_rel:.3g} > {tol.value:.3g} ({tol.name}) at theta1 = {worst:g} deg")
-        if q in REACTION_COLUMNS and n_dead:
-            notes.append(f"{n_dead} dead-centre rows excluded")
-        checks.append(Check(
-            case_id, engine, q, float(diff.max()) if diff.size else float("nan"), max_rel, worst, tol,
-            scales[UNIT_GROUP[q]], int(good.sum()), excluded, n_nan + n_mis, passed, "; ".join(notes),
-        ))
-    ref_stroke, judge_stroke = stroke(reference), stroke(judge)
-    length = unit_scales(reference, judge, mode, ("S4",))["length"]
-    d = abs(judge_stroke - ref_stroke)
-    tol = tolerances[STROKE]
-    ok = bool(np.isfinite(d) and d / length <= tol.value) or (np.isnan(ref_stroke) and np.isnan(judge_stroke))
-    checks.append(Check(
-        case_id, engine, STROKE, d, d / length, float("nan"), tol, length,
-        1 if np.isfinite(d) else 0, 0, 0 if np.isfinite(d) or np.isnan(ref_stroke) == np.isnan(judge_stroke) else 1,
-        ok, "" if ok else f"stroke {judge_stroke:.12g} against {ref_stroke:.12g}",
-    ))
+    checks += [quantity_check(case_id, mode, reference, judge, q, rel[q], scales[UNIT_GROUP[q]], tolerances[q])
+               for q in quantities]
+    checks.append(stroke_check(case_id, mode, reference, judge, tolerances[STROKE]))
     return checks
 
 
@@ -299,7 +424,8 @@ def compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]
     matrix : Matrix
     results : dict
         Case id -> engine -> its :class:`ResultTable`, or the error message (str) when the
-        engine raised.  Cases missing from ``results`` are skipped (an unfinished run).
+        engine raised.  A case or engine missing from ``results`` gives failing
+        ``incomplete`` checks (an unfinished run is never a pass).
     """
     checks: list[Check] = []
     strokes: dict[str, dict[str, float]] = {}
@@ -307,28 +433,38 @@ def compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]
     errors: dict[str, dict[str, str]] = {}
     engine_tol = ResolvedTolerance("exact", 0.0, "the engine must run")
     for mc in matrix.cases:
-        if mc.id not in results:
-            continue
-        per_engine = results[mc.id]
+        per_engine = results.get(mc.id, {})
         errors[mc.id] = {e: v for e, v in per_engine.items() if isinstance(v, str)}
         tables = {e: per_engine[e] for e in matrix.engines if isinstance(per_engine.get(e), ResultTable)}
         strokes[mc.id] = {e: stroke(t) for e, t in tables.items()}
-        dead[mc.id] = {e: int(np.sum(np.asarray(t.status, dtype=str) == "dead_centre")) for e, t in tables.items()}
-        ref = tables.get(matrix.reference)
-        for e in matrix.judges:
+        dead[mc.id] = {e: int(np.sum(is_status(t.status, Status.DEAD_CENTRE))) for e, t in tables.items()}
+        for e in matrix.engines:
             if e not in per_engine:
-                checks.append(_fail(mc.id, e, ENGINE, engine_tol, "not run"))
+                checks.append(_fail(mc.id, e, ENGINE, engine_tol, "not run (the run is unfinished)", incomplete=True))
             elif e in errors[mc.id]:
-                checks.append(_fail(mc.id, e, ENGINE, engine_tol, _last_line(errors[mc.id][e])))
-            elif ref is None:
-                why = errors[mc.id].get(matrix.reference, "not run")
-                checks.append(_fail(mc.id, e, ENGINE, engine_tol,
-                                    f"reference {matrix.reference} failed: {_last_line(why)}"))
-            else:
-                checks += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities, matrix.tolerances[e])
+                checks.append(_fail(mc.id, e, ENGINE, engine_tol, first_line(errors[mc.id][e])))
+        ref = tables.get(matrix.reference)
+        if ref is None:
+            why = "did not run" if matrix.reference not in per_engine else "failed"
+            checks += [_fail(mc.id, e, ENGINE, engine_tol, f"not compared: the reference {why}",
+                             incomplete=why == "did not run") for e in matrix.judges if e in tables]
+            continue
+        checks.append(reference_check(mc.id, ref, matrix.quantities, getattr(mc, "expect", None)))
+        for e in matrix.judges:
+            if e in tables:
+                checks += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities, matrix.tolerances[e],
+                                       getattr(mc, "expect", None))
     return Comparison(tuple(checks), strokes, dead, errors)
 
 
-def _last_line(message: str) -> str:
-    lines = [ln for ln in message.strip().splitlines() if ln.strip()]
-    return lines[-1] if lines else "failed"
+def first_line(message: str, width: int = 200) -> str:
+    """The line of an engine's error text that says what went wrong, at most ``width`` characters.
+
+    Engines store ``"<ExceptionType>: <message>"`` first (:func:`dualmech.validation.runner.run_task`);
+    a stored traceback is read from its end, where Python puts that line.
+    """
+    lines = [ln.strip() for ln in message.strip().splitlines() if ln.strip()]
+    if not lines:
+        return "failed"
+    line = lines[-1] if lines[0].startswith("Traceback") else lines[0]
+    return line if len(line) <= width else line[: width - 1] + "…"

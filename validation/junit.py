@@ -2,8 +2,13 @@
 
 Each judge's test case fails with a message naming the case and every failing
 quantity; an engine that raised is an ``<error>`` with its traceback.  The
-reference engine has a test case too (it errs when it raised), so that a CI
-system counts every engine run of the matrix.
+reference engine has a test case too (it fails on its own status check and errs
+when it raised), so that a CI system counts every engine run of the matrix.
+Nothing is hidden from a CI system that reads only this file: work that did not
+run is a ``<failure type="Incomplete">`` (never ``<skipped>``), and every baseline
+regression is a ``<failure type="Regression">`` of the test case it concerns (the
+reference's for a case-wide one).  The suite's ``<properties>`` name the versions
+that produced the run.
 """
 
 from __future__ import annotations
@@ -13,7 +18,8 @@ import xml.etree.ElementTree as ET
 from datetime import datetime, timezone
 from pathlib import Path
 
-from dualmech.validation.compare import ENGINE, Check, Comparison
+from dualmech.validation.baseline import Regression
+from dualmech.validation.compare import ENGINE, Check, Comparison, first_line
 from dualmech.validation.matrix import Matrix
 
 
@@ -23,11 +29,27 @@ def describe(check: Check) -> str:
     return f"{head}: {check.detail}" if check.detail else head
 
 
+def _failure(tc: ET.Element, kind: str, message: str, lines: list[str]) -> None:
+    el = ET.SubElement(tc, "failure", type=kind, message=message)
+    el.text = "\n".join(lines)
+
+
+def _regressions_by_test(matrix: Matrix, regressions: list[Regression]) -> dict[tuple[str, str], list[str]]:
+    """(case id, engine) -> regression lines; case-wide ones go to the reference's test case."""
+    out: dict[tuple[str, str], list[str]] = {}
+    for r in regressions:
+        engine = r.engine if r.engine in matrix.engines else matrix.reference
+        out.setdefault((r.case, engine), []).append(str(r))
+    return out
+
+
 def junit_tree(
     matrix: Matrix,
     comparison: Comparison,
     seconds: dict[str, dict[str, float]] | None = None,
     errors_full: dict[str, dict[str, str]] | None = None,
+    regressions: list[Regression] | None = None,
+    versions: dict[str, str] | None = None,
 ) -> ET.ElementTree:
     """The JUnit document of a compared run.
 
@@ -37,12 +59,20 @@ def junit_tree(
         Case id -> engine -> run time (s), shown as each test case's time.
     errors_full : dict, optional
         Case id -> engine -> full error text (default: ``comparison.errors``).
+    regressions : list of Regression, optional
+        Baseline regressions; each fails the test case it concerns.
+    versions : dict, optional
+        Library -> version, written as the suite's properties.
     """
     seconds = seconds or {}
     errors_full = errors_full or comparison.errors
+    by_test = _regressions_by_test(matrix, regressions or [])
     suite = ET.Element("testsuite", name=f"dualmech.validate.{matrix.name}",
                        timestamp=datetime.now(timezone.utc).isoformat(timespec="seconds"),
                        hostname=platform.node())
+    props = ET.SubElement(suite, "properties")
+    for name, value in {"verdict": str(comparison.verdict), **(versions or {})}.items():
+        ET.SubElement(props, "property", name=name, value=str(value))
     counts = {"tests": 0, "failures": 0, "errors": 0, "skipped": 0}
     total_time = 0.0
     for mc in matrix.cases:
@@ -52,25 +82,24 @@ def junit_tree(
             tc = ET.SubElement(suite, "testcase", classname=f"{matrix.name}.{mc.id}", name=engine, time=f"{t:.3f}")
             counts["tests"] += 1
             err = errors_full.get(mc.id, {}).get(engine)
-            if mc.id not in comparison.strokes and err is None:
-                ET.SubElement(tc, "skipped", message=f"{mc.id} / {engine}: not run (unfinished run)")
-                counts["skipped"] += 1
-                continue
+            regressed = by_test.get((mc.id, engine), [])
             if err is not None:
-                lines = [ln for ln in err.strip().splitlines() if ln.strip()]
-                el = ET.SubElement(tc, "error", message=f"{mc.id} / {engine}: {lines[-1] if lines else 'failed'}",
-                                   type="EngineError")
-                el.text = err
+                el = ET.SubElement(tc, "error", message=f"{mc.id} / {engine}: {first_line(err)}", type="EngineError")
+                el.text = "\n".join([err, *regressed])
                 counts["errors"] += 1
                 continue
             failed = [c for c in comparison.for_engine(mc.id, engine) if not c.passed]
-            if failed:
-                kind = "EngineError" if any(c.quantity == ENGINE for c in failed) else "ToleranceExceeded"
-                el = ET.SubElement(tc, "failure", type=kind, message=(
-                    f"{mc.id} / {engine}: {', '.join(c.quantity for c in failed)} out of tolerance"
-                    if kind == "ToleranceExceeded" else describe(failed[0])))
-                el.text = "\n".join(describe(c) for c in failed)
-                counts["failures"] += 1
+            lines = [describe(c) for c in failed] + regressed
+            if any(c.incomplete for c in failed):
+                _failure(tc, "Incomplete", describe(failed[0]), lines)
+            elif any(c.quantity == ENGINE for c in failed):
+                _failure(tc, "EngineError", describe(failed[0]), lines)
+            elif failed:
+                _failure(tc, "ToleranceExceeded",
+                         f"{mc.id} / {engine}: {', '.join(c.quantity for c in failed)} out of tolerance", lines)
+            elif regressed:
+                _failure(tc, "Regression", regressed[0], lines)
+            counts["failures"] += bool(failed or regressed)
     for key, value in counts.items():
         suite.set(key, str(value))
     suite.set("time", f"{total_time:.3f}")
@@ -83,8 +112,11 @@ def junit_tree(
 
 def write_junit(path: str | Path, matrix: Matrix, comparison: Comparison,
                 seconds: dict[str, dict[str, float]] | None = None,
-                errors_full: dict[str, dict[str, str]] | None = None) -> None:
-    """Write the JUnit XML of a compared run to ``path``."""
+                errors_full: dict[str, dict[str, str]] | None = None,
+                regressions: list[Regression] | None = None,
+                versions: dict[str, str] | None = None) -> None:
+    """Write the JUnit XML of a compared run to ``path`` (parameters as :func:`junit_tree`)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    junit_tree(matrix, comparison, seconds, errors_full).write(path, encoding="utf-8", xml_declaration=True)
+    junit_tree(matrix, comparison, seconds, errors_full, regressions, versions).write(
+        path, encoding="utf-8", xml_declaration=True)

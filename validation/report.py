@@ -35,7 +35,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from importlib import import_module
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -43,6 +43,7 @@ from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation import runner
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Check, Comparison, compare_run, relative_differences
 from dualmech.validation.matrix import Matrix
+from dualmech.validation.provenance import KEY_LIBRARIES
 
 #: Figures of each sweep and load mode: (key, title, columns, panel grid (rows, cols)).
 SWEEP_FIGURES: tuple[tuple[str, str, tuple[str, ...], tuple[int, int]], ...] = (
@@ -88,6 +89,7 @@ class ReportFiles:
     summary: Path
     figures: tuple[Path, ...]
     seconds: float
+    verdict: str  # PASS, FAIL or INCOMPLETE (validation/compare.py Verdict)
 
 
 # ----------------------------------------------------------------------------- sections (data)
@@ -114,11 +116,12 @@ def summary_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
     for mc in matrix.cases:
         strokes = comparison.strokes.get(mc.id, {})
         ref_error = comparison.errors.get(mc.id, {}).get(matrix.reference)
+        ref_failed = [c.detail for c in comparison.for_engine(mc.id, matrix.reference) if not c.passed]
         rows.append({
             "case": mc.id,
             "mode": mc.mode,
-            "run": mc.id in comparison.strokes,
-            "reference_error": ref_error,
+            "run": bool(comparison.strokes.get(mc.id) or comparison.errors.get(mc.id)),
+            "reference_error": ref_error or ("; ".join(ref_failed) if ref_failed else None),
             "stroke": strokes.get(matrix.reference, float("nan")),
             "dead_centre": comparison.dead_centres.get(mc.id, {}).get(matrix.reference, 0),
             "judges": {e: engine_verdict(comparison, mc.id, e) for e in matrix.judges},
@@ -138,18 +141,11 @@ def stroke_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
 
 
 def findings() -> tuple[list[dict] | None, str]:
-    """The thesis's printed findings with verdicts, from the model package; ``(None, why)`` if unavailable."""
+    """The thesis's printed findings with verdicts, from the model package, and a note (empty)."""
     module, func = FINDINGS_FUNCTION.split(":")
-    try:
-        fn = getattr(import_module(module), func)
-    except (ImportError, AttributeError):
-        return None, f"not available ({FINDINGS_FUNCTION} is not part of this installation)"
-    try:
-        rows = fn()
-        return [{"finding": str(r.get("finding", "")), "verdict": str(r.get("verdict", "")),
-                 "evidence": str(r.get("evidence", ""))} for r in rows], ""
-    except Exception as err:  # a broken findings module must not take the report down
-        return None, f"not available ({FINDINGS_FUNCTION} failed: {type(err).__name__}: {err})"
+    rows = getattr(import_module(module), func)()  # a broken findings module fails the report, loudly
+    return [{"finding": str(r.get("finding", "")), "verdict": str(r.get("verdict", "")),
+             "evidence": str(r.get("evidence", ""))} for r in rows], ""
 
 
 def balancing(matrix: Matrix) -> tuple[Figure | None, list[dict]]:
@@ -567,8 +563,11 @@ def comparison_summary(matrix: Matrix, comparison: Comparison, run: dict) -> dic
         "reference": matrix.reference,
         "engines": list(matrix.engines),
         "passed": comparison.passed,
+        "verdict": str(comparison.verdict),
         "n_checks": len(comparison.checks),
         "n_failed": len(comparison.failures()),
+        "n_missing": len(comparison.missing),
+        "versions": {k: run.get("versions", {}).get(k, "unknown") for k in KEY_LIBRARIES},
         "run": {k: run.get(k) for k in ("started", "seconds", "jobs", "scheduler", "machine", "versions")},
         "cases": [{"id": mc.id, "mode": mc.mode, "values": mc.values, "sweeps": list(mc.sweeps)} for mc in matrix.cases],
         "strokes": comparison.strokes,
@@ -598,10 +597,10 @@ def write_report(
     results = {cid: {e: runner.entry_result(v) for e, v in per.items()} for cid, per in entries.items()}
     if comparison is None:
         comparison = compare_run(matrix, results)
-    figures = render_figures(matrix, results, comparison, jobs=jobs)
-    balance_figure, balance_rows = balancing(matrix)
+    figures = _section("figures", render_figures, matrix, results, comparison, jobs=jobs)
+    balance_figure, balance_rows = _section("balancing", balancing, matrix)
     figures = [*figures, balance_figure]
-    find, find_note = findings()
+    find, find_note = _section("findings", findings)
     figdir = outdir / "figures"
     figdir.mkdir(parents=True, exist_ok=True)
     for old in figdir.glob("*.png"):
@@ -617,6 +616,8 @@ def write_report(
         "matrix": matrix,
         "run": run,
         "passed": comparison.passed,
+        "verdict": str(comparison.verdict),
+        "n_missing": len(comparison.missing),
         "n_checks": len(comparison.checks),
         "failures": failures[:200],
         "n_failures": len(failures),
@@ -642,7 +643,21 @@ def write_report(
     runner_write_text(outdir / "report.md", md)
     runner.write_json_atomic(outdir / "summary.json", comparison_summary(matrix, comparison, run))
     return ReportFiles(outdir / "report.html", outdir / "report.md", outdir / "summary.json", tuple(paths),
-                       time.perf_counter() - start)
+                       time.perf_counter() - start, str(comparison.verdict))
+
+
+class ReportError(RuntimeError):
+    """A section of the report could not be built; the message is one line."""
+
+
+def _section(name: str, build: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+    """``build(*args, **kwargs)``; any exception becomes a :class:`ReportError` naming the section."""
+    try:
+        return build(*args, **kwargs)
+    except Exception as err:
+        lines = str(err).strip().splitlines()
+        raise ReportError(f"report section {name!r} failed: {type(err).__name__}: "
+                          f"{lines[0][:200] if lines else ''}") from err
 
 
 def runner_write_text(path: Path, text: str) -> None:

@@ -8,7 +8,10 @@ A run directory holds::
 Each case file is written atomically (a temporary file, then :func:`os.replace`)
 as soon as all its engines are done, so an interrupted run loses no finished case,
 and ``resume=True`` runs only the (case, engine) pairs that are missing, failed,
-or were made from a different case definition or engine.
+or whose fingerprint (:func:`~dualmech.validation.provenance.result_fingerprint`:
+case content, engine, its libraries' versions, the dualmech source) has changed.
+An engine that raised is stored as one line (``"<Type>: <message>"``); its full
+traceback goes to ``run.log`` in the run directory.
 
 Work is spread over processes (:class:`concurrent.futures.ProcessPoolExecutor`,
 ``jobs`` of them, default all cores) or, with ``scheduler``, over a Dask
@@ -21,7 +24,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
-import hashlib
 import json
 import os
 import platform
@@ -29,7 +31,7 @@ import time
 import traceback
 from dataclasses import dataclass
 from datetime import datetime, timezone
-from importlib import import_module, metadata
+from importlib import import_module
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
@@ -39,14 +41,12 @@ from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
 from dualmech.models.case import case_from_dict
 from dualmech.validation.engines import ENGINES
 from dualmech.validation.matrix import Matrix, matrix_from_dict
+from dualmech.validation.provenance import KEY_LIBRARIES, case_fingerprint, machine, result_fingerprint, versions
 
 CASES_DIR = "cases"
 RUN_FILE = "run.json"
-CASE_FORMAT = "dualmech-case/1"
-#: Distributions whose versions a run records (engines and the libraries the report uses).
-LIBRARIES: tuple[str, ...] = (
-    "dualmech", "numpy", "scipy", "pin", "mujoco", "matplotlib", "jinja2", "rich", "click", "dask", "distributed",
-)
+LOG_FILE = "run.log"
+CASE_FORMAT = "dualmech-case/2"
 
 #: ``progress(done, total, label)``, called after each finished (case, engine).
 ProgressCallback = Callable[[int, int, str], None]
@@ -99,11 +99,6 @@ def _jsonable(obj: Any) -> Any:
     return str(obj)
 
 
-def fingerprint(raw: dict) -> str:
-    """Stable hash of a case definition (decides whether a stored result is still valid)."""
-    return hashlib.sha256(json.dumps(raw, sort_keys=True, default=_jsonable).encode()).hexdigest()[:16]
-
-
 def table_to_dict(table: ResultTable) -> dict:
     """JSON-ready form of a table (floats round-trip exactly; NaN is written as ``NaN``)."""
     return {
@@ -152,7 +147,7 @@ def load_entries(outdir: Path, matrix: Matrix) -> dict[str, dict[str, dict]]:
     entries = {}
     for mc in matrix.cases:
         data = read_case_file(case_file(outdir, mc.id))
-        if data is None or data.get("fingerprint") != fingerprint(mc.raw):
+        if data is None or data.get("fingerprint") != case_fingerprint(mc.raw):
             continue
         per = {e: v for e, v in data["engines"].items() if e in matrix.engines}
         if per:
@@ -185,28 +180,6 @@ def load_run(outdir: Path) -> tuple[Matrix, dict]:
 
 # ----------------------------------------------------------------------------- environment
 
-def machine() -> dict:
-    """The computer a run happened on."""
-    return {
-        "host": platform.node(),
-        "platform": platform.platform(),
-        "processor": platform.processor() or platform.machine(),
-        "cpus": os.cpu_count(),
-        "python": platform.python_version(),
-    }
-
-
-def versions() -> dict[str, str]:
-    """Installed versions of :data:`LIBRARIES` (``"absent"`` if not installed)."""
-    out = {}
-    for name in LIBRARIES:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = "absent"
-    return out
-
-
 def default_jobs() -> int:
     """All cores this process may use."""
     try:
@@ -220,21 +193,40 @@ def default_jobs() -> int:
 def run_task(case_id: str, case_raw: dict, engine: str, spec: str) -> dict:
     """Solve one case with one engine (runs in a worker); never raises.
 
-    Returns a JSON-ready entry: ``engine``, ``spec``, ``seconds``, ``host``, and
-    either ``table`` (:func:`table_to_dict`) or ``error`` (the traceback text).
+    Returns a JSON-ready entry: ``engine``, ``spec``, ``seconds``, ``host``, the
+    ``fingerprint`` and ``versions`` of what produced it (:mod:`~dualmech.validation.provenance`),
+    and either ``table`` (:func:`table_to_dict`) or ``error`` (one line, ``"<Type>: <message>"``)
+    with ``traceback`` (the full text).
     """
     start = time.perf_counter()
-    entry: dict[str, Any] = {"case": case_id, "engine": engine, "spec": spec, "host": platform.node()}
+    entry: dict[str, Any] = {"case": case_id, "engine": engine, "spec": spec, "host": platform.node(),
+                             "fingerprint": result_fingerprint(case_raw, engine, spec),
+                             "versions": versions(KEY_LIBRARIES)}
     try:
         module, func = spec.split(":")
         table = getattr(import_module(module), func)(case_from_dict(case_raw))
         if not isinstance(table, ResultTable):
             raise TypeError(f"{spec} returned {type(table).__name__}, not a ResultTable")
         entry.update(table=table_to_dict(table), error=None)
-    except Exception:  # an engine's failure is a result to report, not a crash of the run
-        entry.update(table=None, error=traceback.format_exc(limit=8))
+    except Exception as err:  # an engine's failure is a result to report, not a crash of the run
+        entry.update(table=None, error=error_line(err), traceback=traceback.format_exc(limit=12))
     entry["seconds"] = time.perf_counter() - start
     return entry
+
+
+def error_line(err: BaseException, width: int = 300) -> str:
+    """``"<Type>: <first line of the message>"``, at most ``width`` characters (array dumps cut)."""
+    lines = str(err).strip().splitlines()
+    line = f"{type(err).__name__}: {lines[0].strip() if lines else ''}".rstrip(": ")
+    return line if len(line) <= width else line[: width - 1] + "…"
+
+
+def _log_failure(outdir: Path, entry: dict) -> None:
+    """Append a failed entry's traceback to the run's log file."""
+    stamp = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    with (outdir / LOG_FILE).open("a", encoding="utf-8") as fh:
+        fh.write(f"--- {stamp} {entry['case']} / {entry['engine']}: {entry['error']}\n")
+        fh.write(entry.get("traceback", "") + "\n")
 
 
 def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: dict[str, str]
@@ -244,9 +236,10 @@ def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: dict[str, str]
     for mc in matrix.cases:
         old = read_case_file(case_file(outdir, mc.id)) if resume else None
         entries = {}
-        if old is not None and old.get("fingerprint") == fingerprint(mc.raw):
+        if old is not None:
             entries = {e: v for e, v in old["engines"].items()
-                       if e in matrix.engines and v.get("spec") == registry[e] and not v.get("error")}
+                       if e in matrix.engines and not v.get("error")
+                       and v.get("fingerprint") == result_fingerprint(mc.raw, e, registry[e])}
         kept[mc.id] = entries
         tasks += [(mc.id, e) for e in matrix.engines if e not in entries]
     return tasks, kept
@@ -368,10 +361,12 @@ def run_matrix(
         cid, e = entry["case"], entry["engine"]
         done_entries[cid][e] = entry
         waiting[cid].discard(e)
+        if entry.get("error"):
+            _log_failure(outdir, entry)
         n_done += 1
         if not waiting[cid]:
             write_json_atomic(case_file(outdir, cid), {
-                "format": CASE_FORMAT, "id": cid, "fingerprint": fingerprint(raws[cid]),
+                "format": CASE_FORMAT, "id": cid, "fingerprint": case_fingerprint(raws[cid]),
                 "raw": raws[cid], "engines": {k: done_entries[cid][k] for k in matrix.engines if k in done_entries[cid]},
             })
         if progress is not None:

@@ -41,6 +41,12 @@ BASELINE_AGREEMENT_FLOOR = Tolerance(1e-12, "below 1e-12 a difference is round-o
 #: Regression gate: the in-house stroke and quantity scales may move by this much (relative).
 BASELINE_VALUE_RTOL = Tolerance(1e-9, "the in-house answers are deterministic to round-off; a 1e-9 change means the model or solver changed")
 
+#: Status agreement (validation/compare.py): a rigid judge may say ``dead_centre`` where the reference says ``ok``
+#: (or the reverse) only where the reference's |transmission| is below this band.
+DEAD_CENTRE_STATUS_BAND = Tolerance(1e-8, "rigid engines flag |t| < 1e-9 (DEAD_CENTRE_TRANSMISSION) of their own t, which agree to ~1e-12; 10x the flag is a generous margin")
+#: Status agreement for the MuJoCo simulation, which flags dead centres in a wider band.
+SIM_DEAD_CENTRE_STATUS_BAND = Tolerance(2e-3, "the simulation flags |t| < 1e-3 (SIM_DEAD_CENTRE_TRANSMISSION) of its own t, which differs from the reference's by <= 1e-5 near dead centres; 2x the flag")
+
 # ----------------------------------------------------------------------------- MuJoCo judge (issue 5)
 # Relative differences as in the validation matrix above (unit-group scale s_g, condition factor c_i).
 #: Rigid MuJoCo path vs in-house: S1, S4, S4_dot, S4_ddot, transmission.

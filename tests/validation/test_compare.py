@@ -1,0 +1,247 @@
+"""The gate's failure paths: every way a comparison can be wrong must end in FAIL or INCOMPLETE, never PASS.
+
+Each test names the bullet of the verdicts issue (issue 10, "Why") it holds; the
+engines are the stand-ins of ``matrix_fakes`` with their tables edited to show
+one fault at a time, so a test fails for exactly one reason.
+"""
+
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from dualmech.core.status import Status
+from dualmech.core.table import ResultTable
+from dualmech.validation import provenance, report
+from dualmech.validation.baseline import baseline_summary, compare_baseline
+from dualmech.validation.cli import main
+from dualmech.validation.compare import STATUS, Verdict, compare_case, compare_run
+from dualmech.validation.junit import junit_tree
+from dualmech.validation.matrix import load_matrix
+from dualmech.validation.runner import case_file, load_results, run_matrix
+
+from . import matrix_fakes
+from .test_validate import FAKE_REGISTRY, FAKES, small  # noqa: F401  (small is a fixture)
+
+
+@pytest.fixture()
+def matrix(small):  # noqa: F811
+    return load_matrix(small)
+
+
+@pytest.fixture()
+def results(matrix):
+    """Case id -> engine -> table of the stand-in engines (all agreeing)."""
+    return {mc.id: {"dualmech": matrix_fakes.solve_case(mc.case()),
+                    "pinocchio": matrix_fakes.solve_case_judge(mc.case()),
+                    "mujoco": matrix_fakes.solve_case_judge_b(mc.case())} for mc in matrix.cases}
+
+
+def _edited(table: ResultTable, rows: np.ndarray | slice, status: str | None = None, **values: float) -> ResultTable:
+    """A copy of ``table`` with ``status`` and column values set on ``rows``."""
+    cols = {k: v.copy() for k, v in table.columns.items()}
+    words = np.asarray(table.status, dtype=object).copy()
+    if status is not None:
+        words[rows] = status
+    for name, value in values.items():
+        cols[name][rows] = value
+    return replace(table, columns=cols, status=words)
+
+
+def _unassembled(table: ResultTable, status: str) -> ResultTable:
+    nan = {c: np.nan for c in table.columns if c != "theta1_deg"}
+    return _edited(table, slice(None), status, **nan)
+
+
+def test_all_agreeing_fakes_pass(matrix, results):
+    comparison = compare_run(matrix, results)
+    assert comparison.verdict is Verdict.PASS, [c.detail for c in comparison.failures()]
+
+
+def test_reference_assembling_nowhere_fails_with_one_line(matrix, results):
+    """Why: a case that assembles at no position showed `stroke nan`, `✓ 0.0e+00` and PASS."""
+    cid = matrix.cases[0].id
+    for e in results[cid]:
+        results[cid][e] = _unassembled(results[cid][e], Status.NO_ASSEMBLY)
+    comparison = compare_run(matrix, results)
+    assert comparison.verdict is Verdict.FAIL
+    ref = [c for c in comparison.for_engine(cid, "dualmech") if c.quantity == STATUS]
+    assert ref and not ref[0].passed and "assembles at no crank position" in ref[0].detail
+    assert "\n" not in ref[0].detail
+
+
+@pytest.mark.parametrize("ref_word, judge_word", [
+    ("not_converged", "not_converged"),  # a reference failing everywhere judged by a judge failing too
+    ("not_converged", "no_assembly"),
+    ("not_converged", "branch_jump"),
+    ("no_assembly", "branch_jump"),  # "neither assembles" rows were dropped
+    ("ok", "no_assembly"),
+    ("no_assembly", "ok"),
+])
+def test_status_disagreement_or_engine_failure_fails(matrix, results, ref_word, judge_word):
+    """Why: comparison looked only at whether each engine assembled a row, never at the word."""
+    cid = matrix.cases[0].id
+    rows = slice(2, 4)
+    ref, judge = results[cid]["dualmech"], results[cid]["pinocchio"]
+    nan = {c: np.nan for c in ref.columns if c != "theta1_deg"}
+    results[cid]["dualmech"] = _edited(ref, rows, ref_word, **(nan if ref_word != "ok" else {}))
+    results[cid]["pinocchio"] = _edited(judge, rows, judge_word, **(nan if judge_word != "ok" else {}))
+    comparison = compare_run(matrix, results)
+    assert comparison.verdict is Verdict.FAIL
+    failed = {(c.engine, c.quantity) for c in comparison.failures()}
+    assert ("dualmech", STATUS) in failed or ("pinocchio", STATUS) in failed
+
+
+def test_reference_failing_everywhere_fails_every_check(matrix, results):
+    """Why: a reference `not_converged` everywhere against a failing judge passed every check."""
+    cid = matrix.cases[0].id
+    for e in results[cid]:
+        results[cid][e] = _unassembled(results[cid][e], Status.NOT_CONVERGED)
+    comparison = compare_run(matrix, results)
+    assert comparison.verdict is Verdict.FAIL
+    judge_checks = comparison.for_engine(cid, "pinocchio")
+    assert not all(c.passed for c in judge_checks)
+    numeric = [c for c in judge_checks if c.quantity not in (STATUS,)]
+    assert all(not c.passed for c in numeric), "a quantity with zero rows compared passed"
+
+
+@pytest.mark.parametrize("engine", ["dualmech", "pinocchio"])
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_non_finite_value_in_an_ok_row_fails(matrix, results, engine, value):
+    """Why: rows with NaN/inf values could be marked ok (crank_rpm = 1e308)."""
+    cid = matrix.cases[1].id
+    results[cid][engine] = _edited(results[cid][engine], slice(5, 6), j2_fx=value)
+    comparison = compare_run(matrix, results)
+    assert comparison.verdict is Verdict.FAIL
+    assert any("non-finite" in c.detail for c in comparison.failures())
+
+
+def test_dead_centre_flags_may_differ_only_within_the_band(matrix, results):
+    """A stated rule, not a loophole: ok against dead_centre passes only where |t| is within the band."""
+    mc = next(m for m in matrix.cases if m.mode == "torque")
+    ref, judge = results[mc.id]["dualmech"], results[mc.id]["pinocchio"]
+    i = int(np.argmin(np.where(ref.status == Status.OK, np.abs(ref["transmission"]), np.inf)))
+    band = matrix.tolerance("pinocchio", "dead_centre_band").value
+    reactions = {c: np.nan for c in ref.columns if c.startswith("j") or c in ("slider_load", "drive_torque")}
+    flagged = _edited(judge, slice(i, i + 1), Status.DEAD_CENTRE, **reactions)
+    near = _edited(ref, slice(i, i + 1), transmission=0.5 * band)
+    far = _edited(ref, slice(i, i + 1), transmission=0.5)
+    tols = matrix.tolerances["pinocchio"]
+    assert all(c.passed for c in compare_case(mc.id, mc.mode, near, flagged, matrix.quantities, tols)
+               if c.quantity == STATUS)
+    status = [c for c in compare_case(mc.id, mc.mode, far, flagged, matrix.quantities, tols) if c.quantity == STATUS]
+    assert not status[0].passed and "reference ok, judge dead_centre" in status[0].detail
+
+
+def test_missing_case_or_engine_is_incomplete_never_pass(matrix, results):
+    """Why: a case missing from the results was skipped."""
+    del results[matrix.cases[-1].id]
+    del results[matrix.cases[0].id]["mujoco"]
+    comparison = compare_run(matrix, results)
+    assert comparison.verdict is Verdict.INCOMPLETE and not comparison.passed
+    assert {c.engine for c in comparison.missing} == {"dualmech", "pinocchio", "mujoco"}
+
+
+def test_a_failure_beside_missing_work_is_fail(matrix, results):
+    del results[matrix.cases[-1].id]
+    results[matrix.cases[0].id]["mujoco"] = matrix_fakes.solve_case_broken(matrix.cases[0].case())
+    assert compare_run(matrix, results).verdict is Verdict.FAIL
+
+
+def test_crashing_engine_fails_with_its_one_line_error(matrix, results):
+    cid = matrix.cases[0].id
+    results[cid]["mujoco"] = "RuntimeError: engine exploded on ideal"
+    results[cid]["dualmech"] = "ValueError: " + "x" * 1000
+    comparison = compare_run(matrix, results)
+    assert comparison.verdict is Verdict.FAIL
+    details = {c.engine: c.detail for c in comparison.failures() if c.case == cid}
+    assert details["mujoco"] == "RuntimeError: engine exploded on ideal"
+    assert len(details["dualmech"]) <= 200
+    assert "the reference failed" in details["pinocchio"]
+
+
+def test_nothing_compared_is_not_a_pass(matrix):
+    assert compare_run(matrix, {}).verdict is Verdict.INCOMPLETE
+
+
+# ----------------------------------------------------------------------------- runs, JUnit, resume
+
+
+def test_interrupted_run_reports_incomplete_and_exits_3(small, tmp_path):  # noqa: F811
+    """Why: a run interrupted after 7 of 18 cases wrote a report that said PASS and "passed": true."""
+    matrix = load_matrix(small)
+    out = tmp_path / "run"
+    run_matrix(matrix, out, jobs=1, registry=FAKE_REGISTRY)
+    case_file(out, matrix.cases[-1].id).unlink()  # as if the run had stopped before the last case
+    result = CliRunner().invoke(main, ["report", str(out), "--jobs", "1"])
+    assert result.exit_code == 3, result.output
+    assert result.output.startswith("INCOMPLETE")
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["passed"] is False and summary["verdict"] == "INCOMPLETE" and summary["n_missing"] == 3
+    assert "**INCOMPLETE**" in (out / "report.md").read_text()
+
+
+def test_junit_shows_incomplete_work_and_baseline_regressions_as_failures(matrix, results):
+    """Why: a regression only the baseline caught exited 1 with 0 failures in the JUnit file."""
+    comparison = compare_run(matrix, results)
+    summary = baseline_summary(matrix, comparison, results)
+    worse = json.loads(json.dumps(summary))
+    cid = matrix.cases[0].id
+    worse["cases"][cid]["checks"]["mujoco"]["j1_fx"]["max_rel"] = 1e-20  # the run is now "worse" than this
+    regressions = compare_baseline(summary, worse)
+    assert regressions
+    del results[matrix.cases[-1].id]
+    comparison = compare_run(matrix, results)
+    root = junit_tree(matrix, comparison, regressions=regressions, versions={"pin": "4.1.0"}).getroot()
+    kinds = [f.get("type") for f in root.iter("failure")]
+    assert "Regression" in kinds and "Incomplete" in kinds and not root.findall(".//skipped")
+    assert int(root.find("testsuite").get("failures")) == len(kinds)
+    props = {p.get("name"): p.get("value") for p in root.iter("property")}
+    assert props["pin"] == "4.1.0" and props["verdict"] == "INCOMPLETE"
+
+
+def test_resume_recomputes_results_of_other_code(small, tmp_path, monkeypatch):  # noqa: F811
+    """Why: --resume reused results computed by older code, so the gate passed on stale numbers."""
+    matrix = load_matrix(small)
+    out = tmp_path / "run"
+    run_matrix(matrix, out, jobs=1, registry=FAKE_REGISTRY)
+    assert run_matrix(matrix, out, jobs=1, resume=True, registry=FAKE_REGISTRY).ran == 0
+    stored = json.loads(case_file(out, matrix.cases[0].id).read_text())
+    assert stored["engines"]["pinocchio"]["versions"]["pin"] == provenance.version_of("pin")
+    monkeypatch.setattr(provenance, "code_fingerprint", lambda: "other-source")
+    again = run_matrix(matrix, out, jobs=1, resume=True, registry=FAKE_REGISTRY)
+    assert again.ran == len(matrix.cases) * len(matrix.engines) and again.skipped == 0
+
+
+def test_engine_library_version_is_part_of_the_fingerprint(monkeypatch):
+    before = provenance.result_fingerprint({"a": 1}, "pinocchio", "m:f")
+    monkeypatch.setattr(provenance, "version_of", lambda name: "0.0-other")
+    assert provenance.result_fingerprint({"a": 1}, "pinocchio", "m:f") != before
+
+
+def test_crashed_engine_keeps_its_traceback_in_the_log(small, tmp_path):  # noqa: F811
+    matrix = load_matrix(small)
+    out = tmp_path / "run"
+    registry = dict(FAKE_REGISTRY, mujoco=f"{FAKES}:solve_case_raises")
+    run_matrix(matrix, out, jobs=1, registry=registry)
+    stored = load_results(out, matrix)[matrix.cases[0].id]["mujoco"]
+    assert stored.startswith("RuntimeError: engine exploded") and "\n" not in stored
+    log = (out / "run.log").read_text()
+    assert "Traceback" in log and "solve_case_raises" in log
+
+
+def test_a_broken_report_section_fails_the_report(small, tmp_path, monkeypatch):  # noqa: F811
+    """Why: the findings section caught every exception and printed "not available"."""
+    matrix = load_matrix(small)
+    out = tmp_path / "run"
+    run_matrix(matrix, out, jobs=1, registry=FAKE_REGISTRY)
+    monkeypatch.setattr(report, "FINDINGS_FUNCTION", f"{FAKES}:solve_case_raises")
+    with pytest.raises(report.ReportError, match="report section 'findings' failed: TypeError"):
+        report.write_report(out, None, jobs=1)
+    assert not Path(out / "summary.json").exists()
