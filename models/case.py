@@ -6,13 +6,16 @@ frozen :class:`Case`; every engine (in-house, Pinocchio, MuJoCo) builds its
 model from this one record, so masses and inertias are computed once, here.
 
 Errors are :class:`CaseError` (a ``ValueError``) with a one-line message that
-names the key, the value received and what would be valid.
+names the key, the value received and what would be valid.  Every number is
+checked against a stated :class:`Range` before it is used (``docs/conventions.md``,
+"Input ranges", gives the table and the reasons).
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
+import reprlib
+import unicodedata
 from dataclasses import dataclass, replace
 from importlib import resources
 from pathlib import Path
@@ -22,10 +25,147 @@ import numpy as np
 
 from dualmech.core.inertia import BodyInertia, solid_cube, solid_cylinder_x
 from dualmech.core.motion import CrankMotion
+from dualmech.models.toml_input import read_toml
 
 
 class CaseError(ValueError):
     """A case file or case value that cannot be used; the message is one line."""
+
+
+# ----------------------------------------------------------------------------- input ranges
+
+#: Largest magnitude of any dimensional number of a case (lengths, masses, densities, forces,
+#: torques, accelerations, inertias), in the case's own consistent units; quantities that must
+#: be positive are also at least ``1 / SCALE``.  Why 1e15: the largest quantity the solver
+#: forms is a moment of an inertia force, density x length^5 x speed^2; with a density from
+#: weight_density / gravity_constant (<= SCALE^2), lengths <= SCALE and the speed below
+#: MAX_CRANK_RPM (1.05e6 rad/s) it stays below 1e15^7 x 1.1e12 ~ 1e117, so its square (norms,
+#: least squares) stays below 1e234, 74 decades under the float maximum 1.8e308; the smallest,
+#: 1e-105, squares to 1e-210, far above the smallest normal float 2.2e-308.  Physically the
+#: range covers every mechanism in every known unit system with decades to spare (an aerogel
+#: in t/mm^3 is 1e-12, a 10 km lever in mm is 1e7).
+SCALE = 1e15
+#: Largest crank speed magnitude, rpm (time is always seconds): the fastest rotors built
+#: (MEMS turbines, ~1e6 rpm) with a factor 10 to spare.
+MAX_CRANK_RPM = 1e7
+#: Largest crank angular acceleration magnitude, rad/s^2: reaching MAX_CRANK_RPM
+#: (1.05e6 rad/s) from rest in 0.1 ms.
+MAX_CRANK_ACCEL = 1e10
+#: Largest number of axial cycles per crank revolution (alpha of eq. 27): a 1000-lobe cam.
+MAX_AXIAL_CYCLES = 1e3
+#: Largest magnitude of an angle given in degrees: the rounding of such an angle
+#: (1e6 x 2.2e-16 = 2e-10 deg) stays below the solver's closure tolerance.
+MAX_ANGLE_DEG = 1e6
+#: Most crank positions in one case (``motion.angles_deg``); the engines stream them in chunks.
+MAX_POSITIONS = 10_000_000
+#: Longest case name, characters (names appear in one-line messages and report titles; names
+#: derived by ``Case.with_values`` list every changed key, and are cut to this length).
+MAX_CASE_NAME = 1000
+#: The unit-system labels a case may state (``units = ...``): length-force-time, and the mass
+#: unit they imply.  Nothing is converted; the label only says what the numbers mean.
+KNOWN_UNITS: dict[str, str] = {
+    "consistent": "unstated consistent units (the default)",
+    "m-kg-s": "metre, newton, second; mass kg",
+    "m-N-s": "metre, newton, second; mass kg",
+    "mm-N-s": "millimetre, newton, second; mass tonne",
+    "cm-g-s": "centimetre, dyne, second; mass g",
+    "inch-lbf-s": "inch, pound-force, second; mass lbf*s^2/in",
+    "ft-lbf-s": "foot, pound-force, second; mass slug",
+}
+
+
+class _ShortRepr(reprlib.Repr):
+    """``repr`` cut to a few elements, safe for integers too long to print."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.maxlevel, self.maxlist, self.maxtuple, self.maxdict = 3, 6, 6, 6
+        self.maxstring, self.maxother, self.maxlong = 60, 60, 30
+
+    def repr_int(self, x: int, level: int) -> str:
+        if x.bit_length() > 90:  # above ~27 digits: say how long, never build the digits
+            return f"<an integer of about {int(x.bit_length() * math.log10(2)) + 1} digits>"
+        return super().repr_int(x, level)
+
+
+_SHORT = _ShortRepr()
+
+
+def show(value: Any) -> str:
+    """A short one-line ``repr`` of ``value`` for error messages (at most ~120 characters)."""
+    text = " ".join(_SHORT.repr(value).split())
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+@dataclass(frozen=True)
+class Range:
+    """A closed interval of valid values for one kind of input, and how to name it in errors."""
+
+    low: float
+    high: float
+    what: str  # e.g. "a positive length"
+
+    def describe(self) -> str:
+        """E.g. ``"a positive length from 1e-15 to 1e+15"``."""
+        return f"{self.what} from {self.low:g} to {self.high:g}"
+
+    def check(self, key: str, value: Any) -> float:
+        """``value`` as a float, or a one-line :class:`CaseError` naming ``key``, the value and the range.
+
+        Integers are compared exactly before any conversion, so a huge integer is
+        refused instead of overflowing to ``inf``; ``bool`` is not a number here.
+        """
+        numeric = (int, float, np.integer, np.floating)
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, numeric):
+            raise CaseError(f"{key}: expected a finite number ({self.describe()}), got {show(value)}")
+        if isinstance(value, (int, np.integer)):
+            ok = self.low <= value <= self.high
+        else:
+            ok = math.isfinite(value) and self.low <= value <= self.high
+        if not ok:
+            finite = "" if isinstance(value, (int, np.integer)) or math.isfinite(value) else "finite "
+            raise CaseError(f"{key}: expected a {finite}number, {self.describe()}, got {show(value)}")
+        return float(value)
+
+
+LENGTH = Range(-SCALE, SCALE, "a length (case units)")
+POSITIVE_LENGTH = Range(1.0 / SCALE, SCALE, "a positive length (case units)")
+POSITIVE_MASS = Range(1.0 / SCALE, SCALE, "a positive mass (case units)")
+POSITIVE_DENSITY = Range(1.0 / SCALE, SCALE, "a positive mass or weight per volume (case units)")
+POSITIVE_ACCELERATION = Range(1.0 / SCALE, SCALE, "a positive acceleration (case units)")
+ACCELERATION = Range(-SCALE, SCALE, "an acceleration (case units)")
+INERTIA = Range(-SCALE, SCALE, "a moment of inertia (case units)")
+FORCE = Range(-SCALE, SCALE, "a force (case units)")
+TORQUE = Range(-SCALE, SCALE, "a torque (case units)")
+ANGLE_DEG = Range(-MAX_ANGLE_DEG, MAX_ANGLE_DEG, "an angle in degrees")
+CRANK_RPM = Range(-MAX_CRANK_RPM, MAX_CRANK_RPM, "a crank speed in rpm")
+CRANK_ACCEL = Range(-MAX_CRANK_ACCEL, MAX_CRANK_ACCEL, "a crank acceleration in rad/s^2")
+AXIAL_CYCLES = Range(-MAX_AXIAL_CYCLES, MAX_AXIAL_CYCLES, "axial cycles per crank revolution")
+
+
+def key_text(key: Any) -> str:
+    """A TOML key as it may appear in a one-line message: as is if short and plain, else quoted and cut."""
+    if isinstance(key, str) and len(key) <= 60 and all(c.isalnum() or c in "._-+=" for c in key):
+        return key
+    return show(key)
+
+
+def check_number(key: str, value: Any, limits: Range) -> float:
+    """``value`` as a float within ``limits``, else a one-line :class:`CaseError` naming ``key``."""
+    return limits.check(key, value)
+
+
+def check_text(key: str, value: Any, max_chars: int) -> str:
+    """A one-line printable string of at most ``max_chars`` characters, else a :class:`CaseError`."""
+    if not isinstance(value, str):
+        raise CaseError(f"{key}: expected a string, got {show(value)}")
+    bad = next((c for c in value if unicodedata.category(c)[0] == "C"), None)
+    if bad is not None:
+        raise CaseError(f"{key}: control or non-printing character {bad!r} in {show(value)}; "
+                        "expected one line of printable text")
+    if len(value) > max_chars:
+        raise CaseError(f"{key}: {len(value)} characters; at most {max_chars}")
+    return value
 
 
 @dataclass(frozen=True)
@@ -91,7 +231,7 @@ class Case:
                     raise CaseError(f"{dotted}: {p!r} is not a table")
             node[leaf] = value
         if "name" not in updates:
-            raw["name"] = self.name + "".join(f"|{k}={v}" for k, v in updates.items())
+            raw["name"] = (self.name + "".join(f"|{k}={v}" for k, v in updates.items()))[:MAX_CASE_NAME]
         return case_from_dict(raw)
 
 
@@ -147,39 +287,28 @@ def _type_name(t: type | tuple) -> str:
     return {str: "a string", dict: "a table", list: "an array"}[t]
 
 
-def check_number(key: str, value: Any, *, positive: bool = False, nonneg: bool = False) -> float:
-    """``value`` as a float, or a :class:`CaseError` naming ``key`` if it is not a finite (positive, >= 0) number."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not math.isfinite(value):
-        raise CaseError(f"{key}: expected a finite number, got {value!r}")
-    if positive and value <= 0:
-        raise CaseError(f"{key}: expected a positive number, got {value!r}")
-    if nonneg and value < 0:
-        raise CaseError(f"{key}: expected a number >= 0, got {value!r}")
-    return float(value)
-
-
 def _check_keys(data: dict) -> None:
     for key in data:
         if key not in _TOP and key not in _SCHEMA:
             valid = ", ".join(sorted([*_TOP, *_SCHEMA]))
-            raise CaseError(f"{key}: unknown key (valid top-level keys: {valid})")
+            raise CaseError(f"{key_text(key)}: unknown key (valid top-level keys: {valid})")
     for key, (typ, required) in _TOP.items():
         if key in data and not isinstance(data[key], typ):
-            raise CaseError(f"{key}: expected {_type_name(typ)}, got {data[key]!r}")
+            raise CaseError(f"{key}: expected {_type_name(typ)}, got {show(data[key])}")
         if required and key not in data:
             raise CaseError(f"{key}: required key missing")
     for section, fields in _SCHEMA.items():
         table = data.get(section, {})
         if not isinstance(table, dict):
-            raise CaseError(f"{section}: expected a table, got {table!r}")
+            raise CaseError(f"{section}: expected a table, got {show(table)}")
         for key, value in table.items():
             if key not in fields:
                 raise CaseError(
-                    f"{section}.{key}: unknown key (valid: {', '.join(sorted(fields))})"
+                    f"{section}.{key_text(key)}: unknown key (valid: {', '.join(sorted(fields))})"
                 )
             typ = fields[key][0]
             if isinstance(value, bool) or not isinstance(value, typ):
-                raise CaseError(f"{section}.{key}: expected {_type_name(typ)}, got {value!r}")
+                raise CaseError(f"{section}.{key}: expected {_type_name(typ)}, got {show(value)}")
         for key, (_, required) in fields.items():
             if required and key not in table:
                 raise CaseError(f"{section}.{key}: required key missing")
@@ -188,11 +317,11 @@ def _check_keys(data: dict) -> None:
 # ----------------------------------------------------------------------------- sections
 
 def _geometry(g: dict) -> Geometry:
-    a1 = check_number("geometry.crank_length", g["crank_length"], positive=True)
-    a2 = check_number("geometry.rod_length", g["rod_length"], positive=True)
-    a4 = check_number("geometry.slider_offset", g["slider_offset"])
-    alpha = check_number("geometry.slider_twist_deg", g["slider_twist_deg"])
-    s1 = check_number("geometry.crank_axial_shift", g["crank_axial_shift"])
+    a1 = check_number("geometry.crank_length", g["crank_length"], POSITIVE_LENGTH)
+    a2 = check_number("geometry.rod_length", g["rod_length"], POSITIVE_LENGTH)
+    a4 = check_number("geometry.slider_offset", g["slider_offset"], LENGTH)
+    alpha = check_number("geometry.slider_twist_deg", g["slider_twist_deg"], ANGLE_DEG)
+    s1 = check_number("geometry.crank_axial_shift", g["crank_axial_shift"], LENGTH)
     return Geometry(a1, a2, a4, alpha, s1)
 
 
@@ -200,47 +329,51 @@ def _angles(spec: dict) -> np.ndarray:
     allowed = {"start", "stop", "step"}
     for key in spec:
         if key not in allowed:
-            raise CaseError(f"motion.angles_deg.{key}: unknown key (valid: start, step, stop)")
-    start = check_number("motion.angles_deg.start", spec.get("start", 0.0))
-    stop = check_number("motion.angles_deg.stop", spec.get("stop", 360.0))
-    step = check_number("motion.angles_deg.step", spec.get("step", 1.0))
+            raise CaseError(f"motion.angles_deg.{key_text(key)}: unknown key (valid: start, step, stop)")
+    start = check_number("motion.angles_deg.start", spec.get("start", 0.0), ANGLE_DEG)
+    stop = check_number("motion.angles_deg.stop", spec.get("stop", 360.0), ANGLE_DEG)
+    step = check_number("motion.angles_deg.step", spec.get("step", 1.0), ANGLE_DEG)
     if step == 0:
         raise CaseError("motion.angles_deg.step: expected a non-zero number of degrees, got 0")
-    count = math.ceil((stop - start) / step - 1e-9)
+    span = stop - start  # finite: both ends are bounded
+    if abs(span) > abs(step) * MAX_POSITIONS:  # decided before dividing: a tiny step cannot overflow
+        raise CaseError(
+            f"motion.angles_deg.step: {step!r} deg from {start!r} to {stop!r} gives more than "
+            f"{MAX_POSITIONS:,} positions (the most per case); use a larger step"
+        )
+    count = math.ceil(span / step - 1e-9)
     if count <= 0:
         raise CaseError(
             f"motion.angles_deg: start={start!r}, stop={stop!r}, step={step!r} gives no angle "
             "(stop is exclusive; step must point from start to stop)"
         )
-    if count > 10_000_000:
-        raise CaseError(f"motion.angles_deg: {count} positions requested; at most 10,000,000 per case")
     return start + step * np.arange(count)
 
 
 def _motion(m: dict) -> CrankMotion:
-    rpm = check_number("motion.crank_rpm", m["crank_rpm"])
+    rpm = check_number("motion.crank_rpm", m["crank_rpm"], CRANK_RPM)
     return CrankMotion(
         angles_deg=_angles(m.get("angles_deg", {})),
         speed=2.0 * math.pi * rpm / 60.0,
-        accel=check_number("motion.crank_accel", m.get("crank_accel", 0.0)),
-        axial_amplitude=check_number("motion.axial_amplitude", m.get("axial_amplitude", 0.0)),
-        axial_cycles=check_number("motion.axial_cycles", m.get("axial_cycles", 0.0)),
+        accel=check_number("motion.crank_accel", m.get("crank_accel", 0.0), CRANK_ACCEL),
+        axial_amplitude=check_number("motion.axial_amplitude", m.get("axial_amplitude", 0.0), LENGTH),
+        axial_cycles=check_number("motion.axial_cycles", m.get("axial_cycles", 0.0), AXIAL_CYCLES),
     )
 
 
-def _vector(key: str, value: Any) -> np.ndarray:
+def _vector(key: str, value: Any, limits: Range) -> np.ndarray:
     if not isinstance(value, list) or len(value) != 3:
-        raise CaseError(f"{key}: expected an array of 3 numbers, got {value!r}")
-    return np.array([check_number(f"{key}[{i}]", v) for i, v in enumerate(value)])
+        raise CaseError(f"{key}: expected an array of 3 numbers, got {show(value)}")
+    return np.array([check_number(f"{key}[{i}]", v, limits) for i, v in enumerate(value)])
 
 
 def _tensor(key: str, value: Any) -> np.ndarray:
     if isinstance(value, list) and len(value) == 3 and all(isinstance(v, list) for v in value):
-        rows = [_vector(f"{key}[{i}]", row) for i, row in enumerate(value)]
+        rows = [_vector(f"{key}[{i}]", row, INERTIA) for i, row in enumerate(value)]
         return np.array(rows)
     if isinstance(value, list) and len(value) == 3:
-        return np.diag(_vector(key, value))
-    raise CaseError(f"{key}: expected 3 principal moments or a 3x3 array, got {value!r}")
+        return np.diag(_vector(key, value, INERTIA))
+    raise CaseError(f"{key}: expected 3 principal moments or a 3x3 array, got {show(value)}")
 
 
 def _mass_per_volume(b: dict) -> float | None:
@@ -251,13 +384,13 @@ def _mass_per_volume(b: dict) -> float | None:
             "bodies.density: give either density or weight_density with gravity_constant, not both"
         )
     if has_density:
-        return check_number("bodies.density", b["density"], positive=True)
+        return check_number("bodies.density", b["density"], POSITIVE_DENSITY)
     if has_weight:
         for key in ("weight_density", "gravity_constant"):
             if key not in b:
                 raise CaseError(f"bodies.{key}: required with the other weight-based key")
-        w = check_number("bodies.weight_density", b["weight_density"], positive=True)
-        g = check_number("bodies.gravity_constant", b["gravity_constant"], positive=True)
+        w = check_number("bodies.weight_density", b["weight_density"], POSITIVE_DENSITY)
+        g = check_number("bodies.gravity_constant", b["gravity_constant"], POSITIVE_ACCELERATION)
         return w / g
     return None
 
@@ -267,11 +400,11 @@ def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
     explicit = b.get(name, {})
     for key in explicit:
         if key not in _BODY_KEYS:
-            raise CaseError(f"bodies.{name}.{key}: unknown key (valid: com, inertia, mass)")
+            raise CaseError(f"bodies.{name}.{key_text(key)}: unknown key (valid: com, inertia, mass)")
     shape_key = {"crank": "crank_radius", "rod": "rod_radius", "slider": "slider_side"}[name]
     default = None
     if shape_key in b and rho is not None:
-        size = check_number(f"bodies.{shape_key}", b[shape_key], positive=True)
+        size = check_number(f"bodies.{shape_key}", b[shape_key], POSITIVE_LENGTH)
         if name == "crank":
             m = rho * math.pi * size**2 * geom.crank_length
             default = (m, [geom.crank_length / 2, 0, 0], solid_cylinder_x(m, geom.crank_length, size))
@@ -282,7 +415,7 @@ def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
             m = rho * size**3
             default = (m, [0, 0, 0], solid_cube(m, size))
     elif shape_key in b:
-        check_number(f"bodies.{shape_key}", b[shape_key], positive=True)
+        check_number(f"bodies.{shape_key}", b[shape_key], POSITIVE_LENGTH)
     missing = [k for k in ("mass", "com", "inertia") if k not in explicit]
     if default is None and missing:
         raise CaseError(
@@ -290,11 +423,12 @@ def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
             f"(density, or weight_density and gravity_constant), or bodies.{name}.{missing[0]}"
         )
     mass = (
-        check_number(f"bodies.{name}.mass", explicit["mass"], positive=True)
+        check_number(f"bodies.{name}.mass", explicit["mass"], POSITIVE_MASS)
         if "mass" in explicit
         else default[0]
     )
-    com = _vector(f"bodies.{name}.com", explicit["com"]) if "com" in explicit else np.array(default[1], float)
+    com = (_vector(f"bodies.{name}.com", explicit["com"], LENGTH) if "com" in explicit
+           else np.array(default[1], float))
     inertia = _tensor(f"bodies.{name}.inertia", explicit["inertia"]) if "inertia" in explicit else default[2]
     if "inertia" not in explicit and "mass" in explicit and default is not None:
         inertia = inertia * (mass / default[0])  # same shape, new mass
@@ -335,10 +469,10 @@ def _loads(ld: dict) -> Loads:
     if (torque is None) == (force is None):
         got = "both" if torque is not None else "neither"
         raise CaseError(f"loads: got {got} of drive_torque / slider_force; give exactly one")
-    gravity = _vector("loads.gravity", ld.get("gravity", [0.0, 0.0, 0.0]))
+    gravity = _vector("loads.gravity", ld.get("gravity", [0.0, 0.0, 0.0]), ACCELERATION)
     return Loads(
-        drive_torque=None if torque is None else check_number("loads.drive_torque", torque),
-        slider_force=None if force is None else check_number("loads.slider_force", force),
+        drive_torque=None if torque is None else check_number("loads.drive_torque", torque, TORQUE),
+        slider_force=None if force is None else check_number("loads.slider_force", force, FORCE),
         gravity=gravity,
     )
 
@@ -354,18 +488,17 @@ def case_from_dict(data: dict) -> Case:
         One line naming the key, the value and what would be valid.
     """
     if not isinstance(data, dict):
-        raise CaseError(f"case: expected a table, got {data!r}")
+        raise CaseError(f"case: expected a table, got {show(data)}")
     _check_keys(data)
     geom = _geometry(data["geometry"])
-    return Case(
-        name=data["name"],
-        units=data.get("units", "consistent"),
-        geometry=geom,
-        motion=_motion(data["motion"]),
-        bodies=_bodies(data.get("bodies", {}), geom),
-        loads=_loads(data.get("loads", {})),
-        raw=_deep_copy(data),
-    )
+    motion, bodies = _motion(data["motion"]), _bodies(data.get("bodies", {}), geom)
+    loads = _loads(data.get("loads", {}))
+    units = data.get("units", "consistent")
+    if units not in KNOWN_UNITS:
+        raise CaseError(f"units: {show(units)} is not a known unit label (valid: {', '.join(KNOWN_UNITS)})")
+    name = check_text("name", data["name"], MAX_CASE_NAME)  # last: a derived name shows the values above
+    return Case(name=name, units=units, geometry=geom, motion=motion, bodies=bodies, loads=loads,
+                raw=_deep_copy(data))
 
 
 def preset_names() -> list[str]:
@@ -383,7 +516,7 @@ def preset_path(name: str) -> Path:
     names = preset_names()
     matches = [n for n in names if n == name or n.split("/", 1)[1] == name]
     if len(matches) != 1:
-        raise CaseError(f"case: {name!r} is neither a file nor a bundled preset (presets: {', '.join(names)})")
+        raise CaseError(f"case: {show(name)} is neither a file nor a bundled preset (presets: {', '.join(names)})")
     group, stem = matches[0].split("/", 1)
     return Path(str(resources.files("dualmech.models") / "cases" / group / f"{stem}.toml"))
 
@@ -399,12 +532,7 @@ def load_case(source: str | Path) -> Case:
     path = Path(source)
     if not path.is_file():
         path = preset_path(str(source))
-    try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as err:
-        raise CaseError(f"{path}: not valid TOML ({err})") from None
-    return case_from_dict(data)
+    return case_from_dict(read_toml(path, CaseError))
 
 
 def with_loads(case: Case, **updates: Any) -> Case:

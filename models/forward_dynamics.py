@@ -43,13 +43,12 @@ textbook height ``y = e``; then textbook ``x`` = world ``y``, textbook ``y`` = w
 
 from __future__ import annotations
 
-import ast
 import csv
 import io
 import math
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -58,26 +57,40 @@ from dualmech.core import generalized_inertia as gi
 from dualmech.core.motion import CrankState
 from dualmech.core.planar import PlanarSliderCrank
 from dualmech.core.reactions import Reactions, kinetic_energy, solve_reactions
-from dualmech.models.case import Case, check_number
+from dualmech.models.case import (FORCE, MAX_ANGLE_DEG, MAX_CRANK_RPM, SCALE, TORQUE, Case, Range,
+                                  check_number, show)
+from dualmech.models.expressions import LoadFunction, load_expression
 from dualmech.models.slider_crank import Analysis, analyze, no_assembly_ranges, slider_axis
 
-#: A load as a function of time and state: ``f(t, psi, psi_dot, s4, s4_dot) -> float``.
-LoadFunction = Callable[[float, float, float, float, float], float]
-
-#: Names a load expression may use (``dualmech simulate --torque``).
-EXPRESSION_VARIABLES = ("t", "psi", "psidot", "s4", "s4dot")
-_EXPRESSION_FUNCTIONS: dict[str, Callable] = {
-    name: getattr(np, name) for name in (
-        "sin", "cos", "tan", "arcsin", "arccos", "arctan", "arctan2", "sinh", "cosh", "tanh",
-        "exp", "log", "log10", "sqrt", "abs", "sign", "minimum", "maximum", "where", "clip", "floor", "mod",
-    )
-}
-_EXPRESSION_CONSTANTS = {"pi": math.pi, "e": math.e}
-_ALLOWED_NODES = (
-    ast.Expression, ast.BinOp, ast.UnaryOp, ast.Constant, ast.Name, ast.Load, ast.Call, ast.Compare,
-    ast.IfExp, ast.BoolOp, ast.And, ast.Or, ast.Not, ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.Mod,
-    ast.FloorDiv, ast.USub, ast.UAdd, ast.Lt, ast.LtE, ast.Gt, ast.GtE, ast.Eq, ast.NotEq,
-)
+#: Inputs of :func:`simulate` and their ranges (``docs/conventions.md``, "Input ranges").
+#: The longest simulated time, s: t is then resolved to 1e6 x 2.2e-16 = 2e-10 s, finer than any
+#: step these motions need.
+DURATION = Range(1e-9, 1e6, "a duration in seconds")
+#: Initial crank angle, rad: the case's angle bound (MAX_ANGLE_DEG in models/case.py).
+CRANK_ANGLE = Range(-math.radians(MAX_ANGLE_DEG), math.radians(MAX_ANGLE_DEG), "a crank angle in radians")
+#: Initial crank speed, rad/s: the case's speed bound (MAX_CRANK_RPM in models/case.py).
+CRANK_SPEED = Range(-math.pi * MAX_CRANK_RPM / 30, math.pi * MAX_CRANK_RPM / 30, "a crank speed in rad/s")
+#: Viscous coefficients c1, c4 (>= 0), case units.
+DAMPING = Range(0.0, SCALE, "a viscous coefficient >= 0 (case units)")
+#: Relative tolerance: from 100 machine epsilons (scipy silently raises anything smaller to
+#: that, with a warning) to 0.1 (looser says nothing about the motion).
+RTOL = Range(100 * np.finfo(float).eps, 0.1, "a relative tolerance")
+#: Absolute tolerance, multiplied by each state's scale (speed, energy): below 1e-15 of the
+#: scale it is under the float resolution of the state.
+ATOL = Range(1e-15, 1.0, "an absolute tolerance (per unit of each state's scale)")
+#: Relative accuracy asked of the coefficient table (``coefficient_model``).
+INTERPOLATION_TOL = Range(1e-15, 0.1, "a relative interpolation tolerance")
+#: Most output samples: the trajectory's post-processing evaluates each sample in Python.
+MAX_SAMPLES = 100_000
+#: The integrators of ``scipy.integrate.solve_ivp``.
+METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
+#: Default integrator budget: right-hand-side evaluations (DOP853 takes 12 per step, so about
+#: 17,000 steps, some 16 s at the measured 80 us per evaluation with the coefficient table;
+#: 100 s of the thesis crank at 50 rpm takes ~1,000) and wall time, seconds.
+MAX_EVALUATIONS = 200_000
+TIME_LIMIT = 60.0
+#: Range of the wall-time budget, seconds.
+TIME_BUDGET = Range(1e-3, 1e6, "a time limit in seconds")
 #: Largest number of samples of the coefficient table before falling back to direct evaluation.
 MAX_TABLE_SIZE = 2**15
 #: Names of the tabulated coefficients, in row order.
@@ -86,52 +99,19 @@ COEFFICIENT_NAMES = ("inertia", "inertia_derivative", "gravity_force", "s4", "s4
 
 # ----------------------------------------------------------------------------- loads
 
-def load_expression(text: str) -> LoadFunction:
-    """A load function from an expression in ``t, psi, psidot, s4, s4dot`` (SI or the case's units).
-
-    Numbers are accepted as constants.  Allowed: arithmetic, comparisons,
-    ``a if cond else b``, the constants ``pi, e`` and numpy's ``sin cos tan
-    arcsin arccos arctan arctan2 sinh cosh tanh exp log log10 sqrt abs sign
-    minimum maximum where clip floor mod``.  Example: ``"500"``,
-    ``"100*(1 - psidot/50)"``, ``"10000*(s4 - 0.5) + 1000*s4dot"``.
-    """
-    try:
-        tree = ast.parse(str(text).strip(), mode="eval")
-    except SyntaxError:
-        raise ValueError(f"load expression: cannot parse {text!r}") from None
-    allowed = set(EXPRESSION_VARIABLES) | set(_EXPRESSION_FUNCTIONS) | set(_EXPRESSION_CONSTANTS)
-    for node in ast.walk(tree):
-        if not isinstance(node, _ALLOWED_NODES):
-            raise ValueError(f"load expression: {type(node).__name__} not allowed in {text!r}")
-        if isinstance(node, ast.Name) and node.id not in allowed:
-            raise ValueError(f"load expression: unknown name {node.id!r} in {text!r} "
-                             f"(variables: {', '.join(EXPRESSION_VARIABLES)})")
-        if isinstance(node, ast.Call) and (not isinstance(node.func, ast.Name)
-                                           or node.func.id not in _EXPRESSION_FUNCTIONS or node.keywords):
-            raise ValueError(f"load expression: only calls of {', '.join(_EXPRESSION_FUNCTIONS)} are allowed")
-        if isinstance(node, ast.Constant) and not isinstance(node.value, (int, float)):
-            raise ValueError(f"load expression: constant {node.value!r} is not a number")
-    code = compile(tree, "<load expression>", "eval")
-    env = {"__builtins__": {}, **_EXPRESSION_FUNCTIONS, **_EXPRESSION_CONSTANTS}
-
-    def load(t: float, psi: float, psidot: float, s4: float, s4dot: float) -> float:
-        return float(eval(code, env, {"t": t, "psi": psi, "psidot": psidot, "s4": s4, "s4dot": s4dot}))
-
-    load(0.0, 0.0, 0.0, 0.0, 0.0)  # fail early (e.g. a vector-valued expression)
-    return load
-
-
-def as_load(value: float | str | LoadFunction | None, default: float, name: str) -> LoadFunction:
-    """A load function from a number, an expression, a callable, or ``None`` (``default``)."""
+def as_load(value: float | str | LoadFunction | None, default: float, name: str,
+            limits: Range = TORQUE) -> LoadFunction:
+    """A load function from a number (within ``limits``), an expression (:func:`load_expression`),
+    a callable, or ``None`` (``default``)."""
     if value is None:
         value = default
     if callable(value):
         return value
     if isinstance(value, str):
         return load_expression(value)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ValueError(f"{name}: expected a number, an expression or a function, got {value!r}")
-    const = float(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name}: expected a number, an expression or a function, got {show(value)}")
+    const = check_number(name, value, limits)
     return lambda t, psi, psidot, s4, s4dot: const
 
 
@@ -333,6 +313,41 @@ def coefficient_model(case: Case, tol: float = 1e-12, start: int = 64,
 
 # ----------------------------------------------------------------------------- simulation
 
+class _Stopped(Exception):
+    """Raised inside the right-hand side to end an integration early, with where and why."""
+
+    def __init__(self, t: float, reason: str) -> None:
+        super().__init__(reason)
+        self.t, self.reason = t, reason
+
+
+class _Budget:
+    """Counts right-hand-side evaluations and wall time of one integration."""
+
+    def __init__(self, max_evaluations: int, time_limit: float) -> None:
+        integer = isinstance(max_evaluations, (int, np.integer)) and not isinstance(max_evaluations, bool)
+        if not integer or max_evaluations < 1:
+            raise ValueError(f"max_evaluations: expected a positive integer, got {show(max_evaluations)}")
+        self.max_evaluations = int(max_evaluations)
+        self.time_limit = check_number("time_limit", time_limit, TIME_BUDGET)
+        self.start()
+
+    def start(self) -> None:
+        """Start counting (now)."""
+        self.evaluations = 0
+        self.deadline = time.monotonic() + self.time_limit
+
+    def spend(self, t: float) -> None:
+        """One evaluation at time ``t``; :class:`_Stopped` once the budget is used up."""
+        self.evaluations += 1
+        if self.evaluations > self.max_evaluations:
+            raise _Stopped(t, f"used its budget of {self.max_evaluations:,} right-hand-side evaluations "
+                              "(max_evaluations); a stiff or runaway motion, or too tight a tolerance")
+        if time.monotonic() > self.deadline:
+            raise _Stopped(t, f"used its wall-time budget of {self.time_limit:g} s (time_limit) after "
+                              f"{self.evaluations:,} evaluations")
+
+
 @dataclass(frozen=True)
 class Simulation:
     """A simulated motion at ``n`` output times; arrays ``(n,)`` unless stated.
@@ -429,7 +444,8 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
              psi0: float | None = None, psidot0: float | None = None, damping: float = 0.0,
              slider_damping: float = 0.0, slider_load: float | str | LoadFunction | None = None,
              samples: int = 1001, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
-             interpolation_tol: float = 1e-12, model: CoefficientModel | None = None) -> Simulation:
+             interpolation_tol: float = 1e-12, model: CoefficientModel | None = None,
+             max_evaluations: int = MAX_EVALUATIONS, time_limit: float = TIME_LIMIT) -> Simulation:
     """Integrate the crank's equation of motion from ``t = 0`` to ``duration`` (module docstring).
 
     Parameters
@@ -459,21 +475,42 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
         Relative accuracy asked of the coefficient table (:func:`coefficient_model`).
     model : CoefficientModel, optional
         A table built before (reused across runs of one case).
+    max_evaluations, time_limit : int, float
+        The integrator's budget: right-hand-side evaluations and wall time (s).  When
+        either is used up the integration stops with a one-line ``ValueError`` saying
+        where and why.
+
+    Every number is checked against its range first (:data:`DURATION`, :data:`RTOL`,
+    :data:`ATOL`, ... ; ``docs/conventions.md``, "Input ranges").
 
     Returns
     -------
     Simulation
+
+    Raises
+    ------
+    ValueError
+        One line: an input out of range, a load that is not a finite real number,
+        the budget used up, or a motion that runs away.
     """
-    duration = check_number("duration", duration, positive=True)
-    damping = check_number("damping", damping, nonneg=True)
-    slider_damping = check_number("slider_damping", slider_damping, nonneg=True)
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 2:
-        raise ValueError(f"samples: expected an integer >= 2, got {samples!r}")
+    duration = check_number("duration", duration, DURATION)
+    damping = check_number("damping", damping, DAMPING)
+    slider_damping = check_number("slider_damping", slider_damping, DAMPING)
+    rtol = check_number("rtol", rtol, RTOL)
+    atol = check_number("atol", atol, ATOL)
+    interpolation_tol = check_number("interpolation_tol", interpolation_tol, INTERPOLATION_TOL)
+    if isinstance(samples, (bool, np.bool_)) or not isinstance(samples, (int, np.integer)) \
+            or not 2 <= samples <= MAX_SAMPLES:
+        raise ValueError(f"samples: expected an integer from 2 to {MAX_SAMPLES:,}, got {show(samples)}")
+    if method not in METHODS:
+        raise ValueError(f"method: {show(method)} is not a solve_ivp method (valid: {', '.join(METHODS)})")
+    budget = _Budget(max_evaluations, time_limit)
     loads = case.loads
-    tau_a = as_load(torque, loads.drive_torque if loads.mode == "torque" else 0.0, "torque")
-    force = as_load(slider_load, loads.slider_force if loads.mode == "force" else 0.0, "slider_load")
-    psi0 = float(np.radians(case.motion.angles_deg[0])) if psi0 is None else check_number("psi0", psi0)
-    psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0)
+    tau_a = as_load(torque, loads.drive_torque if loads.mode == "torque" else 0.0, "torque", TORQUE)
+    force = as_load(slider_load, loads.slider_force if loads.mode == "force" else 0.0, "slider_load", FORCE)
+    psi0 = (float(np.radians(case.motion.angles_deg[0])) if psi0 is None
+            else check_number("psi0", psi0, CRANK_ANGLE))
+    psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0, CRANK_SPEED)
     model = coefficient_model(case, interpolation_tol) if model is None else model
 
     def rhs(t: float, y: np.ndarray) -> np.ndarray:
@@ -486,15 +523,32 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
         acc = gi.acceleration(inertia, d_inertia, w, tau)
         return np.array([w, acc, ta * w, -f * s4dot, damping * w * w + slider_damping * s4dot**2])
 
+    def counted_rhs(t: float, y: np.ndarray) -> np.ndarray:
+        budget.spend(t)
+        dy = rhs(t, y)
+        if not np.isfinite(dy).all():
+            raise _Stopped(t, f"the state or its rate is not finite (psi = {y[0]:.6g} rad, "
+                              f"psidot = {y[1]:.6g} rad/s): the motion runs away")
+        if abs(y[1]) > CRANK_SPEED.high:
+            raise _Stopped(t, f"the crank speed {y[1]:.6g} rad/s passed {CRANK_SPEED.high:.6g} rad/s, "
+                              "the largest a case may have: the motion runs away")
+        return dy
+
     c0 = model(psi0)[:, 0]
     w_scale = max(abs(psidot0), 1.0)
     e_scale = max(abs(c0[0]) * w_scale**2, 1.0)
     atol_vec = atol * np.array([1.0, w_scale, e_scale, e_scale, e_scale])
     t_out = np.linspace(0.0, duration, int(samples))
-    sol = solve_ivp(rhs, (0.0, duration), np.array([psi0, psidot0, 0.0, 0.0, 0.0]), method=method,
-                    t_eval=t_out, rtol=rtol, atol=atol_vec)
+    budget.start()
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # non-finite rates: _Stopped
+            sol = solve_ivp(counted_rhs, (0.0, duration), np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
+                            method=method, t_eval=t_out, rtol=rtol, atol=atol_vec)
+    except _Stopped as stop:
+        raise ValueError(f"simulate: stopped at t = {stop.t:.6g} s of {duration:g} s: {stop.reason}") from None
     if not sol.success:
-        raise ValueError(f"simulate: the integrator stopped at t = {sol.t[-1]:.6g}: {sol.message}")
+        raise ValueError(f"simulate: the integrator stopped at t = {sol.t[-1]:.6g} s of {duration:g} s: "
+                         f"{str(sol.message).splitlines()[0]}")
     psi, w = sol.y[0], sol.y[1]
     acc = np.array([rhs(t, y)[1] for t, y in zip(sol.t, sol.y.T)])
     an = analyze(case, crank_state(case, psi, w, acc))

@@ -1,23 +1,92 @@
-"""The command line's one rule for bad input: one line on stderr and exit code 2, never a traceback."""
+"""The command line's rules for errors: one line on stderr, never a traceback.
+
+* Bad input (a ``ValueError`` or ``OSError`` from the library): ``dualmech: error: <line>``
+  and exit code :data:`EXIT_BAD_INPUT` (2).
+* Anything else unexpected: ``dualmech: internal error: <type>: <line>; traceback in <file>``
+  and exit code :data:`EXIT_INTERNAL` (70, ``EX_SOFTWARE`` of BSD ``sysexits.h``); the full
+  traceback goes to a log file in the command's output folder when it is known and
+  exists, else to a new file in the system's temporary folder.
+* ``KeyboardInterrupt`` and click's own exceptions (usage errors, ``--help``, exits) pass
+  through untouched: the commands and click handle them.
+
+``<line>`` is the first line of the exception's message, cut to :data:`MAX_LINE_CHARS`
+characters, so a message holding a multi-line array dump or a huge number stays one
+readable line.
+"""
 
 from __future__ import annotations
 
 import functools
+import os
 import sys
+import tempfile
+import time
+import traceback
+from pathlib import Path
 from typing import Callable
 
 import click
 
+#: Exit code for bad input (one line names it).
+EXIT_BAD_INPUT = 2
+#: Exit code for an unexpected internal error (``EX_SOFTWARE``).
+EXIT_INTERNAL = 70
+#: Longest message text on the error line, characters.
+MAX_LINE_CHARS = 300
+#: Keyword arguments of a command that name its output folder (where the traceback log goes).
+OUTPUT_FOLDER_ARGUMENTS = ("outdir", "rundir")
+
+
+def first_line(err: BaseException) -> str:
+    """The first line of ``str(err)``, cut to :data:`MAX_LINE_CHARS`; never raises."""
+    try:
+        text = str(err)
+    except Exception:  # a message that cannot even be built: say so rather than fail here
+        text = "(message not printable)"
+    lines = text.strip().splitlines()
+    line = lines[0] if lines else ""
+    more = len(lines) > 1 or len(line) > MAX_LINE_CHARS
+    return line[:MAX_LINE_CHARS] + (" ..." if more else "")
+
+
+def write_traceback(err: BaseException, folder: Path | None) -> str:
+    """Write the traceback of ``err`` to a new log file; its path, or why it could not be written."""
+    text = "".join(traceback.format_exception(err))
+    stamp = time.strftime("%Y%m%dT%H%M%S")
+    name = f"dualmech-internal-error-{stamp}-{os.getpid()}.log"
+    candidates = ([folder / name] if folder is not None and folder.is_dir() else []) + [None]
+    reason = ""
+    for path in candidates:
+        try:
+            if path is None:
+                fd, temp = tempfile.mkstemp(prefix=name[:-4] + "-", suffix=".log")
+                with os.fdopen(fd, "w") as fh:
+                    fh.write(text)
+                return temp
+            path.write_text(text)
+            return str(path)
+        except Exception as write_err:  # read-only folder, full disk, no memory: try the next place
+            reason = f"{type(write_err).__name__}: {first_line(write_err)}"
+    return f"(not written: {reason})"
+
 
 def one_line_errors(func: Callable) -> Callable:
-    """Turn ``ValueError``/``OSError`` raised by the library into one line and exit code 2."""
+    """Decorate a click command: bad input exits 2, an unexpected error exits 70, each with one line."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
+        except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
+            raise
         except (ValueError, OSError) as err:
-            click.echo(f"dualmech: error: {err}", err=True)
-            sys.exit(2)
+            click.echo(f"dualmech: error: {first_line(err)}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+        except Exception as err:  # the last line of defence: no traceback reaches the user
+            folder = next((Path(kwargs[k]) for k in OUTPUT_FOLDER_ARGUMENTS if kwargs.get(k)), None)
+            where = write_traceback(err, folder)
+            click.echo(f"dualmech: internal error: {type(err).__name__}: {first_line(err)}; "
+                       f"traceback in {where}", err=True)
+            sys.exit(EXIT_INTERNAL)
 
     return wrapper

@@ -1,5 +1,10 @@
 """``dualmech simulate``: forward dynamics of a case under a given torque (thin shell over
-:func:`dualmech.models.forward_dynamics.simulate`)."""
+:func:`dualmech.models.forward_dynamics.simulate`).
+
+Numeric options are read as text and parsed here, so a bad one (``--rtol nan``,
+``--duration 1e400``, ``--samples abc``) is one line naming the option, the value and
+its range, like every other bad input, rather than click's multi-line usage error.
+"""
 
 from __future__ import annotations
 
@@ -8,8 +13,31 @@ import sys
 import click
 import numpy as np
 
-from dualmech.models.case import load_case
+from dualmech.models.case import ANGLE_DEG, Range, load_case, show
+from dualmech.models.forward_dynamics import MAX_EVALUATIONS, TIME_LIMIT
 from dualmech.validation.cli_errors import one_line_errors
+
+#: Longest integer option text: beyond this many digits it is out of every range anyway.
+_MAX_INT_DIGITS = 18
+
+
+def parse_number(option: str, text: str | None, limits: Range) -> float | None:
+    """``text`` as a float within ``limits`` (``None`` stays ``None``); else a one-line ValueError."""
+    if text is None:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{option}: expected a number, {limits.describe()}, got {show(text)}") from None
+    return limits.check(option, value)
+
+
+def parse_count(option: str, text: str, low: int, high: int) -> int:
+    """``text`` as an integer from ``low`` to ``high``; else a one-line ValueError."""
+    digits = text.strip().lstrip("+-")
+    if not digits.isdigit() or len(digits) > _MAX_INT_DIGITS or not low <= int(text) <= high:
+        raise ValueError(f"{option}: expected an integer from {low:,} to {high:,}, got {show(text)}")
+    return int(text)
 
 
 def summarize_simulation(sim) -> str:
@@ -33,35 +61,48 @@ def summarize_simulation(sim) -> str:
 
 @click.command()
 @click.argument("case")
-@click.option("--duration", type=float, required=True, help="Simulated time, seconds.")
+@click.option("--duration", required=True, help="Simulated time, seconds.")
 @click.option("--torque", default=None,
               help="Motor torque on the crank about +z: a number or an expression in t, psi, psidot, s4, s4dot "
                    "(default: the case's drive_torque in torque mode, else 0).")
 @click.option("--slider-load", default=None,
               help="k4 . (force of the ground on the slider), number or expression as --torque "
                    "(default: the case's slider_force in force mode, else 0). A spring k, free length L0: 'k*(s4-L0)'.")
-@click.option("--psi0", type=float, default=None,
+@click.option("--psi0", default=None,
               help="Initial crank angle theta1, degrees (default: the case's first angle).")
-@click.option("--psidot0", type=float, default=None, help="Initial crank speed, rad/s (default: the case's crank_rpm).")
-@click.option("--damping", type=float, default=0.0, show_default=True,
+@click.option("--psidot0", default=None, help="Initial crank speed, rad/s (default: the case's crank_rpm).")
+@click.option("--damping", default="0", show_default=True,
               help="Crank-bearing viscous coefficient, torque*s/rad.")
-@click.option("--slider-damping", type=float, default=0.0, show_default=True,
+@click.option("--slider-damping", default="0", show_default=True,
               help="Slider viscous coefficient, force*s/length.")
-@click.option("--samples", type=int, default=1001, show_default=True, help="Equally spaced output times.")
-@click.option("--rtol", type=float, default=1e-12, show_default=True)
-@click.option("--atol", type=float, default=1e-12, show_default=True)
+@click.option("--samples", default="1001", show_default=True, help="Equally spaced output times.")
+@click.option("--rtol", default="1e-12", show_default=True)
+@click.option("--atol", default="1e-12", show_default=True)
 @click.option("--method", default="DOP853", show_default=True, help="scipy solve_ivp method.")
+@click.option("--max-evaluations", default=str(MAX_EVALUATIONS), show_default=True,
+              help="Integrator budget: right-hand-side evaluations; the run stops with one line when "
+                   "used up.")
+@click.option("--time-limit", default=f"{TIME_LIMIT:g}", show_default=True,
+              help="Integrator budget: wall time, seconds; the run stops with one line when used up.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="CSV file (default: stdout).")
 @one_line_errors
-def simulate(case: str, duration: float, torque: str | None, slider_load: str | None, psi0: float | None,
-             psidot0: float | None, damping: float, slider_damping: float, samples: int, rtol: float, atol: float,
-             method: str, output: str | None) -> None:
+def simulate(case: str, duration: str, torque: str | None, slider_load: str | None, psi0: str | None,
+             psidot0: str | None, damping: str, slider_damping: str, samples: str, rtol: str, atol: str,
+             method: str, max_evaluations: str, time_limit: str, output: str | None) -> None:
     """Integrate the crank's equation of motion for CASE; write psi(t), S4(t) and the joint reactions."""
-    from dualmech.models.forward_dynamics import simulate as run
+    from dualmech.models import forward_dynamics as fd
 
-    sim = run(load_case(case), duration, torque=torque, slider_load=slider_load,
-              psi0=None if psi0 is None else float(np.radians(psi0)), psidot0=psidot0, damping=damping,
-              slider_damping=slider_damping, samples=samples, method=method, rtol=rtol, atol=atol)
+    psi0_deg = parse_number("--psi0", psi0, ANGLE_DEG)
+    sim = fd.simulate(
+        load_case(case), parse_number("--duration", duration, fd.DURATION), torque=torque,
+        slider_load=slider_load, psi0=None if psi0_deg is None else float(np.radians(psi0_deg)),
+        psidot0=parse_number("--psidot0", psidot0, fd.CRANK_SPEED),
+        damping=parse_number("--damping", damping, fd.DAMPING),
+        slider_damping=parse_number("--slider-damping", slider_damping, fd.DAMPING),
+        samples=parse_count("--samples", samples, 2, fd.MAX_SAMPLES), method=method,
+        rtol=parse_number("--rtol", rtol, fd.RTOL), atol=parse_number("--atol", atol, fd.ATOL),
+        max_evaluations=parse_count("--max-evaluations", max_evaluations, 1, 10**12),
+        time_limit=parse_number("--time-limit", time_limit, fd.TIME_BUDGET))
     if output:
         sim.to_csv(output)
     else:
