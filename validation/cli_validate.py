@@ -19,12 +19,13 @@ from dualmech.validation.engines import ENGINES
 #: How many failing checks / regressions ``validate`` lists under its table.
 SHOWN_FAILURES = 12
 #: Exit codes of ``validate`` and ``report`` (also in the README).
-EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_INCOMPLETE, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_INCOMPLETE, EXIT_CLUSTER_LOST, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
 EXIT_CODES: dict[int, str] = {
     EXIT_PASS: "PASS: every check of a complete run passed, no regression",
     EXIT_FAIL: "FAIL: a check failed, an engine failed, or (with --baseline) something regressed",
-    EXIT_BAD_INPUT: "bad input (one line on stderr names it)",
+    EXIT_BAD_INPUT: "bad input, or an output folder that is not dualmech's or is in use (one line on stderr)",
     EXIT_INCOMPLETE: "INCOMPLETE: no check failed, but work is missing (cases or engines not run)",
+    EXIT_CLUSTER_LOST: "the Dask scheduler or all its workers were lost (finished cases are kept; --resume)",
     EXIT_INTERRUPTED: "interrupted (finished cases are kept; re-run with --resume)",
 }
 
@@ -108,14 +109,18 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     from dualmech.validation.compare import compare_run
     from dualmech.validation.junit import describe, write_junit
     from dualmech.validation.matrix import load_matrix
+    from dualmech.validation.executors import ClusterLost
     from dualmech.validation.report import write_report
+    from dualmech.validation.rundir import check_output_folder
     from dualmech.validation.runner import load_entries, rich_progress, run_matrix, timings
 
     matrix = load_matrix(matrix_file)
     if engines:
         matrix = matrix.with_engines(_engine_list(engines))
     baseline = read_baseline(baseline_file) if baseline_file else None  # fail early on a bad file
-    outdir = Path(outdir) if outdir else Path("runs") / matrix.name
+    outdir = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
+    if report_dir:
+        check_output_folder(report_dir)
     console = Console(width=None if sys.stdout.isatty() else 120)  # CI logs: one row per line
     try:
         with rich_progress(f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines") as bar:
@@ -124,6 +129,9 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
         click.echo(f"dualmech: interrupted; finished cases are kept in {outdir}; "
                    "re-run with --resume to finish", err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except ClusterLost as err:
+        click.echo(f"dualmech: error: {err}", err=True)
+        sys.exit(EXIT_CLUSTER_LOST)
     comparison = compare_run(matrix, outcome.results)
     summary = baseline_summary(matrix, comparison, outcome.results)
     regressions = compare_baseline(summary, baseline) if baseline is not None else []

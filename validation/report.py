@@ -32,7 +32,7 @@ import tempfile
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from importlib import import_module
 from pathlib import Path
 from typing import Any, Callable
@@ -42,8 +42,10 @@ import numpy as np
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation import runner
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Check, Comparison, compare_run, relative_differences
+from dualmech.validation.executors import worker_init
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.provenance import KEY_LIBRARIES
+from dualmech.validation.rundir import locked, record_files, remove_stale
 
 #: Figures of each sweep and load mode: (key, title, columns, panel grid (rows, cols)).
 SWEEP_FIGURES: tuple[tuple[str, str, tuple[str, ...], tuple[int, int]], ...] = (
@@ -511,7 +513,7 @@ def render_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: 
     specs = _figure_specs(matrix, results, comparison)
     jobs_list = [spec[5] for spec in specs]
     if jobs > 1 and len(specs) > 1:
-        with ProcessPoolExecutor(max_workers=jobs, initializer=runner.die_with_parent, initargs=(os.getpid(),)) as pool:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=worker_init, initargs=(os.getpid(),)) as pool:
             pngs = list(pool.map(_render, jobs_list, chunksize=max(1, len(specs) // (4 * jobs))))
     else:
         pngs = [_render(j) for j in jobs_list]
@@ -587,32 +589,53 @@ def write_report(
     """Render the report of the run in ``rundir`` into ``outdir`` (default: ``rundir``).
 
     Writes ``report.html`` (self-contained), ``report.md``, ``summary.json`` and
-    ``figures/*.png``.
+    ``figures/*.png``, and lists them in the folder's manifest
+    (:mod:`~dualmech.validation.rundir`: only a dualmech folder, one writer at a time,
+    and only figures it wrote before are removed when they are no longer drawn).
     """
     start = time.perf_counter()
     rundir = Path(rundir)
-    outdir = Path(outdir) if outdir is not None else rundir
     matrix, run = runner.load_run(rundir)
-    entries = runner.load_entries(rundir, matrix)
-    results = {cid: {e: runner.entry_result(v) for e, v in per.items()} for cid, per in entries.items()}
+    results = runner.load_results(rundir, matrix)
     if comparison is None:
         comparison = compare_run(matrix, results)
-    figures = _section("figures", render_figures, matrix, results, comparison, jobs=jobs)
-    balance_figure, balance_rows = _section("balancing", balancing, matrix)
-    figures = [*figures, balance_figure]
-    find, find_note = _section("findings", findings)
+    with locked(outdir if outdir is not None else rundir) as outdir:
+        figures = _section("figures", render_figures, matrix, results, comparison, jobs=jobs)
+        balance_figure, balance_rows = _section("balancing", balancing, matrix)
+        figures = [*figures, balance_figure]
+        find, _ = _section("findings", findings)
+        paths = _write_figures(outdir, figures)
+        context = _context(matrix, run, results, comparison, figures)
+        context.update(findings=find, findings_note="", balancing=balance_rows, errata=errata_link(outdir),
+                       report_seconds=time.perf_counter() - start)
+        templates = Path(__file__).parent / "templates"
+        files = ReportFiles(outdir / "report.html", outdir / "report.md", outdir / "summary.json", tuple(paths),
+                            0.0, str(comparison.verdict))
+        runner_write_text(files.html, _environment(templates, markdown=False).get_template("report.html.j2")
+                          .render(**context))
+        runner_write_text(files.markdown, _environment(templates, markdown=True).get_template("report.md.j2")
+                          .render(**context))
+        runner.write_json_atomic(files.summary, comparison_summary(matrix, comparison, run))
+        record_files(outdir, [files.html, files.markdown, files.summary])
+    return replace(files, seconds=time.perf_counter() - start)
+
+
+def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
+    """Write the figures' PNGs; remove figures this folder's earlier reports wrote that are no longer drawn."""
     figdir = outdir / "figures"
     figdir.mkdir(parents=True, exist_ok=True)
-    for old in figdir.glob("*.png"):
-        if old.stem not in {f.key for f in figures}:
-            old.unlink()
-    paths = []
-    for f in figures:
-        p = figdir / f"{f.key}.png"
+    paths = [figdir / f"{f.key}.png" for f in figures]
+    for f, p in zip(figures, paths):
         p.write_bytes(f.png)
-        paths.append(p)
+    record_files(outdir, paths)
+    remove_stale(outdir, paths, "figures")
+    return paths
+
+
+def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison, figures: list[Figure]) -> dict:
+    """The template variables that summarise the run (everything but the model-package sections)."""
     failures: list[Check] = comparison.failures()
-    context = {
+    return {
         "matrix": matrix,
         "run": run,
         "passed": comparison.passed,
@@ -623,27 +646,14 @@ def write_report(
         "n_failures": len(failures),
         "summary": summary_rows(matrix, comparison),
         "strokes": stroke_rows(matrix, comparison),
-        "findings": find,
-        "findings_note": find_note,
-        "balancing": balance_rows,
         "tolerances": tolerance_rows(matrix),
         "dead_centres": dead_centre_rows(matrix, results),
         "engine_versions": engine_versions(results),
-        "errata": errata_link(outdir),
         "figures": figures,
         "sections": [(s.name, s.label) for s in matrix.sweeps],
         "n_done": len(results),
         "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
     }
-    templates = Path(__file__).parent / "templates"
-    context["report_seconds"] = time.perf_counter() - start
-    html = _environment(templates, markdown=False).get_template("report.html.j2").render(**context)
-    md = _environment(templates, markdown=True).get_template("report.md.j2").render(**context)
-    runner_write_text(outdir / "report.html", html)
-    runner_write_text(outdir / "report.md", md)
-    runner.write_json_atomic(outdir / "summary.json", comparison_summary(matrix, comparison, run))
-    return ReportFiles(outdir / "report.html", outdir / "report.md", outdir / "summary.json", tuple(paths),
-                       time.perf_counter() - start, str(comparison.verdict))
 
 
 class ReportError(RuntimeError):

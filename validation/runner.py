@@ -6,7 +6,7 @@ A run directory holds::
     cases/<case id>.json  one file per case: every engine's table (or its error)
 
 Each case file is written atomically (a temporary file, then :func:`os.replace`)
-as soon as all its engines are done, so an interrupted run loses no finished case,
+each time one of its engines is done, so an interrupted run loses no finished result,
 and ``resume=True`` runs only the (case, engine) pairs that are missing, failed,
 or whose fingerprint (:func:`~dualmech.validation.provenance.result_fingerprint`:
 case content, engine, its libraries' versions, the dualmech source) has changed.
@@ -22,7 +22,6 @@ file system.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import contextlib
 import json
 import os
@@ -40,8 +39,10 @@ import numpy as np
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
 from dualmech.models.case import case_from_dict
 from dualmech.validation.engines import ENGINES
+from dualmech.validation.executors import check_address, execute
 from dualmech.validation.matrix import Matrix, matrix_from_dict
 from dualmech.validation.provenance import KEY_LIBRARIES, case_fingerprint, machine, result_fingerprint, versions
+from dualmech.validation.rundir import locked, record_files
 
 CASES_DIR = "cases"
 RUN_FILE = "run.json"
@@ -224,6 +225,7 @@ def error_line(err: BaseException, width: int = 300) -> str:
 def _log_failure(outdir: Path, entry: dict) -> None:
     """Append a failed entry's traceback to the run's log file."""
     stamp = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    record_files(outdir, [LOG_FILE])
     with (outdir / LOG_FILE).open("a", encoding="utf-8") as fh:
         fh.write(f"--- {stamp} {entry['case']} / {entry['engine']}: {entry['error']}\n")
         fh.write(entry.get("traceback", "") + "\n")
@@ -243,59 +245,6 @@ def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: dict[str, str]
         kept[mc.id] = entries
         tasks += [(mc.id, e) for e in matrix.engines if e not in entries]
     return tasks, kept
-
-
-def die_with_parent(parent: int) -> None:
-    """Worker initializer: end this worker when the process that started it dies.
-
-    A run killed hard (SIGKILL, an OOM kill) cannot shut its pool down, and idle
-    workers would otherwise wait on their queue forever.  On Linux the kernel
-    sends SIGTERM to the worker when its parent exits (``PR_SET_PDEATHSIG``);
-    elsewhere this does nothing.
-    """
-    try:
-        import ctypes
-        import signal
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        return
-    if os.getppid() != parent:  # the parent died before the request took effect
-        os._exit(1)
-
-
-def _execute(calls: list[tuple], jobs: int, scheduler: str | None) -> Iterator[dict]:
-    """Run ``run_task(*call)`` for every call; yield entries as they finish."""
-    if scheduler:
-        try:
-            from distributed import Client, as_completed
-        except ImportError:
-            raise ValueError("scheduler: Dask distributed is not installed (pip install 'dask[distributed]')") from None
-        try:
-            client = Client(scheduler, timeout="30s")
-        except (OSError, TimeoutError) as err:
-            raise ValueError(f"scheduler: cannot reach {scheduler!r} ({err})") from None
-        with client:
-            futures = [client.submit(run_task, *call, pure=False) for call in calls]
-            try:
-                for fut in as_completed(futures):
-                    yield fut.result()
-            finally:
-                client.cancel(futures)
-        return
-    if jobs <= 1:
-        for call in calls:
-            yield run_task(*call)
-        return
-    with cf.ProcessPoolExecutor(max_workers=jobs, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
-        futures = [pool.submit(run_task, *call) for call in calls]
-        try:
-            for fut in cf.as_completed(futures):
-                yield fut.result()
-        finally:
-            for fut in futures:
-                fut.cancel()
 
 
 def run_matrix(
@@ -331,12 +280,18 @@ def run_matrix(
     jobs = default_jobs() if jobs is None else jobs
     if jobs < 1:
         raise ValueError(f"jobs: expected a number of processes >= 1, got {jobs}")
-    if scheduler is not None and not scheduler.strip():
-        raise ValueError("scheduler: expected a Dask scheduler address such as tcp://127.0.0.1:8786, got ''")
+    if scheduler is not None:
+        scheduler = check_address(scheduler)
     missing = [e for e in matrix.engines if e not in registry]
     if missing:
         raise ValueError(f"engines: {missing[0]!r} is not registered (valid: {', '.join(registry)})")
-    outdir = Path(outdir)
+    with locked(outdir) as outdir:
+        return _run_locked(matrix, outdir, jobs, resume, scheduler, progress, registry, start)
+
+
+def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler: str | None,
+                progress: ProgressCallback | None, registry: dict[str, str], start: float) -> RunOutcome:
+    """:func:`run_matrix` in its locked output folder."""
     (outdir / CASES_DIR).mkdir(parents=True, exist_ok=True)
     tasks, kept = _plan(matrix, outdir, resume, registry)
     raws = {mc.id: mc.raw for mc in matrix.cases}
@@ -352,25 +307,35 @@ def run_matrix(
         "resumed": resume,
     }
     write_json_atomic(outdir / RUN_FILE, info)
+    record_files(outdir, [RUN_FILE])
 
-    waiting = {cid: {e for c, e in tasks if c == cid} for cid in raws}
     done_entries: dict[str, dict] = {cid: dict(kept[cid]) for cid in raws}
     calls = [(cid, raws[cid], e, registry[e]) for cid, e in tasks]
-    n_done = 0
-    for entry in _execute(calls, jobs, scheduler):
+
+    def store(entry: dict) -> None:
+        """Write the entry's case file at once (a case whose other engines are still running is partial)."""
         cid, e = entry["case"], entry["engine"]
         done_entries[cid][e] = entry
-        waiting[cid].discard(e)
         if entry.get("error"):
             _log_failure(outdir, entry)
-        n_done += 1
-        if not waiting[cid]:
-            write_json_atomic(case_file(outdir, cid), {
-                "format": CASE_FORMAT, "id": cid, "fingerprint": case_fingerprint(raws[cid]),
-                "raw": raws[cid], "engines": {k: done_entries[cid][k] for k in matrix.engines if k in done_entries[cid]},
-            })
-        if progress is not None:
-            progress(n_done, len(calls), f"{cid} {e}")
+        path = case_file(outdir, cid)
+        write_json_atomic(path, {
+            "format": CASE_FORMAT, "id": cid, "fingerprint": case_fingerprint(raws[cid]),
+            "raw": raws[cid], "engines": {k: done_entries[cid][k] for k in matrix.engines if k in done_entries[cid]},
+        })
+        record_files(outdir, [path])
+
+    leftovers: list[dict] = []
+    stream = execute(run_task, calls, jobs, scheduler, leftovers)
+    try:
+        for n_done, entry in enumerate(stream, start=1):
+            store(entry)
+            if progress is not None:
+                progress(n_done, len(calls), f"{entry['case']} {entry['engine']}")
+    finally:  # interrupted or not: every task that finished is stored
+        stream.close()
+        for entry in leftovers:
+            store(entry)
 
     seconds = time.perf_counter() - start
     info.update(seconds=seconds, ran=len(calls), skipped=sum(len(v) for v in kept.values()))

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import os
 import time
+from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -98,3 +100,20 @@ def solve_case_slow(case: Case) -> ResultTable:
 def solve_case_raises(case: Case) -> ResultTable:
     """An engine that crashes."""
     raise RuntimeError(f"engine exploded on {case.name}")
+
+
+def _marked(engine: str, solve: Callable[[Case], ResultTable]) -> Callable[[Case], ResultTable]:
+    """``solve`` slowed down, leaving a file ``<case>--<engine>`` in ``$MATRIX_FAKES_MARKS`` when it is done."""
+
+    def run(case: Case) -> ResultTable:
+        time.sleep(float(os.environ.get("MATRIX_FAKES_DELAY", "0.4")))
+        table = solve(case)
+        (Path(os.environ["MATRIX_FAKES_MARKS"]) / f"{case.name}--{engine}").touch()
+        return table
+
+    return run
+
+
+solve_case_marked_dualmech = _marked("dualmech", solve_case)
+solve_case_marked_pinocchio = _marked("pinocchio", solve_case_judge)
+solve_case_marked_mujoco = _marked("mujoco", solve_case_judge_b)

@@ -1,0 +1,161 @@
+"""Where the tasks of a run execute: this process, a local process pool, or a Dask cluster.
+
+Every backend yields finished task entries as they come; the caller stores each at
+once.  Whatever happens to the run, nothing finished is lost and nothing is left
+behind:
+
+* **Interrupted (SIGINT).**  Pool workers ignore SIGINT (a terminal's Ctrl-C reaches
+  the whole process group); the generator's ``finally`` gives running tasks
+  :data:`INTERRUPT_GRACE_S` seconds to finish, hands every finished task not yet
+  yielded to ``leftovers`` for the caller to store, and ends the workers.
+* **Killed (SIGTERM, SIGKILL).**  Pool workers ask the kernel to end them with their
+  parent (:func:`worker_init`).
+* **A lost cluster.**  The Dask backend checks the scheduler and its workers every
+  :data:`DASK_POLL_S` seconds while it waits; a lost scheduler, or no worker for
+  :data:`DASK_NO_WORKER_S` seconds, ends the run with :class:`ClusterLost`.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import os
+import re
+import time
+from typing import Any, Callable, Iterator
+
+#: How long (s) an interrupted run waits for its running tasks before it ends them.
+INTERRUPT_GRACE_S = 2.0
+#: How often (s) the Dask backend checks that its scheduler and workers are still there.
+DASK_POLL_S = 2.0
+#: How long (s) a Dask run waits without any worker before it gives up.
+DASK_NO_WORKER_S = 30.0
+#: How long (s) to wait for a Dask scheduler to answer at the start.
+DASK_CONNECT_S = 30.0
+#: A Dask scheduler address: ``tcp://host:port`` (also ``tls://``), or ``host:port``.
+ADDRESS = re.compile(r"^(?:(?:tcp|tls)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):\d{1,5}$")
+
+
+class ClusterLost(RuntimeError):
+    """The Dask scheduler or all its workers went away during a run; the message is one line."""
+
+
+def check_address(address: str) -> str:
+    """``address`` if it is a Dask scheduler address, else ValueError naming what is valid."""
+    if not isinstance(address, str) or not ADDRESS.match(address.strip()) or not (
+            0 < int(address.strip().rsplit(":", 1)[1]) < 65536):
+        raise ValueError(f"scheduler: expected an address such as tcp://127.0.0.1:8786, got {address!r}")
+    return address.strip()
+
+
+def worker_init(parent: int) -> None:
+    """Pool worker initializer: leave SIGINT to the parent, and end with it.
+
+    A run killed hard (SIGKILL, an OOM kill) cannot shut its pool down, and idle
+    workers would otherwise wait on their queue forever.  On Linux the kernel
+    sends SIGTERM to the worker when its parent exits (``PR_SET_PDEATHSIG``);
+    elsewhere only the SIGINT part applies.
+    """
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent:  # the parent died before the request took effect
+        os._exit(1)
+
+
+def execute(task: Callable[..., dict], calls: list[tuple], jobs: int, scheduler: str | None,
+            leftovers: list[dict]) -> Iterator[dict]:
+    """Run ``task(*call)`` for every call; yield entries as they finish.
+
+    Tasks that finished but were not yielded when the generator is closed early
+    (an interrupt) are appended to ``leftovers``.
+    """
+    if scheduler:
+        yield from _on_dask(task, calls, scheduler, leftovers)
+    elif jobs <= 1:
+        for call in calls:
+            yield task(*call)
+    else:
+        yield from _on_pool(task, calls, jobs, leftovers)
+
+
+def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
+    return [f.result() for f in futures
+            if f not in handed and f.done() and not f.cancelled() and f.exception() is None]
+
+
+def _on_pool(task: Callable[..., dict], calls: list[tuple], jobs: int, leftovers: list[dict]) -> Iterator[dict]:
+    pool = cf.ProcessPoolExecutor(max_workers=jobs, initializer=worker_init, initargs=(os.getpid(),))
+    futures = [pool.submit(task, *call) for call in calls]
+    handed: set[Any] = set()
+    try:
+        for fut in cf.as_completed(futures):
+            yield fut.result()
+            handed.add(fut)  # only once the caller has come back for more: an entry is stored twice, never lost
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+        cf.wait([f for f in futures if not f.cancelled()], timeout=INTERRUPT_GRACE_S)
+        leftovers.extend(_finished(futures, handed))
+        for proc in list((getattr(pool, "_processes", None) or {}).values()):  # do not wait any longer
+            proc.terminate()
+
+
+def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,
+             leftovers: list[dict]) -> Iterator[dict]:
+    try:
+        from distributed import Client, wait
+    except ImportError:
+        raise ValueError("scheduler: Dask distributed is not installed (pip install 'dask[distributed]')") from None
+    address = check_address(scheduler)
+    try:
+        client = Client(address, timeout=f"{DASK_CONNECT_S:g}s")
+    except (OSError, TimeoutError) as err:
+        raise ValueError(f"scheduler: cannot reach {address!r} ({type(err).__name__})") from None
+    futures = [client.submit(task, *call, pure=False) for call in calls]
+    handed: set[Any] = set()
+    try:
+        pending = set(futures)
+        alone_since = None
+        while pending:
+            try:
+                done, pending = wait(pending, timeout=DASK_POLL_S, return_when="FIRST_COMPLETED")
+                entries = [(fut, fut.result()) for fut in done]  # run_task never raises: the cluster did
+            except TimeoutError:  # nothing finished within the poll interval
+                entries = []
+            except Exception as err:  # futures cancelled by a lost scheduler, a killed worker, ...
+                raise ClusterLost(f"Dask: the cluster at {address} failed ({type(err).__name__}); "
+                                  "finished cases are kept (re-run with --resume)") from None
+            for fut, entry in entries:
+                yield entry
+                handed.add(fut)
+            alone_since = _check_cluster(client, alone_since)
+    finally:
+        leftovers.extend(_finished(futures, handed))
+        with contextlib.suppress(Exception):  # best-effort clean-up of a cluster that may be gone
+            client.cancel(futures)
+            client.close(timeout=5)
+
+
+def _check_cluster(client: Any, alone_since: float | None) -> float | None:
+    """Raise :class:`ClusterLost` if the scheduler is gone or no worker has been there for too long."""
+    try:
+        n_workers = len(client.nthreads()) if client.status == "running" else -1
+    except Exception:  # any failure to talk to the scheduler means it is gone
+        n_workers = -1
+    if n_workers < 0:
+        raise ClusterLost(f"Dask: lost the scheduler {client.scheduler.address}; finished cases are kept "
+                          "(re-run with --resume)")
+    if n_workers > 0:
+        return None
+    now = time.monotonic()
+    if alone_since is not None and now - alone_since > DASK_NO_WORKER_S:
+        raise ClusterLost(f"Dask: no worker for {DASK_NO_WORKER_S:g} s; finished cases are kept "
+                          "(re-run with --resume)")
+    return alone_since if alone_since is not None else now
