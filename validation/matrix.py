@@ -30,6 +30,12 @@ A matrix file (TOML) names a base case and sweeps over any dotted case key;
     name = "pairs"
     cases = [ { "geometry.slider_offset" = 10.0, "geometry.crank_axial_shift" = 1.0 } ]
 
+    [[sweep]]
+    name = "beyond"
+    expect = "no_assembly"           # optional; every case of this sweep assembles nowhere
+    include_base = false
+    grid = { "geometry.slider_offset" = [60.0, 80.0] }
+
     [tolerances]                      # optional; defaults: DEFAULT_TOLERANCES below
     kinematics = "MATRIX_KINEMATICS"  # a name in validation/tolerances.py, or a number
     [tolerances.mujoco-sim]
@@ -42,6 +48,20 @@ A load mode sets one of ``loads.drive_torque`` / ``loads.slider_force`` and
 removes the other from the base case (a case takes exactly one).  A case that
 several sweeps produce (e.g. the base case) is run once and belongs to all.
 
+``expect`` declares what a sweep's cases must do instead of assembling; the only
+value is ``"no_assembly"``: each of its cases is expected to assemble at no crank
+position, and every engine must agree (the comparison checks it).  It applies to
+the sweep's own points, not to the base case ``include_base`` adds; a case that
+two sweeps declare differently is refused.  ``MatrixCase.expect`` carries it
+(``None``: the case is expected to assemble).
+
+Names that become file or folder names are refused, never rewritten, unless they
+are :func:`check_file_name` safe: the matrix ``name`` (the default output folder
+``runs/<name>``), sweep names, load-mode names, ``base_label``, ``[labels]``
+symbols and the case ids built from them (``cases/<id>.json``).  A matrix expands
+to at most :data:`MAX_MATRIX_CASES` cases; ``[load_modes]`` may be left out (every
+case then keeps the base case's load).
+
 Tolerances are looked up, most specific first: ``[tolerances.<engine>]``
 quantity, then its group (``kinematics``, ``reactions``, ``stroke``), then the
 same in ``[tolerances]``, then :data:`DEFAULT_TOLERANCES`.
@@ -52,14 +72,14 @@ from __future__ import annotations
 import itertools
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from dualmech.core.table import KINEMATIC_COLUMNS, REACTION_COLUMNS
-from dualmech.models.case import Case, case_from_dict, load_case
+from dualmech.models.case import Case, Range, case_from_dict, check_text, key_text, load_case, show
+from dualmech.models.toml_input import read_toml
 from dualmech.validation import tolerances as tolerance_table
 from dualmech.validation.engines import ENGINES
 from dualmech.validation.tolerances import Tolerance
@@ -105,12 +125,47 @@ _TOP_KEYS = {
     "name", "description", "base", "base_label", "engines", "reference", "quantities",
     "set", "labels", "load_modes", "sweep", "tolerances",
 }
-_SWEEP_KEYS = {"name", "label", "fixed", "grid", "cases", "include_base"}
+_SWEEP_KEYS = {"name", "label", "fixed", "grid", "cases", "include_base", "expect"}
 _ID_SAFE = re.compile(r"[^A-Za-z0-9.=+_-]")
+#: Declared expectations a sweep may state (``expect = ...``), with what each means.
+EXPECTATIONS: dict[str, str] = {"no_assembly": "every case assembles at no crank position, on every engine"}
+#: Most cases one matrix may expand to (modes x sweep points): each runs on every engine,
+#: and 1,000 cases of 360 positions take ~8 min on the slowest judge (MuJoCo simulation,
+#: 1.3 ms per position, README "Speed") on one core.
+MAX_MATRIX_CASES = 1000
+#: Longest name that becomes a file or folder name (matrix name, case ids), characters.
+MAX_NAME_CHARS = 100
+#: Longest description or sweep label, characters (one line of a report).
+MAX_TEXT_CHARS = 2000
+#: A name safe as one file or folder name on any system: starts with a letter or digit.
+_FILE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9.=+_-]*")
+#: Tolerances given as numbers: relative, so from 0 to 1 (beyond 100 % says nothing).
+TOLERANCE_VALUE = Range(0.0, 1.0, "a relative tolerance")
 
 
 class MatrixError(ValueError):
     """A matrix file or value that cannot be used; the message is one line."""
+
+
+def check_file_name(key: str, name: Any) -> str:
+    """``name`` if it is safe as one file or folder name, else a one-line :class:`MatrixError`.
+
+    Safe: a non-empty string of at most :data:`MAX_NAME_CHARS` letters, digits and
+    ``. _ + - =``, starting with a letter or digit, without ``..``.  So no path
+    separator, no absolute path, no parent folder, no NUL or control character, no
+    hidden file, nothing an option parser could take for an option.
+    """
+    if not isinstance(name, str) or not name:
+        raise MatrixError(f"{key}: expected a non-empty name, got {show(name)}")
+    bad = next((c for c in name if not (c.isascii() and (c.isalnum() or c in ".=+_-"))), None)
+    why = (f"{len(name)} characters, more than {MAX_NAME_CHARS}" if len(name) > MAX_NAME_CHARS
+           else f"{bad!r} is not allowed" if bad is not None
+           else "'..' is not allowed" if ".." in name
+           else "it must start with a letter or digit" if not _FILE_NAME.fullmatch(name) else "")
+    if why:
+        raise MatrixError(f"{key}: {show(name)} cannot be a file or folder name: {why} (use letters, digits "
+                          f"and . _ + - =, at most {MAX_NAME_CHARS} characters)")
+    return name
 
 
 @dataclass(frozen=True)
@@ -134,6 +189,9 @@ class MatrixCase:
         the base label for the base case).
     is_base : bool
         Whether this is the base case (in its load mode).
+    expect : str or None
+        The declared expectation of its sweep (a key of :data:`EXPECTATIONS`, e.g.
+        ``"no_assembly"``), or ``None``: the case is expected to assemble.
     """
 
     id: str
@@ -143,6 +201,7 @@ class MatrixCase:
     sweeps: tuple[str, ...]
     labels: dict[str, str]
     is_base: bool
+    expect: str | None = None
 
     def case(self) -> Case:
         """Build the :class:`~dualmech.models.case.Case`."""
@@ -227,7 +286,7 @@ class Matrix:
             "labels": dict(self.labels),
             "cases": [
                 {"id": c.id, "raw": c.raw, "mode": c.mode, "values": c.values, "sweeps": list(c.sweeps),
-                 "labels": c.labels, "is_base": c.is_base}
+                 "labels": c.labels, "is_base": c.is_base, "expect": c.expect}
                 for c in self.cases
             ],
             "sweeps": [
@@ -243,7 +302,15 @@ class Matrix:
 
 
 def matrix_from_dict(d: dict) -> Matrix:
-    """Inverse of :meth:`Matrix.to_dict`."""
+    """Inverse of :meth:`Matrix.to_dict`.
+
+    The names that become file or folder names are checked again (a stored run may
+    have been edited); a stored run without ``expect`` (older) reads as ``None``.
+    """
+    check_file_name("name", d["name"])
+    for c in d["cases"]:
+        check_file_name("case id", c["id"])
+        _check_expect(f"case {c['id']}.expect", c.get("expect"))
     return Matrix(
         name=d["name"],
         description=d["description"],
@@ -253,7 +320,8 @@ def matrix_from_dict(d: dict) -> Matrix:
         quantities=tuple(d["quantities"]),
         modes=tuple(d["modes"]),
         cases=tuple(
-            MatrixCase(c["id"], c["raw"], c["mode"], c["values"], tuple(c["sweeps"]), dict(c["labels"]), c["is_base"])
+            MatrixCase(c["id"], c["raw"], c["mode"], c["values"], tuple(c["sweeps"]), dict(c["labels"]),
+                       c["is_base"], c.get("expect"))
             for c in d["cases"]
         ),
         sweeps=tuple(
@@ -284,7 +352,8 @@ def matrix_path(source: str | Path) -> Path:
     names = bundled_matrices()
     if str(source) in names:
         return Path(str(resources.files("dualmech.validation") / "matrices" / f"{source}.toml"))
-    raise MatrixError(f"matrix: {str(source)!r} is neither a file nor a bundled matrix ({', '.join(names)})")
+    raise MatrixError(f"matrix: {show(str(source))} is neither a file nor a bundled matrix "
+                      f"({', '.join(names)})")
 
 
 DEFAULT_MATRIX = "thesis-1991"
@@ -298,7 +367,7 @@ def _flatten(table: Any, where: str, *, leaf_lists: bool = False) -> dict[str, A
     With ``leaf_lists`` the leaves are lists of values (a grid axis), and nesting stops there.
     """
     if not isinstance(table, dict):
-        raise MatrixError(f"{where}: expected a table of dotted case keys, got {table!r}")
+        raise MatrixError(f"{where}: expected a table of dotted case keys, got {show(table)}")
     flat: dict[str, Any] = {}
 
     def walk(node: dict, prefix: str) -> None:
@@ -308,14 +377,15 @@ def _flatten(table: Any, where: str, *, leaf_lists: bool = False) -> dict[str, A
                 walk(value, dotted)
             else:
                 if dotted in flat:
-                    raise MatrixError(f"{where}.{dotted}: given twice")
+                    raise MatrixError(f"{where}.{key_text(dotted)}: given twice")
                 flat[dotted] = value
 
     walk(table, "")
     if leaf_lists:
         for key, value in flat.items():
             if not isinstance(value, list) or not value:
-                raise MatrixError(f"{where}.{key}: expected a non-empty array of values, got {value!r}")
+                raise MatrixError(f"{where}.{key_text(key)}: expected a non-empty array of values, "
+                                  f"got {show(value)}")
     return flat
 
 
@@ -328,9 +398,9 @@ def _is_case_table(dotted: str) -> bool:
 def _check_engines(engines: tuple[str, ...], reference: str) -> None:
     for e in engines:
         if e not in ENGINES:
-            raise MatrixError(f"engines: {e!r} is not an engine (valid: {', '.join(ENGINES)})")
+            raise MatrixError(f"engines: {show(e)} is not an engine (valid: {', '.join(ENGINES)})")
     if reference not in engines:
-        raise MatrixError(f"reference: {reference!r} must be one of the engines {list(engines)}")
+        raise MatrixError(f"reference: {show(reference)} must be one of the engines {list(engines)}")
     if len(engines) < 2:
         raise MatrixError(f"engines: {list(engines)} has no judge beside the reference {reference!r}")
 
@@ -340,11 +410,14 @@ def _tolerance_value(spec: Any, where: str) -> ResolvedTolerance:
         tol = getattr(tolerance_table, spec, None)
         if not isinstance(tol, Tolerance):
             names = sorted(n for n, v in vars(tolerance_table).items() if isinstance(v, Tolerance))
-            raise MatrixError(f"{where}: {spec!r} is not a tolerance in validation/tolerances.py ({', '.join(names)})")
+            raise MatrixError(f"{where}: {show(spec)} is not a tolerance in validation/tolerances.py "
+                              f"({', '.join(names)})")
         return ResolvedTolerance(spec, float(tol.value), tol.reason)
-    if isinstance(spec, bool) or not isinstance(spec, (int, float)) or not math.isfinite(spec) or spec < 0:
-        raise MatrixError(f"{where}: expected a tolerance name or a number >= 0, got {spec!r}")
-    return ResolvedTolerance(f"{where}", float(spec), "set in the matrix file")
+    try:
+        value = TOLERANCE_VALUE.check(where, spec)
+    except ValueError as err:
+        raise MatrixError(f"{err} (or a tolerance name)") from None
+    return ResolvedTolerance(f"{where}", value, "set in the matrix file")
 
 
 def _group_of(quantity: str) -> str:
@@ -354,19 +427,21 @@ def _group_of(quantity: str) -> str:
 def _resolve_tolerances(table: Any, judges: tuple[str, ...], quantities: tuple[str, ...]) -> dict:
     table = {} if table is None else table
     if not isinstance(table, dict):
-        raise MatrixError(f"tolerances: expected a table, got {table!r}")
+        raise MatrixError(f"tolerances: expected a table, got {show(table)}")
     valid_keys = set(COMPARABLE) | set(GROUPS)
     general = {k: v for k, v in table.items() if not isinstance(v, dict)}
     per_engine = {k: v for k, v in table.items() if isinstance(v, dict)}
     for e, entries in per_engine.items():
         if e not in ENGINES:
-            raise MatrixError(f"tolerances.{e}: not an engine (valid: {', '.join(ENGINES)})")
+            raise MatrixError(f"tolerances.{key_text(e)}: not an engine (valid: {', '.join(ENGINES)})")
         for k in entries:
             if k not in valid_keys:
-                raise MatrixError(f"tolerances.{e}.{k}: not a quantity or group ({', '.join(sorted(GROUPS))}, or a column)")
+                raise MatrixError(f"tolerances.{e}.{key_text(k)}: not a quantity or group "
+                                  f"({', '.join(sorted(GROUPS))}, or a column)")
     for k in general:
         if k not in valid_keys:
-            raise MatrixError(f"tolerances.{k}: not a quantity or group ({', '.join(sorted(GROUPS))}, or a column)")
+            raise MatrixError(f"tolerances.{key_text(k)}: not a quantity or group "
+                              f"({', '.join(sorted(GROUPS))}, or a column)")
     resolved: dict[str, dict[str, ResolvedTolerance]] = {}
     for e in judges:
         mine = per_engine.get(e, {})
@@ -387,9 +462,29 @@ def _resolve_tolerances(table: Any, judges: tuple[str, ...], quantities: tuple[s
 def _format_value(v: Any) -> str:
     if isinstance(v, bool):
         return str(v).lower()
-    if isinstance(v, (int, float)):
+    if isinstance(v, float) or (isinstance(v, int) and v.bit_length() <= 1000):  # larger: no float
         return f"{v:g}"
-    return _ID_SAFE.sub("_", repr(v))[:24]
+    return _ID_SAFE.sub("_", show(v))[:24]
+
+
+def _text(key: str, value: Any) -> str:
+    """A one-line printable text (description, sweep label), else a one-line :class:`MatrixError`."""
+    try:
+        return check_text(key, value, MAX_TEXT_CHARS)
+    except ValueError as err:
+        raise MatrixError(str(err)) from None
+
+
+def _check_expect(key: str, value: Any) -> str | None:
+    """A declared expectation: ``None`` or a key of :data:`EXPECTATIONS`."""
+    if value is not None and (not isinstance(value, str) or value not in EXPECTATIONS):
+        raise MatrixError(f"{key}: {show(value)} is not an expectation (valid: "
+                          + "; ".join(f"{k!r}: {v}" for k, v in EXPECTATIONS.items()) + ")")
+    return value
+
+
+def _expected(expect: str | None) -> str:
+    return "to assemble" if expect is None else f"{expect!r}"
 
 
 def _canonical(updates: dict[str, Any], base_raw: dict, order: list[str]) -> dict[str, Any]:
@@ -412,10 +507,13 @@ def _with_mode(base: Case, mode_updates: dict[str, Any]) -> Case:
 
     A case takes exactly one of the two loads, so this step cannot go through
     :meth:`Case.with_values`, which only sets keys; the remaining keys of the mode do.
+    Without a load key (a matrix without ``[load_modes]``) the base case keeps its load.
     """
+    load_key = next((k for k in _LOAD_KEYS if k in mode_updates), None)
+    if load_key is None:
+        return base.with_values({**mode_updates, "name": base.name})
     raw = {k: (dict(v) if isinstance(v, dict) else v) for k, v in base.raw.items()}
     loads = {k: v for k, v in raw.get("loads", {}).items() if f"loads.{k}" not in _LOAD_KEYS}
-    load_key = next(k for k in _LOAD_KEYS if k in mode_updates)
     loads[load_key.split(".")[1]] = mode_updates[load_key]
     raw["loads"] = loads
     rest = {k: v for k, v in mode_updates.items() if k != load_key}
@@ -424,7 +522,7 @@ def _with_mode(base: Case, mode_updates: dict[str, Any]) -> Case:
 
 def _load_base(spec: Any, matrix_file: Path | None) -> Case:
     if not isinstance(spec, str):
-        raise MatrixError(f"base: expected a preset name or a case file, got {spec!r}")
+        raise MatrixError(f"base: expected a preset name or a case file, got {show(spec)}")
     if matrix_file is not None:
         candidate = matrix_file.parent / spec
         if candidate.is_file():
@@ -432,25 +530,37 @@ def _load_base(spec: Any, matrix_file: Path | None) -> Case:
     return load_case(spec)
 
 
-def _sweep_points(sweep: dict, where: str) -> tuple[list[dict[str, Any]], tuple[str, ...]]:
-    """The update dicts of one sweep (fixed values merged in) and the keys it varies."""
+def _sweep_points(sweep: dict, where: str, room: int) -> tuple[list[dict[str, Any]], tuple[str, ...]]:
+    """The update dicts of one sweep (fixed values merged in) and the keys it varies.
+
+    ``room`` is how many more cases the matrix may hold; a larger sweep is refused
+    before its points are built.
+    """
     fixed = _flatten(sweep.get("fixed", {}), f"{where}.fixed")
     has_grid, has_cases = "grid" in sweep, "cases" in sweep
     if has_grid == has_cases:
         raise MatrixError(f"{where}: give exactly one of grid (a Cartesian product) or cases (a list)")
+    too_many = (f"{where}: more than {MAX_MATRIX_CASES:,} cases in the matrix (this sweep "
+                "{} points); split it into several matrices")
     if has_grid:
         grid = _flatten(sweep["grid"], f"{where}.grid", leaf_lists=True)
         keys = tuple(grid)
+        size = math.prod(len(v) for v in grid.values())
+        if size > room:
+            raise MatrixError(too_many.format(f"{size:,}"))
         points = [dict(zip(keys, combo)) for combo in itertools.product(*grid.values())]
     else:
         if not isinstance(sweep["cases"], list) or not sweep["cases"]:
-            raise MatrixError(f"{where}.cases: expected a non-empty array of tables, got {sweep['cases']!r}")
+            raise MatrixError(f"{where}.cases: expected a non-empty array of tables, "
+                              f"got {show(sweep['cases'])}")
+        if len(sweep["cases"]) > room:
+            raise MatrixError(too_many.format(f"{len(sweep['cases']):,}"))
         points = [_flatten(p, f"{where}.cases[{i}]") for i, p in enumerate(sweep["cases"])]
         keys = tuple(dict.fromkeys(k for p in points for k in p))
     for p in points:
         clash = set(p) & set(fixed)
         if clash:
-            raise MatrixError(f"{where}: {sorted(clash)[0]!r} is both fixed and swept")
+            raise MatrixError(f"{where}: {key_text(sorted(clash)[0])} is both fixed and swept")
     return [{**fixed, **p} for p in points], keys
 
 
@@ -463,34 +573,32 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
         One line naming the key, the value and what would be valid; also when a
         swept case is not a valid case (the case's own message is included).
     """
+    if not isinstance(data, dict):
+        raise MatrixError(f"matrix: expected a table, got {show(data)}")
     for key in data:
         if key not in _TOP_KEYS:
-            raise MatrixError(f"{key}: unknown matrix key (valid: {', '.join(sorted(_TOP_KEYS))})")
-    name = data.get("name")
-    if not isinstance(name, str) or not name:
-        raise MatrixError(f"name: expected a non-empty string, got {name!r}")
+            raise MatrixError(f"{key_text(key)}: unknown matrix key (valid: {', '.join(sorted(_TOP_KEYS))})")
+    name = check_file_name("name", data.get("name"))
+    description = _text("description", data.get("description", ""))
     engines = data.get("engines", list(ENGINES))
     if not isinstance(engines, list) or not all(isinstance(e, str) for e in engines):
-        raise MatrixError(f"engines: expected an array of engine names, got {engines!r}")
+        raise MatrixError(f"engines: expected an array of engine names, got {show(engines)}")
     reference = data.get("reference", "dualmech")
     engines_t = tuple(dict.fromkeys(engines))
     _check_engines(engines_t, reference)
     quantities = data.get("quantities", list(COMPARABLE))
     if not isinstance(quantities, list) or not quantities:
-        raise MatrixError(f"quantities: expected a non-empty array of column names, got {quantities!r}")
+        raise MatrixError(f"quantities: expected a non-empty array of column names, got {show(quantities)}")
     for q in quantities:
         if q not in COMPARABLE:
-            raise MatrixError(f"quantities: {q!r} is not a compared column (valid: {', '.join(COMPARABLE)})")
+            raise MatrixError(f"quantities: {show(q)} is not a compared column "
+                              f"(valid: {', '.join(COMPARABLE)})")
     quantities_t = tuple(q for q in COMPARABLE if q in quantities)
 
     labels = dict(DEFAULT_LABELS)
-    user_labels = data.get("labels", {})
-    if not isinstance(user_labels, dict) or not all(isinstance(v, str) for v in _flatten(user_labels, "labels").values()):
-        raise MatrixError(f"labels: expected a table of dotted key = \"symbol\", got {user_labels!r}")
-    labels.update(_flatten(user_labels, "labels"))
-    base_label = data.get("base_label", "base")
-    if not isinstance(base_label, str) or not base_label or _ID_SAFE.search(base_label):
-        raise MatrixError(f"base_label: expected a short name of letters, digits, . _ + - =, got {base_label!r}")
+    for key, symbol in _flatten(data.get("labels", {}), "labels").items():
+        labels[key] = check_file_name(f"labels.{key_text(key)}", symbol)  # symbols become part of case ids
+    base_label = check_file_name("base_label", data.get("base_label", "base"))
 
     try:
         base = _load_base(data.get("base"), matrix_file)
@@ -505,11 +613,11 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
         modes = {base.loads.mode: {}}
     else:
         if not isinstance(modes_table, dict) or not modes_table:
-            raise MatrixError(f"load_modes: expected a table of mode = {{ key = value }}, got {modes_table!r}")
+            raise MatrixError(f"load_modes: expected a table of mode = {{ key = value }}, "
+                              f"got {show(modes_table)}")
         modes = {}
         for mode, updates in modes_table.items():
-            if _ID_SAFE.search(mode):
-                raise MatrixError(f"load_modes.{mode}: mode names may use letters, digits, . _ + - = only")
+            check_file_name(f"load_modes.{key_text(mode)}", mode)  # modes start every case id
             modes[mode] = _flatten(updates, f"load_modes.{mode}")
             if sum(k in modes[mode] for k in _LOAD_KEYS) != 1:
                 raise MatrixError(f"load_modes.{mode}: set exactly one of {' / '.join(_LOAD_KEYS)}")
@@ -517,19 +625,27 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
     sweeps_in = data.get("sweep", [])
     if not isinstance(sweeps_in, list) or not sweeps_in:
         raise MatrixError("sweep: expected at least one [[sweep]] table")
-    expanded = []
+    expanded, total = [], 0
     for i, sw in enumerate(sweeps_in):
         where = f"sweep[{i}]"
         if not isinstance(sw, dict):
-            raise MatrixError(f"{where}: expected a table, got {sw!r}")
+            raise MatrixError(f"{where}: expected a table, got {show(sw)}")
         for key in sw:
             if key not in _SWEEP_KEYS:
-                raise MatrixError(f"{where}.{key}: unknown key (valid: {', '.join(sorted(_SWEEP_KEYS))})")
-        sw_name = sw.get("name", f"sweep{i + 1}")
-        if not isinstance(sw_name, str) or _ID_SAFE.search(sw_name):
-            raise MatrixError(f"{where}.name: expected a short name of letters, digits, . _ + - =, got {sw_name!r}")
-        points, keys = _sweep_points(sw, where)
-        expanded.append((sw_name, sw.get("label", sw_name), keys, points, bool(sw.get("include_base", True))))
+                raise MatrixError(f"{where}.{key_text(key)}: unknown key "
+                                  f"(valid: {', '.join(sorted(_SWEEP_KEYS))})")
+        sw_name = check_file_name(f"{where}.name", sw.get("name", f"sweep{i + 1}"))
+        include_base = sw.get("include_base", True)
+        if not isinstance(include_base, bool):
+            raise MatrixError(f"{where}.include_base: expected true or false, got {show(include_base)}")
+        expect = _check_expect(f"{where}.expect", sw.get("expect"))
+        points, keys = _sweep_points(sw, where, MAX_MATRIX_CASES - total)
+        total += len(points) + include_base
+        if total * len(modes) > MAX_MATRIX_CASES:
+            raise MatrixError(f"{where}: the matrix expands to more than {MAX_MATRIX_CASES:,} cases "
+                              f"({len(modes)} load modes x sweep points); split it into several matrices")
+        label = _text(f"{where}.label", sw.get("label", sw_name))
+        expanded.append((sw_name, label, keys, points, include_base, expect))
     names = [e[0] for e in expanded]
     if len(set(names)) != len(names):
         raise MatrixError(f"sweep: names must be unique, got {names}")
@@ -544,24 +660,31 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
             mode_base = _with_mode(base, mode_updates)
         except ValueError as err:
             raise MatrixError(f"load_modes.{mode}: {err}") from None
-        for sw_name, sw_label, keys, points, include_base in expanded:
+        for sw_name, sw_label, keys, points, include_base, expect in expanded:
             ids = []
-            for point in ([{}] if include_base else []) + points:
+            added_base = [{}] if include_base else []
+            for k, point in enumerate(added_base + points):
                 values = _canonical(point, mode_base.raw, order)
                 is_base = not values
                 case_id = "_".join([mode, base_label] if is_base else
                                    [mode] + [f"{labels.get(k, k)}={_format_value(v)}" for k, v in values.items()])
-                case_id = _ID_SAFE.sub("_", case_id)
+                case_id = check_file_name(f"sweep {sw_name} ({mode}): case id", _ID_SAFE.sub("_", case_id))
                 if case_id not in cases:
                     try:
                         case = mode_base.with_values({**values, "name": case_id})
                     except ValueError as err:
                         raise MatrixError(f"sweep {sw_name} ({mode}): {err}") from None
                     cases[case_id] = {"raw": case.raw, "mode": mode, "values": values, "sweeps": [],
-                                      "labels": {}, "is_base": is_base}
+                                      "labels": {}, "is_base": is_base, "declared": {}}
                 elif cases[case_id]["values"] != values:
                     raise MatrixError(f"sweep {sw_name}: two different cases share the id {case_id!r}; set [labels]")
                 entry = cases[case_id]
+                if k >= len(added_base):  # a point of the sweep: its expectation applies
+                    entry["declared"][sw_name] = expect
+                    if len(set(entry["declared"].values())) > 1:
+                        first, first_expect = next(iter(entry["declared"].items()))
+                        raise MatrixError(f"sweep {sw_name}: case {case_id} is expected {_expected(expect)} "
+                                          f"here but {_expected(first_expect)} by sweep {first}")
                 if sw_name not in entry["sweeps"]:
                     entry["sweeps"].append(sw_name)
                 shown = {k: v for k, v in values.items() if k in keys} or values
@@ -576,13 +699,14 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
         per_mode = {mode: ids for n, _, _, mode, ids in sweeps if n == sw_name}
         sweep_objs.append(Sweep(sw_name, sw_label, keys, per_mode))
     matrix_cases = tuple(
-        MatrixCase(cid, e["raw"], e["mode"], e["values"], tuple(e["sweeps"]), e["labels"], e["is_base"])
+        MatrixCase(cid, e["raw"], e["mode"], e["values"], tuple(e["sweeps"]), e["labels"], e["is_base"],
+                   next(iter(e["declared"].values()), None))
         for cid, e in cases.items()
     )
     judges = tuple(e for e in engines_t if e != reference)
     return Matrix(
         name=name,
-        description=str(data.get("description", "")),
+        description=description,
         source=source,
         reference=reference,
         engines=engines_t,
@@ -598,9 +722,4 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
 def load_matrix(source: str | Path | None = None) -> Matrix:
     """Read and expand a matrix file, or a bundled matrix by name (default: ``thesis-1991``)."""
     path = matrix_path(DEFAULT_MATRIX if source is None else source)
-    try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as err:
-        raise MatrixError(f"{path}: not valid TOML ({err})") from None
-    return parse_matrix(data, source=str(path), matrix_file=path)
+    return parse_matrix(read_toml(path, MatrixError), source=str(path), matrix_file=path)

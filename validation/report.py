@@ -172,7 +172,8 @@ def balancing(matrix: Matrix) -> tuple[Figure | None, list[dict]]:
         peak = {name: float(np.nanmax(np.linalg.norm(getattr(s, attr), axis=1)))
                 for name, s, attr in (("force_before", before, "force"), ("force_after", after, "force"),
                                       ("moment_before", before, "moment"), ("moment_after", after, "moment"))}
-        rows.append({"case": mc.id, **peak, "ratio": peak["force_after"] / peak["force_before"]})
+        ratio = peak["force_after"] / peak["force_before"] if peak["force_before"] > 0 else None  # at rest: none
+        rows.append({"case": mc.id, **peak, "ratio": ratio})
     with tempfile.TemporaryDirectory() as tmp:
         base_case = base.case()
         path = shaking_force_polar(base_case, balanced_case(base_case), Path(tmp) / "shaking.png")
