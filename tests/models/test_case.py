@@ -78,3 +78,91 @@ def test_cli_bad_case_exits_2_without_traceback(tmp_path):
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and "geometry.rod_length" in proc.stderr
+
+
+# ----------------------------------------------------------------------------- input ranges (issue 11)
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda d: d["geometry"].update(crank_length=1e300), ["geometry.crank_length", "1e+300", "1e+15"]),
+    (lambda d: d["geometry"].update(rod_length=10**400), ["geometry.rod_length", "401 digits"]),
+    (lambda d: d["geometry"].update(slider_offset=-(10**30)), ["geometry.slider_offset", "digits", "length"]),
+    (lambda d: d["motion"].update(crank_rpm=1e160), ["motion.crank_rpm", "1e+160", "rpm", "1e+07"]),
+    (lambda d: d["motion"].update(crank_rpm=1e308), ["motion.crank_rpm", "1e+308"]),
+    (lambda d: d["motion"].update(crank_accel=-1e308), ["motion.crank_accel", "-1e+308", "rad/s^2"]),
+    (lambda d: d["motion"].update(crank_rpm=True), ["motion.crank_rpm", "True", "number"]),
+    (lambda d: d["motion"].update(crank_rpm=float("nan")), ["motion.crank_rpm", "nan", "finite"]),
+    (lambda d: d["motion"].update(angles_deg={"step": 5e-324}), ["motion.angles_deg.step", "10,000,000"]),
+    (lambda d: d["motion"].update(angles_deg={"step": 1e-300}), ["motion.angles_deg.step", "10,000,000"]),
+    (lambda d: d["motion"].update(angles_deg={"start": -1e308}), ["motion.angles_deg.start", "degrees"]),
+    (lambda d: d["motion"].update(axial_cycles=1e9), ["motion.axial_cycles", "1000"]),
+    (lambda d: d["bodies"].update(density=1e-300), ["bodies.density", "1e-15"]),
+    (lambda d: d["loads"].update(drive_torque=1e16), ["loads.drive_torque", "torque"]),
+    (lambda d: d["loads"].update(gravity=[0.0, 1e200, 0.0]), ["loads.gravity[1]", "acceleration"]),
+    (lambda d: d["loads"].update(gravity=list(range(100_000))), ["loads.gravity", "3 numbers", "..."]),
+    (lambda d: d.update(units="furlong-firkin"), ["units", "furlong-firkin", "inch-lbf-s", "m-kg-s"]),
+    (lambda d: d.update(name="two\nlines"), ["name", "control"]),
+    (lambda d: d.update({"x" * 5000: 1}), ["unknown", "..."]),
+])
+def test_out_of_range_input_is_one_line_naming_key_value_and_range(edit, words):
+    data = _base()
+    edit(data)
+    with pytest.raises(CaseError) as err:
+        case_from_dict(data)
+    msg = str(err.value)
+    assert "\n" not in msg and len(msg) < 400, msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+def test_the_range_edges_are_accepted():
+    """The stated bounds are inclusive, and the physical extremes inside them load."""
+    data = _base()
+    data["geometry"].update(crank_length=1e-15 * 1e3, rod_length=1e15)
+    data["motion"].update(crank_rpm=-1e7, crank_accel=1e10, axial_cycles=1000.0, angles_deg={"step": 30.0})
+    data["units"] = "mm-N-s"
+    case = case_from_dict(data)
+    assert case.motion.speed == pytest.approx(-1e7 * np.pi / 30, rel=1e-15)
+    data["motion"]["crank_rpm"] = 0  # at rest: a quasi-static case is meaningful
+    assert case_from_dict(data).motion.speed == 0.0
+
+
+def test_the_most_positions_is_decided_before_building_them():
+    data = _base()
+    data["motion"]["angles_deg"] = {"start": 0.0, "stop": 1.0, "step": 1e-7}  # exactly 10^7
+    assert len(case_from_dict(data).motion.angles_deg) == 10_000_000
+    data["motion"]["angles_deg"]["step"] = 0.99e-7
+    with pytest.raises(CaseError, match="10,000,000"):
+        case_from_dict(data)
+
+
+@pytest.mark.parametrize("text, words", [
+    ('name = "x"\nunits = ' + "{a = " * 600 + "1" + "}" * 600, ["nested 600 deep", "16"]),
+    ('name = "x"\nunits = ' + "[" * 600 + "1" + "]" * 600, ["nested 600 deep"]),
+    ('name = "x"\n' + "a." * 20_000 + "b = 1", ["dotted key of 20001 parts"]),
+    ('name = "x"\n[' + "g." * 20_000 + "b]", ["dotted key of 20001 parts"]),
+    ('name = "x"\n' + "q = \"" + "y" * (1 << 20) + "\"", ["larger than 1,048,576 bytes"]),
+    ('name = "x"\n[geometry\n', ["not valid TOML"]),
+])
+def test_hostile_toml_is_refused_before_parsing(tmp_path, text, words):
+    """Deep nesting made tomllib recurse (RecursionError); 20,000-part keys took 1.5 GB before."""
+    path = tmp_path / "hostile.toml"
+    path.write_text(text)
+    with pytest.raises(CaseError) as err:
+        load_case(path)
+    msg = str(err.value)
+    assert "\n" not in msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+def test_toml_skeleton_ignores_dots_and_brackets_inside_strings(tmp_path):
+    """Strings, comments and floats do not count as nesting or key parts (no false refusal)."""
+    from dualmech.models.toml_input import read_toml
+
+    deep = "[" * 20 + " a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a "
+    text = (f'a = "{deep}"\nb = \'{deep}\'\nc = """\n{deep}\n"""\nd = \'\'\'{deep}\'\'\'\n'
+            f'e = """x""""\nf = [1.5, 2.5e3, -0.5]  # {deep}\n')
+    path = tmp_path / "ok.toml"
+    path.write_text(text)
+    data = read_toml(path, CaseError)
+    assert data["a"] == data["b"] == deep and data["e"] == 'x"' and data["f"] == [1.5, 2500.0, -0.5]

@@ -1,6 +1,8 @@
 """Forward dynamics: the paper's planar I(psi) against the in-house velocity analysis, energy
 conservation, the work-energy balance, and inverse dynamics along the simulated trajectory."""
 
+import time
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -208,3 +210,90 @@ def test_cli_simulate(tmp_path):
     assert len(out.read_text().splitlines()) == 12
     bad = CliRunner().invoke(main, ["simulate", "ideal", "--duration", "0.5", "--torque", "os.system('x')"])
     assert bad.exit_code == 2 and "error" in bad.output and "Traceback" not in bad.output
+
+
+# ----------------------------------------------------------------------------- hostile inputs (issue 11)
+
+@pytest.mark.parametrize("text, words", [
+    ("9**9**9", ["exponent", "16"]),                      # hung (Python integer power) before
+    ("2**(3**5)", ["exponent 243"]),
+    ("1e400", ["inf", "finite"]),                         # crashed inside the error handler before
+    ("1" + "0" * 400, ["too large"]),
+    ("sqrt(-1)", ["not a real number"]),                  # NaN into the integrator: a hang before
+    ("(-8)**(1/3)", ["not a real number"]),
+    ("log(0)", ["not a real number"]),
+    ("1/0", ["ZeroDivisionError"]),
+    ("exp(1000)", ["OverflowError"]),
+    ("1e20", ["1e+20", "largest load"]),
+    ("-" * 900 + "1", ["nesting"]),
+    ("t" + "+t" * 600, ["1201 characters", "at most 1000"]),
+    ("sin(1, 2)", ["takes 1 argument"]),
+    ("sin", ["is a function"]),
+    ("True", ["not a number"]),
+    ("a\x00", ["cannot parse"]),
+])
+def test_hostile_expressions_fail_at_parse_time_in_one_line(text, words):
+    start = time.perf_counter()
+    with pytest.raises(ValueError) as err:
+        fd.load_expression(text)
+    msg = str(err.value)
+    assert "\n" not in msg and len(msg) < 300, msg
+    for w in words:
+        assert w in msg, (w, msg)
+    assert time.perf_counter() - start < 0.5
+
+
+def test_expression_values_outside_the_reals_fail_with_the_state():
+    f = fd.load_expression("sqrt(psi - 10) + t**psi")
+    assert f(2.0, 11.0, 0.0, 0.0, 0.0) == pytest.approx(1.0 + 2.0**11, rel=1e-15)
+    with pytest.raises(ValueError, match=r"not a real number\) at t=2, psi=3"):
+        f(2.0, 3.0, 0.0, 0.0, 0.0)
+    with pytest.raises(ValueError, match="exponent 17 exceeds 16"):
+        f(2.0, 17.0, 0.0, 0.0, 0.0)
+    # every whitelisted function, scalar, as numpy gave them before
+    g = fd.load_expression("clip(t, 0, 1) + mod(-1, 3) + sign(-t) + floor(2.5) + where(t < 1, 5, 6) + "
+                           "maximum(t, 3) + minimum(t, 3) + arctan2(1, 1) + abs(-t) + log10(100)")
+    expected = 1 + 2 - 1 + 2 + 6 + 3 + 2 + np.pi / 4 + 2 + 2
+    assert g(2.0, 0.0, 0.0, 0.0, 0.0) == pytest.approx(expected, rel=1e-15)
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(rtol=float("nan")), ["rtol", "nan"]),            # hung before
+    (dict(rtol=-1e-6), ["rtol", "relative tolerance"]),
+    (dict(atol=float("inf")), ["atol", "inf"]),
+    (dict(duration=float("nan")), ["duration", "nan"]),
+    (dict(duration=1e300), ["duration", "1e+06"]),
+    (dict(psidot0=1e300), ["psidot0", "rad/s"]),
+    (dict(psi0=float("inf")), ["psi0", "finite"]),
+    (dict(samples=10**6), ["samples", "100,000"]),
+    (dict(samples=True), ["samples", "True"]),
+    (dict(torque=1e400), ["torque", "inf"]),
+    (dict(torque=10**400), ["torque", "digits"]),
+    (dict(method="Euler"), ["method", "DOP853"]),
+    (dict(max_evaluations=0), ["max_evaluations", "positive"]),
+])
+def test_simulate_refuses_bad_numbers_before_integrating(kwargs, words):
+    case = load_case("ideal")
+    args = {"duration": 0.01, **kwargs}
+    with pytest.raises(ValueError) as err:
+        fd.simulate(case, args.pop("duration"), **args)
+    msg = str(err.value)
+    assert "\n" not in msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
+def test_the_integrator_stops_on_its_budget_and_says_where():
+    case = load_case("ideal")
+    model = fd.coefficient_model(case)
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match=r"stopped at t = [0-9.e-]+ s of 10 s: used its budget of 500 "):
+        fd.simulate(case, 10.0, torque=100.0, model=model, max_evaluations=500, samples=3)
+    with pytest.raises(ValueError, match=r"stopped at .* wall-time budget of 0.05 s"):
+        fd.simulate(case, 1000.0, torque=100.0, model=model, time_limit=0.05, samples=3)
+    with pytest.raises(ValueError, match=r"crank speed .* passed 1.0472e\+06 rad/s"):  # a runaway motion
+        fd.simulate(case, 1.0, torque="1e14*t", model=model, samples=3)
+    assert time.perf_counter() - start < 20.0
+    # the budget counts the integration only: a normal run is untouched by it
+    sim = fd.simulate(case, 0.05, torque=100.0, model=model, samples=3, max_evaluations=1000)
+    assert sim.info["nfev"] <= 1000 and np.isfinite(sim.psi).all()
