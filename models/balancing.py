@@ -54,6 +54,7 @@ from pathlib import Path
 import numpy as np
 
 from dualmech.core.motion import CrankState
+from dualmech.core.status import Status
 from dualmech.models.case import Case, with_loads
 from dualmech.models.slider_crank import analyze
 
@@ -162,8 +163,9 @@ def shaking(case: Case, crank: CrankState | None = None) -> Shaking:
     regular = with_loads(case, drive_torque=None, slider_force=0.0)
     an = analyze(regular, crank)
     r = an.reactions
-    force = -(r.j1_force + r.j4_force)
-    moment = -(r.j1_moment + r.j4_moment + np.cross(an.p3, r.j4_force))
+    given = (an.status == Status.OK)[:, None]  # reactions of positions that do not assemble are not answers
+    force = np.where(given, -(r.j1_force + r.j4_force), np.nan)
+    moment = np.where(given, -(r.j1_moment + r.j4_moment + np.cross(an.p3, r.j4_force)), np.nan)
     return Shaking(an.crank.theta, force, moment, an.status)
 
 

@@ -95,7 +95,7 @@ def baseline_summary(matrix: Matrix, comparison: Comparison, results: dict[str, 
 
 def write_baseline(path: str | Path, summary: dict) -> None:
     """Write a baseline file (atomically)."""
-    write_json_atomic(Path(path), summary)
+    write_json_atomic(Path(path), summary, pretty=True)
 
 
 def read_baseline(path: str | Path) -> dict:

@@ -449,11 +449,11 @@ def compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]
             checks += [_fail(mc.id, e, ENGINE, engine_tol, f"not compared: the reference {why}",
                              incomplete=why == "did not run") for e in matrix.judges if e in tables]
             continue
-        checks.append(reference_check(mc.id, ref, matrix.quantities, getattr(mc, "expect", None)))
+        checks.append(reference_check(mc.id, ref, matrix.quantities, mc.expect))
         for e in matrix.judges:
             if e in tables:
                 checks += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities, matrix.tolerances[e],
-                                       getattr(mc, "expect", None))
+                                       mc.expect)
     return Comparison(tuple(checks), strokes, dead, errors)
 
 

@@ -153,37 +153,45 @@ def findings() -> tuple[list[dict] | None, str]:
 def balancing(matrix: Matrix) -> tuple[Figure | None, list[dict]]:
     """Shaking force before and after force balancing (Sinatra–Angeles): a polar figure and a table.
 
-    The figure is for the matrix's base case; the table gives, for the base case and
-    the first case of each sweep (the spatial offsets), the peak shaking force and
-    shaking moment over the cycle for the original and the balanced design.
+    The figure is for the first of these cases that assembles (``None`` if none does);
+    the table gives, for the base case and the last case of each sweep (the spatial
+    offsets), the peak shaking force and shaking moment over the cycle for the
+    original and the balanced design (NaN for a case that assembles nowhere).
     """
     from dualmech.models.balancing import balanced_case, shaking, shaking_force_polar
 
     base = next((c for c in matrix.cases if c.is_base), matrix.cases[0])
     picks = [base] + [next(c for c in matrix.cases if c.id == s.case_ids[base.mode][-1])
                       for s in matrix.sweeps if s.case_ids.get(base.mode)]
-    rows, seen = [], set()
+    picks = list({mc.id: mc for mc in picks}.values())  # the base case may also end a sweep
+    rows = []
     for mc in picks:
-        if mc.id in seen:
-            continue
-        seen.add(mc.id)
         case = mc.case()
         before, after = shaking(case), shaking(balanced_case(case))
-        peak = {name: float(np.nanmax(np.linalg.norm(getattr(s, attr), axis=1)))
+        peak = {name: _peak_norm(getattr(s, attr))
                 for name, s, attr in (("force_before", before, "force"), ("force_after", after, "force"),
                                       ("moment_before", before, "moment"), ("moment_after", after, "moment"))}
         ratio = peak["force_after"] / peak["force_before"] if peak["force_before"] > 0 else None  # at rest: none
         rows.append({"case": mc.id, **peak, "ratio": ratio})
+    drawn = next((mc for mc, row in zip(picks, rows) if np.isfinite(row["force_before"])), None)
+    if drawn is None:
+        return None, rows
     with tempfile.TemporaryDirectory() as tmp:
-        base_case = base.case()
-        path = shaking_force_polar(base_case, balanced_case(base_case), Path(tmp) / "shaking.png")
-        png = Path(path).read_bytes()
+        case = drawn.case()
+        png = Path(shaking_force_polar(case, balanced_case(case), Path(tmp) / "shaking.png")).read_bytes()
     figure = Figure("balancing-shaking-force", "balancing", "balancing",
-                    f"shaking force, {base.id}: original and force-balanced design",
+                    f"shaking force, {drawn.id}: original and force-balanced design",
                     "Tip of the shaking force's component normal to the crank axis over one revolution. "
                     "Balanced: crank and rod mass centres at xi1 = -(1 + mu2)/mu1, xi2 = -1/mu2 "
                     "(docs/conventions.md; errata S7).", png)
     return figure, rows
+
+
+def _peak_norm(vectors: np.ndarray) -> float:
+    """Largest Euclidean norm over the rows of ``vectors`` (shape ``(n, 3)``) that are finite; NaN if none."""
+    norms = np.linalg.norm(vectors, axis=1)
+    norms = norms[np.isfinite(norms)]
+    return float(norms.max()) if norms.size else float("nan")
 
 
 def tolerance_rows(matrix: Matrix) -> list[dict]:
@@ -603,7 +611,7 @@ def write_report(
     with locked(outdir if outdir is not None else rundir) as outdir:
         figures = _section("figures", render_figures, matrix, results, comparison, jobs=jobs)
         balance_figure, balance_rows = _section("balancing", balancing, matrix)
-        figures = [*figures, balance_figure]
+        figures = [*figures, *([balance_figure] if balance_figure is not None else [])]
         find, _ = _section("findings", findings)
         paths = _write_figures(outdir, figures)
         context = _context(matrix, run, results, comparison, figures)
@@ -616,7 +624,7 @@ def write_report(
                           .render(**context))
         runner_write_text(files.markdown, _environment(templates, markdown=True).get_template("report.md.j2")
                           .render(**context))
-        runner.write_json_atomic(files.summary, comparison_summary(matrix, comparison, run))
+        runner.write_json_atomic(files.summary, comparison_summary(matrix, comparison, run), pretty=True)
         record_files(outdir, [files.html, files.markdown, files.summary])
     return replace(files, seconds=time.perf_counter() - start)
 

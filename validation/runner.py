@@ -75,14 +75,20 @@ class RunOutcome:
 
 # ----------------------------------------------------------------------------- files
 
-def write_json_atomic(path: Path, data: Any) -> None:
-    """Write ``data`` as JSON to ``path`` so that readers see the old file or the new one, never half."""
+def write_json_atomic(path: Path, data: Any, *, pretty: bool = False) -> None:
+    """Write ``data`` as JSON to ``path`` so that readers see the old file or the new one, never half.
+
+    ``pretty``: sorted keys, one value per line, so that a change shows as a readable diff
+    (for files people review: baselines, summaries).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         with tmp.open("w") as fh:
-            json.dump(data, fh, allow_nan=True, default=_jsonable)
+            json.dump(data, fh, allow_nan=True, default=_jsonable,
+                      **({"indent": 1, "sort_keys": True} if pretty else {}))
+            fh.write("\n" if pretty else "")
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)

@@ -245,3 +245,37 @@ def test_a_broken_report_section_fails_the_report(small, tmp_path, monkeypatch):
     with pytest.raises(report.ReportError, match="report section 'findings' failed: TypeError"):
         report.write_report(out, None, jobs=1)
     assert not Path(out / "summary.json").exists()
+
+
+NO_ASSEMBLY_MATRIX = """
+name = "far-slider"
+base = "{base}"
+engines = ["dualmech", "pinocchio", "mujoco"]
+reference = "dualmech"
+set = {{ "motion.angles_deg" = {{ start = 0.0, stop = 360.0, step = 30.0 }} }}
+
+[[sweep]]
+name = "far"
+{expect}
+grid = {{ "geometry.slider_offset" = [0.3] }}
+include_base = false
+"""
+
+
+@pytest.mark.parametrize("expect, code", [("", 1), ('expect = "no_assembly"', 0)])
+def test_a_geometry_that_cannot_assemble_fails_unless_declared(tmp_path, expect, code):
+    """Why: slider offset 0.3 m with a 0.05 m crank and a 0.2 m rod said `stroke nan`, `✓ 0.0e+00`, PASS."""
+    base = tmp_path / "design.toml"
+    text = (Path(__file__).resolve().parents[2] / "models/cases/thesis/ideal.toml").read_text()
+    base.write_text(text.replace('units = "inch-lbf-s"', 'units = "m-N-s"')
+                    .replace("crank_length = 12.0", "crank_length = 0.05")
+                    .replace("rod_length = 50.0", "rod_length = 0.2"))
+    matrix = tmp_path / "far.toml"
+    matrix.write_text(NO_ASSEMBLY_MATRIX.format(base=base, expect=expect))
+    out = tmp_path / "run"
+    result = CliRunner().invoke(main, ["validate", str(matrix), "-o", str(out), "--jobs", "1"])
+    assert result.exit_code == code, result.output
+    if code:
+        assert "assembles at no crank position" in result.output
+    else:
+        assert "PASS" in result.output
