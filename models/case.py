@@ -45,6 +45,10 @@ class CaseError(ValueError):
 #: range covers every mechanism in every known unit system with decades to spare (an aerogel
 #: in t/mm^3 is 1e-12, a 10 km lever in mm is 1e7).
 SCALE = 1e15
+#: Largest ratio of the mechanism's largest length (a1, a2, |a4|, |S1|, axial amplitude) to
+#: the crank or rod length: a link 1e12 times smaller than the mechanism is below the rounding
+#: of its positions (1e4 x 2.2e-16 ~ 1e-12 of the size; the closure's SVD failed at 1e16).
+MAX_LENGTH_RATIO = 1e12
 #: Largest crank speed magnitude, rpm (time is always seconds): the fastest rotors built
 #: (MEMS turbines, ~1e6 rpm) with a factor 10 to spare.
 MAX_CRANK_RPM = 1e7
@@ -477,6 +481,15 @@ def _loads(ld: dict) -> Loads:
     )
 
 
+def _check_proportions(g: Geometry, m: CrankMotion) -> None:
+    size = max(g.crank_length, g.rod_length, abs(g.slider_offset), abs(g.crank_axial_shift),
+               abs(m.axial_amplitude))
+    for key, length in (("geometry.crank_length", g.crank_length), ("geometry.rod_length", g.rod_length)):
+        if length * MAX_LENGTH_RATIO < size:
+            raise CaseError(f"{key}: {length!r} is less than 1/{MAX_LENGTH_RATIO:g} of the mechanism's "
+                            f"largest length {size:g}; such a link is lost in the rounding of positions")
+
+
 # ----------------------------------------------------------------------------- public
 
 def case_from_dict(data: dict) -> Case:
@@ -492,6 +505,7 @@ def case_from_dict(data: dict) -> Case:
     _check_keys(data)
     geom = _geometry(data["geometry"])
     motion, bodies = _motion(data["motion"]), _bodies(data.get("bodies", {}), geom)
+    _check_proportions(geom, motion)
     loads = _loads(data.get("loads", {}))
     units = data.get("units", "consistent")
     if units not in KNOWN_UNITS:

@@ -96,6 +96,7 @@ def test_cli_bad_case_exits_2_without_traceback(tmp_path):
     (lambda d: d["motion"].update(angles_deg={"start": -1e308}), ["motion.angles_deg.start", "degrees"]),
     (lambda d: d["motion"].update(axial_cycles=1e9), ["motion.axial_cycles", "1000"]),
     (lambda d: d["bodies"].update(density=1e-300), ["bodies.density", "1e-15"]),
+    (lambda d: d["geometry"].update(rod_length=1e-15), ["geometry.rod_length", "1e+12", "largest length 12"]),
     (lambda d: d["loads"].update(drive_torque=1e16), ["loads.drive_torque", "torque"]),
     (lambda d: d["loads"].update(gravity=[0.0, 1e200, 0.0]), ["loads.gravity[1]", "acceleration"]),
     (lambda d: d["loads"].update(gravity=list(range(100_000))), ["loads.gravity", "3 numbers", "..."]),
@@ -117,7 +118,7 @@ def test_out_of_range_input_is_one_line_naming_key_value_and_range(edit, words):
 def test_the_range_edges_are_accepted():
     """The stated bounds are inclusive, and the physical extremes inside them load."""
     data = _base()
-    data["geometry"].update(crank_length=1e-15 * 1e3, rod_length=1e15)
+    data["geometry"].update(crank_length=1e3, rod_length=1e15)  # the largest length ratio, 1e12
     data["motion"].update(crank_rpm=-1e7, crank_accel=1e10, axial_cycles=1000.0, angles_deg={"step": 30.0})
     data["units"] = "mm-N-s"
     case = case_from_dict(data)
