@@ -76,9 +76,10 @@ class CrankMotion:
         theta = np.radians(deg)
         n = theta.shape[0]
         amp, cyc = self.axial_amplitude, self.axial_cycles
-        w, wd = self.speed, self.accel
+        w, wd = np.float64(self.speed), np.float64(self.accel)  # numpy floats: overflow gives inf, not an error
         phase = cyc * theta
         s = axial_shift + amp * np.sin(phase)
-        s_dot = amp * cyc * np.cos(phase) * w
-        s_ddot = amp * cyc * (np.cos(phase) * wd - cyc * np.sin(phase) * w**2)
+        with np.errstate(over="ignore", invalid="ignore"):  # engines flag such rows not_finite
+            s_dot = amp * cyc * np.cos(phase) * w
+            s_ddot = amp * cyc * (np.cos(phase) * wd - cyc * np.sin(phase) * w**2)
         return CrankState(theta, s, np.full(n, w), s_dot, np.full(n, wd), s_ddot)

@@ -12,7 +12,7 @@ word                kinematics  reactions   meaning
 ``ok``              finite      finite      the position assembles and everything is given
 ``dead_centre``     finite      NaN         torque mode, ``|transmission|`` below the band:
                                             the given torque cannot be balanced
-``assembly_limit``  S1, S4      NaN         the rod is (nearly) normal to the slider line:
+``assembly_limit``  S1, S4, c   NaN         the rod is (nearly) normal to the slider line:
                                             the closure is singular, rates are unbounded
 ``branch_jump``     NaN         NaN         the solver converged on the other assembly branch
 ``not_converged``   NaN         NaN         the solver stopped without meeting its tolerance
@@ -53,16 +53,47 @@ def is_status(words: np.ndarray, *allowed: str) -> np.ndarray:
     return np.isin(np.asarray(words, dtype=str), [str(a) for a in allowed])
 
 
-def demote_non_finite(columns: dict[str, np.ndarray], status: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
-    """Status words with every ``ok`` row that holds a non-finite value in ``names`` set to ``not_finite``.
+def demote_non_finite(columns: dict[str, np.ndarray], status: np.ndarray, names: tuple[str, ...],
+                      given: dict[str, tuple[str, ...]] | None = None) -> np.ndarray:
+    """Status words with every row that claims a non-finite value set to ``not_finite``.
 
     An engine calls this last, so that no ``ok`` row can carry NaN or inf
-    (e.g. ``crank_rpm = 1e308`` overflows the accelerations).  Returns a new
-    object array, shape ``(n,)``; ``columns`` is not changed.
+    (e.g. ``crank_rpm = 1e308`` overflows the accelerations).  An ``ok`` row must
+    be finite in every column of ``names``; a row of another status word ``w``
+    must be finite in the columns ``given[w]`` (e.g. ``dead_centre`` in the
+    kinematics, ``assembly_limit`` in S1 and S4: the module docstring's table).
+    Returns a new object array, shape ``(n,)``; ``columns`` is not changed.
     """
     status = np.asarray(status, dtype=object).copy()
     bad = np.zeros(status.shape[0], dtype=bool)
-    for name in names:
-        bad |= ~np.isfinite(np.asarray(columns[name], dtype=float))
-    status[bad & is_status(status, Status.OK)] = Status.NOT_FINITE.value
+    for word, required in {Status.OK.value: names, **(given or {})}.items():
+        rows = is_status(status, word)
+        for name in required:
+            bad |= rows & ~np.isfinite(np.asarray(columns[name], dtype=float))
+    status[bad] = Status.NOT_FINITE.value
+    return status
+
+
+#: Columns given wherever the pose is (:data:`ASSEMBLED`), besides ``theta1_deg`` and ``S1`` (always given).
+POSE_COLUMNS: tuple[str, ...] = ("S4", "closure_condition")
+#: Columns given only where the rates are (:data:`RATES_GIVEN`).
+RATE_COLUMNS: tuple[str, ...] = ("S4_dot", "S4_ddot", "transmission")
+
+
+def settle(columns: dict[str, np.ndarray], status: np.ndarray, reactions: tuple[str, ...]) -> np.ndarray:
+    """An engine's last step: final status words, and ``columns`` blanked (NaN) to match them, in place.
+
+    Rows claiming a non-finite value they should give become ``not_finite``
+    (:func:`demote_non_finite`: ``ok`` in every column, ``dead_centre`` in
+    :data:`POSE_COLUMNS` and :data:`RATE_COLUMNS`, ``assembly_limit`` in
+    :data:`POSE_COLUMNS`); then every column a row's word does not give is set to
+    NaN (``reactions`` outside ``ok``, rates outside :data:`RATES_GIVEN`, the pose
+    outside :data:`ASSEMBLED`).  Returns the status words, object array, shape ``(n,)``.
+    """
+    status = demote_non_finite(columns, status, POSE_COLUMNS + RATE_COLUMNS + tuple(reactions), {
+        Status.DEAD_CENTRE.value: POSE_COLUMNS + RATE_COLUMNS, Status.ASSEMBLY_LIMIT.value: POSE_COLUMNS})
+    for names, given in ((reactions, (Status.OK,)), (RATE_COLUMNS, RATES_GIVEN), (POSE_COLUMNS, ASSEMBLED)):
+        off = ~is_status(status, *given)
+        for name in names:
+            columns[name][off] = np.nan
     return status

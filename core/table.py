@@ -25,7 +25,7 @@ REACTION_COLUMNS: tuple[str, ...] = (
     "j4_fx", "j4_fy", "j4_fz", "j4_mx", "j4_my", "j4_mz",
     "slider_load", "drive_torque",
 )
-DIAGNOSTIC_COLUMNS: tuple[str, ...] = ("transmission", "residual")
+DIAGNOSTIC_COLUMNS: tuple[str, ...] = ("transmission", "residual", "closure_condition")
 NUMERIC_COLUMNS: tuple[str, ...] = KINEMATIC_COLUMNS + REACTION_COLUMNS + DIAGNOSTIC_COLUMNS
 COLUMNS: tuple[str, ...] = NUMERIC_COLUMNS + ("status",)
 

@@ -30,6 +30,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
+from dualmech.core.assembly import closure_condition, edge_status, foot_s4, reach
 from dualmech.core.closure import ClosureStatus, solve_closure
 from dualmech.core.dual import origin
 from dualmech.core.inertia import MassArrays
@@ -37,8 +38,10 @@ from dualmech.core.loop import Loop, LoopState, Row, closure_residual, evaluate,
 from dualmech.core.motion import CrankState
 from dualmech.core.rates import Rates, solve_rates
 from dualmech.core.reactions import BodyMotion, Reactions, body_motion, solve_reactions
-from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
+from dualmech.core.status import Status, is_status, settle
+from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
+from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
 
 #: |transmission| below which a torque-mode position is a dead centre (validation/tolerances.py, DEAD_CENTRE_TRANSMISSION).
 DEAD_CENTRE = 1e-9
@@ -99,6 +102,14 @@ class Batch:
         """``P2`` ``(n, 3)`` from the prescribed crank state."""
         th = self.crank.theta
         return np.stack([self.a1 * np.cos(th), self.a1 * np.sin(th), self.crank.s], 1)
+
+    def foot_s4(self) -> np.ndarray:
+        """``S4`` of the limit pose (:func:`~dualmech.core.assembly.foot_s4`), ``(n,)``."""
+        return foot_s4(self.crank_pin(), *self.slider_axis())
+
+    def reach(self) -> np.ndarray:
+        """Distance from ``P2`` to the slider line over ``a2`` (:func:`~dualmech.core.assembly.reach`), ``(n,)``."""
+        return reach(self.crank_pin(), *self.slider_axis(), self.a2)
 
 
 def _rod_frame(u: np.ndarray) -> np.ndarray:
@@ -197,6 +208,26 @@ def continuation(batch: Batch) -> tuple[LoopState, np.ndarray]:
 def close_loop(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndarray]:
     """Displacement analysis of every position: state, status words, iterations, residual.
 
+    A position whose crank pin is farther from the slider line than ``a2 (1 +
+    ASSEMBLY_REACH)`` is ``no_assembly`` (proven by geometry; its residual is that
+    least gap over ``a2``, its state the rod laid toward the foot of the
+    perpendicular); the others are closed by :func:`_close_reachable`.
+    """
+    rho = batch.reach()
+    state = state_from_slider(batch, batch.foot_s4())
+    status = np.full(len(batch), Status.NO_ASSEMBLY.value, dtype=object)
+    iters = np.zeros(len(batch), dtype=int)
+    residual = np.maximum(rho - 1.0, 0.0)
+    idx = np.flatnonzero(rho <= 1.0 + ASSEMBLY_REACH.value)
+    if idx.size:
+        sub_state, status[idx], iters[idx], residual[idx] = _close_reachable(batch.take(idx))
+        state = state.put(idx, sub_state)
+    return state, status, iters, residual
+
+
+def _close_reachable(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`close_loop` at positions within reach.
+
     Newton (with its DFP fallback) from the plane-geometry estimate; positions that
     did not converge or landed on the other branch are retried from
     :func:`along_slider_estimate`, then by :func:`continuation`.  Positions where DFP found a non-zero stationary
@@ -216,8 +247,8 @@ def close_loop(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndar
         codes[retry[sel]], residual[retry[sel]] = again.status[sel], again.residual[sel]
         iters[retry] += again.iterations
         wrong[retry[sel]] = False
-    status = np.full(len(batch), "ok", dtype=object)
-    status[codes == ClosureStatus.NO_ASSEMBLY] = "no_assembly"
+    status = np.full(len(batch), Status.OK.value, dtype=object)
+    status[codes == ClosureStatus.NO_ASSEMBLY] = Status.NO_ASSEMBLY.value
     retry = np.flatnonzero((codes == ClosureStatus.NOT_CONVERGED) | wrong)
     if retry.size:
         sub_batch = batch.take(retry)
@@ -226,7 +257,8 @@ def close_loop(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndar
         state = state.put(retry[fixed], sub.take(fixed))
         residual[retry] = closure_residual(evaluate(LOOP, sub_batch.inputs(), state.take(retry)), LOOP)
         failed = retry[~sub_ok]
-        status[failed] = np.where(codes[failed] == ClosureStatus.OK, "branch_jump", "not_converged")
+        status[failed] = np.where(codes[failed] == ClosureStatus.OK, Status.BRANCH_JUMP.value,
+                                  Status.NOT_CONVERGED.value)
     return state, status, iters, residual
 
 
@@ -235,7 +267,8 @@ class Analysis:
     """Everything the in-house solver computes for one case (arrays over its ``n`` positions).
 
     ``status`` is an object array of status words (``docs/conventions.md``);
-    ``iterations`` and ``closure_residual`` per position; ``motions`` the crank,
+    ``iterations`` and ``closure_residual`` per position; ``closure_condition`` the
+    ``|u·k4|`` of ``docs/conventions.md`` (geometric where the loop did not close); ``motions`` the crank,
     rod and slider :class:`BodyMotion`; ``rates`` the loop :class:`Rates`;
     ``reactions`` the :class:`Reactions` (not masked: see :func:`to_table`).
     """
@@ -249,6 +282,7 @@ class Analysis:
     p2: np.ndarray
     p3: np.ndarray
     transmission: np.ndarray
+    closure_condition: np.ndarray
     rates: Rates
     motions: tuple[BodyMotion, BodyMotion, BodyMotion]
     reactions: Reactions
@@ -283,6 +317,10 @@ def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[
     motions = tuple(body_motion(b, r, o, rates.link_twist[i], rates.link_accel[i])
                     for i, (b, (r, o)) in enumerate(zip(bodies, frames)))
     _, k4 = batch.slider_axis()
+    closed = is_status(status, Status.OK)
+    status, condition = edge_status(status, closed, batch.reach(), closure_condition(p2, p3, k4),
+                                    ASSEMBLY_REACH.value, ASSEMBLY_LIMIT_CONDITION.value)
+    s4 = np.where(is_status(status, Status.ASSEMBLY_LIMIT) & ~closed, batch.foot_s4(), state.scalars[:, 0])
     given = np.array([[np.nan if k.loads.drive_torque is None else k.loads.drive_torque,
                        np.nan if k.loads.slider_force is None else k.loads.slider_force] for k in cases])
     gravity = np.repeat([k.loads.gravity for k in cases], counts, axis=0)
@@ -290,13 +328,14 @@ def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[
         reactions = solve_reactions(bodies, motions, p2, p3, k4, gravity,
                                     np.repeat(given[:, 0], counts), np.repeat(given[:, 1], counts))
     torque_mode = np.repeat(np.isfinite(given[:, 0]), counts)
-    status[(status == "ok") & torque_mode & (np.abs(transmission) < DEAD_CENTRE)] = "dead_centre"
+    status[is_status(status, Status.OK) & torque_mode & (np.abs(transmission) < DEAD_CENTRE)] = Status.DEAD_CENTRE.value
     out, start = [], 0
     for case, crank, n in zip(cases, cranks, counts):
         sl = slice(start, start + n)
         start += n
-        out.append(Analysis(case, crank, state.scalars[sl, 0], status[sl], iters[sl], residual[sl], p2[sl], p3[sl],
-                            transmission[sl], _take(rates, sl), _take(motions, sl), _take(reactions, sl)))
+        out.append(Analysis(case, crank, s4[sl], status[sl], iters[sl], residual[sl], p2[sl], p3[sl],
+                            transmission[sl], condition[sl], _take(rates, sl), _take(motions, sl),
+                            _take(reactions, sl)))
     return out
 
 
@@ -348,35 +387,32 @@ def no_assembly_ranges(theta_deg: np.ndarray, mask: np.ndarray) -> list[tuple[fl
 
 
 def to_table(an: Analysis) -> ResultTable:
-    """The common result table of an :class:`Analysis` (NaN where a row is not ``ok``)."""
+    """The common result table of an :class:`Analysis`, settled by :func:`~dualmech.core.status.settle`.
+
+    Every column a row's status word does not give is NaN; a row claiming a
+    non-finite value becomes ``not_finite`` (e.g. ``crank_rpm = 1e308``).
+    """
     r = an.reactions
     cols = {
         "theta1_deg": np.degrees(an.crank.theta), "S1": an.crank.s, "S4": an.s4,
         "S4_dot": an.rates.q_dot[:, 0], "S4_ddot": an.rates.q_ddot[:, 0],
         "slider_load": r.slider_load, "drive_torque": r.drive_torque,
         "transmission": an.transmission, "residual": an.closure_residual,
+        "closure_condition": an.closure_condition,
     }
     for name, arr in (("j1_f", r.j1_force), ("j1_m", r.j1_moment), ("j2_f", r.j2), ("j3_f", r.j3),
                       ("j4_f", r.j4_force), ("j4_m", r.j4_moment)):
         for k, axis in enumerate("xyz"):
             cols[f"{name}{axis}"] = arr[:, k]
     cols = {c: np.array(cols[c], dtype=float) for c in NUMERIC_COLUMNS}
-    kin_bad = ~np.isin(an.status, ["ok", "dead_centre"])
-    for c in NUMERIC_COLUMNS:
-        if c in ("theta1_deg", "S1", "transmission", "residual"):
-            continue
-        if c in ("S4", "S4_dot", "S4_ddot"):
-            cols[c][kin_bad] = np.nan
-        else:
-            cols[c][an.status != "ok"] = np.nan
-    cols["transmission"][kin_bad] = np.nan
+    status = settle(cols, an.status, REACTION_COLUMNS)
     messages = []
-    bad = an.status == "no_assembly"
+    bad = status == Status.NO_ASSEMBLY
     if bad.any():
         ranges = ", ".join(f"{a:g}..{b:g}" for a, b in no_assembly_ranges(cols["theta1_deg"], bad))
         messages.append(f"no_assembly: the rod cannot reach the slider line at crank angles {ranges} deg")
     meta = {"iterations": an.iterations, "dynamics_residual": r.residual, "messages": messages}
-    return ResultTable("dualmech", an.case.name, cols, an.status.copy(), meta)
+    return ResultTable("dualmech", an.case.name, cols, status, meta)
 
 
 def solve_case(case: Case) -> ResultTable:

@@ -13,3 +13,12 @@ FINITE_DIFFERENCE = 1e-7
 #: Shared inputs (mass properties, crank motion) against the same formula evaluated by hand: round-off only
 #: (measured <= 2e-16 relative).
 COMMON_MODE_INPUT = 1e-13
+#: S4 at the assembly limit (c ~ 0) against the closed form, relative to a2: a closure residual r moves S4 by
+#: ~sqrt(2 r) a2 there (r ~ 1e-14: 1.4e-7); measured <= 1.6e-7 (Pinocchio), 4.6e-8 (MuJoCo).
+S4_AT_ASSEMBLY_LIMIT = 1e-6
+#: Compiled kernel against the batched numpy solver (same algorithm), kinematics relative to the case's scale
+#: of each unit group (validation/compare.py): both close to 1e-14 of a2; measured <= 3e-14.
+KERNEL_VS_NUMPY_KINEMATICS = 1e-12
+#: The same for reactions, relative to the case's peak and condition-scaled by |t| in torque mode:
+#: 3x3 products summed in another order; measured <= 2e-12.
+KERNEL_VS_NUMPY_REACTIONS = 1e-11

@@ -55,10 +55,12 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from dualmech.core.assembly import edge_status, foot_s4
+from dualmech.core.status import Status, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
-from dualmech.models.mjcf import case_to_mjcf, slider_axis
-from dualmech.validation.tolerances import DEAD_CENTRE_TRANSMISSION
+from dualmech.models.mjcf import MAX_TIMESTEP, case_to_mjcf, default_settings, slider_axis
+from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, DEAD_CENTRE_TRANSMISSION
 
 ENGINE = "mujoco"
 
@@ -88,8 +90,16 @@ class MjLoop:
 
 
 def build(case: Case, xml: str | None = None) -> MjLoop:
-    """Compile the MJCF of ``case`` (or the given text) and collect the ids."""
-    model = mujoco.MjModel.from_xml_string(case_to_mjcf(case) if xml is None else xml)
+    """Compile the MJCF of ``case`` (or the given text) and collect the ids.
+
+    The rigid path never steps in time, so its default model carries the settings of
+    the ``MAX_TIMESTEP`` step (the time step and servo gains are read by nothing it
+    calls): a case whose own simulation step would overflow (``crank_rpm = 1e308``)
+    still builds, and its rows are judged ``not_finite`` one by one.
+    """
+    if xml is None:
+        xml = case_to_mjcf(case, default_settings(case, MAX_TIMESTEP))
+    model = mujoco.MjModel.from_xml_string(xml)
     data = mujoco.MjData(model)
     names = ("crank_angle", "crank_axial", "rod_ball", "slider_stroke")
     jid = [model.joint(n).id for n in names]
@@ -211,6 +221,11 @@ def _rod_axis(lp: MjLoop) -> np.ndarray:
     """u = (P3 - P2)/|P3 - P2|, world, shape (3,)."""
     u = lp.data.site_xpos[lp.site_pin] - lp.data.xpos[lp.rod]
     return u / np.linalg.norm(u)
+
+
+def condition(lp: MjLoop) -> float:
+    """The closure condition ``|u·k4|`` of the current pose (:mod:`dualmech.core.assembly`)."""
+    return abs(float(_rod_axis(lp) @ lp.k4))
 
 
 def _rate_rows(lp: MjLoop) -> tuple[np.ndarray, np.ndarray]:
@@ -339,18 +354,21 @@ def set_crank(lp: MjLoop, theta: float, s: float) -> None:
     lp.data.qpos[lp.qadr[1]] = s
 
 
-def assembled_state(lp: MjLoop, crank: tuple[float, ...], warm: bool) -> tuple[str, int, float]:
+def assembled_state(lp: MjLoop, crank: tuple[float, ...], warm: bool) -> tuple[str, int, float, float]:
     """Close the loop and set ``qvel`` for crank state ``(theta, s, theta_dot, s_dot)``.
 
     ``warm``: start Newton from the current ``qpos`` (continuation) instead of the crude guess.
-    Returns ``(status, iterations, gap)``; status is ``ok``, ``no_assembly``,
-    ``not_converged`` or ``branch_jump``.
+    Returns ``(status, iterations, gap, closure condition)``; status is ``ok``,
+    ``assembly_limit``, ``no_assembly``, ``not_converged`` or ``branch_jump``, with the edges of
+    assembly of :func:`dualmech.core.assembly.edge_status` (the condition ``|u·k4|`` of
+    MuJoCo's own pose; an ``assembly_limit`` row whose Newton failed is put at the limit pose).
     """
     theta, s, theta_dot, s_dot = crank
     set_crank(lp, theta, s)
     mujoco.mj_kinematics(lp.model, lp.data)
-    if reach(lp) > 0.0:
-        return "no_assembly", 0, math.nan
+    rho = 1.0 + reach(lp) / lp.a2
+    if rho > 1.0 + ASSEMBLY_REACH.value:
+        return Status.NO_ASSEMBLY.value, 0, math.nan, math.nan
     if not warm:
         crude_guess(lp)
     ok, iters, gap = close_loop(lp)
@@ -358,15 +376,23 @@ def assembled_state(lp: MjLoop, crank: tuple[float, ...], warm: bool) -> tuple[s
         crude_guess(lp)
         ok, more, gap = close_loop(lp)
         iters += more
-    if not ok:
-        return "not_converged", iters, gap
-    if not on_branch(lp):
-        return "branch_jump", iters, gap
+    closed = ok and on_branch(lp)
+    raw = Status.OK if closed else Status.NOT_CONVERGED if not ok else Status.BRANCH_JUMP
+    words, conditions = edge_status(np.array([raw.value], dtype=object), np.array([closed]), np.array([rho]),
+                                   np.array([condition(lp)]),
+                                   ASSEMBLY_REACH.value, ASSEMBLY_LIMIT_CONDITION.value)
+    status, c = str(words[0]), float(conditions[0])
+    if status == Status.ASSEMBLY_LIMIT and not closed:  # the limit pose: the foot of the perpendicular
+        foot, axis = _slider_line(lp)
+        lp.data.qpos[lp.qadr[3]] = float(foot_s4(lp.data.xpos[lp.rod], foot, -axis)[0])
+        mujoco.mj_kinematics(lp.model, lp.data)
+    if status != Status.OK:
+        return status, iters, gap, c
     mujoco.mj_fwdPosition(lp.model, lp.data)  # efc rows of the connect, cinert, ...
     rows, _ = _rate_rows(lp)
     lp.data.qvel[:] = _solve_rates(lp, rows, np.array([theta_dot, s_dot]), np.zeros(4))
     mujoco.mj_fwdVelocity(lp.model, lp.data)  # cvel, cdof_dot for jacDot and RNE
-    return "ok", iters, gap
+    return status, iters, gap, c
 
 
 def solve_position(lp: MjLoop, crank: tuple[float, ...], mode: str, given: float, warm: bool) -> Position:
@@ -375,8 +401,11 @@ def solve_position(lp: MjLoop, crank: tuple[float, ...], mode: str, given: float
     values = {c: math.nan for c in NUMERIC_COLUMNS}
     values["theta1_deg"] = math.degrees(theta)
     values["S1"] = s
-    status, iters, gap = assembled_state(lp, crank[:4], warm)
-    if status != "ok":
+    status, iters, gap, condition = assembled_state(lp, crank[:4], warm)
+    values["closure_condition"] = condition
+    if status == Status.ASSEMBLY_LIMIT:
+        values.update(S4=float(lp.data.qpos[lp.qadr[3]]), residual=gap)
+    if status != Status.OK:
         return Position(status, iters, values)
     d = lp.data
     rows, _ = _rate_rows(lp)
@@ -388,10 +417,10 @@ def solve_position(lp: MjLoop, crank: tuple[float, ...], mode: str, given: float
         S4_ddot=float(qacc[lp.vadr[3]]), transmission=t, residual=gap,
     )
     if mode == "torque" and abs(t) < DEAD_CENTRE_TRANSMISSION.value:
-        return Position("dead_centre", iters, values)
+        return Position(Status.DEAD_CENTRE.value, iters, values)
     lam, _, _, _ = _efforts(lp, mode, given)
     values.update(_wrenches(lp, lam))
-    return Position("ok", iters, values)
+    return Position(Status.OK.value, iters, values)
 
 
 # ----------------------------------------------------------------------------- public
@@ -426,10 +455,8 @@ def solve_case(case: Case) -> ResultTable:
             cols[name][i] = value
         status[i] = pos.status
         iters[i] = pos.iterations
-        warm = pos.status in ("ok", "dead_centre")
-    bad = status != "ok"
-    for c in REACTION_COLUMNS:
-        cols[c][bad] = np.nan
+        warm = pos.status in (Status.OK, Status.DEAD_CENTRE)
+    status = settle(cols, status, REACTION_COLUMNS)
     meta = {"mujoco": mujoco.__version__, "newton_iterations": iters,
             "messages": status_messages(cols["theta1_deg"], status)}
     return ResultTable(ENGINE, case.name, cols, status, meta)
@@ -445,8 +472,8 @@ def assembled_qpos(case: Case, row: int = 0) -> np.ndarray:
     st = case.motion.state(case.geometry.crank_axial_shift)
     if not 0 <= row < len(st):
         raise ValueError(f"row: expected 0 <= row < {len(st)}, got {row!r}")
-    status, _, _ = assembled_state(lp, (float(st.theta[row]), float(st.s[row]), 0.0, 0.0), warm=False)
-    if status != "ok":
+    status, _, _, _ = assembled_state(lp, (float(st.theta[row]), float(st.s[row]), 0.0, 0.0), warm=False)
+    if status != Status.OK:
         raise ValueError(f"case: the loop does not close at theta1 = {st.theta[row] * 180 / math.pi:g} deg ({status})")
     return lp.data.qpos.copy()
 
@@ -454,7 +481,8 @@ def assembled_qpos(case: Case, row: int = 0) -> np.ndarray:
 def status_messages(theta_deg: np.ndarray, status: np.ndarray) -> list[str]:
     """One line per status word other than ok/dead_centre, with the crank angles it covers."""
     out = []
-    for word in ("no_assembly", "not_converged", "branch_jump"):
+    for word in (Status.ASSEMBLY_LIMIT, Status.NO_ASSEMBLY, Status.NOT_CONVERGED, Status.BRANCH_JUMP,
+                 Status.NOT_FINITE):
         rows = np.flatnonzero(status == word)
         if rows.size:
             shown = ", ".join(f"{a:g}" for a in theta_deg[rows[:8]]) + (", ..." if rows.size > 8 else "")

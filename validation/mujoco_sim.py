@@ -90,12 +90,14 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from dualmech.core.assembly import edge_status
+from dualmech.core.status import Status, is_status, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
 from dualmech.models.mjcf import (STEPS_PER_DEGREE, MjcfSettings, case_to_mjcf, default_settings,
                                   default_timestep)
 from dualmech.validation import mujoco_engine as rigid
-from dualmech.validation.tolerances import SIM_DEAD_CENTRE_TRANSMISSION
+from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, SIM_DEAD_CENTRE_TRANSMISSION
 
 ENGINE = "mujoco-sim"
 
@@ -168,38 +170,54 @@ def schedule(case: Case, steps_per_degree: int = STEPS_PER_DEGREE, rows: np.ndar
     return Schedule(dt, runs, tuple(int(i) for i in picked), runin)
 
 
-def survey(case: Case) -> tuple[np.ndarray, tuple[float, float]]:
+@dataclass(frozen=True)
+class Survey:
+    """What the rigid path's closure finds at every row before anything is simulated.
+
+    ``status`` (n,) words of :func:`~dualmech.validation.mujoco_engine.assembled_state`; ``s4`` and
+    ``condition`` (n,) its pose's ``S4`` and ``|u·k4|``; ``inertia_high`` the largest effective inertias
+    of the crank angle (F·L·s²) and axial (F·s²/L) joints over the rows that assemble.
+    """
+
+    status: np.ndarray
+    s4: np.ndarray
+    condition: np.ndarray
+    inertia_high: tuple[float, float]
+
+    @property
+    def simulated(self) -> np.ndarray:
+        """Rows a simulation can pass, (n,) bool: not ``no_assembly``, not at the ``assembly_limit``."""
+        return ~is_status(self.status, Status.NO_ASSEMBLY, Status.ASSEMBLY_LIMIT)
+
+
+def survey(case: Case) -> Survey:
     """Which rows assemble, and the largest effective inertias the two crank servos see there.
 
     Uses the rigid path's own closure at every row (MuJoCo geometry, never the
     in-house answer).  The effective inertia of a servo is :math:`v^T M v` with
     ``v`` the mechanism's velocity for a unit rate of that servo's joint (the
     other crank joint held, zero rod spin).
-
-    Returns
-    -------
-    reachable : numpy.ndarray of bool, shape (n,)
-    inertia_high : tuple[float, float]
-        Largest effective inertia of the crank angle (F·L·s²) and axial (F·s²/L) joints.
     """
     lp = rigid.build(case)
     st = case.motion.state(case.geometry.crank_axial_shift)
     n = len(st)
-    reachable = np.zeros(n, dtype=bool)
+    status = np.empty(n, dtype=object)
+    s4, condition = np.full(n, np.nan), np.full(n, np.nan)
     high = [0.0, 0.0]
     mass = np.empty((lp.model.nv, lp.model.nv))
     warm = False
     for i in range(n):
         for k, rates in enumerate(((1.0, 0.0), (0.0, 1.0))):
-            status, _, _ = rigid.assembled_state(lp, (float(st.theta[i]), float(st.s[i]), *rates), warm)
-            if status != "ok":
+            word, _, _, c = rigid.assembled_state(lp, (float(st.theta[i]), float(st.s[i]), *rates), warm)
+            if k == 0:
+                status[i], s4[i], condition[i] = word, lp.data.qpos[lp.qadr[3]], c
+            if word != Status.OK:
                 break
             mujoco.mj_fullM(lp.model, lp.data, mass)
             v = lp.data.qvel
             high[k] = max(high[k], float(v @ mass @ v))
-        warm = status == "ok"
-        reachable[i] = status != "no_assembly"
-    return reachable, (high[0], high[1])
+        warm = word == Status.OK
+    return Survey(status, s4, condition, (high[0], high[1]))
 
 
 def runin_steps(settings: MjcfSettings) -> int:
@@ -253,7 +271,7 @@ def read_state(lp: rigid.MjLoop, gains: np.ndarray) -> dict[str, float]:
     values.update(
         S1=float(d.qpos[lp.qadr[1]]), S4=float(d.qpos[lp.qadr[3]]),
         S4_dot=float(d.qvel[lp.vadr[3]]), S4_ddot=float(d.qacc[lp.vadr[3]]),
-        transmission=rigid.transmission(lp),
+        transmission=rigid.transmission(lp), closure_condition=rigid.condition(lp),
         residual=float(np.linalg.norm(d.site_xpos[lp.site_pin] - d.site_xpos[lp.site_end])) / lp.a2,
         theta=float(d.qpos[lp.qadr[0]]),
     )
@@ -285,8 +303,8 @@ def simulate(case: Case, slider_load: float, settings: MjcfSettings, rows: np.nd
         times = (np.arange(int(steps[-1]) + 1) - plan.runin) * plan.timestep
         theta, theta_dot, s, s_dot = reference(case, anchor, times)
         mujoco.mj_resetData(m, d)
-        status, _, _ = rigid.assembled_state(lp, (theta[0], s[0], theta_dot[0], s_dot[0]), warm=False)
-        if status != "ok":
+        status, _, _, _ = rigid.assembled_state(lp, (theta[0], s[0], theta_dot[0], s_dot[0]), warm=False)
+        if status != Status.OK:
             continue
         ctrl = np.stack([theta + kv[0] / kp[0] * theta_dot, s + kv[1] / kp[1] * s_dot,
                          np.full(times.shape, slider_load)], -1)
@@ -307,10 +325,20 @@ def simulate(case: Case, slider_load: float, settings: MjcfSettings, rows: np.nd
 
 
 def prepare(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> tuple[np.ndarray, MjcfSettings]:
-    """Rows that assemble and the simulation settings for ``case``."""
-    reachable, high = survey(case)
-    dt = schedule(case, steps_per_degree, reachable).timestep
-    return reachable, sim_settings(case, dt, high)
+    """Rows to simulate (:attr:`Survey.simulated`) and the simulation settings for ``case``."""
+    sv = survey(case)
+    return sv.simulated, _settings(case, steps_per_degree, sv)
+
+
+def _settings(case: Case, steps_per_degree: int, sv: Survey) -> MjcfSettings:
+    """:func:`sim_settings` at the schedule's step; ``OverflowError`` if they leave the double range."""
+    dt = schedule(case, steps_per_degree, sv.simulated).timestep
+    if not (dt > 0.0 and math.isfinite(1.0 / dt)):
+        raise OverflowError(f"time step {dt!r} s")
+    s = sim_settings(case, dt, sv.inertia_high)
+    if not all(math.isfinite(v) for v in (*s.servo_kp, *s.servo_kv)):
+        raise OverflowError(f"servo gains {s.servo_kp!r}, {s.servo_kv!r} at the time step {dt!r} s")
+    return s
 
 
 def load_scale(case: Case) -> float:
@@ -335,7 +363,12 @@ def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTa
         the largest crank tracking lag (rad) and, in torque mode, ``L_ref``.
     """
     n = case.motion.angles_deg.shape[0]
-    reachable, settings = prepare(case, steps_per_degree)
+    sv = survey(case)
+    reachable = sv.simulated
+    try:
+        settings = _settings(case, steps_per_degree, sv)
+    except OverflowError:  # the step that resolves the motion needs servo gains beyond the double range
+        return _overflowed(case, sv)
     meta: dict = {"mujoco": mujoco.__version__, "timestep": settings.timestep, "steps_per_degree": steps_per_degree,
                   "runin_steps": runin_steps(settings), "servo_kp": settings.servo_kp, "servo_kv": settings.servo_kv}
     if case.loads.mode == "force":
@@ -354,16 +387,45 @@ def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTa
         meta["L_ref"] = l_ref
     cols = {c: raw[c] for c in NUMERIC_COLUMNS if c != "theta1_deg"}
     cols["theta1_deg"] = case.motion.angles_deg.astype(float).copy()
-    status = np.where(dead, "dead_centre", "ok").astype(object)
-    status[~np.isfinite(cols["S4"])] = "not_converged"
-    status[~reachable] = "no_assembly"
+    status = np.where(dead, Status.DEAD_CENTRE.value, Status.OK.value).astype(object)
+    status[~np.isfinite(cols["S4"])] = Status.NOT_CONVERGED.value
+    status = _edges(status, cols, sv)
     cols["S1"] = np.where(reachable, cols["S1"], case.motion.state(case.geometry.crank_axial_shift).s)
-    for c in REACTION_COLUMNS:
-        cols[c] = np.where(status == "ok", cols[c], np.nan)
+    status = settle(cols, status, REACTION_COLUMNS)
     lag = raw["theta_lag"]
     meta["max_theta_lag"] = float(np.nanmax(np.abs(lag))) if np.isfinite(lag).any() else math.nan
     meta["messages"] = rigid.status_messages(cols["theta1_deg"], status)
     return ResultTable(ENGINE, case.name, cols, status, meta)
+
+
+def _edges(status: np.ndarray, cols: dict[str, np.ndarray], sv: Survey) -> np.ndarray:
+    """Status words with the edges of assembly: simulated rows by their own ``|u·k4|``, the others by the survey.
+
+    Rows the survey put at the ``assembly_limit`` or beyond reach are not simulated: their
+    words, ``S4`` and condition are the survey's (the rigid path's pose).  ``cols`` is updated in place.
+    """
+    closed = sv.simulated & np.isfinite(cols["closure_condition"])
+    with np.errstate(invalid="ignore"):
+        rho = np.sqrt(1.0 - np.minimum(cols["closure_condition"], 1.0) ** 2)
+    status, condition = edge_status(status, closed, np.where(closed, rho, 0.0), cols["closure_condition"],
+                                    ASSEMBLY_REACH.value, ASSEMBLY_LIMIT_CONDITION.value)
+    skipped = ~sv.simulated
+    status[skipped] = sv.status[skipped]
+    cols["closure_condition"] = np.where(skipped, sv.condition, np.where(closed, condition, np.nan))
+    cols["S4"] = np.where(skipped, sv.s4, cols["S4"])
+    return status
+
+
+def _overflowed(case: Case, sv: Survey) -> ResultTable:
+    """The table of a case whose simulation cannot be set up in double precision: every assembling row ``not_finite``."""
+    n = sv.status.shape[0]
+    cols = {c: np.full(n, np.nan) for c in NUMERIC_COLUMNS}
+    cols["theta1_deg"] = case.motion.angles_deg.astype(float).copy()
+    cols["S1"] = case.motion.state(case.geometry.crank_axial_shift).s
+    status = _edges(np.full(n, Status.NOT_FINITE.value, dtype=object), cols, sv)
+    status = settle(cols, status, REACTION_COLUMNS)
+    messages = rigid.status_messages(cols["theta1_deg"], status)
+    return ResultTable(ENGINE, case.name, cols, status, {"mujoco": mujoco.__version__, "messages": messages})
 
 
 def benchmark(case: Case, repeats: int = 1, steps_per_degree: int = STEPS_PER_DEGREE) -> dict:

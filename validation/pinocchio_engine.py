@@ -68,7 +68,9 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg import lapack
 
+from dualmech.core.assembly import edge_status, foot_s4, reach
 from dualmech.core.motion import CrankState
+from dualmech.core.status import Status, settle
 from dualmech.core.table import REACTION_COLUMNS, STATUSES, ResultTable
 from dualmech.models.case import Case
 from dualmech.validation import tolerances
@@ -99,8 +101,8 @@ _LOCAL = pin.ReferenceFrame.LOCAL
 
 # internal status codes: indices into STATUSES (core/table.py)
 _STATUS_WORDS = np.array(STATUSES, dtype=object)
-_OK, _DEAD, _BRANCH, _NOT_CONVERGED, _NO_ASSEMBLY = (
-    STATUSES.index(w) for w in ("ok", "dead_centre", "branch_jump", "not_converged", "no_assembly"))
+_OK, _DEAD, _LIMIT, _BRANCH, _NOT_CONVERGED, _NO_ASSEMBLY = (STATUSES.index(w) for w in (
+    Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.BRANCH_JUMP, Status.NOT_CONVERGED, Status.NO_ASSEMBLY))
 # coordinate layout of build_model (checked in _Closure): q = (theta1, S1, quat(4), S4), v = (theta1, S1, w(3), S4)
 _Q_S4, _V_S4 = 6, 5
 
@@ -132,6 +134,8 @@ class PinocchioSolution:
         ``|p_end - p_pin|`` at the final iterate, length units.
     ls_residual : numpy.ndarray, shape (n,)
         ``|[E, J_c^T] x - b| / |b|`` of the inverse-dynamics least squares.
+    condition : numpy.ndarray, shape (n,)
+        The closure condition ``|u·k4|`` (``dualmech.core.assembly``), NaN where ``no_assembly``.
     """
 
     q: np.ndarray
@@ -150,6 +154,7 @@ class PinocchioSolution:
     iterations: np.ndarray
     residual: np.ndarray
     ls_residual: np.ndarray
+    condition: np.ndarray
 
 
 # ----------------------------------------------------------------------------- closure
@@ -201,6 +206,7 @@ class _Closure:
         self.mu = STEP_DAMPING * pm.a2**2
         self.dv = np.zeros(pm.model.nv)
         self.AB = np.empty((4, 6))
+        self.condition = math.nan  # |u·k4| at the last converged solution
         layout = (pm.q_crank, pm.q_rod, pm.q_slider, pm.v_crank, pm.v_rod, pm.v_slider)
         if layout != (slice(0, 2), slice(2, 6), slice(6, 7), slice(0, 2), slice(2, 5), slice(5, 6)):
             raise ValueError(f"pinocchio model: unexpected coordinate layout {layout}")
@@ -280,8 +286,9 @@ class _Closure:
         AB = self.AB
         AB[:3] = jc
         AB[3] = pin.getJointJacobian(model, data, pm.rod_joint, _LOCAL)[3]  # rod angular velocity along its x = u
-        rod_axis = data.oMi[pm.rod_joint].rotation[:, 0]
-        return _OK if float(rod_axis @ pm.k4) < 0.0 else _BRANCH
+        along = float(data.oMi[pm.rod_joint].rotation[:, 0] @ pm.k4)  # u·k4, u = the rod frame's x axis
+        self.condition = abs(along)
+        return _OK if along < 0.0 else _BRANCH
 
     def tangent(self) -> np.ndarray:
         """``d q_free / d (theta1, S1) = -A^{-1} B`` at the last converged solution, shape (4, 2)."""
@@ -366,7 +373,7 @@ def _positions(closure: _Closure, case: Case, state: CrankState) -> dict[str, np
     starts from :meth:`_Closure.crude_guess`, so a status always describes its own
     position.  Returns q (n, 7), the rate equations AB (n, 4, 6) and the tangent
     K = -A^{-1} B (n, 4, 2) at each closed position (NaN elsewhere), status codes,
-    Newton iterations and closure residuals |r| (n,).
+    Newton iterations, closure residuals |r| and the closure condition |u·k4| (n,) (NaN where not closed).
     """
     n = len(state)
     q_all = np.empty((n, closure.model.nq))
@@ -375,6 +382,7 @@ def _positions(closure: _Closure, case: Case, state: CrankState) -> dict[str, np
     status = np.empty(n, dtype=int)
     iterations = np.empty(n, dtype=int)
     residual = np.empty(n)
+    condition = np.full(n, np.nan)
     crank = np.column_stack([state.theta, state.s])
     q_prev, t_prev = None, None
     for i in range(n):
@@ -386,12 +394,12 @@ def _positions(closure: _Closure, case: Case, state: CrankState) -> dict[str, np
         q_all[i], status[i], iterations[i], residual[i] = q, code, it, rnorm
         if code == _OK:
             t_prev = closure.tangent()
-            AB_all[i], K_all[i] = closure.AB, t_prev
+            AB_all[i], K_all[i], condition[i] = closure.AB, t_prev, closure.condition
             q_prev = q
         else:
             q_prev, t_prev = None, None  # restart from a crude guess at the next position
     return {"q": q_all, "AB": AB_all, "K": K_all, "status": status, "iterations": iterations,
-            "residual": residual}
+            "residual": residual, "condition": condition}
 
 
 def _dynamics(closure: _Closure, case: Case, pos: dict[str, np.ndarray], state: CrankState,
@@ -519,6 +527,29 @@ def _geometry_at(closure: _Closure, q: np.ndarray) -> tuple[np.ndarray, np.ndarr
             data.oMi[pm.crank_joint].translation.copy())
 
 
+def _edges(closure: _Closure, pos: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Status codes, closure condition (n,) and configurations (n, 7) with the edges of assembly applied.
+
+    :func:`dualmech.core.assembly.edge_status` on Pinocchio's own poses: the condition of a
+    closed row is its ``|u·k4|`` (and its reach ``sqrt(1 - c^2)``); other rows get the reach
+    of Pinocchio's crank pin.  An ``assembly_limit`` row whose closure failed is put at the
+    limit pose (``S4`` of the foot of the perpendicular from ``P2``).
+    """
+    pm, q = closure.pm, pos["q"].copy()
+    closed = pos["status"] == _OK
+    failed = np.flatnonzero(~closed)
+    with np.errstate(invalid="ignore"):
+        rho = np.sqrt(1.0 - np.minimum(pos["condition"], 1.0) ** 2)
+    p2 = np.array([_geometry_at(closure, q[i])[0] for i in failed]).reshape(-1, 3)
+    rho[failed] = reach(p2, pm.F, pm.k4, pm.a2)
+    words, condition = edge_status(_STATUS_WORDS[pos["status"]], closed, rho, pos["condition"],
+                                   tolerances.ASSEMBLY_REACH.value, tolerances.ASSEMBLY_LIMIT_CONDITION.value)
+    status = np.array([STATUSES.index(w) for w in words], dtype=int)
+    at_limit = status[failed] == _LIMIT
+    q[failed[at_limit], _Q_S4] = foot_s4(p2[at_limit], pm.F, pm.k4)
+    return status, condition, q
+
+
 def solve(case: Case, pm: PinocchioSliderCrank | None = None) -> tuple[PinocchioSolution, dict]:
     """Run the passes of the module docstring on ``case``.
 
@@ -545,9 +576,9 @@ def solve(case: Case, pm: PinocchioSliderCrank | None = None) -> tuple[Pinocchio
     pos = _positions(closure, case, state)
     t2 = time.perf_counter()
     n = len(state)
-    status = pos["status"].copy()
+    status, condition, q = _edges(closure, pos)
     rows = np.flatnonzero(status == _OK)
-    dyn = _dynamics(closure, case, pos, state, rows)
+    dyn = _dynamics(closure, case, {**pos, "q": q}, state, rows)
 
     def _full(values: np.ndarray, at: np.ndarray = rows) -> np.ndarray:
         out = np.full((n, *values.shape[1:]), np.nan)
@@ -570,14 +601,14 @@ def solve(case: Case, pm: PinocchioSliderCrank | None = None) -> tuple[Pinocchio
     closure_wrench = np.concatenate([lam, np.cross(dyn["p3"][keep], lam)], axis=1)
     t3 = time.perf_counter()
     solution = PinocchioSolution(
-        q=pos["q"], v=_full(dyn["v"]), a=_full(dyn["a"]),
+        q=q, v=_full(dyn["v"]), a=_full(dyn["a"]),
         effort=_full(effort, live), closure_force=_full(lam, live),
         wrench1=_full(f0[:, 0] - closure_wrench, live),
         wrench2=_full(f0[:, 1] - closure_wrench, live),
         wrench4=_full(f0[:, 2] + closure_wrench, live),
         p2=p2, p3=p3, u=u, crank_origin=o1,
         status=status, iterations=pos["iterations"], residual=pos["residual"],
-        ls_residual=_full(ls_res, live),
+        ls_residual=_full(ls_res, live), condition=condition,
     )
     timings = {"model": t1 - t0, "positions": t2 - t1, "dynamics": t3 - t2}
     return solution, timings
@@ -630,15 +661,12 @@ def to_table(case: Case, sol: PinocchioSolution, meta: dict | None = None) -> Re
         "drive_torque": w1[:, 5].copy(),
         "transmission": t,
         "residual": sol.residual / case.geometry.rod_length,
+        "closure_condition": sol.condition,
     }
     cols = {k: np.array(v, dtype=float) for k, v in cols.items()}
-    failed = np.isin(status, [_BRANCH, _NOT_CONVERGED, _NO_ASSEMBLY])
-    for name in ("S4", "S4_dot", "S4_ddot"):
-        cols[name][failed] = np.nan
-    for name in REACTION_COLUMNS:
-        cols[name][status != _OK] = np.nan
     cols["residual"][status == _NO_ASSEMBLY] = np.nan
-    words = _STATUS_WORDS[status]
+    words = settle(cols, _STATUS_WORDS[status], REACTION_COLUMNS)
+    status = np.array([STATUSES.index(w) for w in words], dtype=int)
     messages = []
     for code, word in enumerate(_STATUS_WORDS):
         at = status == code

@@ -47,7 +47,8 @@ def _closed_form(case: Case) -> dict[str, np.ndarray]:
     arm = p2 - np.stack([np.zeros_like(st.s), np.zeros_like(st.s), st.s], axis=-1)
     t = np.cross(arm, u)[:, 2] / a1
     return {"theta1_deg": case.motion.angles_deg.astype(float), "S1": st.s, "S4": s4,
-            "S4_dot": s4_dot, "S4_ddot": s4_ddot, "transmission": t, "residual": np.zeros_like(s4)}
+            "S4_dot": s4_dot, "S4_ddot": s4_ddot, "transmission": t, "residual": np.zeros_like(s4),
+            "closure_condition": np.abs(rk) / a2}
 
 
 def _table(case: Case, engine: str, noise: float = 0.0, phase: float = 0.0) -> ResultTable:

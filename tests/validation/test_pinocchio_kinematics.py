@@ -132,7 +132,7 @@ def test_other_branch_is_refused(monkeypatch):
     assert (table.status == "branch_jump").all()
     for col in ("S4", "S4_dot", "S4_ddot", *REACTION_COLUMNS):
         assert np.isnan(table[col]).all(), col
-    assert np.isfinite(table["transmission"]).all() and np.isfinite(table["residual"]).all()
+    assert np.isnan(table["transmission"]).all() and np.isfinite(table["residual"]).all()  # no rates, no t
     assert table.meta["messages"] == ["branch_jump: 12 positions at 0-330 deg"]
 
 
