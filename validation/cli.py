@@ -129,3 +129,7 @@ main.add_command(report)
 from dualmech.validation.cli_simulate import simulate  # noqa: E402
 
 main.add_command(simulate)
+
+from dualmech.validation.selftest import selftest  # noqa: E402
+
+main.add_command(selftest)

@@ -1,0 +1,127 @@
+"""``dualmech selftest``: the catalogue cannot go stale silently, and the harness reports kills and survivors.
+
+The full mutation run is a CI step (``.ci/run``); here the harness runs on a
+three-fault catalogue against a one-case matrix, so that this module stays fast.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from dualmech.validation.selftest import (BOOT, CATALOGUE, CLASSES, WRONG_IMPORT, Catalogue, Mutant,
+                                          SelftestError, format_report, load_catalogue, parse_catalogue,
+                                          run_selftest, source_root, stale_reason)
+
+ROOT = source_root()
+FULL = load_catalogue(ROOT / CATALOGUE)
+#: The issue asks for at least 30 faults; the brief for this harness at least 32.
+MIN_MUTANTS = 32
+
+
+def test_catalogue_has_enough_faults_in_every_class():
+    assert len(FULL.mutants) >= MIN_MUTANTS
+    assert {m.fault_class for m in FULL.mutants} == set(CLASSES)
+    assert (ROOT / FULL.matrix).is_file()
+
+
+@pytest.mark.parametrize("entry", FULL.tests)
+def test_every_gate_test_exists(entry: str):
+    """A test path or node id (also one deselected) that no longer exists would silently test nothing."""
+    path, _, node = entry.removeprefix("--deselect=").partition("::")
+    assert (ROOT / path).is_file(), entry
+    assert not node or f"def {node.split('[')[0]}(" in (ROOT / path).read_text(), entry
+
+
+@pytest.mark.parametrize("mutant", FULL.mutants, ids=[m.id for m in FULL.mutants])
+def test_every_fault_applies_to_the_current_source(mutant: Mutant):
+    """Each ``old`` text occurs exactly once in its file: a refactor that moves it fails here, not quietly."""
+    assert stale_reason(mutant, ROOT) is None, f"{mutant.id}: {stale_reason(mutant, ROOT)}"
+
+
+def _one(**over) -> dict:
+    m = {"id": "x", "file": "core/dual.py", "class": "solver", "description": "d", "old": "a", "new": "b",
+         **over}
+    return {"matrix": "m.toml", "mutant": [m]}
+
+
+@pytest.mark.parametrize("data, words", [
+    (_one(new="a"), ["mutant x.new", "identical"]),
+    (_one(**{"class": "typo"}), ["mutant x.class", "solver", "'typo'"]),
+    (_one(id="a b"), ["mutant[0].id", "'a b'"]),
+    ({"matrix": "m.toml", "mutant": []}, ["mutant", "at least one"]),
+    ({"mutant": _one()["mutant"]}, ["matrix", "None"]),
+    ({**_one(), "extra": 1}, ["extra", "unknown key"]),
+])
+def test_bad_catalogue_is_one_line(data, words):
+    with pytest.raises(SelftestError) as err:
+        parse_catalogue(data)
+    msg = str(err.value)
+    assert "\n" not in msg and all(w in msg for w in words), msg
+
+
+def test_stale_fault_is_reported(tmp_path):
+    (tmp_path / "f.py").write_text("x = 1\nx = 1\n")
+    twice = Mutant("m", "f.py", "x = 1", "x = 2", "solver", "d")
+    assert "2 times" in stale_reason(twice, tmp_path)
+    assert "does not exist" in stale_reason(Mutant("m", "g.py", "x", "y", "solver", "d"), tmp_path)
+
+
+def test_boot_refuses_a_copy_that_is_not_what_gets_imported(tmp_path):
+    """Without the copy's package links the gate process must stop with WRONG_IMPORT, never fall back."""
+    proc = subprocess.run([sys.executable, "-c", BOOT, str(tmp_path)], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == WRONG_IMPORT, proc.stderr
+    assert "not from" in proc.stderr
+
+
+SMALL_MATRIX = """
+name = "selftest-unit"
+base = "thesis/ideal"
+engines = ["dualmech", "pinocchio"]
+reference = "dualmech"
+set = { "motion.angles_deg" = { start = 0.0, stop = 360.0, step = 10.0 } }
+[[sweep]]
+name = "one"
+cases = [ { "geometry.slider_offset" = 10.0, "geometry.crank_axial_shift" = 1.0 } ]
+include_base = false
+"""
+
+
+def _digest(paths: list[Path]) -> str:
+    return hashlib.sha256(b"".join(p.read_bytes() for p in paths)).hexdigest()
+
+
+def test_harness_kills_reports_survivors_and_stale_faults(tmp_path):
+    """A reaction sign (matrix), the S1 law (tests: the one-case matrix has no axial motion), a no-op edit
+    that must SURVIVE, and a stale fault that must be an ERROR; the checkout is left untouched."""
+    matrix = tmp_path / "small.toml"
+    matrix.write_text(SMALL_MATRIX)
+    by_id = {m.id: m for m in FULL.mutants}
+    noop = Mutant("comment-only", "core/reactions.py",
+                  "# D'Alembert: what the joints must supply to each body",
+                  "# D'Alembert: the joints supply to each body", "solver", "a comment edit: no behaviour")
+    stale = Mutant("stale", "core/reactions.py", "this text is not in the file", "x", "solver", "stale")
+    cat = Catalogue((by_id["reaction-sign-j4-force"], by_id["s1-law-cos"], noop, stale), str(matrix),
+                    ("tests/models/test_common_mode.py",))
+    files = sorted({ROOT / m.file for m in cat.mutants})
+    before = _digest(files)
+    report = run_selftest(cat, ROOT, jobs=2, timeout=120)
+    assert _digest(files) == before
+    assert report.pristine.verdict == "pass", report.pristine.detail
+    verdicts = {o.mutant.id: o.run.verdict for o in report.outcomes}
+    assert verdicts == {"reaction-sign-j4-force": "matrix", "s1-law-cos": "tests", "comment-only": "pass",
+                        "stale": "error"}, report.outcomes
+    assert report.killed == 2 and not report.passed
+    text = format_report(report, jobs=2)
+    assert "SURVIVED" in text and "ERROR" in text
+    assert "mutation score: 2/4 killed (50.0 %)" in text
+
+
+def test_unknown_mutant_id_is_refused():
+    with pytest.raises(SelftestError, match="'nope' is not a mutant"):
+        run_selftest(FULL, ROOT, only=("nope",))
