@@ -103,8 +103,6 @@ def test_cli_bad_case_exits_2_without_traceback(tmp_path):
 
 # ----------------------------------------------------------------------------- input ranges (issue 11)
 
-
-
 def test_the_range_edges_are_accepted():
     """The stated bounds are inclusive, and the physical extremes inside them load."""
     data = _base()
