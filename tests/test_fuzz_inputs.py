@@ -87,7 +87,7 @@ def _mutate(data: dict, draw: st.DrawFn, count: int) -> dict:
         edit = draw(st.sampled_from(["replace", "replace", "scale", "delete", "add", "units"]))
         if edit == "replace" and path:
             parent[leaf] = draw(HOSTILE_VALUES)
-        elif edit == "scale" and path and isinstance(old, (int, float)) and not isinstance(old, bool):
+        elif edit == "scale" and path and (isinstance(old, float) or type(old) is int and abs(old) < 2**53):
             parent[leaf] = old * draw(st.sampled_from([-1.0, 0.0, 1e-20, 1e-8, 1e8, 1e20, 1e150]))
         elif edit == "delete" and path:
             del parent[leaf]
