@@ -410,3 +410,12 @@ def test_keyboard_interrupt_and_usage_errors_keep_their_handling():
     res = CliRunner().invoke(_command(click.UsageError("bad usage")), [])
     assert res.exit_code == 2 and "Usage:" in res.output
 
+
+
+def test_a_failure_of_the_arithmetic_is_internal_not_bad_input(tmp_path):
+    """numpy's LinAlgError subclasses ValueError; it is an engine failure (exit 70), never the user's input (2)."""
+    import numpy as np
+
+    res = CliRunner().invoke(_command(np.linalg.LinAlgError("SVD did not converge")), ["-o", str(tmp_path)])
+    assert res.exit_code == 70
+    assert res.output.startswith("dualmech: internal error: LinAlgError: SVD did not converge")

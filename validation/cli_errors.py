@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Callable
 
 import click
+import numpy as np
 
 #: Exit code for bad input (one line names it).
 EXIT_BAD_INPUT = 2
@@ -70,6 +71,11 @@ def write_traceback(err: BaseException, folder: Path | None) -> str:
     return f"(not written: {reason})"
 
 
+#: ValueErrors that are failures of the arithmetic, never of the user's input (numpy's LinAlgError
+#: subclasses ValueError): they exit 70 with a traceback, not 2.
+INTERNAL_VALUE_ERRORS: tuple[type[BaseException], ...] = (np.linalg.LinAlgError,)
+
+
 def one_line_errors(func: Callable) -> Callable:
     """Decorate a click command: bad input exits 2, an unexpected error exits 70, each with one line."""
 
@@ -80,13 +86,20 @@ def one_line_errors(func: Callable) -> Callable:
         except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
             raise
         except (ValueError, OSError) as err:
-            click.echo(f"dualmech: error: {first_line(err)}", err=True)
-            sys.exit(EXIT_BAD_INPUT)
+            if not isinstance(err, INTERNAL_VALUE_ERRORS):
+                click.echo(f"dualmech: error: {first_line(err)}", err=True)
+                sys.exit(EXIT_BAD_INPUT)
+            _internal(err, kwargs)
         except Exception as err:  # the last line of defence: no traceback reaches the user
-            folder = next((Path(kwargs[k]) for k in OUTPUT_FOLDER_ARGUMENTS if kwargs.get(k)), None)
-            where = write_traceback(err, folder)
-            click.echo(f"dualmech: internal error: {type(err).__name__}: {first_line(err)}; "
-                       f"traceback in {where}", err=True)
-            sys.exit(EXIT_INTERNAL)
+            _internal(err, kwargs)
 
     return wrapper
+
+
+def _internal(err: BaseException, kwargs: dict) -> None:
+    """One line naming an unexpected error and where its traceback went; exit 70."""
+    folder = next((Path(kwargs[k]) for k in OUTPUT_FOLDER_ARGUMENTS if kwargs.get(k)), None)
+    where = write_traceback(err, folder)
+    click.echo(f"dualmech: internal error: {type(err).__name__}: {first_line(err)}; "
+               f"traceback in {where}", err=True)
+    sys.exit(EXIT_INTERNAL)
