@@ -72,13 +72,13 @@ from __future__ import annotations
 import itertools
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from dualmech.core.table import KINEMATIC_COLUMNS, REACTION_COLUMNS
-from dualmech.models.case import Case, Range, case_from_dict, check_text, key_text, load_case, show
+from dualmech.models.case import Case, Range, case_from_dict, check_text, key_text, load_case, preset_names, show
 from dualmech.models.toml_input import read_toml
 from dualmech.validation import tolerances as tolerance_table
 from dualmech.validation.engines import ENGINES
@@ -242,6 +242,12 @@ class Matrix:
     sweeps: tuple[Sweep, ...]
     labels: dict[str, str]
     tolerances: dict[str, dict[str, ResolvedTolerance]] = field(repr=False)  # judge -> quantity -> tol
+    base: str = ""  # the base case as the file names it (a preset name or a case file)
+
+    @property
+    def of_thesis(self) -> bool:
+        """Whether the base case is one of the thesis's presets (its findings then apply)."""
+        return self.base.startswith(THESIS_PRESETS)
 
     @property
     def judges(self) -> tuple[str, ...]:
@@ -270,8 +276,7 @@ class Matrix:
         missing = [e for e, t in tols.items() if not t]
         if missing:
             raise MatrixError(f"engines: {missing[0]!r} has no tolerances in matrix {self.name!r}")
-        return Matrix(self.name, self.description, self.source, self.reference, engines,
-                      self.quantities, self.modes, self.cases, self.sweeps, self.labels, tols)
+        return replace(self, engines=engines, tolerances=tols)
 
     def to_dict(self) -> dict:
         """JSON-ready form; :func:`matrix_from_dict` reads it back (used by stored runs)."""
@@ -279,6 +284,7 @@ class Matrix:
             "name": self.name,
             "description": self.description,
             "source": self.source,
+            "base": self.base,
             "reference": self.reference,
             "engines": list(self.engines),
             "quantities": list(self.quantities),
@@ -315,6 +321,7 @@ def matrix_from_dict(d: dict) -> Matrix:
         name=d["name"],
         description=d["description"],
         source=d["source"],
+        base=d.get("base", ""),
         reference=d["reference"],
         engines=tuple(d["engines"]),
         quantities=tuple(d["quantities"]),
@@ -357,6 +364,12 @@ def matrix_path(source: str | Path) -> Path:
 
 
 DEFAULT_MATRIX = "thesis-1991"
+#: Base-case names of the thesis's worked example (its printed findings are about these).
+THESIS_PRESETS: tuple[str, ...] = ("thesis/",)
+#: The one sweep of a matrix that declares none: the base case alone.
+BASE_ALONE: list[dict] = [{"name": "design", "label": "the base case alone", "cases": [{}], "include_base": False}]
+#: Longest name a design matrix takes from its case (it becomes a folder name).
+MAX_DESIGN_NAME = 80
 
 
 # ----------------------------------------------------------------------------- parsing
@@ -622,9 +635,9 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
             if sum(k in modes[mode] for k in _LOAD_KEYS) != 1:
                 raise MatrixError(f"load_modes.{mode}: set exactly one of {' / '.join(_LOAD_KEYS)}")
 
-    sweeps_in = data.get("sweep", [])
+    sweeps_in = data.get("sweep", BASE_ALONE)
     if not isinstance(sweeps_in, list) or not sweeps_in:
-        raise MatrixError("sweep: expected at least one [[sweep]] table")
+        raise MatrixError("sweep: expected [[sweep]] tables, or none (the base case alone)")
     expanded, total = [], 0
     for i, sw in enumerate(sweeps_in):
         where = f"sweep[{i}]"
@@ -708,6 +721,7 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
         name=name,
         description=description,
         source=source,
+        base=data["base"],
         reference=reference,
         engines=engines_t,
         quantities=quantities_t,
@@ -720,6 +734,32 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
 
 
 def load_matrix(source: str | Path | None = None) -> Matrix:
-    """Read and expand a matrix file, or a bundled matrix by name (default: ``thesis-1991``)."""
+    """Read and expand a matrix file, or a bundled matrix by name (default: ``thesis-1991``).
+
+    A case file or a case preset is also accepted: it becomes :func:`design_matrix`.
+    """
+    if source is not None and is_case_source(source):
+        return design_matrix(source)
     path = matrix_path(DEFAULT_MATRIX if source is None else source)
     return parse_matrix(read_toml(path, MatrixError), source=str(path), matrix_file=path)
+
+
+def is_case_source(source: str | Path) -> bool:
+    """Whether ``source`` names a case (a preset, or a TOML file with a ``[geometry]`` table), not a matrix."""
+    if str(source) in preset_names():
+        return True
+    path = Path(source)
+    return path.is_file() and "geometry" in read_toml(path, MatrixError)
+
+
+def design_matrix(source: str | Path) -> Matrix:
+    """The matrix of one design: case ``source`` (file or preset) in its own load, on every engine.
+
+    Its name (and so the default output folder ``runs/<name>``) is the case's name made
+    file-name safe; the reference is ``dualmech`` and every other engine judges it.
+    """
+    case = load_case(source)
+    name = _ID_SAFE.sub("_", case.name).strip("._-")[:MAX_DESIGN_NAME] or "design"
+    data = {"name": name, "description": f"one design: {case.name}", "base": str(source),
+            "base_label": "design", "engines": list(ENGINES), "reference": "dualmech"}
+    return parse_matrix(data, source=str(source), matrix_file=None)

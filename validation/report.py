@@ -28,6 +28,7 @@ import io
 import math
 import os
 import re
+import shutil
 import tempfile
 import time
 import warnings
@@ -142,12 +143,12 @@ def stroke_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
     return rows
 
 
-def findings() -> tuple[list[dict] | None, str]:
-    """The thesis's printed findings with verdicts, from the model package, and a note (empty)."""
+def findings() -> list[dict]:
+    """The thesis's printed findings with verdicts, from the model package (a failure fails the report)."""
     module, func = FINDINGS_FUNCTION.split(":")
-    rows = getattr(import_module(module), func)()  # a broken findings module fails the report, loudly
+    rows = getattr(import_module(module), func)()
     return [{"finding": str(r.get("finding", "")), "verdict": str(r.get("verdict", "")),
-             "evidence": str(r.get("evidence", ""))} for r in rows], ""
+             "evidence": str(r.get("evidence", ""))} for r in rows]
 
 
 def balancing(matrix: Matrix) -> tuple[Figure | None, list[dict]]:
@@ -236,13 +237,14 @@ def engine_versions(results: dict[str, dict[str, ResultTable | str]]) -> dict[st
     return out
 
 
-def errata_link(outdir: Path) -> str | None:
-    """Relative link from ``outdir`` to the repository's ``docs/errata.md`` (None if not found)."""
-    repo = Path(__file__).resolve().parent.parent
-    errata = repo / "docs" / "errata.md"
-    if not (repo / "docs").is_dir():
+def copy_errata(outdir: Path) -> str | None:
+    """Copy the repository's ``docs/errata.md`` beside the report (so the folder can move); its name, or None."""
+    errata = Path(__file__).resolve().parent.parent / "docs" / "errata.md"
+    if not errata.is_file():  # an installed package without the repository's docs
         return None
-    return os.path.relpath(errata, Path(outdir).resolve())
+    shutil.copyfile(errata, Path(outdir) / "errata.md")
+    record_files(outdir, ["errata.md"])
+    return "errata.md"
 
 
 def dead_centre_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> list[dict]:
@@ -612,10 +614,10 @@ def write_report(
         figures = _section("figures", render_figures, matrix, results, comparison, jobs=jobs)
         balance_figure, balance_rows = _section("balancing", balancing, matrix)
         figures = [*figures, *([balance_figure] if balance_figure is not None else [])]
-        find, _ = _section("findings", findings)
+        find = _section("findings", findings) if matrix.of_thesis else None  # about the thesis's mechanism only
         paths = _write_figures(outdir, figures)
         context = _context(matrix, run, results, comparison, figures)
-        context.update(findings=find, findings_note="", balancing=balance_rows, errata=errata_link(outdir),
+        context.update(findings=find, balancing=balance_rows, errata=copy_errata(outdir) if find else None,
                        report_seconds=time.perf_counter() - start)
         templates = Path(__file__).parent / "templates"
         files = ReportFiles(outdir / "report.html", outdir / "report.md", outdir / "summary.json", tuple(paths),
