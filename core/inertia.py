@@ -39,13 +39,14 @@ class BodyInertia:
         object.__setattr__(self, "inertia", inertia)
         if not (np.isfinite(self.mass) and self.mass > 0):
             raise ValueError(f"mass: expected a finite positive number, got {self.mass!r}")
-        if not np.allclose(inertia, inertia.T, rtol=0, atol=1e-12 * max(1.0, np.abs(inertia).max())):
+        # every check relative to the tensor's own size: no absolute floor, so no unit decides a verdict
+        if not np.allclose(inertia, inertia.T, rtol=0, atol=1e-12 * np.abs(inertia).max()):
             raise ValueError(f"inertia: expected a symmetric 3x3 tensor, got {inertia.tolist()}")
         eig = np.linalg.eigvalsh(inertia)
-        if eig.min() < -1e-12 * max(1.0, eig.max()):
+        if eig.min() < -1e-12 * max(eig.max(), 0.0):
             raise ValueError(f"inertia: expected positive semi-definite, got eigenvalues {eig.tolist()}")
         a, b, c = np.sort(eig)
-        if c > a + b + 1e-9 * max(1.0, c):
+        if c > a + b + 1e-9 * c:
             raise ValueError(f"inertia: principal moments {eig.tolist()} violate the triangle inequality")
 
 

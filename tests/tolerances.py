@@ -22,3 +22,7 @@ KERNEL_VS_NUMPY_KINEMATICS = 1e-12
 #: The same for reactions, relative to the case's peak and condition-scaled by |t| in torque mode:
 #: 3x3 products summed in another order; measured <= 2e-12.
 KERNEL_VS_NUMPY_REACTIONS = 1e-11
+#: The in-house answers in another length unit against the unscaled ones in that unit, relative to each unit
+#: group's scale (reactions condition-weighted by |t|): scale factors are not powers of two, so round-off
+#: only; measured <= 5.4e-13.
+UNIT_CHANGE = 1e-11

@@ -261,7 +261,8 @@ def _drift(lp: MjLoop) -> np.ndarray:
 def _efforts(lp: MjLoop, mode: str, given: float) -> tuple[np.ndarray, float, float, float]:
     """Connect force and joint efforts by least squares on :math:`M\\ddot q + c = \\tau + J_c^T\\lambda`.
 
-    Returns ``(lam (3,), drive_torque, axial_force, slider_load)``; uses ``qacc``/``qvel``
+    The rows of the angular dofs (crank angle, rod ball; F·L) are divided by ``a2``, so that
+    every row is a force and the fit weighs them alike in any length unit.  Returns ``(lam (3,), drive_torque, axial_force, slider_load)``; uses ``qacc``/``qvel``
     of ``data`` (``mj_rne`` reads ``qacc``: nothing may overwrite it in between).
     """
     m, d = lp.model, lp.data
@@ -272,14 +273,16 @@ def _efforts(lp: MjLoop, mode: str, given: float) -> tuple[np.ndarray, float, fl
     va = lp.vadr
     e_angle, e_axial, e_stroke = np.zeros(nv), np.zeros(nv), np.zeros(nv)
     e_angle[va[0]], e_axial[va[1]], e_stroke[va[3]] = 1.0, 1.0, -1.0  # slide axis is -k4
+    w = np.ones(nv)
+    w[[va[0], va[2], va[2] + 1, va[2] + 2]] = 1.0 / lp.a2  # angular rows: F·L -> F
     if mode == "torque":
         a = np.column_stack([jc.T, e_axial, e_stroke])
         b = lhs - given * e_angle
-        x = np.linalg.lstsq(a, b, rcond=None)[0]
+        x = np.linalg.lstsq(a * w[:, None], b * w, rcond=None)[0]
         return x[:3], given, x[3], x[4]
     a = np.column_stack([jc.T, e_angle, e_axial])
     b = lhs - given * e_stroke
-    x = np.linalg.lstsq(a, b, rcond=None)[0]
+    x = np.linalg.lstsq(a * w[:, None], b * w, rcond=None)[0]
     return x[:3], x[3], x[4], given
 
 

@@ -472,6 +472,11 @@ def _closed_loop_inverse_dynamics(case: Case, pm: PinocchioSliderCrank, tau0: np
                                   jc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Least-squares solution of ``tau0 = S^T tau + J_c^T lambda`` for the unknown efforts and lambda.
 
+    The rows of the angular coordinates (crank angle, rod rotations; F·L) are divided by
+    ``a2`` so that every row is a force: the least squares then weighs the equations the
+    same way in any length unit (a moment row and a force row are otherwise weighed by
+    the unit: at micrometre scale the moment rows all but vanish from the fit).
+
     Parameters
     ----------
     tau0 : numpy.ndarray, shape (m, 6)
@@ -482,7 +487,7 @@ def _closed_loop_inverse_dynamics(case: Case, pm: PinocchioSliderCrank, tau0: np
     Returns
     -------
     effort : (m, 6) all joint efforts; lam : (m, 3) force of the slider on the rod at P3, world axes;
-    ls_residual : (m,) ``|lhs x - rhs| / |rhs|``.
+    ls_residual : (m,) ``|W (lhs x - rhs)| / |W rhs|`` with the row weights ``W``.
     """
     m, nv = tau0.shape
     known, unknown = _effort_split(case, pm)
@@ -491,8 +496,10 @@ def _closed_loop_inverse_dynamics(case: Case, pm: PinocchioSliderCrank, tau0: np
         tau_known[index] = value
     E = np.zeros((nv, len(unknown)))
     E[unknown, np.arange(len(unknown))] = 1.0
-    lhs = np.concatenate([np.broadcast_to(E, (m, *E.shape)), np.swapaxes(jc, 1, 2)], axis=2)  # (m, 6, 5)
-    rhs = tau0 - tau_known
+    w = np.ones(nv)
+    w[[pm.v_crank.start, *range(pm.v_rod.start, pm.v_rod.stop)]] = 1.0 / pm.a2  # angular rows: F·L -> F
+    lhs = np.concatenate([np.broadcast_to(E, (m, *E.shape)), np.swapaxes(jc, 1, 2)], axis=2) * w[:, None]  # (m, 6, 5)
+    rhs = (tau0 - tau_known) * w
     x = _least_squares(lhs, rhs)
     ls_res = np.linalg.norm(np.einsum("nij,nj->ni", lhs, x) - rhs, axis=1) / np.maximum(
         np.linalg.norm(rhs, axis=1), np.finfo(float).tiny)
