@@ -25,7 +25,7 @@ from numpy.testing import assert_allclose
 from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case, case_from_dict
-from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, MATRIX_KINEMATICS
+from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, MATRIX_KINEMATICS, SIM_STROKE
 from tests.conftest import assembly_margin
 from tests.tolerances import S4_AT_ASSEMBLY_LIMIT
 
@@ -138,7 +138,10 @@ def test_spatial_edge_of_assembly(engine, side):
 
 @pytest.mark.parametrize("engine", list(ENGINES))
 def test_closure_condition_matches_the_closed_form(engine):
-    """``closure_condition`` = sqrt(a2^2 - rho^2)/a2 from each engine's own pose, on a spatial case near its edges."""
+    """``closure_condition`` = sqrt(a2^2 - rho^2)/a2 from each engine's own pose, on a random spatial case.
+
+    Measured: <= 3.1e-14 (rigid engines), 5.9e-7 (simulation: its soft loop's pose).
+    """
     rng = np.random.default_rng(7)
     case = _case(30.0 + float(rng.uniform(0.0, 2.0)), {"start": 0.0, "stop": 360.0, "step": 15.0},
                  twist=float(rng.uniform(240.0, 300.0)), s1=float(rng.uniform(2.0, 6.0)))
@@ -147,5 +150,5 @@ def test_closure_condition_matches_the_closed_form(engine):
     margin = assembly_margin(case, np.radians(table["theta1_deg"]))
     rows = np.isin(np.asarray(table.status, dtype=str), list(ASSEMBLED))
     assert rows.sum() >= 10
-    tol = MATRIX_KINEMATICS.value if engine != "mujoco-sim" else 1e-5  # SIM_STROKE: the soft loop's pose
+    tol = (SIM_STROKE if engine == "mujoco-sim" else MATRIX_KINEMATICS).value
     assert_allclose(table["closure_condition"][rows], np.sqrt(margin[rows]) / A2, rtol=0, atol=tol)
