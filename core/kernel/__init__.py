@@ -1,0 +1,62 @@
+"""The compiled kernel of the dual-number method (numba ``@njit``): one position at a time, in registers.
+
+The numpy modules of :mod:`dualmech.core` state the method batched over positions; this
+subpackage runs the same algorithm per position, compiled, with every 3x3 dual matrix in
+a small scratch array that stays in the CPU's first-level cache, and positions in
+parallel (``prange``) over all cores.  Its pieces mirror the numpy modules one for one:
+
+========================  =====================================  ==============================
+kernel module             what                                   numpy twin
+========================  =====================================  ==============================
+``dual_nb``               3x3 dual-matrix arithmetic, rotations  :mod:`dualmech.core.dual`
+``loop_nb``               the link-joint table as flat arrays    :mod:`dualmech.core.loop`
+``closure_nb``            Newton with the screws, DFP fallback   :mod:`dualmech.core.closure`
+``rates_nb``              rates and accelerations from screws    :mod:`dualmech.core.rates`
+``dynamics_nb``           dual momentum rate of a rigid body     :mod:`dualmech.core.reactions`
+========================  =====================================  ==============================
+
+Everything here is generic: the table is data (:func:`~dualmech.core.kernel.loop_nb.flatten`),
+and mechanism-specific start estimates, branch rules and reaction eliminations live with
+the mechanism in :mod:`dualmech.models`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+from numba.core import caching
+
+#: Source files whose compiled code the cached kernels carry: this package, then the modules that
+#: registered with :func:`depends_on_kernel` (in import order, so each sees its dependencies).
+_SOURCES: list[Path] = sorted(Path(__file__).resolve().parent.glob("*.py"))
+
+
+def depends_on_kernel(path: str) -> None:
+    """Register the module file ``path`` (call after its imports, before its ``@njit`` functions).
+
+    numba's disk cache checks only the source file of the cached function itself, but a
+    compiled function carries the machine code of everything it calls: after an edit of
+    ``loop_nb.py`` a cached caller elsewhere would run stale code.  The functions of the
+    registered modules and of this package are cached against a digest of all of these files.
+    """
+    _SOURCES.append(Path(path).resolve())
+
+
+class _KernelLocator(caching.InTreeCacheLocator):
+    """numba cache locator for the kernel's files: fresh only if none of :data:`_SOURCES` changed."""
+
+    def get_source_stamp(self) -> str:
+        digest = hashlib.sha256()
+        for path in _SOURCES:
+            digest.update(path.read_bytes())
+        return digest.hexdigest()
+
+    @classmethod
+    def from_function(cls, py_func, py_file):  # noqa: ANN001, ANN206 (numba's interface)
+        if Path(py_file).resolve() not in _SOURCES:
+            return None
+        return super().from_function(py_func, py_file)
+
+
+caching.CacheImpl._locator_classes.insert(0, _KernelLocator)

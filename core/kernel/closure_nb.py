@@ -1,0 +1,242 @@
+"""Displacement analysis at one position, compiled: Newton with the screws, the DFP fallback.
+
+The per-position form of :mod:`dualmech.core.closure` (same steps, same tolerances,
+same decisions): Newton-Raphson on the loop-closure equation (thesis eq. 5) with the
+screws as derivative operators (eq. 8-17) and the spin gauge, step halving,
+stall and rounding tests; where Newton stalls, Davidon-Fletcher-Powell on
+:math:`\\tfrac12\\|\\hat B - \\hat I\\|^2` from both the estimate and Newton's end point
+(thesis section 2.6.1), Newton polishing near a root, and the verdict ``no_assembly``
+at a non-zero stationary minimum.
+
+Every function works on one position and writes into the scratch arrays of a
+:class:`Work` (allocated once per block of positions by :func:`make_work`).
+The tolerances arrive as a :class:`ClosureTols` argument, read from
+:mod:`dualmech.core.closure` at call time (their one home; constants frozen into
+cached machine code would outlive an edit of that module).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from dualmech.core import closure
+from dualmech.core.kernel.dual_nb import INLINE, JIT, tmul, trodrigues
+from dualmech.core.kernel.loop_nb import FlatLoop, closure_residual, evaluate, length_scale, screw_matrix, state_size
+
+#: Closure outcome codes (:class:`dualmech.core.closure.ClosureStatus`).
+OK, NOT_CONVERGED, NO_ASSEMBLY = (int(closure.ClosureStatus.OK), int(closure.ClosureStatus.NOT_CONVERGED),
+                                  int(closure.ClosureStatus.NO_ASSEMBLY))
+
+
+class ClosureTols(NamedTuple):
+    """The closure's tolerances and limits (names and reasons in :mod:`dualmech.core.closure`)."""
+
+    closure: float
+    rounding: float
+    stationary: float
+    near_root: float
+    dfp_restart: int
+    max_newton: int
+    max_dfp: int
+
+
+def closure_tols() -> ClosureTols:
+    """The current values of :mod:`dualmech.core.closure`'s constants and ``solve_closure``'s limits."""
+    return ClosureTols(closure.CLOSURE_TOL, closure.ROUNDING_TOL, closure.STATIONARY_COSINE, closure.NEAR_ROOT,
+                       closure.DFP_RESTART, 30, 200)
+
+
+class Work(NamedTuple):
+    """Scratch arrays of one thread (``R`` rows, ``M`` screws, ``G`` gauges, ``K`` step, ``S`` state)."""
+
+    frames: np.ndarray  # (R, 2, 3, 3)
+    lines: np.ndarray  # (M, 2, 3)
+    tmp: np.ndarray  # (3, 2, 3, 3)
+    mat: np.ndarray  # (6 + G, K)
+    gauge: np.ndarray  # (G, M)
+    axes: np.ndarray  # (G, 3)
+    t33: np.ndarray  # (3, 3)
+    v3: np.ndarray  # (3,)
+    err: np.ndarray  # (max(6 + G, K),)
+    sq: np.ndarray  # (K, K)
+    rhs: np.ndarray  # (K,)
+    step: np.ndarray  # (K,)
+    base: np.ndarray  # (S,)
+    guess: np.ndarray  # (S,)
+    runs: np.ndarray  # (3, S): two DFP runs and a polish
+    trial: np.ndarray  # (S,)
+    jac: np.ndarray  # (18 + G, K): DFP objective's Jacobian, with the gauge rows
+    res18: np.ndarray  # (18,)
+    grads: np.ndarray  # (4, K): gradient, trial gradient, search direction, scratch
+    hess: np.ndarray  # (K, K): inverse-Hessian estimate
+    q_dot: np.ndarray  # (K,) unknown rates
+    q_ddot: np.ndarray  # (K,) unknown accelerations
+    per_screw: np.ndarray  # (2, M): each screw's rate and acceleration
+    transport: np.ndarray  # (M, 2, 3): the carried screws' terms
+    cum: np.ndarray  # (M + 1, 2, 3): running sums of the screws' motions
+    twists: np.ndarray  # (R, 2, 3): link twists
+    accels: np.ndarray  # (R, 2, 3): link accelerations
+
+
+def make_work(fl: FlatLoop) -> Work:
+    """Allocate a :class:`Work` for ``fl`` (also callable from compiled code)."""
+    return _make_work(fl, state_size(fl))
+
+
+@njit(**JIT)
+def _make_work(fl: FlatLoop, s: int) -> Work:
+    r, m, g, k = fl.table.shape[0], fl.screws.shape[0], fl.gauges.size, fl.n_step
+    return Work(np.zeros((r, 2, 3, 3)), np.zeros((m, 2, 3)), np.zeros((3, 2, 3, 3)), np.zeros((6 + g, k)),
+                np.zeros((g, m)), np.zeros((g, 3)), np.zeros((3, 3)), np.zeros(3), np.zeros(max(6 + g, k)),
+                np.zeros((k, k)), np.zeros(k), np.zeros(k), np.zeros(s), np.zeros(s), np.zeros((3, s)), np.zeros(s),
+                np.zeros((18 + g, k)), np.zeros(18), np.zeros((4, k)), np.zeros((k, k)), np.zeros(k), np.zeros(k),
+                np.zeros((2, m)), np.zeros((m, 2, 3)), np.zeros((m + 1, 2, 3)), np.zeros((r, 2, 3)), np.zeros((r, 2, 3)))
+
+
+@njit(**JIT)
+def residual_at(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, lines: np.ndarray) -> float:
+    """Evaluate the loop at ``x`` (into ``frames``, ``lines``) and return its closure residual."""
+    evaluate(fl, vals, x, frames, lines)
+    return closure_residual(frames, length_scale(fl, vals))
+
+
+@njit(**JIT)
+def retract(n_scalar: int, x: np.ndarray, step: np.ndarray, scale: float, out: np.ndarray) -> None:
+    """``out`` = ``x`` moved by ``scale * step``: scalars add, rotations turn by Rodrigues
+    (:meth:`dualmech.core.loop.LoopState.retract`); ``out`` may be ``x``."""
+    for i in range(n_scalar):
+        out[i] = x[i] + scale * step[i]
+    for b in range((x.size - n_scalar) // 9):
+        o, k = n_scalar + 9 * b, n_scalar + 3 * b
+        r = trodrigues(scale * step[k], scale * step[k + 1], scale * step[k + 2])
+        old = (x[o], x[o + 1], x[o + 2], x[o + 3], x[o + 4], x[o + 5], x[o + 6], x[o + 7], x[o + 8])
+        new = tmul(r, old)
+        for i in range(9):
+            out[o + i] = new[i]
+
+
+@njit(**JIT)
+def least_squares(a: np.ndarray, b: np.ndarray, out: np.ndarray, sq: np.ndarray, rhs: np.ndarray) -> None:
+    """``a x = b`` in the least-squares sense (thesis eq. 23a, :func:`dualmech.core.closure.least_squares`).
+
+    ``a`` ``(m, k)``, ``m >= k``: square systems directly, otherwise the normal equations;
+    LU with partial pivoting, the pseudo-inverse where a pivot is exactly zero.
+    """
+    m, k = a.shape
+    for i in range(k):
+        for j in range(k):
+            if m == k:
+                sq[i, j] = a[i, j]
+            else:
+                sq[i, j] = 0.0
+                for r in range(m):
+                    sq[i, j] += a[r, i] * a[r, j]
+        if m == k:
+            rhs[i] = b[i]
+        else:
+            rhs[i] = 0.0
+            for r in range(m):
+                rhs[i] += a[r, i] * b[r]
+    if not _lu_solve(sq, rhs, out):
+        out[:] = _pinv_solve(a, b, m == k)
+
+
+@njit(**JIT)
+def _pinv_solve(a: np.ndarray, b: np.ndarray, square: bool) -> np.ndarray:
+    sq = a.copy() if square else a.T @ a
+    rhs = b.copy() if square else a.T @ b
+    return np.linalg.pinv(sq) @ rhs
+
+
+@njit(**INLINE)
+def _lu_solve(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:
+    """Gaussian elimination with partial pivoting, in place on ``a`` and ``b``; False at a zero pivot."""
+    k = a.shape[0]
+    for c in range(k):
+        p = c
+        for r in range(c + 1, k):
+            if abs(a[r, c]) > abs(a[p, c]):
+                p = r
+        if a[p, c] == 0.0:
+            return False
+        if p != c:
+            for j in range(k):
+                a[c, j], a[p, j] = a[p, j], a[c, j]
+            b[c], b[p] = b[p], b[c]
+        for r in range(c + 1, k):
+            f = a[r, c] / a[c, c]
+            for j in range(c + 1, k):
+                a[r, j] -= f * a[c, j]
+            b[r] -= f * b[c]
+    for c in range(k - 1, -1, -1):
+        s = b[c]
+        for j in range(c + 1, k):
+            s -= a[c, j] * out[j]
+        out[c] = s / a[c, c]
+    return True
+
+
+@njit(**JIT)
+def newton_step(fl: FlatLoop, vals: np.ndarray, w: Work) -> None:
+    """``w.step``: screws times step = minus the closure error, with the spin gauge (eq. 11, 23a).
+
+    The loop must have been evaluated at the current point (into ``w.frames``, ``w.lines``).
+    The closure error is the skew part of :math:`\\hat B`, the dual part over the length
+    scale (:func:`dualmech.core.loop.closure_error`).
+    """
+    scale = length_scale(fl, vals)
+    frames, err = w.frames, w.err
+    screw_matrix(fl, frames, w.lines, scale, w.mat, w.gauge, w.axes)
+    last = frames.shape[0] - 1
+    for p in range(2):
+        b = frames[last, p]
+        div = -1.0 if p == 0 else -scale
+        err[3 * p], err[3 * p + 1], err[3 * p + 2] = (0.5 * (b[2, 1] - b[1, 2]) / div, 0.5 * (b[0, 2] - b[2, 0]) / div,
+                                                      0.5 * (b[1, 0] - b[0, 1]) / div)
+    rows = 6 + fl.gauges.size
+    err[6:rows] = 0.0
+    least_squares(w.mat, err[:rows], w.step, w.sq, w.rhs)
+
+
+@njit(**JIT)
+def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work) -> tuple[int, float]:
+    """Newton with step halving from ``x`` (updated in place); returns (iterations, residual).
+
+    The per-position form of :func:`dualmech.core.closure._newton`: a step that increases
+    the residual is halved (up to 6 times); Newton stops when closed, when a
+    residual below the rounding level no longer halves, or after 3 stalls; a point
+    left unevaluated by the iteration limit is stepped back to the last accepted one.
+    """
+    base, step, frames, lines, k0 = w.base, w.step, w.frames, w.lines, fl.n_scalar
+    base[:] = x
+    step[:] = 0.0
+    base_res, stalls, halvings, iters, residual, active = math.inf, 0, 0, 0, math.inf, True
+    for _ in range(tols.max_newton + 1):
+        res = residual_at(fl, vals, x, frames, lines)
+        residual = res
+        done = res <= tols.closure
+        if res > base_res and halvings < 6 and not done:
+            halvings += 1
+            retract(k0, base, step, 0.5 ** halvings, x)
+            continue
+        if done:
+            active = False
+            break
+        improved = res < 0.5 * base_res
+        stalls = 0 if improved else stalls + 1
+        if (not improved and res <= tols.rounding) or stalls >= 3:
+            active = False
+            break
+        newton_step(fl, vals, w)
+        base[:] = x
+        base_res, halvings = res, 0
+        retract(k0, x, step, 1.0, x)
+        iters += 1
+    if active and math.isfinite(base_res):
+        x[:] = base
+        residual = base_res
+    return iters, residual
