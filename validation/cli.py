@@ -133,3 +133,7 @@ main.add_command(simulate)
 from dualmech.validation.selftest import selftest  # noqa: E402
 
 main.add_command(selftest)
+
+from dualmech.validation.cli_tolerance import tolerance  # noqa: E402
+
+main.add_command(tolerance)

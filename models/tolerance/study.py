@@ -1,0 +1,268 @@
+"""A tolerance study end to end: sample designs in chunks, solve them batched, stream rows, summarise.
+
+Designs are independent; chunks of :data:`~dualmech.models.tolerance.sampling.CHUNK_DESIGNS`
+run in this process, in a process pool (``jobs``) or on a Dask cluster (``scheduler``) through
+:func:`dualmech.validation.executors.execute`.  Each chunk's designs are solved together by
+:func:`~dualmech.models.slider_crank.iter_analyses` (designs x positions in one batch; no
+loop over positions).  A finished chunk is stored at once as ``DIR/chunks/chunk-NNNNNN.npz``
+(written to a temporary name, then renamed), so an interrupted study resumes where it stopped;
+``DIR/study.json`` names the case, SPEC, ``n`` and seed, and a folder holding another study is
+refused.  At the end the chunks are streamed, in design order, into ``DIR/samples.csv`` (and
+``DIR/samples.parquet`` when pyarrow is installed, one row group per chunk) and summarised into
+``DIR/summary.json``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from dualmech.models.case import Case, CaseError, case_from_dict
+from dualmech.models.slider_crank import iter_analyses, to_table
+from dualmech.models.tolerance.outputs import COUNTS, design_outputs, output_names
+from dualmech.models.tolerance.sampling import chunk_bounds, n_chunks, sample_chunk
+from dualmech.models.tolerance.spec import Spec, design_case, nominal_values, spec_from_dict
+
+#: Format tag of ``study.json``.
+STUDY_FORMAT = "dualmech-tolerance/1"
+#: Methods: Monte Carlo, linear propagation of the exact sensitivities, or both.
+METHODS: tuple[str, ...] = ("mc", "linear", "both")
+#: Most designs in one study (10^7 x 360 positions is a day on today's solver; streams in bounded memory).
+MAX_DESIGNS = 10_000_000
+
+
+@dataclass(frozen=True)
+class StudyInput:
+    """What a study is: the nominal case, the SPEC, how many designs and the seed."""
+
+    case: Case
+    spec: Spec
+    n: int
+    seed: int
+
+    def identity(self) -> dict:
+        """JSON-ready identity (``study.json``); a resumed study must have the same."""
+        return {"format": STUDY_FORMAT, "case": self.case.raw, "spec": self.spec.to_dict(), "n": self.n,
+                "seed": self.seed}
+
+
+def design_name(index: int) -> str:
+    """Name of sampled design ``index`` (its row in ``samples.csv``)."""
+    return f"design-{index:07d}"
+
+
+def solve_chunk(case_raw: dict, spec_dict: dict, n: int, seed: int, index: int) -> dict:
+    """Task: sample chunk ``index``, build and solve its designs together, return its rows.
+
+    Returns ``{"index", "x" (m, k), "outputs": {name: (m,)}}``.  Picklable arguments only
+    (runs in pool workers and on Dask workers).
+    """
+    case, spec = case_from_dict(case_raw), spec_from_dict(spec_dict)
+    x = sample_chunk(spec, nominal_values(case, spec), n, seed, index)
+    first, _ = chunk_bounds(n, index)
+    designs = []
+    for i, row in enumerate(x):
+        try:
+            designs.append(design_case(case, spec, row, design_name(first + i)))
+        except CaseError as err:
+            raise CaseError(f"{design_name(first + i)} (sampled from the SPEC): {err}") from None
+    tables = [to_table(an) for an in iter_analyses(designs)]
+    return {"index": index, "x": x, "outputs": design_outputs(tables, case.loads.mode)}
+
+
+def _chunk_path(outdir: Path, index: int) -> Path:
+    return outdir / "chunks" / f"chunk-{index:06d}.npz"
+
+
+def _store(outdir: Path, entry: dict) -> None:
+    path = _chunk_path(outdir, entry["index"])
+    tmp = path.with_name(path.name + ".tmp.npz")
+    arrays = {f"out_{k}": np.asarray(v) for k, v in entry["outputs"].items() if k != "status"}
+    np.savez(tmp, x=entry["x"], status=np.asarray(entry["outputs"]["status"], dtype=str), **arrays)
+    os.replace(tmp, path)
+
+
+def _load(outdir: Path, index: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    with np.load(_chunk_path(outdir, index)) as data:
+        out = {k[4:]: data[k] for k in data.files if k.startswith("out_")}
+        out["status"] = data["status"].astype(object)
+        return data["x"], out
+
+
+def prepare(outdir: Path, study: StudyInput) -> list[int]:
+    """Create (or reopen) the study folder; the chunks still to run."""
+    if study.n < 1 or study.n > MAX_DESIGNS:
+        raise ValueError(f"n: expected 1 to {MAX_DESIGNS:,} designs, got {study.n!r}")
+    (outdir / "chunks").mkdir(parents=True, exist_ok=True)
+    meta = outdir / "study.json"
+    identity = json.loads(json.dumps(study.identity()))
+    if meta.exists():
+        if json.loads(meta.read_text()) != identity:
+            raise ValueError(f"output: {str(outdir)!r} holds another study (case, SPEC, n or seed differ); "
+                             "use an empty folder")
+    elif any(outdir.iterdir()) and sorted(p.name for p in outdir.iterdir()) != ["chunks"]:
+        raise ValueError(f"output: {str(outdir)!r} is not empty and holds no tolerance study; "
+                         "use an empty folder")
+    meta.write_text(json.dumps(identity, indent=1, sort_keys=True))
+    return [c for c in range(n_chunks(study.n)) if not _chunk_path(outdir, c).exists()]
+
+
+def run_chunks(outdir: Path, study: StudyInput, todo: list[int], jobs: int, scheduler: str | None) -> int:
+    """Solve the chunks ``todo``, storing each as it finishes; returns how many ran."""
+    from dualmech.validation.executors import execute
+
+    calls = [(study.case.raw, study.spec.to_dict(), study.n, study.seed, c) for c in todo]
+    leftovers: list[dict] = []
+    done = 0
+    try:
+        for entry in execute(solve_chunk, calls, jobs, scheduler, leftovers):
+            _store(outdir, entry)
+            done += 1
+    finally:
+        for entry in leftovers:
+            _store(outdir, entry)
+    return done
+
+
+def iter_chunks(outdir: Path, n: int) -> Iterator[tuple[int, np.ndarray, dict[str, np.ndarray]]]:
+    """Stored chunks in design order: (first design index, x ``(m, k)``, outputs)."""
+    for c in range(n_chunks(n)):
+        x, out = _load(outdir, c)
+        yield chunk_bounds(n, c)[0], x, out
+
+
+def columns(spec: Spec, mode: str) -> list[str]:
+    """The columns of ``samples.csv`` (``docs/conventions.md``, "Tolerance analysis")."""
+    return ["design", *spec.keys, "status", *COUNTS, *output_names(mode)]
+
+
+def write_samples(outdir: Path, study: StudyInput) -> list[str]:
+    """Stream the stored chunks into ``samples.csv`` (and ``samples.parquet``); the files written."""
+    mode = study.case.loads.mode
+    names = columns(study.spec, mode)
+    written = ["samples.csv"]
+    writer = _parquet_writer(outdir, names, len(study.spec.keys))
+    with (outdir / "samples.csv").open("w", newline="") as fh:
+        out = csv.writer(fh, lineterminator="\n")
+        out.writerow(names)
+        for first, x, res in iter_chunks(outdir, study.n):
+            cols = {"design": np.arange(first, first + x.shape[0]), **dict(zip(study.spec.keys, x.T)), **res}
+            for i in range(x.shape[0]):
+                out.writerow([_cell(cols[c][i]) for c in names])
+            if writer is not None:
+                writer.write_table(_arrow_table(cols, names))
+    if writer is not None:
+        writer.close()
+        written.append("samples.parquet")
+    return written
+
+
+def _cell(v: object) -> str:
+    if isinstance(v, (float, np.floating)):
+        return repr(float(v))
+    return str(v.item() if isinstance(v, np.generic) else v)
+
+
+def _parquet_writer(outdir: Path, names: list[str], k: int):
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        return None
+    types = {"design": pa.int64(), "status": pa.string(), "dead_centres": pa.int64(),
+             "failed_positions": pa.int64()}
+    schema = pa.schema([(c, types.get(c, pa.float64())) for c in names])
+    return pq.ParquetWriter(str(outdir / "samples.parquet"), schema)
+
+
+def _arrow_table(cols: dict, names: list[str]):
+    import pyarrow as pa
+
+    return pa.table({c: np.asarray(cols[c], dtype=str if c == "status" else None) for c in names})
+
+
+def gather(outdir: Path, study: StudyInput) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Every design's key values ``(n, k)`` and outputs ``(n,)`` from the stored chunks."""
+    xs, parts = [], []
+    for _, x, out in iter_chunks(outdir, study.n):
+        xs.append(x)
+        parts.append(out)
+    return np.concatenate(xs), {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def monte_carlo(outdir: Path, study: StudyInput, jobs: int, scheduler: str | None) -> dict:
+    """Run (or resume) the Monte Carlo part; returns timing facts."""
+    todo = prepare(outdir, study)
+    start = time.perf_counter()
+    ran = run_chunks(outdir, study, todo, jobs, scheduler)
+    solve_s = time.perf_counter() - start
+    files = write_samples(outdir, study)
+    return {"chunks_run": ran, "chunks_resumed": n_chunks(study.n) - len(todo), "solve_s": solve_s,
+            "files": files}
+
+
+def _finite_json(obj: object) -> object:
+    """``obj`` with every non-finite float as ``None`` (strict JSON)."""
+    if isinstance(obj, dict):
+        return {k: _finite_json(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite_json(v) for v in obj]
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if np.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj
+
+
+def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, scheduler: str | None = None,
+              judge_samples: int = 5) -> tuple[dict, np.ndarray | None, dict[str, np.ndarray] | None]:
+    """The whole study (module docstring): returns the summary (also in ``DIR/summary.json``) and the samples.
+
+    Sampled key values ``(n, k)`` and outputs are ``None`` for ``method = "linear"``.
+    """
+    from dualmech.models.tolerance.judges import candidates, run_spot_checks
+    from dualmech.models.tolerance.sampling import judge_picks
+    from dualmech.models.tolerance.sensitivity import sensitivities
+    from dualmech.models.tolerance.summary import summarize
+    from dualmech.validation.provenance import versions
+
+    if method not in METHODS:
+        raise ValueError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
+    if judge_samples < 0:
+        raise ValueError(f"judge-samples: expected 0 or more designs, got {judge_samples!r}")
+    outdir = Path(outdir)
+    timing: dict = {}
+    x = samples = None
+    if method != "linear":
+        timing = monte_carlo(outdir, study, jobs, scheduler)
+        x, samples = gather(outdir, study)
+    else:
+        outdir.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    sens = sensitivities(study.case, study.spec) if method != "mc" else None
+    timing["sensitivity_s"] = time.perf_counter() - start
+    names = output_names(study.case.loads.mode)
+    stats = summarize(study.spec, names, x, samples, sens)
+    if samples is not None:
+        picks = judge_picks(judge_samples, study.seed, candidates(samples["status"]))
+        designs = [design_case(study.case, study.spec, x[i], design_name(int(i))) for i in picks]
+    else:
+        designs = [study.case] if judge_samples else []
+    start = time.perf_counter()
+    spots = run_spot_checks(designs)
+    timing["judges_s"] = time.perf_counter() - start
+    summary = {"n": study.n if samples is not None else 0, "seed": study.seed, "method": method,
+               "case": study.case.name, "mode": study.case.loads.mode, "keys": list(study.spec.keys),
+               "nominal_values": dict(zip(study.spec.keys, nominal_values(study.case, study.spec).tolist())),
+               "spec": study.spec.to_dict(), **stats, "judges": [s.to_dict() for s in spots],
+               "judges_passed": all(s.passed for s in spots), "timing": timing, "versions": versions()}
+    summary = _finite_json(summary)
+    (outdir / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True) + "\n")
+    return summary, x, samples

@@ -1,0 +1,134 @@
+"""Statistics of a tolerance study: distributions, confidence intervals, yield, linear propagation, shares.
+
+Confidence intervals are 95 %, **analytic and asymptotic** (no resampling, so a summary is a
+deterministic function of the samples), over the designs that assemble fully (status ``ok``):
+
+* ``mean_ci``: :math:`\\bar y \\pm z\\, s/\\sqrt n` (central limit theorem);
+* ``std_ci``: :math:`s \\pm z\\,\\mathrm{SE}(s)` with the distribution-free delta method
+  :math:`\\mathrm{SE}(s^2)^2 = (m_4 - s^4 (n-3)/(n-1))/n`, :math:`\\mathrm{SE}(s) = \\mathrm{SE}(s^2)/2s`
+  (valid for any distribution with a fourth moment, unlike the chi-square interval);
+* ``p99_ci``: the order statistics of ranks :math:`n p \\mp z\\sqrt{n p (1-p)}` (binomial,
+  distribution-free);
+* ``yield``: share of all designs with status ``ok``, with the Wilson score interval.
+
+``linear_std`` is the first-order propagated standard deviation
+:math:`\\sqrt{\\sum_i (\\partial y/\\partial x_i)^2 \\sigma_i^2}` (independent inputs) and ``linear_mean``
+:math:`y_0 + \\sum_i \\partial y/\\partial x_i\\, \\mu_i` (the offsets' means); ``linear_share`` each
+key's term over their sum.  ``contribution`` is the first-order Sobol index
+:math:`\\mathrm{Var}(E[y\\mid x_i])/\\mathrm{Var}(y)` estimated from the Monte Carlo samples by
+equal-count binning of :math:`x_i` into :math:`B = \\min(50, \\lfloor\\sqrt n\\rfloor)` bins, its
+null bias :math:`(B-1)/(n-1)` subtracted (floored at 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.special import ndtri
+
+from dualmech.models.tolerance.outputs import DesignStatus
+from dualmech.models.tolerance.sensitivity import Sensitivities
+from dualmech.models.tolerance.spec import Spec
+
+#: Two-sided 95 % normal quantile.
+Z95 = float(ndtri(0.975))
+#: Quantiles reported per output.
+QUANTILES: dict[str, float] = {"p01": 0.01, "p50": 0.50, "p99": 0.99, "p999": 0.999}
+#: Most bins of the Sobol estimator (more bins: less bias from within-bin trends, more noise).
+MAX_SOBOL_BINS = 50
+
+
+def _nan_pair() -> list[float]:
+    return [float("nan"), float("nan")]
+
+
+def describe(y: np.ndarray) -> dict:
+    """Mean, std, quantiles and their 95 % intervals of one output over ``n`` designs ``(n,)``."""
+    y = np.sort(y[np.isfinite(y)])
+    n = y.size
+    if n < 2:
+        nan = float("nan")
+        return {"n": int(n), "mean": float(y.mean()) if n else nan, "std": nan,
+                **{k: (float(y[0]) if n else nan) for k in QUANTILES},
+                "mean_ci": _nan_pair(), "std_ci": _nan_pair(), "p99_ci": _nan_pair()}
+    mean, std = float(y.mean()), float(y.std(ddof=1))
+    m4 = float(np.mean((y - mean) ** 4))
+    se_var = math.sqrt(max(m4 - std**4 * (n - 3) / (n - 1), 0.0) / n)
+    se_std = se_var / (2.0 * std) if std > 0 else 0.0
+    half = Z95 * math.sqrt(0.99 * 0.01 * n)
+    lo_rank, hi_rank = (int(np.clip(math.floor(0.99 * n + s * half), 0, n - 1)) for s in (-1, 1))
+    return {"n": int(n), "mean": mean, "std": std,
+            **{k: float(np.quantile(y, q)) for k, q in QUANTILES.items()},
+            "mean_ci": [mean - Z95 * std / math.sqrt(n), mean + Z95 * std / math.sqrt(n)],
+            "std_ci": [std - Z95 * se_std, std + Z95 * se_std],
+            "p99_ci": [float(y[lo_rank]), float(y[hi_rank])]}
+
+
+def wilson(k: int, n: int) -> dict:
+    """Share ``k / n`` and its 95 % Wilson score interval."""
+    if n == 0:
+        return {"value": float("nan"), "ci": _nan_pair(), "ok": 0, "n": 0}
+    p = k / n
+    centre = (p + Z95**2 / (2 * n)) / (1 + Z95**2 / n)
+    half = Z95 * math.sqrt(p * (1 - p) / n + Z95**2 / (4 * n * n)) / (1 + Z95**2 / n)
+    return {"value": p, "ci": [max(0.0, centre - half), min(1.0, centre + half)], "ok": int(k), "n": int(n)}
+
+
+def sobol_first_order(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """First-order Sobol indices ``(k,)`` of ``y`` ``(n,)`` on inputs ``x`` ``(n, k)`` (module docstring)."""
+    ok = np.isfinite(y)
+    x, y = x[ok], y[ok]
+    n = y.size
+    var = float(y.var())
+    if n < 4 or var == 0.0:
+        return np.full(x.shape[1], np.nan)
+    bins = max(2, min(MAX_SOBOL_BINS, int(math.isqrt(n))))
+    out = []
+    for col in x.T:
+        rank = np.empty(n, dtype=int)
+        rank[np.argsort(col, kind="stable")] = np.arange(n)
+        b = rank * bins // n
+        counts = np.bincount(b, minlength=bins)
+        means = np.bincount(b, weights=y, minlength=bins) / np.maximum(counts, 1)
+        between = float(np.sum(counts * (means - y.mean()) ** 2)) / n
+        out.append(max(0.0, between / var - (bins - 1) / (n - 1)))
+    return np.array(out)
+
+
+def linear_propagation(sens: Sensitivities, spec: Spec) -> dict:
+    """``linear_std``, ``linear_mean`` and ``linear_share`` per output (module docstring)."""
+    var = np.array([t.variance() for t in spec.tolerances])
+    mu = np.array([t.mean() for t in spec.tolerances])
+    out: dict[str, dict] = {"linear_std": {}, "linear_mean": {}, "linear_share": {}}
+    for name, per_key in sens.values.items():
+        g = np.array([per_key[k] for k in spec.keys])
+        terms = g**2 * var
+        total = float(terms.sum())
+        out["linear_std"][name] = math.sqrt(total)
+        out["linear_mean"][name] = sens.nominal_outputs[name] + float(g @ mu)
+        out["linear_share"][name] = {k: (float(t / total) if total > 0 else float("nan"))
+                                     for k, t in zip(spec.keys, terms)}
+    return out
+
+
+def summarize(spec: Spec, names: tuple[str, ...], x: np.ndarray | None, samples: dict[str, np.ndarray] | None,
+              sens: Sensitivities | None) -> dict:
+    """The statistics of ``summary.json`` (module docstring), without the study's identity fields.
+
+    ``x`` ``(n, k)`` sampled key values and ``samples`` (every output and ``status``, ``(n,)``) are
+    ``None`` for ``--method linear``; ``sens`` is ``None`` for ``--method mc``.
+    """
+    out: dict = {"outputs": {}, "yield": None, "sensitivity": None, "linear_std": None, "linear_mean": None,
+                 "contribution": None, "linear_share": None}
+    if samples is not None and x is not None:
+        ok = np.asarray(samples["status"], dtype=str) == DesignStatus.OK.value
+        out["outputs"] = {name: describe(samples[name][ok]) for name in names}
+        out["yield"] = wilson(int(ok.sum()), int(ok.size))
+        sobol = {name: sobol_first_order(x[ok], samples[name][ok]) for name in names}
+        out["contribution"] = {name: dict(zip(spec.keys, map(float, s))) for name, s in sobol.items()}
+    if sens is not None:
+        lin = linear_propagation(sens, spec)
+        out.update(sensitivity=sens.values, nominal=sens.nominal_outputs,
+                   sensitivity_positions_deg=sens.positions_deg, **lin)
+    return out

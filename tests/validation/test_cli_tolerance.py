@@ -1,0 +1,101 @@
+"""``dualmech tolerance``: the command, its files, its exit codes, and the judges' spot checks."""
+
+import json
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+import dualmech.models
+from dualmech.models.case import load_case
+from dualmech.models.slider_crank import solve_case
+from dualmech.validation.cli import main
+
+SPEC = Path(dualmech.models.__file__).parent / "cases/thesis/tolerances/tolerances-thesis.toml"
+CASE = "thesis/a4-20-s1-3.5"
+STAT_KEYS = {"mean", "std", "p01", "p50", "p99", "p999", "mean_ci", "std_ci", "p99_ci"}
+
+
+def _run(*args):
+    return CliRunner().invoke(main, ["tolerance", *map(str, args)])
+
+
+def test_the_bundled_study_runs_judged_and_reported(tmp_path):
+    pytest.importorskip("pinocchio")
+    pytest.importorskip("mujoco")
+    result = _run(CASE, "--spec", SPEC, "-n", 40, "--seed", 2, "-o", tmp_path, "--judge-samples", 1)
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "PASS: 2 spot checks" in result.output
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert (s["n"], s["seed"], s["method"]) == (40, 2, "both")
+    assert set(s["outputs"]) == set(s["sensitivity"]) == set(s["linear_std"]) == set(s["contribution"])
+    assert all(STAT_KEYS <= set(o) for o in s["outputs"].values())
+    assert set(s["yield"]) >= {"value", "ci"} and len(s["judges"]) == 2 and s["judges_passed"]
+    assert set(s["sensitivity"]["stroke"]) == {"geometry.slider_offset", "geometry.crank_axial_shift",
+                                               "geometry.slider_twist_deg"}
+    html = (tmp_path / "report.html").read_text()
+    assert "data:image/png;base64," in html and "http://" not in html and "https://" not in html
+    md = (tmp_path / "report.md").read_text()
+    assert "## Spot checks by the judges" in md and "figures/tornado-stroke.png" in md
+    assert (tmp_path / "samples.csv").read_text().count("\n") == 41
+
+
+def test_linear_method_needs_no_samples(tmp_path):
+    result = _run(CASE, "--spec", SPEC, "--method", "linear", "-o", tmp_path, "--judge-samples", 0)
+    assert result.exit_code == 0, result.output + result.stderr
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["n"] == 0 and s["outputs"] == {} and s["yield"] is None and s["linear_std"]["stroke"] > 0
+    assert not (tmp_path / "samples.csv").exists()
+
+
+@pytest.mark.parametrize("spec_text, args, words", [
+    ('[tolerances]\n"geometry.slider_offset" = { dist = "cauchy", sd = 1 }\n', [], ["dist", "'cauchy'"]),
+    ('[tolerances]\n"geometry.nothing" = { dist = "normal", sd = 1 }\n', [], ["geometry.nothing", "valid"]),
+    ('[tolerances]\n"geometry.crank_length" = { dist = "uniform", low = -20, high = -15 }\n', [],
+     ["design-0000000", "geometry.crank_length", "positive length"]),
+    ('[tolerances\n', [], ["spec", "TOML"]),
+    ('[tolerances]\n"geometry.slider_offset" = { dist = "normal", sd = 1 }\n', ["-n", "0"], ["n:", "1 to"]),
+    ('[tolerances]\n"geometry.slider_offset" = { dist = "normal", sd = 1 }\n', ["--jobs", "0"], ["jobs"]),
+    ('[tolerances]\n"geometry.slider_offset" = { dist = "normal", sd = 1 }\n', ["--scheduler", "nowhere"],
+     ["scheduler", "tcp://"]),
+])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, spec_text, args, words):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(spec_text)
+    result = _run(CASE, "--spec", spec, "-o", tmp_path / "out", "-n", 5, "--judge-samples", 0, *args)
+    assert result.exit_code == 2, result.output + result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dualmech: error: ")
+    for w in words:
+        assert w in lines[0]
+
+
+def test_a_judge_disagreeing_with_a_design_is_named_and_exits_1(tmp_path, monkeypatch):
+    """Deliberate fault: the judges are handed each design with a4 moved by 1e-4 in (the reference is not)."""
+    pytest.importorskip("pinocchio")
+    pytest.importorskip("mujoco")
+    import dualmech.validation.engines as engines
+
+    real = engines.run_engine
+
+    def perturbed(engine, case):
+        return real(engine, case.with_values({"geometry.slider_offset": case.geometry.slider_offset + 1e-4}))
+
+    monkeypatch.setattr(engines, "run_engine", perturbed)
+    result = _run(CASE, "--spec", SPEC, "-n", 10, "-o", tmp_path, "--judge-samples", 1)
+    assert result.exit_code == 1, result.output + result.stderr
+    assert "FAIL: pinocchio disagrees on design-" in result.stderr
+    assert "FAIL: mujoco disagrees on design-" in result.stderr
+    assert not json.loads((tmp_path / "summary.json").read_text())["judges_passed"]
+
+
+def test_spot_check_passes_on_the_same_design_and_fails_on_a_perturbed_one():
+    pin = pytest.importorskip("dualmech.validation.pinocchio_engine")
+    from dualmech.models.tolerance.judges import spot_check
+
+    design = load_case("a4-10-s1-3.5")
+    reference = solve_case(design)
+    assert spot_check(design, reference, "pinocchio", pin.solve_case(design)).passed
+    moved = design.with_values({"geometry.crank_length": design.geometry.crank_length * (1 + 1e-6)})
+    check = spot_check(design, reference, "pinocchio", pin.solve_case(moved))
+    assert not check.passed and check.failures and check.worst_ratio > 1
