@@ -7,10 +7,12 @@ crank position.  ``ok``, ``dead_centre``, ``assembly_limit`` and ``no_assembly``
 verdicts about the mechanism; ``branch_jump``, ``not_converged`` and ``not_finite``
 are failures of the engine, and so is any non-finite number where the word says the
 value is given (an ``ok`` row with NaN or inf).  Per row, the judge's word must equal
-the reference's, except where a stated rule explains the difference:
-``ok`` against ``dead_centre`` where the reference's ``|transmission|`` is within the
-judge's ``dead_centre_band`` (``validation/tolerances.py``), since each engine flags
-dead centres from its own transmission.  Rows the two engines agree not to assemble
+the reference's, except where a stated rule (:data:`STATUS_RULES`) explains the
+difference: ``ok`` against ``dead_centre`` where the reference's ``|transmission|`` is
+within the judge's ``dead_centre_band``, and ``ok`` against ``assembly_limit`` where its
+``closure_condition`` is within the judge's ``assembly_limit_band`` of the flag
+``ASSEMBLY_LIMIT_CONDITION`` (``validation/tolerances.py``), since each engine sets
+these flags from its own values.  Rows the two engines agree not to assemble
 are agreement, counted in ``n_excluded``.  The reference gets a ``status`` check of
 its own: engine failures, or no assembled position at all (unless the matrix case
 declares ``expect = "no_assembly"``, in which case every engine must say so at every
@@ -49,6 +51,7 @@ import numpy as np
 from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
 from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.validation.matrix import Matrix, ResolvedTolerance
+from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION
 
 #: Unit group of each comparable column: relative differences share one scale per group.
 UNIT_GROUP: dict[str, str] = {
@@ -274,6 +277,27 @@ def _angles(rows: np.ndarray, theta: np.ndarray, limit: int = 4) -> str:
 _EXACT = ResolvedTolerance("exact", 0.0, "statuses must agree row by row, except where a stated band explains it")
 
 
+@dataclass(frozen=True)
+class StatusRule:
+    """Where two engines may say ``ok`` and ``flag`` at the same row: ``||R[column]| - at| <= band``.
+
+    Each engine sets ``flag`` from its own value of ``column``; values that agree to
+    round-off can still fall on either side of the threshold ``at``.
+    """
+
+    flag: str
+    column: str
+    at: float
+    band: str  # the name of the band's tolerance in the matrix (per judge)
+
+
+#: The only status differences the gate accepts, each at its engine-set threshold.
+STATUS_RULES: tuple[StatusRule, ...] = (
+    StatusRule(Status.DEAD_CENTRE, "transmission", 0.0, "dead_centre_band"),
+    StatusRule(Status.ASSEMBLY_LIMIT, "closure_condition", ASSEMBLY_LIMIT_CONDITION.value, "assembly_limit_band"),
+)
+
+
 def _failure_notes(who: str, table: ResultTable, failed: np.ndarray, non_finite: np.ndarray) -> list[str]:
     theta = table["theta1_deg"]
     notes = []
@@ -309,10 +333,11 @@ def reference_check(case_id: str, reference: ResultTable, quantities: tuple[str,
 
 
 def status_check(case_id: str, reference: ResultTable, judge: ResultTable, quantities: tuple[str, ...],
-                 band: ResolvedTolerance | None) -> Check:
+                 bands: dict[str, ResolvedTolerance]) -> Check:
     """The judge's ``status`` check: its own failures, and agreement with the reference row by row.
 
-    Rows where the reference itself failed are left to :func:`reference_check`.
+    Rows where the reference itself failed are left to :func:`reference_check`; a
+    difference is explained only by a :data:`STATUS_RULES` band found in ``bands``.
     """
     theta = reference["theta1_deg"]
     ref_failed, ref_non_finite = engine_failures(reference, quantities)
@@ -321,22 +346,27 @@ def status_check(case_id: str, reference: ResultTable, judge: ResultTable, quant
     failed, non_finite = failed & usable, non_finite & usable
     rs, js = np.asarray(reference.status, dtype=str), np.asarray(judge.status, dtype=str)
     differ = usable & ~failed & (rs != js)
-    explained = np.zeros_like(differ)
-    if band is not None:
-        pair = (is_status(rs, Status.OK) & is_status(js, Status.DEAD_CENTRE)) | (
-            is_status(rs, Status.DEAD_CENTRE) & is_status(js, Status.OK))
-        explained = pair & (np.abs(reference["transmission"]) <= band.value)
-    mismatch = differ & ~explained
     notes = _failure_notes("the judge", judge, failed, non_finite)
+    explained = np.zeros_like(differ)
+    for rule in STATUS_RULES:
+        band = bands.get(rule.band)
+        if band is None:
+            continue
+        pair = (is_status(rs, Status.OK) & is_status(js, rule.flag)) | (
+            is_status(rs, rule.flag) & is_status(js, Status.OK))
+        near = pair & (np.abs(np.abs(reference[rule.column]) - rule.at) <= band.value)
+        if near.any():
+            notes.append(f"{int(near.sum())} {rule.flag} flag(s) differ within {band.value:g} of "
+                         f"|{rule.column}| = {rule.at:g} ({band.name})")
+        explained |= near
+    mismatch = differ & ~explained
     for r_word, j_word in sorted({(r, j) for r, j in zip(rs[mismatch], js[mismatch])}):
         rows = mismatch & (rs == r_word) & (js == j_word)
         notes.append(f"reference {r_word}, judge {j_word} at theta1 = {_angles(rows, theta)} deg")
-    if explained.any():
-        notes.append(f"{int(explained.sum())} dead-centre flag(s) differ within |t| <= {band.value:g} ({band.name})")
     bad = failed | non_finite | mismatch
     n_bad = int(bad.sum())
     agreed_unassembled = usable & ~bad & (rs == js) & ~is_status(rs, *ASSEMBLED)
-    return Check(case_id, judge.engine, STATUS, float(n_bad), float(n_bad), float("nan"), band or _EXACT, 1.0,
+    return Check(case_id, judge.engine, STATUS, float(n_bad), float(n_bad), float("nan"), _EXACT, 1.0,
                  int(usable.sum()), int(agreed_unassembled.sum()), n_bad, n_bad == 0, "; ".join(notes))
 
 
@@ -396,7 +426,7 @@ def compare_case(
     quantities : tuple of str
         Columns to compare.
     tolerances : dict
-        Quantity (and ``"stroke"``, optionally ``"dead_centre_band"``) -> tolerance.
+        Quantity (and ``"stroke"``, and the :data:`STATUS_RULES` bands) -> tolerance.
     expect : str, optional
         ``"no_assembly"``: the case is declared to assemble nowhere; only statuses are checked.
     """
@@ -405,7 +435,7 @@ def compare_case(
     if len(judge) != len(reference) or not np.allclose(judge["theta1_deg"], theta, rtol=0, atol=1e-9):
         detail = f"rows differ: {len(judge)} crank angles against the reference's {len(reference)}"
         return [_fail(case_id, engine, STATUS, _EXACT, detail)]
-    checks = [status_check(case_id, reference, judge, quantities, tolerances.get("dead_centre_band"))]
+    checks = [status_check(case_id, reference, judge, quantities, tolerances)]
     if expect == EXPECT_NO_ASSEMBLY:
         return checks
     rel = relative_differences(reference, judge, mode, quantities)

@@ -97,18 +97,26 @@ GROUPS: dict[str, tuple[str, ...]] = {
     "stroke": ("stroke",),
     # status agreement bands (validation/compare.py): not columns, but judged per engine like them
     "dead_centre_band": ("dead_centre_band",),
+    "assembly_limit_band": ("assembly_limit_band",),
 }
+#: Pseudo-quantities of the status agreement rules (validation/compare.py), resolved per judge like columns.
+STATUS_BANDS: tuple[str, ...] = ("dead_centre_band", "assembly_limit_band")
 #: Default tolerance names (in ``validation/tolerances.py``) per engine and group;
 #: ``"*"`` is every judge not listed.  The rigid-body judges are held to the
 #: issues' figures (1e-10 kinematics, 1e-9 reactions); the simulation more loosely:
 #: it integrates the motion under servos and holds the loop by a soft constraint.
 DEFAULT_TOLERANCES: dict[str, dict[str, str]] = {
-    "*": {"kinematics": "MATRIX_KINEMATICS", "reactions": "MATRIX_REACTIONS", "stroke": "MATRIX_KINEMATICS", "dead_centre_band": "DEAD_CENTRE_STATUS_BAND"},
+    "*": {"kinematics": "MATRIX_KINEMATICS", "reactions": "MATRIX_REACTIONS", "stroke": "MATRIX_KINEMATICS",
+          "dead_centre_band": "DEAD_CENTRE_STATUS_BAND", "assembly_limit_band": "ASSEMBLY_LIMIT_STATUS_BAND"},
     "pinocchio": {"kinematics": "PINOCCHIO_KINEMATICS", "reactions": "PINOCCHIO_REACTIONS",
-                  "stroke": "PINOCCHIO_KINEMATICS", "dead_centre_band": "DEAD_CENTRE_STATUS_BAND"},
+                  "stroke": "PINOCCHIO_KINEMATICS", "dead_centre_band": "DEAD_CENTRE_STATUS_BAND",
+                  "assembly_limit_band": "ASSEMBLY_LIMIT_STATUS_BAND"},
     "mujoco": {"kinematics": "MUJOCO_RIGID_KINEMATICS", "reactions": "MUJOCO_RIGID_REACTIONS",
-               "stroke": "MUJOCO_RIGID_KINEMATICS", "dead_centre_band": "DEAD_CENTRE_STATUS_BAND"},
-    "mujoco-sim": {"kinematics": "MATRIX_SIM_KINEMATICS", "reactions": "SIM_REACTIONS", "stroke": "SIM_STROKE", "dead_centre_band": "SIM_DEAD_CENTRE_STATUS_BAND"},
+               "stroke": "MUJOCO_RIGID_KINEMATICS", "dead_centre_band": "DEAD_CENTRE_STATUS_BAND",
+               "assembly_limit_band": "ASSEMBLY_LIMIT_STATUS_BAND"},
+    "mujoco-sim": {"kinematics": "MATRIX_SIM_KINEMATICS", "reactions": "SIM_REACTIONS", "stroke": "SIM_STROKE",
+                   "dead_centre_band": "SIM_DEAD_CENTRE_STATUS_BAND",
+                   "assembly_limit_band": "SIM_ASSEMBLY_LIMIT_STATUS_BAND"},
 }
 #: Short symbols for the thesis's link-joint constants (ids and legends).
 DEFAULT_LABELS: dict[str, str] = {
@@ -460,7 +468,7 @@ def _resolve_tolerances(table: Any, judges: tuple[str, ...], quantities: tuple[s
         mine = per_engine.get(e, {})
         defaults = DEFAULT_TOLERANCES.get(e, DEFAULT_TOLERANCES["*"])
         resolved[e] = {}
-        for q in (*quantities, "stroke", "dead_centre_band"):
+        for q in (*quantities, "stroke", *STATUS_BANDS):
             g = _group_of(q)
             for where, src, key in ((f"tolerances.{e}.{q}", mine, q), (f"tolerances.{e}.{g}", mine, g),
                                     (f"tolerances.{q}", general, q), (f"tolerances.{g}", general, g)):

@@ -48,6 +48,11 @@ BASELINE_VALUE_RTOL = Tolerance(1e-9, "the in-house answers are deterministic to
 #: Status agreement (validation/compare.py): a rigid judge may say ``dead_centre`` where the reference says ``ok``
 #: (or the reverse) only where the reference's |transmission| is below this band.
 DEAD_CENTRE_STATUS_BAND = Tolerance(1e-8, "rigid engines flag |t| < 1e-9 (DEAD_CENTRE_TRANSMISSION) of their own t, which agree to ~1e-12; 10x the flag is a generous margin")
+#: Status agreement: ``ok`` against ``assembly_limit`` only where the reference's closure_condition is this close
+#: to the flag ASSEMBLY_LIMIT_CONDITION (each engine flags from its own pose).
+ASSEMBLY_LIMIT_STATUS_BAND = Tolerance(1e-8, "rigid engines' closure_condition agree to ~1e-12 (their poses agree to ~1e-13 of a2); 1e-8 is a generous margin around the flag")
+#: Status agreement for the MuJoCo simulation's assembly-limit flag.
+SIM_ASSEMBLY_LIMIT_STATUS_BAND = Tolerance(1e-4, "the simulated pose differs from the rigid one by <= 1e-5 of a2 (SIM_STROKE), and so does its closure_condition; 10x that")
 #: Status agreement for the MuJoCo simulation, which flags dead centres in a wider band.
 SIM_DEAD_CENTRE_STATUS_BAND = Tolerance(2e-3, "the simulation flags |t| < 1e-3 (SIM_DEAD_CENTRE_TRANSMISSION) of its own t, which differs from the reference's by <= 1e-5 near dead centres; 2x the flag")
 

@@ -279,3 +279,21 @@ def test_a_geometry_that_cannot_assemble_fails_unless_declared(tmp_path, expect,
         assert "assembles at no crank position" in result.output
     else:
         assert "PASS" in result.output
+
+
+def test_assembly_limit_flags_may_differ_only_near_the_flag(matrix, results):
+    """ok against assembly_limit passes only where the closure condition is within the band of the flag."""
+    from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION
+
+    mc = matrix.cases[0]
+    ref, judge = results[mc.id]["dualmech"], results[mc.id]["pinocchio"]
+    band = matrix.tolerance("pinocchio", "assembly_limit_band").value
+    rates = {c: np.nan for c in ref.columns if c not in ("theta1_deg", "S1", "S4", "closure_condition")}
+    flagged = _edited(judge, slice(1, 2), Status.ASSEMBLY_LIMIT, **rates)
+    tols = matrix.tolerances["pinocchio"]
+    for condition, passes in ((ASSEMBLY_LIMIT_CONDITION.value + 0.5 * band, True),
+                              (ASSEMBLY_LIMIT_CONDITION.value + 2.0 * band, False), (0.5, False)):
+        edited = _edited(ref, slice(1, 2), closure_condition=condition)
+        status = [c for c in compare_case(mc.id, mc.mode, edited, flagged, matrix.quantities, tols)
+                  if c.quantity == STATUS]
+        assert status[0].passed is passes, (condition, status[0].detail)
