@@ -8,20 +8,19 @@ source it passes.  The engines are the stand-ins of ``matrix_fakes``.
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from dualmech.core.status import Status
-from dualmech.core.table import REACTION_COLUMNS, ResultTable
+from dualmech.core.table import REACTION_COLUMNS
 from dualmech.validation.baseline import baseline_summary, compare_baseline
 from dualmech.validation.compare import compare_case, compare_run
 from dualmech.validation.matrix import GROUPS, load_matrix
 
-from . import matrix_fakes
-from .test_validate import SMALL
+from .test_compare import _edited, matrix, results  # noqa: F401  (matrix, results are fixtures)
+from .test_validate import small  # noqa: F401  (a fixture)
 
 #: A tolerance no measured difference of the default matrix comes within this fraction of is a blind spot:
 #: the worst measured ratio (difference / tolerance) per judge and group is 7e-5 .. 8e-2
@@ -29,30 +28,6 @@ from .test_validate import SMALL
 BLIND_TOLERANCE_RATIO = 1e-6
 #: A rigid judge missing a dead centre this far from one (|transmission|) is wrong, whatever the band.
 MISSED_DEAD_CENTRE_T = 1e-3
-
-
-@pytest.fixture()
-def matrix(tmp_path):
-    path = tmp_path / "small.toml"
-    path.write_text(SMALL)
-    return load_matrix(path)
-
-
-@pytest.fixture()
-def results(matrix):
-    return {mc.id: {"dualmech": matrix_fakes.solve_case(mc.case()),
-                    "pinocchio": matrix_fakes.solve_case_judge(mc.case()),
-                    "mujoco": matrix_fakes.solve_case_judge_b(mc.case())} for mc in matrix.cases}
-
-
-def _edited(table: ResultTable, row: int, status: str | None = None, **values: float) -> ResultTable:
-    cols = {k: v.copy() for k, v in table.columns.items()}
-    words = np.asarray(table.status, dtype=object).copy()
-    if status is not None:
-        words[row] = status
-    for name, value in values.items():
-        cols[name][row] = value
-    return replace(table, columns=cols, status=words)
 
 
 def test_baseline_flags_an_in_house_value_that_moved(matrix, results):
