@@ -26,6 +26,7 @@ import numpy as np
 from dualmech.core.inertia import BodyInertia, solid_cube, solid_cylinder_x
 from dualmech.core.motion import CrankMotion
 from dualmech.models.toml_input import read_toml
+from dualmech.models.units import UNIT_SYSTEMS
 
 
 class CaseError(ValueError):
@@ -65,17 +66,9 @@ MAX_POSITIONS = 10_000_000
 #: Longest case name, characters (names appear in one-line messages and report titles; names
 #: derived by ``Case.with_values`` list every changed key, and are cut to this length).
 MAX_CASE_NAME = 1000
-#: The unit-system labels a case may state (``units = ...``): length-force-time, and the mass
-#: unit they imply.  Nothing is converted; the label only says what the numbers mean.
-KNOWN_UNITS: dict[str, str] = {
-    "consistent": "unstated consistent units (the default)",
-    "m-kg-s": "metre, newton, second; mass kg",
-    "m-N-s": "metre, newton, second; mass kg",
-    "mm-N-s": "millimetre, newton, second; mass tonne",
-    "cm-g-s": "centimetre, dyne, second; mass g",
-    "inch-lbf-s": "inch, pound-force, second; mass lbf*s^2/in",
-    "ft-lbf-s": "foot, pound-force, second; mass slug",
-}
+#: The unit-system labels a case may state (``units = ...``; :mod:`dualmech.models.units`).
+#: Nothing is converted; the label only says what the numbers mean.
+KNOWN_UNITS: dict[str, str] = {label: system.description for label, system in UNIT_SYSTEMS.items()}
 
 
 class _ShortRepr(reprlib.Repr):

@@ -37,26 +37,15 @@ def cases() -> None:
         )
 
 
-def summarize(table: ResultTable) -> str:
-    """A short text summary of one solved case: stroke, extremes, statuses, worst residual."""
-    s4 = table["S4"]
-    theta = table["theta1_deg"]
-    finite = np.isfinite(s4)
-    lines = [f"case {table.case} ({table.engine}): {len(table)} positions"]
-    counts = {w: int(np.sum(table.status == w)) for w in np.unique(table.status)}
-    lines.append("status: " + ", ".join(f"{w} {n}" for w, n in sorted(counts.items())))
-    if finite.any():
-        imax = np.nanargmax(s4)
-        imin = np.nanargmin(s4)
-        lines.append(
-            f"stroke: {s4[imax] - s4[imin]:.9g} (max S4 {s4[imax]:.9g} at {theta[imax]:g} deg, "
-            f"min S4 {s4[imin]:.9g} at {theta[imin]:g} deg)"
-        )
+def summarize(table: ResultTable, units: str = "consistent") -> str:
+    """What a designer reads first (:mod:`dualmech.models.design_summary`), the worst residual, the engine's notes."""
+    from dualmech.models.design_summary import design_summary
+
+    lines = design_summary(table, units).lines()
     res = table["residual"]
     if np.isfinite(res).any():
         lines.append(f"worst closure residual: {np.nanmax(res):.3g}")
-    for reason in table.meta.get("messages", []):
-        lines.append(reason)
+    lines += list(table.meta.get("messages", []))
     return "\n".join(lines)
 
 
@@ -69,6 +58,8 @@ def summarize(table: ResultTable) -> str:
 @one_line_errors
 def solve(case: str, output: str | None, engine: str, frames: str) -> None:
     """Solve CASE (a TOML file or a preset name) and write one row per crank position."""
+    if frames == "joint" and not output:
+        raise ValueError("--frames joint: the joint-frame table goes beside the -o file (OUT.joint.csv); give -o OUT.csv")
     c = load_case(case)
     table = run_engine(engine, c)
     if output:
@@ -79,7 +70,7 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
             write_joint_frame_csv(c, table, Path(output).with_suffix(".joint.csv"))
     else:
         sys.stdout.write(table.to_csv())
-    click.echo(summarize(table), err=output is None)
+    click.echo(summarize(table, c.units), err=output is None)
 
 
 @main.command()

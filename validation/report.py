@@ -40,7 +40,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-from dualmech.core.table import REACTION_COLUMNS, ResultTable
+from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
+from dualmech.models.design_summary import (
+    JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION, PEAK_NAMES, DesignSummary, Peak, design_summary,
+)
+from dualmech.models.units import DIMENSIONS, axis_label, column_unit
 from dualmech.validation import runner
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Check, Comparison, compare_run, relative_differences
 from dualmech.validation.executors import worker_init
@@ -62,6 +66,9 @@ SWEEP_FIGURES: tuple[tuple[str, str, tuple[str, ...], tuple[int, int]], ...] = (
 AXIS_RANGE_TRANSMISSION = 0.1
 #: Floor of the log-scale difference plots (exact agreement is drawn here).
 LOG_FLOOR = 1e-17
+#: A panel is drawn as a line of text when its spread is below this fraction of its size (a constant),
+#: or its size below this fraction of the case's largest value of the same dimension (round-off of zero).
+FLAT_RELATIVE = 1e-9
 JUDGE_MARKERS = ("o", "x", "+", "s", "^", "v", "d")
 FINDINGS_FUNCTION = "dualmech.models.findings:thesis_findings"
 UNITS = {"length": "in", "force": "lbf", "moment": "lbf·in"}  # label text only; see the case's units
@@ -247,6 +254,23 @@ def copy_errata(outdir: Path) -> str | None:
     return "errata.md"
 
 
+def design_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> list[DesignSummary]:
+    """The reference engine's :class:`DesignSummary` of every case it solved, with the peak of every column.
+
+    A peak a case lacks (no ok row) is NaN, so every row has the same columns.
+    """
+    rows = []
+    for mc in matrix.cases:
+        table = results.get(mc.id, {}).get(matrix.reference)
+        if isinstance(table, ResultTable):
+            d = design_summary(table, mc.raw.get("units", "consistent"))
+            names = [p.name for p in d.peaks]
+            full = [next((p for p in d.peaks if p.name == n), Peak(n, float("nan"), float("nan"), ""))
+                    for n in PEAK_NAMES] if names != list(PEAK_NAMES) else list(d.peaks)
+            rows.append(replace(d, peaks=tuple(full)))
+    return rows
+
+
 def dead_centre_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> list[dict]:
     """Per case with any flagged row: the crank angles each engine flags ``dead_centre``."""
     rows = []
@@ -268,7 +292,7 @@ def dead_centre_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | 
 
 def _fig_to_png(fig: Any) -> bytes:
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80)
+    fig.savefig(buf, format="png", dpi=80, bbox_inches="tight", pad_inches=0.1)  # nothing cut off
     import matplotlib.pyplot as plt
 
     plt.close(fig)
@@ -291,6 +315,28 @@ def _axis_range(tables: list[ResultTable], column: str, torque: bool) -> tuple[f
     return lo - pad, hi + pad
 
 
+def _flat_note(tables: list[ResultTable], column: str, units: str) -> str | None:
+    """A line that replaces a panel whose curve would show nothing: a constant, or round-off of zero.
+
+    Constant: the spread of the values is below :data:`FLAT_RELATIVE` of their size.
+    Round-off: every value is below :data:`FLAT_RELATIVE` of the largest value of any
+    column of the same dimension in these tables (e.g. a planar case's out-of-plane moments).
+    """
+    dimension = DIMENSIONS[column]
+    values = np.concatenate([t[column][np.isfinite(t[column])] for t in tables]) if tables else np.array([])
+    if not values.size:
+        return None
+    peer = [np.abs(t[c][np.isfinite(t[c])]).max(initial=0.0) for t in tables for c in NUMERIC_COLUMNS
+            if DIMENSIONS.get(c) == dimension and c != "residual"]
+    size, scale = float(np.abs(values).max()), max(peer, default=0.0)
+    unit = column_unit(column, units)
+    if size <= FLAT_RELATIVE * scale:
+        return f"zero to round-off:\n|{column}| <= {size:.1e} {unit}\n(< {FLAT_RELATIVE:g} of the case's largest)"
+    if float(values.max() - values.min()) <= FLAT_RELATIVE * size:
+        return f"constant:\n{column} = {float(np.median(values)):.9g} {unit}"
+    return None
+
+
 def _draw_clipped(ax: Any, x: np.ndarray, y: np.ndarray, lim: tuple[float, float], color: Any) -> None:
     lo, hi = lim
     above, below = np.isfinite(y) & (y > hi), np.isfinite(y) & (y < lo)
@@ -308,8 +354,13 @@ def sweep_figure(
     reference: str,
     judges: tuple[str, ...],
     torque: bool,
+    units: str = "consistent",
 ) -> bytes:
     """One figure of a sweep: ``columns`` against the crank angle, the reference as lines, judges as markers.
+
+    Every axis says its quantity and unit (``units``: the cases' unit label,
+    :mod:`dualmech.models.units`); tick labels never use an offset; a column that is
+    constant or round-off of zero is stated in a line of text instead of drawn.
 
     Parameters
     ----------
@@ -328,6 +379,12 @@ def sweep_figure(
     colors = ["black"] + [plt.get_cmap("tab10")(i) for i in range(10)]
     for ax, col in zip(axes.flat, columns):
         tabs = [t for _, per in cases for t in per.values()]
+        _frame(ax, col, units)
+        note = _flat_note(tabs, col, units)
+        if note is not None:
+            ax.text(0.5, 0.5, note, transform=ax.transAxes, ha="center", va="center", fontsize=8, wrap=True)
+            ax.set_yticks([])
+            continue
         lim = _axis_range(tabs, col, torque)
         for i, (label, per) in enumerate(cases):
             color = colors[i % len(colors)]
@@ -352,12 +409,6 @@ def sweep_figure(
                     _draw_clipped(ax, x[sel], t[col][sel], lim, color)
         if lim is not None:
             ax.set_ylim(*lim)
-        ax.set_title(col, fontsize=10)
-        ax.set_xlim(0, 360)
-        ax.set_xticks(range(0, 361, 90))
-        ax.grid(True, alpha=0.3)
-        ax.set_xlabel("crank angle theta1 [deg]", fontsize=8)
-        ax.tick_params(labelsize=8)
     for ax in list(axes.flat)[len(columns):]:
         ax.axis("off")
     handles, labels = axes.flat[0].get_legend_handles_labels()
@@ -369,6 +420,18 @@ def sweep_figure(
     fig.subplots_adjust(left=0.7 / fig.get_figwidth(), right=0.98, top=1 - 0.55 / height,
                         bottom=(legend_in + 0.45) / height, hspace=0.55, wspace=0.22)
     return _fig_to_png(fig)
+
+
+def _frame(ax: Any, column: str, units: str) -> None:
+    """Title, axis labels with units, plain tick labels (no offset or scientific multiplier) of one panel."""
+    ax.set_title(column, fontsize=10)
+    ax.set_xlim(0, 360)
+    ax.set_xticks(range(0, 361, 90))
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("crank angle theta1 [deg]", fontsize=8)
+    ax.set_ylabel(axis_label(column, units), fontsize=8)
+    ax.tick_params(labelsize=8)
+    ax.ticklabel_format(axis="y", useOffset=False, style="sci", scilimits=(-3, 4))
 
 
 def difference_figure(
@@ -446,6 +509,7 @@ def heatmap_figure(engine: str, cases: list[str], quantities: list[str], values:
 def _figure_specs(matrix: Matrix, results: dict, comparison: Comparison) -> list[tuple]:
     """(key, section, group, title, caption, (function name, args)) of every figure."""
     specs = []
+    units = matrix.cases[0].raw.get("units", "consistent") if matrix.cases else "consistent"
     for sw in matrix.sweeps:
         for mode, ids in sw.case_ids.items():
             cases = []
@@ -460,7 +524,8 @@ def _figure_specs(matrix: Matrix, results: dict, comparison: Comparison) -> list
                 caption = (f"{sw.label}; {mode} mode. Lines: {matrix.reference}; markers: "
                            f"{', '.join(matrix.judges)}. Dotted verticals: dead centres; triangles: values beyond the axis.")
                 specs.append((_file_key(f"{sw.name}-{mode}-{key}"), "sweep", sw.name, title, caption,
-                              ("sweep", (title, cols, grid, cases, matrix.reference, matrix.judges, mode == "torque"))))
+                              ("sweep", (title, cols, grid, cases, matrix.reference, matrix.judges, mode == "torque",
+                                         units))))
     kin_q = tuple(q for q in matrix.quantities if q not in REACTION_COLUMNS)
     rea_q = tuple(q for q in matrix.quantities if q in REACTION_COLUMNS)
     for e in matrix.judges:
@@ -660,6 +725,11 @@ def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison, f
         "tolerances": tolerance_rows(matrix),
         "dead_centres": dead_centre_rows(matrix, results),
         "engine_versions": engine_versions(results),
+        "design": design_rows(matrix, results),
+        "design_columns": [name for _, forces, moments in JOINTS for name in
+                           (f"{forces[0][:2]} |f|", *([f"{moments[0][:2]} |m|"] if moments else []))]
+                          + ["|drive_torque|", "|slider_load|"],
+        "near_dead_centre": NEAR_DEAD_CENTRE_TRANSMISSION,
         "figures": figures,
         "sections": [(s.name, s.label) for s in matrix.sweeps],
         "n_done": len(results),

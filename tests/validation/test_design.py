@@ -76,3 +76,24 @@ def test_the_thesis_report_carries_its_errata_beside_it(tmp_path):
     md = (out / "report.md").read_text()
     assert "thesis's printed findings" in md and "[errata.md](errata.md)" in md
     assert (out / "errata.md").read_text().startswith("#")
+
+
+def test_solve_prints_peak_loads_with_units_and_refuses_a_lost_joint_table(design, tmp_path):
+    result = CliRunner().invoke(main, ["solve", str(design), "-o", str(tmp_path / "out.csv")])
+    assert result.exit_code == 0, result.output
+    assert "stroke: 0.098052179 m" in result.output and " N at " in result.output and "N·m" in result.output
+    assert "warning: |transmission| < 0.05" in result.output
+    refused = CliRunner().invoke(main, ["solve", str(design), "--frames", "joint"])
+    assert refused.exit_code == 2 and "give -o" in refused.output
+
+
+def test_a_constant_or_round_off_panel_is_a_line_of_text_with_its_unit():
+    from dualmech.models.case import load_case
+    from dualmech.models.slider_crank import solve_case
+    from dualmech.validation.report import _flat_note
+
+    case = load_case("thesis/ideal")
+    table = solve_case(case)
+    assert _flat_note([table], "drive_torque", case.units).startswith("constant:\ndrive_torque = 100 lbf·in")
+    assert _flat_note([table], "j4_mz", case.units).startswith("zero to round-off")
+    assert _flat_note([table], "j1_fx", case.units) is None

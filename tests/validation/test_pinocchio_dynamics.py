@@ -176,7 +176,7 @@ def test_cli_solve_with_the_pinocchio_engine(tmp_path):
     out = tmp_path / "pin.csv"
     result = CliRunner().invoke(main, ["solve", "a4-30-s1-3.5", "--engine", "pinocchio", "-o", str(out)])
     assert result.exit_code == 0, result.output
-    assert "(pinocchio): 360 positions" in result.output
+    assert "(pinocchio): ok 360" in result.output
     table = read_csv(out)
     direct = pe.solve_case(load_case("a4-30-s1-3.5"))
     assert (table.status == "ok").all()

@@ -1,0 +1,118 @@
+"""What a designer wants first from one solved case: stroke, peak joint loads and where, dead centres.
+
+Computed from a :class:`~dualmech.core.table.ResultTable` alone (any engine's), so the
+report and ``dualmech solve`` print the same numbers; units come from the case's label
+(:mod:`dualmech.models.units`).  Peaks are taken over the ``ok`` rows: a dead centre
+has no finite reactions, and is listed instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dualmech.core.status import Status, is_status
+from dualmech.core.table import ResultTable
+from dualmech.models.units import column_unit
+
+#: |transmission| below this is a warning: the slider load (torque mode) or the drive torque (force mode)
+#: is more than 20x its value at the best transmission; real mechanisms are designed well above it.
+NEAR_DEAD_CENTRE_TRANSMISSION = 0.05
+#: Joints, their force columns and, where the joint carries one, their moment columns.
+JOINTS: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
+    ("joint 1 (crank bearing)", ("j1_fx", "j1_fy", "j1_fz"), ("j1_mx", "j1_my", "j1_mz")),
+    ("joint 2 (crank pin ball)", ("j2_fx", "j2_fy", "j2_fz"), ()),
+    ("joint 3 (slider ball)", ("j3_fx", "j3_fy", "j3_fz"), ()),
+    ("joint 4 (slider guide)", ("j4_fx", "j4_fy", "j4_fz"), ("j4_mx", "j4_my", "j4_mz")),
+)
+
+#: The name of every peak a summary gives, in order.
+PEAK_NAMES: tuple[str, ...] = tuple(
+    f"{joint} |{kind}|" for joint, forces, moments in JOINTS for kind, cols in (("force", forces), ("moment", moments))
+    if cols) + ("|drive_torque|", "|slider_load|")
+
+
+@dataclass(frozen=True)
+class Peak:
+    """The largest magnitude of a quantity over the ok rows, and the crank angle where it occurs."""
+
+    name: str
+    value: float
+    theta_deg: float
+    unit: str
+
+    def __str__(self) -> str:
+        return f"{self.name}: {self.value:.6g} {self.unit} at {self.theta_deg:g} deg".replace("  ", " ")
+
+
+@dataclass(frozen=True)
+class DesignSummary:
+    """The engineering summary of one solved case (module docstring)."""
+
+    case: str
+    engine: str
+    stroke: float
+    length_unit: str
+    peaks: tuple[Peak, ...]
+    dead_centres: tuple[float, ...]
+    near_dead_centres: tuple[float, ...]
+    statuses: dict[str, int]
+
+    def lines(self) -> list[str]:
+        """The summary as text, one fact per line, with units."""
+        out = [f"case {self.case} ({self.engine}): "
+               + ", ".join(f"{w} {n}" for w, n in self.statuses.items()),
+               f"stroke: {self.stroke:.9g} {self.length_unit}".rstrip()]
+        out += [f"peak {p}" for p in self.peaks]
+        if self.dead_centres:
+            out.append(f"dead centres (no finite reactions) at theta1 = {_angles(self.dead_centres)} deg")
+        if self.near_dead_centres:
+            out.append(f"warning: |transmission| < {NEAR_DEAD_CENTRE_TRANSMISSION:g} (near a dead centre) at "
+                       f"theta1 = {_angles(self.near_dead_centres)} deg")
+        return out
+
+
+def _angles(values: tuple[float, ...], limit: int = 8) -> str:
+    shown = ", ".join(f"{v:g}" for v in values[:limit])
+    return shown + (f", ... ({len(values)} positions)" if len(values) > limit else "")
+
+
+def _peak(name: str, magnitude: np.ndarray, theta: np.ndarray, unit: str) -> Peak | None:
+    finite = np.isfinite(magnitude)
+    if not finite.any():
+        return None
+    i = int(np.flatnonzero(finite)[np.argmax(magnitude[finite])])
+    return Peak(name, float(magnitude[i]), float(theta[i]), unit)
+
+
+def design_summary(table: ResultTable, units: str = "consistent") -> DesignSummary:
+    """The :class:`DesignSummary` of ``table`` in the unit system ``units``."""
+    ok = is_status(table.status, Status.OK)
+    theta = table["theta1_deg"]
+
+    def on_ok(column: str) -> np.ndarray:
+        return np.where(ok, table[column], np.nan)
+
+    peaks = []
+    for joint, forces, moments in JOINTS:
+        for kind, cols in (("force", forces), ("moment", moments)):
+            if cols:
+                magnitude = np.linalg.norm(np.stack([on_ok(c) for c in cols]), axis=0)
+                peaks.append(_peak(f"{joint} |{kind}|", magnitude, theta, column_unit(cols[0], units)))
+    for column in ("drive_torque", "slider_load"):
+        peaks.append(_peak(f"|{column}|", np.abs(on_ok(column)), theta, column_unit(column, units)))
+    s4 = table["S4"][is_status(table.status, Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT)]
+    s4 = s4[np.isfinite(s4)]
+    t = np.abs(table["transmission"])
+    near = np.isfinite(t) & (t < NEAR_DEAD_CENTRE_TRANSMISSION) & ok
+    words, counts = np.unique(np.asarray(table.status, dtype=str), return_counts=True)
+    return DesignSummary(
+        case=table.case, engine=table.engine,
+        stroke=float(s4.max() - s4.min()) if s4.size else float("nan"),
+        length_unit=column_unit("S4", units),
+        peaks=tuple(p for p in peaks if p is not None),
+        dead_centres=tuple(float(a) for a in theta[is_status(table.status, Status.DEAD_CENTRE)]),
+        near_dead_centres=tuple(float(a) for a in theta[near]),
+        statuses={str(w): int(n) for w, n in zip(words, counts)},
+    )

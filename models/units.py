@@ -1,0 +1,76 @@
+"""Unit systems a case may state (``units = "m-N-s"``), and the unit of every output column.
+
+Nothing is ever converted: a case's numbers are in one consistent system, and its
+label only says which, so that reports and summaries can print units.  A label is
+``<length>-<force or mass>-<time>``; the mass unit follows from the other three
+(``docs/conventions.md``, "Units").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class UnitSystem:
+    """Length, force, time and mass units of a consistent system (``""`` when unstated)."""
+
+    length: str
+    force: str
+    time: str
+    mass: str
+    description: str
+
+    def of(self, dimension: str) -> str:
+        """The unit of ``dimension`` (a key of :data:`DIMENSIONS`), e.g. ``"lbf·in"``; ``""`` if unstated."""
+        if not self.length:
+            return ""
+        return {
+            "length": self.length,
+            "velocity": f"{self.length}/{self.time}",
+            "acceleration": f"{self.length}/{self.time}²",
+            "force": self.force,
+            "moment": f"{self.force}·{self.length}",
+            "ratio": "1",
+            "angle": "deg",
+        }[dimension]
+
+
+#: Every label a case may state, and what it means.
+UNIT_SYSTEMS: dict[str, UnitSystem] = {
+    "consistent": UnitSystem("", "", "", "", "unstated consistent units (the default)"),
+    "m-kg-s": UnitSystem("m", "N", "s", "kg", "metre, newton, second; mass kg"),
+    "m-N-s": UnitSystem("m", "N", "s", "kg", "metre, newton, second; mass kg"),
+    "mm-N-s": UnitSystem("mm", "N", "s", "t", "millimetre, newton, second; mass tonne"),
+    "cm-g-s": UnitSystem("cm", "dyn", "s", "g", "centimetre, dyne, second; mass g"),
+    "inch-lbf-s": UnitSystem("in", "lbf", "s", "lbf·s²/in", "inch, pound-force, second; mass lbf*s^2/in"),
+    "ft-lbf-s": UnitSystem("ft", "lbf", "s", "slug", "foot, pound-force, second; mass slug"),
+}
+
+#: Dimension of every numeric output column (``core/table.py``; ``docs/conventions.md``).
+DIMENSIONS: dict[str, str] = {
+    "theta1_deg": "angle", "S1": "length", "S4": "length", "S4_dot": "velocity", "S4_ddot": "acceleration",
+    "transmission": "ratio", "closure_condition": "ratio", "residual": "length",
+    "slider_load": "force", "drive_torque": "moment",
+    **{f"j{j}_f{a}": "force" for j in (1, 2, 3, 4) for a in "xyz"},
+    **{f"j{j}_m{a}": "moment" for j in (1, 4) for a in "xyz"},
+}
+
+
+def unit_system(label: str) -> UnitSystem:
+    """The :class:`UnitSystem` of ``label``; ValueError naming the valid labels."""
+    try:
+        return UNIT_SYSTEMS[label]
+    except (KeyError, TypeError):
+        raise ValueError(f"units: {label!r} is not a known unit label (valid: {', '.join(UNIT_SYSTEMS)})") from None
+
+
+def column_unit(column: str, label: str) -> str:
+    """Unit of output ``column`` in the system ``label`` (``""`` for unstated units)."""
+    return unit_system(label).of(DIMENSIONS[column])
+
+
+def axis_label(column: str, label: str) -> str:
+    """``"j1_fx [lbf]"``: a column with its unit, for plots and tables (no brackets when unstated)."""
+    unit = column_unit(column, label)
+    return f"{column} [{unit}]" if unit else column
