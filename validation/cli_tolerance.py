@@ -22,7 +22,7 @@ def _print_summary(summary: dict) -> None:
         click.echo(f"yield {y['value']:.4f} (95 % Wilson {y['ci'][0]:.4f}..{y['ci'][1]:.4f}), "
                    f"{y['ok']} of {y['n']} designs assemble over the whole cycle")
     click.echo(f"{'output':20s} {'mean':>13s} {'std':>11s} {'linear std':>11s} {'p99':>13s}")
-    for name in summary.get("nominal") or summary["outputs"]:
+    for name in summary["nominal"]:
         o = summary["outputs"].get(name, {})
         lin = (summary.get("linear_std") or {}).get(name)
         cells = [o.get("mean"), o.get("std"), lin, o.get("p99")]

@@ -70,13 +70,13 @@ def tornado_figure(name: str, keys: list[str], sobol: dict | None, linear: dict 
 
 
 def _figures(summary: dict, samples: dict[str, np.ndarray] | None) -> list[Figure]:
-    names = list(summary.get("nominal") or summary["outputs"])
+    names = list(summary["nominal"])
     out = []
     if samples is not None:
         ok = np.asarray(samples["status"], dtype=str) == DesignStatus.OK.value
         for name in names:
             out.append(histogram_figure(name, np.asarray(samples[name], float)[ok],
-                                        (summary.get("nominal") or {}).get(name),
+                                        summary["nominal"][name],
                                         summary["outputs"].get(name, {}).get("p99")))
     for name in names:
         out.append(tornado_figure(name, summary["keys"], (summary.get("contribution") or {}).get(name),
@@ -92,7 +92,7 @@ def write_tolerance_report(outdir: Path, summary: dict, x: np.ndarray | None,
     figdir.mkdir(parents=True, exist_ok=True)
     for f in figures:
         (figdir / f"{f.key}.png").write_bytes(f.png)
-    context = {"s": summary, "figures": figures, "names": list(summary.get("nominal") or summary["outputs"])}
+    context = {"s": summary, "figures": figures, "names": list(summary["nominal"])}
     for template, target, markdown in (("tolerance.html.j2", "report.html", False),
                                        ("tolerance.md.j2", "report.md", True)):
         text = _environment(TEMPLATES, markdown).get_template(template).render(**context)

@@ -25,7 +25,7 @@ from typing import Iterator
 import numpy as np
 
 from dualmech.models.case import Case, CaseError, case_from_dict
-from dualmech.models.slider_crank import iter_analyses, to_table
+from dualmech.models.slider_crank import iter_analyses, solve_case, to_table
 from dualmech.models.tolerance.outputs import COUNTS, design_outputs, output_names
 from dualmech.models.tolerance.sampling import chunk_bounds, n_chunks, sample_chunk
 from dualmech.models.tolerance.spec import Spec, design_case, nominal_values, spec_from_dict
@@ -246,10 +246,13 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
     else:
         outdir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    sens = sensitivities(study.case, study.spec) if method != "mc" else None
+    table = solve_case(study.case)
+    mode = study.case.loads.mode
+    solved = design_outputs([table], mode)
+    nominal = {name: float(solved[name][0]) for name in output_names(mode)}
+    sens = sensitivities(study.case, study.spec, table) if method != "mc" else None
     timing["sensitivity_s"] = time.perf_counter() - start
-    names = output_names(study.case.loads.mode)
-    stats = summarize(study.spec, names, x, samples, sens)
+    stats = summarize(study.spec, nominal, x, samples, sens)
     if samples is not None:
         picks = judge_picks(judge_samples, study.seed, candidates(samples["status"]))
         designs = [design_case(study.case, study.spec, x[i], design_name(int(i))) for i in picks]

@@ -112,15 +112,18 @@ def linear_propagation(sens: Sensitivities, spec: Spec) -> dict:
     return out
 
 
-def summarize(spec: Spec, names: tuple[str, ...], x: np.ndarray | None, samples: dict[str, np.ndarray] | None,
-              sens: Sensitivities | None) -> dict:
+def summarize(spec: Spec, nominal: dict[str, float], x: np.ndarray | None,
+              samples: dict[str, np.ndarray] | None, sens: Sensitivities | None) -> dict:
     """The statistics of ``summary.json`` (module docstring), without the study's identity fields.
 
+    ``nominal`` are the outputs of the nominal design (their names are the outputs summarised);
     ``x`` ``(n, k)`` sampled key values and ``samples`` (every output and ``status``, ``(n,)``) are
     ``None`` for ``--method linear``; ``sens`` is ``None`` for ``--method mc``.
     """
-    out: dict = {"outputs": {}, "yield": None, "sensitivity": None, "linear_std": None, "linear_mean": None,
-                 "contribution": None, "linear_share": None}
+    names = tuple(nominal)
+    out: dict = {"outputs": {}, "yield": None, "sensitivity": None, "sensitivity_positions_deg": None,
+                 "linear_std": None, "linear_mean": None, "linear_share": None, "contribution": None,
+                 "nominal": nominal}
     if samples is not None and x is not None:
         ok = np.asarray(samples["status"], dtype=str) == DesignStatus.OK.value
         out["outputs"] = {name: describe(samples[name][ok]) for name in names}
@@ -129,6 +132,5 @@ def summarize(spec: Spec, names: tuple[str, ...], x: np.ndarray | None, samples:
         out["contribution"] = {name: dict(zip(spec.keys, map(float, s))) for name, s in sobol.items()}
     if sens is not None:
         lin = linear_propagation(sens, spec)
-        out.update(sensitivity=sens.values, nominal=sens.nominal_outputs,
-                   sensitivity_positions_deg=sens.positions_deg, **lin)
+        out.update(sensitivity=sens.values, sensitivity_positions_deg=sens.positions_deg, **lin)
     return out

@@ -10,10 +10,14 @@ from dualmech.models.case import case_from_dict, load_case
 from dualmech.models.slider_crank import solve_case
 from dualmech.models.tolerance.outputs import DesignStatus, design_outputs, output_names
 from dualmech.models.tolerance.sampling import CHUNK_DESIGNS
+from dualmech.models.tolerance.sensitivity import output_group
 from dualmech.models.tolerance.spec import design_case, spec_from_dict
 from dualmech.models.tolerance.study import StudyInput, columns, run_study
 
 N = CHUNK_DESIGNS + 9  # two chunks, the second short
+#: A design's outputs in a batch against the design solved alone, relative to its output group's peak: the
+#: numpy batch is bitwise the same; the compiled single-case path agrees with it to ~1e-14 (measured 2.4e-15).
+BATCH_VS_ALONE = 1e-12
 
 
 def _study(n=N, seed=8):
@@ -52,7 +56,9 @@ def test_rows_are_the_designs_solved_one_by_one(tmp_path):
     for i in (0, N - 1):  # a design in each chunk, re-solved alone
         alone = design_outputs([solve_case(design_case(study.case, study.spec, x[i], "alone"))], "torque")
         for name in output_names("torque"):
-            np.testing.assert_allclose(samples[name][i], alone[name][0], rtol=0, atol=0, err_msg=name)
+            scale = max(abs(alone[n][0]) for n in output_group(name, "torque"))
+            np.testing.assert_allclose(samples[name][i], alone[name][0], rtol=BATCH_VS_ALONE,
+                                       atol=BATCH_VS_ALONE * scale, err_msg=name)
         assert samples["status"][i] == alone["status"][0]
     import pyarrow.parquet as pq
 
