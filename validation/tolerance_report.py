@@ -20,6 +20,8 @@ from dualmech.validation.report import Figure, _environment, _fig_to_png
 TEMPLATES = Path(__file__).parent / "templates"
 #: Histogram bins (at most; fewer for small studies).
 HIST_BINS = 40
+#: A histogram gets a logarithmic axis when its largest value exceeds the median this many times.
+LOG_SPAN = 20.0
 
 
 def histogram_figure(name: str, values: np.ndarray, nominal: float | None, p99: float | None) -> Figure:
@@ -31,7 +33,11 @@ def histogram_figure(name: str, values: np.ndarray, nominal: float | None, p99: 
 
     fig, ax = plt.subplots(figsize=(4.2, 2.8))
     v = values[np.isfinite(values)]
-    ax.hist(v, bins=max(5, min(HIST_BINS, int(np.sqrt(max(v.size, 1))))), color="#90a4ae")
+    bins = max(5, min(HIST_BINS, int(np.sqrt(max(v.size, 1)))))
+    if v.size and v.min() > 0 and v.max() > LOG_SPAN * np.median(v):  # heavy tail (peaks near dead centres)
+        ax.set_xscale("log")
+        bins = np.geomspace(v.min(), v.max(), bins + 1)
+    ax.hist(v, bins=bins, color="#90a4ae")
     for x, label, style in ((nominal, "nominal", "-"), (p99, "p99", "--")):
         if x is not None and np.isfinite(x):
             ax.axvline(x, color="#c62828" if label == "p99" else "#1565c0", ls=style, label=label)
