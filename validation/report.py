@@ -24,6 +24,7 @@ Figures (matplotlib, Agg):
 from __future__ import annotations
 
 import base64
+import contextlib
 import io
 import math
 import os
@@ -46,6 +47,7 @@ from dualmech.models.design_summary import (
 )
 from dualmech.models.units import DIMENSIONS, axis_label, column_unit
 from dualmech.validation import runner
+from dualmech.validation.runner import ProgressCallback
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Check, Comparison, compare_run, relative_differences
 from dualmech.validation.executors import worker_init
 from dualmech.validation.matrix import Matrix
@@ -584,15 +586,23 @@ def _render(job: tuple[str, tuple]) -> bytes:
     return _FIGURE_FUNCTIONS[name](*args)
 
 
-def render_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: int = 1) -> list[Figure]:
-    """Every figure of the report, rendered in ``jobs`` processes."""
+def render_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: int = 1,
+                   progress: ProgressCallback | None = None) -> list[Figure]:
+    """Every figure of the report, rendered in ``jobs`` processes; ``progress(done, total, key)`` after each."""
     specs = _figure_specs(matrix, results, comparison)
     jobs_list = [spec[5] for spec in specs]
-    if jobs > 1 and len(specs) > 1:
-        with ProcessPoolExecutor(max_workers=jobs, initializer=worker_init, initargs=(os.getpid(),)) as pool:
-            pngs = list(pool.map(_render, jobs_list, chunksize=max(1, len(specs) // (4 * jobs))))
-    else:
-        pngs = [_render(j) for j in jobs_list]
+    pngs: list[bytes] = []
+    with contextlib.ExitStack() as stack:
+        if jobs > 1 and len(specs) > 1:
+            pool = stack.enter_context(ProcessPoolExecutor(max_workers=jobs, initializer=worker_init,
+                                                           initargs=(os.getpid(),)))
+            rendered = pool.map(_render, jobs_list, chunksize=max(1, len(specs) // (4 * jobs)))
+        else:
+            rendered = map(_render, jobs_list)
+        for spec, png in zip(specs, rendered):
+            pngs.append(png)
+            if progress is not None:
+                progress(len(pngs), len(specs), spec[0])
     return [Figure(*spec[:5], png) for spec, png in zip(specs, pngs)]
 
 
@@ -661,6 +671,7 @@ def write_report(
     *,
     jobs: int = 1,
     comparison: Comparison | None = None,
+    progress: ProgressCallback | None = None,
 ) -> ReportFiles:
     """Render the report of the run in ``rundir`` into ``outdir`` (default: ``rundir``).
 
@@ -676,7 +687,7 @@ def write_report(
     if comparison is None:
         comparison = compare_run(matrix, results)
     with locked(outdir if outdir is not None else rundir) as outdir:
-        figures = _section("figures", render_figures, matrix, results, comparison, jobs=jobs)
+        figures = _section("figures", render_figures, matrix, results, comparison, jobs=jobs, progress=progress)
         balance_figure, balance_rows = _section("balancing", balancing, matrix)
         figures = [*figures, *([balance_figure] if balance_figure is not None else [])]
         find = _section("findings", findings) if matrix.of_thesis else None  # about the thesis's mechanism only
