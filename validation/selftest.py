@@ -21,8 +21,15 @@ comparison itself.  For every fault this module
    b. only when (a) passes: the catalogue's fast test modules (``tests``),
       ``pytest -x -q``;
 
+   (for a fault in the comparison, b then a: it leaves every engine's numbers
+   as they were, and its unit tests decide faster);
+
 3. counts the fault **killed** when (a) or (b) fails (a crash or a non-zero exit
    is a failure, as it would be in CI), and records which part killed it.
+
+The compiled kernel's numba cache is copied with the source: it is keyed on a
+digest of the kernel's files, so a fault there recompiles the kernel and any
+other fault reuses the unmutated copy's warm cache.
 
 Before any fault, the gate runs on an unmutated copy and must pass: a gate that
 fails without a fault proves nothing, so the selftest stops there.  A fault
@@ -68,9 +75,9 @@ CATALOGUE = "validation/mutants.toml"
 _ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9-]*")
 #: Exit code of :data:`BOOT` when the scratch copy is not what gets imported (an ERROR, never a kill).
 WRONG_IMPORT = 97
-#: Threads for the BLAS of each gate process: mutants run side by side, one core each.
-_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "MPLBACKEND": "Agg",
-        "PYTHONDONTWRITEBYTECODE": "1"}
+#: One thread for the BLAS and the compiled kernel of each gate process: mutants run side by side.
+_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1",
+        "MPLBACKEND": "Agg", "PYTHONDONTWRITEBYTECODE": "1"}
 
 #: Prelude of every gate process: ``python -c BOOT+code SCRATCH ...`` imports ``dualmech`` from SCRATCH only.
 BOOT = f"""\
@@ -272,7 +279,9 @@ def make_scratch(root: Path, dest: Path, mutant: Mutant | None = None) -> Path:
     """
     dest = Path(dest)
     dest.mkdir(parents=True)
-    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".pytest_cache")
+    # numba's disk cache (__pycache__/*.nbi, *.nbc) is kept: the kernel checks it against a digest of
+    # its sources, so a fault in the kernel recompiles it and any other fault reuses the warm cache
+    ignore = shutil.ignore_patterns("*.pyc", ".pytest_cache")
     for name in COPIED:
         src = Path(root) / name
         if src.is_dir():
