@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dualmech.core.status import STATUSES  # noqa: F401  (re-exported: the status words)
+from dualmech.core.status import STATUSES  # (also re-exported: the status words)
 
 KINEMATIC_COLUMNS: tuple[str, ...] = ("theta1_deg", "S1", "S4", "S4_dot", "S4_ddot")
 REACTION_COLUMNS: tuple[str, ...] = (
@@ -98,4 +98,65 @@ def read_csv(path: str | Path, engine: str = "", case: str = "") -> ResultTable:
         rows = list(csv.DictReader(fh))
     columns = {c: np.array([float(r[c]) for r in rows]) for c in NUMERIC_COLUMNS}
     status = np.array([r["status"] for r in rows], dtype=object)
+    return ResultTable(engine, case, columns, status)
+
+
+def status_codes(words: np.ndarray) -> np.ndarray:
+    """Positions of status words in :data:`STATUSES`, ``int8`` ``(n,)`` (the Parquet dictionary indices)."""
+    found, inverse = np.unique(np.asarray(words, dtype=object), return_inverse=True)
+    unknown = [w for w in found if w not in STATUSES]
+    if unknown:
+        raise ValueError(f"status: {unknown[0]!r} is not a status word (valid: {', '.join(STATUSES)})")
+    return np.array([STATUSES.index(w) for w in found], dtype=np.int8)[inverse.reshape(-1)]
+
+
+class ParquetWriter:
+    """Stream result rows into a Parquet file, one row group per :meth:`write` (pyarrow).
+
+    The columns are :data:`COLUMNS` (the contract of :meth:`ResultTable.to_csv`): the numeric
+    ones as float64, ``status`` dictionary-encoded over :data:`STATUSES`.  Use as a context
+    manager; memory is bounded by one row group.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        self._pa = pa
+        self._dictionary = pa.array(STATUSES, type=pa.string())
+        fields = [pa.field(c, pa.float64()) for c in NUMERIC_COLUMNS]
+        self.schema = pa.schema(fields + [pa.field("status", pa.dictionary(pa.int8(), pa.string()))])
+        self._writer = pq.ParquetWriter(str(path), self.schema, compression="snappy")
+
+    def write(self, columns: dict[str, np.ndarray], codes: np.ndarray) -> None:
+        """Append rows: every name of :data:`NUMERIC_COLUMNS` ``(n,)``, status codes ``(n,)``
+        (:func:`status_codes`)."""
+        pa = self._pa
+        status = pa.DictionaryArray.from_arrays(pa.array(codes, type=pa.int8()), self._dictionary)
+        arrays = [pa.array(np.asarray(columns[c], dtype=float)) for c in NUMERIC_COLUMNS] + [status]
+        self._writer.write_table(pa.Table.from_arrays(arrays, schema=self.schema))
+
+    def close(self) -> None:
+        self._writer.close()
+
+    def __enter__(self) -> "ParquetWriter":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def write_parquet(table: ResultTable, path: str | Path) -> None:
+    """Write ``table`` as Parquet (one row group; :class:`ParquetWriter` for streams)."""
+    with ParquetWriter(path) as writer:
+        writer.write(table.columns, status_codes(table.status))
+
+
+def read_parquet(path: str | Path, engine: str = "", case: str = "") -> ResultTable:
+    """Read a table written by :class:`ParquetWriter` (the whole file)."""
+    import pyarrow.parquet as pq
+
+    data = pq.read_table(str(path))
+    columns = {c: data.column(c).to_numpy() for c in NUMERIC_COLUMNS}
+    status = np.array(data.column("status").to_pylist(), dtype=object)
     return ResultTable(engine, case, columns, status)

@@ -406,15 +406,31 @@ def to_table(an: Analysis) -> ResultTable:
             cols[f"{name}{axis}"] = arr[:, k]
     cols = {c: np.array(cols[c], dtype=float) for c in NUMERIC_COLUMNS}
     status = settle(cols, an.status, REACTION_COLUMNS)
-    messages = []
-    bad = status == Status.NO_ASSEMBLY
-    if bad.any():
-        ranges = ", ".join(f"{a:g}..{b:g}" for a, b in no_assembly_ranges(cols["theta1_deg"], bad))
-        messages.append(f"no_assembly: the rod cannot reach the slider line at crank angles {ranges} deg")
-    meta = {"iterations": an.iterations, "dynamics_residual": r.residual, "messages": messages}
+    meta = {"iterations": an.iterations, "dynamics_residual": r.residual,
+            "messages": status_messages(cols["theta1_deg"], status)}
     return ResultTable("dualmech", an.case.name, cols, status, meta)
 
 
+def status_messages(theta_deg: np.ndarray, status: np.ndarray) -> list[str]:
+    """The in-house engine's messages about a case's rows: where it cannot assemble, ``(n,)`` arrays in."""
+    return no_assembly_message(no_assembly_ranges(theta_deg, status == Status.NO_ASSEMBLY))
+
+
+def no_assembly_message(ranges: list[tuple[float, float]]) -> list[str]:
+    """The message naming the crank-angle ranges (degrees) where the rod cannot reach the slider line."""
+    if not ranges:
+        return []
+    text = ", ".join(f"{a:g}..{b:g}" for a, b in ranges)
+    return [f"no_assembly: the rod cannot reach the slider line at crank angles {text} deg"]
+
+
 def solve_case(case: Case) -> ResultTable:
-    """In-house engine: analyse every position of ``case`` and return the result table."""
-    return to_table(analyze(case))
+    """In-house engine: every position of ``case`` by the compiled kernel, as the common result table.
+
+    :func:`~dualmech.models.slider_crank_kernel.solve_case` runs the same algorithm as
+    :func:`analyze` (which stays: it returns the body motions and rates that forward dynamics,
+    balancing and the findings use, and it is the kernel's test oracle).
+    """
+    from dualmech.models.slider_crank_kernel import solve_case as solve_compiled  # numba loads on first use
+
+    return solve_compiled(case)

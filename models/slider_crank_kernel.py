@@ -33,22 +33,55 @@ from dualmech.core.kernel.dynamics_nb import required_wrench
 from dualmech.core.kernel.rates_nb import solve_rates
 from dualmech.core.kernel.loop_nb import FlatLoop, flatten, state_size
 from dualmech.core.motion import CrankState
-from dualmech.core.status import STATUSES, Status
+from dualmech.core.status import STATUSES
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
 from dualmech.models.case import Case
-from dualmech.models.slider_crank_nb import (Rules, Scratch, close_reachable, make_scratch, pins, reach_and_foot,
-                                             slider_line)
+from dualmech.models.slider_crank_nb import (
+    Rules,
+    Scratch,
+    close_reachable,
+    make_scratch,
+    pins,
+    reach_and_foot,
+    slider_line,
+)
 
 depends_on_kernel(__file__)
 
 #: Rows of the output array, in this order (the names of ``docs/conventions.md``, "Output columns").
 OUT_COLUMNS: tuple[str, ...] = (
-    "theta1_deg", "S1", "S4", "S4_dot", "S4_ddot",
-    "j1_fx", "j1_fy", "j1_fz", "j1_mx", "j1_my", "j1_mz", "j2_fx", "j2_fy", "j2_fz", "j3_fx", "j3_fy", "j3_fz",
-    "j4_fx", "j4_fy", "j4_fz", "j4_mx", "j4_my", "j4_mz", "slider_load", "drive_torque",
-    "transmission", "residual", "closure_condition",
+    "theta1_deg",
+    "S1",
+    "S4",
+    "S4_dot",
+    "S4_ddot",
+    "j1_fx",
+    "j1_fy",
+    "j1_fz",
+    "j1_mx",
+    "j1_my",
+    "j1_mz",
+    "j2_fx",
+    "j2_fy",
+    "j2_fz",
+    "j3_fx",
+    "j3_fy",
+    "j3_fz",
+    "j4_fx",
+    "j4_fy",
+    "j4_fz",
+    "j4_mx",
+    "j4_my",
+    "j4_mz",
+    "slider_load",
+    "drive_torque",
+    "transmission",
+    "residual",
+    "closure_condition",
 )
 _THETA, _S1, _S4, _S4_DOT, _S4_DDOT, _REACT, _TRANS, _RESID, _COND = 0, 1, 2, 3, 4, 5, 25, 26, 27
+#: Positions analysed together at most (about 250 bytes each with the crank states).
+CHUNK_POSITIONS = 100_000
 #: Fewest positions worth a thread of their own.
 BLOCK = 256
 #: Blocks per thread in a chunk: uneven work (DFP, continuation near edges) evens out.
@@ -56,15 +89,36 @@ BLOCKS_PER_THREAD = 4
 
 
 @njit(**JIT)
-def _reactions(need: np.ndarray, p2: np.ndarray, p3: np.ndarray, k4: np.ndarray, torque: float, load: float,
-               v: np.ndarray, out: np.ndarray) -> float:
+def _reactions(
+    need: np.ndarray,
+    p2: np.ndarray,
+    p3: np.ndarray,
+    k4: np.ndarray,
+    torque: float,
+    load: float,
+    v: np.ndarray,
+    out: np.ndarray,
+) -> float:
     """The 20 reaction columns into ``out`` (order of :data:`OUT_COLUMNS`); returns the Newton-Euler residual.
 
     :func:`dualmech.core.reactions.solve_reactions` for one position: ``need`` ``(3, 2, 3)``
     what the joints must supply to crank, rod and slider; ``v`` ``(16, 3)`` scratch.
     """
-    d, u, k2, j3p, j2p, t, j3, j2, j1f, j1m, j4f, j4mo, j4m = (v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7],
-                                                              v[8], v[9], v[10], v[11], v[12])
+    d, u, k2, j3p, j2p, t, j3, j2, j1f, j1m, j4f, j4mo, j4m = (
+        v[0],
+        v[1],
+        v[2],
+        v[3],
+        v[4],
+        v[5],
+        v[6],
+        v[7],
+        v[8],
+        v[9],
+        v[10],
+        v[11],
+        v[12],
+    )
     for i in range(3):
         d[i] = p3[i] - p2[i]
     a2 = math.sqrt(dot(d, d))
@@ -81,7 +135,9 @@ def _reactions(need: np.ndarray, p2: np.ndarray, p3: np.ndarray, k4: np.ndarray,
     tau0 = need[0, 1, 2] + t[2]
     cross(p2, u, t)
     lever = t[2]
-    s0 = (need[2, 0, 0] - j3p[0]) * k4[0] + (need[2, 0, 1] - j3p[1]) * k4[1] + (need[2, 0, 2] - j3p[2]) * k4[2]
+    s0 = (
+        (need[2, 0, 0] - j3p[0]) * k4[0] + (need[2, 0, 1] - j3p[1]) * k4[1] + (need[2, 0, 2] - j3p[2]) * k4[2]
+    )
     lam = (torque - tau0) / lever if math.isfinite(torque) else (s0 - load) / dot(u, k4)
     for i in range(3):
         j3[i] = j3p[i] + lam * u[i]
@@ -97,8 +153,14 @@ def _reactions(need: np.ndarray, p2: np.ndarray, p3: np.ndarray, k4: np.ndarray,
     cross(p3, j4f, t)
     for i in range(3):
         j4m[i] = j4mo[i] - t[i]
-        out[i], out[3 + i], out[6 + i], out[9 + i], out[12 + i], out[15 + i] = j1f[i], j1m[i], j2[i], j3[i], \
-            j4f[i], j4m[i]
+        out[i], out[3 + i], out[6 + i], out[9 + i], out[12 + i], out[15 + i] = (
+            j1f[i],
+            j1m[i],
+            j2[i],
+            j3[i],
+            j4f[i],
+            j4m[i],
+        )
     out[18], out[19] = dot(j4f, k4), j1m[2]
     return _newton_euler_residual(need, p2, p3, j1f, j1m, j2, j3, j4f, j4mo, v[13:16])
 
@@ -111,10 +173,18 @@ def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, f4, m4o, v) -> float:
     cross(p3, j3, t3)
     f_err, m_err, f_scale, m_big = 0.0, 0.0, 0.0, 0.0
     for i in range(3):
-        f_err = max(f_err, abs(f1[i] - j2[i] - need[0, 0, i]), abs(j2[i] - j3[i] - need[1, 0, i]),
-                    abs(j3[i] + f4[i] - need[2, 0, i]))
-        m_err = max(m_err, abs(m1[i] - t2[i] - need[0, 1, i]), abs(t2[i] - t3[i] - need[1, 1, i]),
-                    abs(t3[i] + m4o[i] - need[2, 1, i]))
+        f_err = max(
+            f_err,
+            abs(f1[i] - j2[i] - need[0, 0, i]),
+            abs(j2[i] - j3[i] - need[1, 0, i]),
+            abs(j3[i] + f4[i] - need[2, 0, i]),
+        )
+        m_err = max(
+            m_err,
+            abs(m1[i] - t2[i] - need[0, 1, i]),
+            abs(t2[i] - t3[i] - need[1, 1, i]),
+            abs(t3[i] + m4o[i] - need[2, 1, i]),
+        )
         f_scale = max(f_scale, abs(f1[i]), abs(j2[i]), abs(j3[i]), abs(f4[i]))
         m_big = max(m_big, abs(m1[i]), abs(m4o[i]))
     f_scale = max(f_scale, 1e-300)
@@ -123,9 +193,21 @@ def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, f4, m4o, v) -> float:
 
 
 @njit(**JIT)
-def _dynamics(rules: Rules, g: tuple, crank: np.ndarray, i: int, body: tuple, w: Work, sc: Scratch,
-              p2: np.ndarray, p3: np.ndarray, k4: np.ndarray, col: np.ndarray) -> float:
-    """Rates, transmission and reactions of a closed position into ``col``; returns the Newton-Euler residual."""
+def _dynamics(
+    rules: Rules,
+    g: tuple,
+    crank: np.ndarray,
+    i: int,
+    body: tuple,
+    w: Work,
+    sc: Scratch,
+    p2: np.ndarray,
+    p3: np.ndarray,
+    k4: np.ndarray,
+    col: np.ndarray,
+) -> float:
+    """Rates, transmission and reactions of a closed position into ``col``; returns the
+    Newton-Euler residual."""
     fl, mass, com, inertia, gravity, torque, load = body
     sc.rates[:] = 0.0
     sc.rates[0, rules.vidx[0]], sc.rates[0, rules.vidx[1]] = crank[2, i], crank[3, i]
@@ -141,9 +223,19 @@ def _dynamics(rules: Rules, g: tuple, crank: np.ndarray, i: int, body: tuple, w:
     frames = (w.frames[0, 0], w.frames[1, 0], rot)
     origins = (hub, p2, p3)
     for b in range(3):
-        required_wrench(mass[b], com[b], inertia[b], frames[b], origins[b], w.twists[b], w.accels[b], gravity,
-                        sc.wide[16:24], need[b])
-    return _reactions(need, p2, p3, k4, torque, load, sc.wide[:16], col[_REACT:_REACT + 20])
+        required_wrench(
+            mass[b],
+            com[b],
+            inertia[b],
+            frames[b],
+            origins[b],
+            w.twists[b],
+            w.accels[b],
+            gravity,
+            sc.wide[16:24],
+            need[b],
+        )
+    return _reactions(need, p2, p3, k4, torque, load, sc.wide[:16], col[_REACT : _REACT + 20])
 
 
 @njit(**JIT)
@@ -158,7 +250,7 @@ def _settle(rules: Rules, status: int, col: np.ndarray) -> int:
         if not math.isfinite(col[c]):
             status = not_finite
     if status != ok:
-        col[_REACT:_REACT + 20] = np.nan
+        col[_REACT : _REACT + 20] = np.nan
     if status != ok and status != dead:
         col[_S4_DOT], col[_S4_DDOT], col[_TRANS] = np.nan, np.nan, np.nan
     if status != ok and status != dead and status != limit:
@@ -167,30 +259,46 @@ def _settle(rules: Rules, status: int, col: np.ndarray) -> int:
 
 
 @njit(**JIT)
-def _position(i: int, fl, rules: Rules, crank: np.ndarray, case_of: np.ndarray, geo: np.ndarray, bodies: tuple,
-              w: Work, sc: Scratch, out: np.ndarray, status: np.ndarray, iters: np.ndarray, dyn: np.ndarray) -> None:
-    """Analyse position ``i`` into column ``i`` of ``out`` and its status code, iterations, dynamics residual."""
+def _position(
+    i: int,
+    fl,
+    rules: Rules,
+    crank: np.ndarray,
+    case_of: np.ndarray,
+    geo: np.ndarray,
+    bodies: tuple,
+    w: Work,
+    sc: Scratch,
+    out: np.ndarray,
+    status: np.ndarray,
+    iters: np.ndarray,
+    dyn: np.ndarray,
+) -> None:
+    """Analyse position ``i`` into column ``i`` of ``out``, with its status code, iterations and
+    dynamics residual."""
     c = case_of[i]
     g = (crank[0, i], crank[1, i], geo[c, 0], geo[c, 1], geo[c, 2], geo[c, 3])
     col = sc.col
     col[:] = np.nan
     col[_THETA], col[_S1] = math.degrees(g[0]), g[1]
-    rho, foot = reach_and_foot(g, sc)
+    rho, foot = reach_and_foot(g)
     beyond = rho > 1.0 + rules.reach_tol
     word, it, residual, closed = rules.codes[5], 0, max(rho - 1.0, 0.0), False
     if not beyond:
         word, it, residual = close_reachable(fl, rules, g, w, sc)
         closed = word == rules.codes[0]
     col[_RESID] = residual
-    f, k4, p2, p3 = sc.vec[10], sc.vec[11], sc.vec[12], sc.vec[13]
-    slider_line(g, f, k4, p2)
+    k4, p2, p3 = sc.vec[11], sc.vec[12], sc.vec[13]
     cond = math.sqrt(1.0 - min(rho, 1.0) ** 2)
     if closed:
-        pins(fl, rules, g, sc.x[0], w, sc, p2, p3)
-        rod = sc.vec[14]
+        k4_t = slider_line(g)[1]
+        p2_t, p3_t = pins(fl, rules.vidx, g, sc.x[0], sc.vals, w.frames, w.lines)
         for k in range(3):
-            rod[k] = p3[k] - p2[k]
-        cond = abs(dot(rod, k4)) / math.sqrt(dot(rod, rod))
+            k4[k], p2[k], p3[k] = k4_t[k], p2_t[k], p3_t[k]
+        rod = (p3[0] - p2[0], p3[1] - p2[1], p3[2] - p2[2])
+        cond = abs(rod[0] * k4[0] + rod[1] * k4[1] + rod[2] * k4[2]) / math.sqrt(
+            rod[0] * rod[0] + rod[1] * rod[1] + rod[2] * rod[2]
+        )
     if not beyond and word == rules.codes[5]:
         word = rules.codes[4]
     if not beyond and cond < rules.limit_band:
@@ -206,13 +314,26 @@ def _position(i: int, fl, rules: Rules, crank: np.ndarray, case_of: np.ndarray, 
             word = rules.codes[1]
     status[i] = _settle(rules, word, col)
     iters[i] = it
-    out[:, i] = col
+    for k in range(col.size):
+        out[k, i] = col[k]
 
 
 @njit(**JIT)
-def analyze_range(lo: int, hi: int, fl, rules: Rules, n_state: int, crank: np.ndarray, case_of: np.ndarray,
-                  geo: np.ndarray, bodies: tuple, out: np.ndarray, status: np.ndarray, iters: np.ndarray,
-                  dyn: np.ndarray) -> None:
+def analyze_range(
+    lo: int,
+    hi: int,
+    fl,
+    rules: Rules,
+    n_state: int,
+    crank: np.ndarray,
+    case_of: np.ndarray,
+    geo: np.ndarray,
+    bodies: tuple,
+    out: np.ndarray,
+    status: np.ndarray,
+    iters: np.ndarray,
+    dyn: np.ndarray,
+) -> None:
     """Analyse positions ``lo..hi-1`` into the preallocated outputs (one thread; the GIL released).
 
     ``crank`` ``(6, n)``: theta, S1 and their first and second rates; ``case_of`` ``(n,)``
@@ -238,8 +359,12 @@ def _pool() -> ThreadPoolExecutor:
     return ThreadPoolExecutor(max_workers=threads(), thread_name_prefix="dualmech-kernel")
 
 
+# a forked child (a process pool's worker) inherits the pool object but not its threads: start afresh
+os.register_at_fork(after_in_child=_pool.cache_clear)
+
+
 def _run(n: int, args: tuple) -> None:
-    """:func:`analyze_range` over ``n`` positions in :data:`BLOCKS_PER_THREAD` blocks per thread, in parallel."""
+    """:func:`analyze_range` over ``n`` positions, :data:`BLOCKS_PER_THREAD` blocks a thread, in parallel."""
     parts = max(1, min(n // BLOCK, threads() * BLOCKS_PER_THREAD))
     bounds = np.linspace(0, n, parts + 1).astype(np.int64)
     if parts == 1:
@@ -255,17 +380,31 @@ def _setup() -> tuple[FlatLoop, Rules, int]:
     """The flat loop, the :class:`Rules` (read from their homes) and the state size of the slider crank."""
     from dualmech.core.kernel.closure_nb import closure_tols
     from dualmech.core.kernel.loop_nb import value_names
-    from dualmech.core.status import STATUSES, Status
+    from dualmech.core.status import Status
     from dualmech.models import slider_crank as sc
     from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
 
     names = value_names(sc.LOOP)
     vidx = np.array([names.index(k) for k in ("theta1", "S1", "a1", "a2", "a4", "alpha4")], dtype=np.int64)
-    order = (Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.BRANCH_JUMP, Status.NOT_CONVERGED,
-             Status.NO_ASSEMBLY, Status.NOT_FINITE)
+    order = (
+        Status.OK,
+        Status.DEAD_CENTRE,
+        Status.ASSEMBLY_LIMIT,
+        Status.BRANCH_JUMP,
+        Status.NOT_CONVERGED,
+        Status.NO_ASSEMBLY,
+        Status.NOT_FINITE,
+    )
     codes = np.array([STATUSES.index(s.value) for s in order], dtype=np.int64)
-    rules = Rules(closure_tols(), vidx, codes, ASSEMBLY_REACH.value, ASSEMBLY_LIMIT_CONDITION.value,
-                  sc.DEAD_CENTRE, sc.CONTINUATION_STEPS)
+    rules = Rules(
+        closure_tols(),
+        vidx,
+        codes,
+        ASSEMBLY_REACH.value,
+        ASSEMBLY_LIMIT_CONDITION.value,
+        sc.DEAD_CENTRE,
+        sc.CONTINUATION_STEPS,
+    )
     fl = flatten(sc.LOOP)
     return fl, rules, state_size(fl)
 
@@ -295,19 +434,39 @@ class Chunk:
 
 def _case_arrays(cases: Sequence[Case]) -> tuple[np.ndarray, tuple]:
     """Geometry ``(cases, 4)`` and the per-case body and load arrays of :func:`analyze_positions`."""
-    geo = np.array([[c.geometry.crank_length, c.geometry.rod_length, c.geometry.slider_offset,
-                     c.geometry.slider_twist] for c in cases], dtype=float)
+    geo = np.array(
+        [
+            [
+                c.geometry.crank_length,
+                c.geometry.rod_length,
+                c.geometry.slider_offset,
+                c.geometry.slider_twist,
+            ]
+            for c in cases
+        ],
+        dtype=float,
+    )
     parts = [[getattr(c.bodies, b) for b in ("crank", "rod", "slider")] for c in cases]
     mass = np.array([[b.mass for b in p] for p in parts], dtype=float)
     com = np.array([[b.com for b in p] for p in parts], dtype=float)
     inertia = np.array([[b.inertia for b in p] for p in parts], dtype=float)
     gravity = np.array([c.loads.gravity for c in cases], dtype=float).reshape(len(cases), 3)
-    given = np.array([[np.nan if c.loads.drive_torque is None else c.loads.drive_torque,
-                       np.nan if c.loads.slider_force is None else c.loads.slider_force] for c in cases], dtype=float)
+    given = np.array(
+        [
+            [
+                np.nan if c.loads.drive_torque is None else c.loads.drive_torque,
+                np.nan if c.loads.slider_force is None else c.loads.slider_force,
+            ]
+            for c in cases
+        ],
+        dtype=float,
+    )
     return geo, (mass, com, inertia, gravity, given[:, 0].copy(), given[:, 1].copy())
 
 
-def analyze_chunk(cases: Sequence[Case], cranks: Sequence[CrankState], out: np.ndarray | None = None) -> Chunk:
+def analyze_chunk(
+    cases: Sequence[Case], cranks: Sequence[CrankState], out: np.ndarray | None = None
+) -> Chunk:
     """Analyse the positions ``cranks[i]`` of every ``cases[i]``, concatenated, with the compiled kernel.
 
     ``out`` ``(len(OUT_COLUMNS), >= n)``: a buffer to reuse (its first ``n`` columns are written).
@@ -336,24 +495,51 @@ def iter_chunks(case: Case, chunk_positions: int) -> Iterator[Chunk]:
     angles = np.asarray(case.motion.angles_deg, dtype=float)
     buffer = np.empty((len(OUT_COLUMNS), min(chunk_positions, max(1, angles.size))))
     for lo in range(0, angles.size, chunk_positions):
-        crank = case.motion.state(case.geometry.crank_axial_shift, angles[lo:lo + chunk_positions])
+        crank = case.motion.state(case.geometry.crank_axial_shift, angles[lo : lo + chunk_positions])
         yield analyze_chunk([case], [crank], buffer)
 
 
 def to_table(case: Case, chunk: Chunk) -> ResultTable:
     """The common result table of one case's :class:`Chunk` (columns copied out of the buffer)."""
-    from dualmech.models.slider_crank import no_assembly_ranges
+    from dualmech.models.slider_crank import status_messages
 
     cols = {c: chunk.columns[c].copy() for c in NUMERIC_COLUMNS}
     status = chunk.words()
-    messages = []
-    bad = chunk.status == STATUSES.index(Status.NO_ASSEMBLY.value)
-    if bad.any():
-        ranges = ", ".join(f"{a:g}..{b:g}" for a, b in no_assembly_ranges(cols["theta1_deg"], bad))
-        messages.append(f"no_assembly: the rod cannot reach the slider line at crank angles {ranges} deg")
-    meta = {"iterations": chunk.iterations.copy(), "dynamics_residual": chunk.dynamics_residual.copy(),
-            "messages": messages}
+    meta = {
+        "iterations": chunk.iterations.copy(),
+        "dynamics_residual": chunk.dynamics_residual.copy(),
+        "messages": status_messages(cols["theta1_deg"], status),
+    }
     return ResultTable("dualmech", case.name, cols, status, meta)
+
+
+def solve_cases(cases: Sequence[Case], chunk_positions: int = CHUNK_POSITIONS) -> list[ResultTable]:
+    """The result table of every case, cases batched together in chunks of about ``chunk_positions``."""
+    tables: list[ResultTable] = []
+    group: list[Case] = []
+    for i, case in enumerate(cases):
+        group.append(case)
+        size = sum(len(c.motion.angles_deg) for c in group)
+        if size >= chunk_positions or i == len(cases) - 1:
+            chunk = analyze_chunk(group, [c.motion.state(c.geometry.crank_axial_shift) for c in group])
+            start = 0
+            for c in group:
+                n = len(c.motion.angles_deg)
+                part = slice(start, start + n)
+                tables.append(
+                    to_table(
+                        c,
+                        Chunk(
+                            {k: v[part] for k, v in chunk.columns.items()},
+                            chunk.status[part],
+                            chunk.iterations[part],
+                            chunk.dynamics_residual[part],
+                        ),
+                    )
+                )
+                start += n
+            group = []
+    return tables
 
 
 def solve_case(case: Case) -> ResultTable:

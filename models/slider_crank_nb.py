@@ -24,7 +24,7 @@ from numba import njit
 from dualmech.core.kernel import depends_on_kernel
 from dualmech.core.kernel.closure_nb import NO_ASSEMBLY, NOT_CONVERGED, OK, ClosureTols, Work
 from dualmech.core.kernel.dfp_nb import solve_closure
-from dualmech.core.kernel.dual_nb import JIT, cross, dot
+from dualmech.core.kernel.dual_nb import JIT, tmul
 from dualmech.core.kernel.loop_nb import FlatLoop, closure_residual, evaluate, frame_origin, length_scale
 
 depends_on_kernel(__file__)
@@ -62,36 +62,40 @@ class Scratch(NamedTuple):
 
 @njit(**JIT)
 def make_scratch(n_vals: int, n_state: int) -> Scratch:
-    return Scratch(np.zeros(n_vals), np.zeros((2, n_vals)), np.zeros((3, n_state)), np.zeros((16, 3)),
-                   np.zeros((4, 3, 3)), np.zeros((3, 2, 3)), np.zeros((24, 3)), np.zeros(28))
+    return Scratch(
+        np.zeros(n_vals),
+        np.zeros((2, n_vals)),
+        np.zeros((3, n_state)),
+        np.zeros((16, 3)),
+        np.zeros((4, 3, 3)),
+        np.zeros((3, 2, 3)),
+        np.zeros((24, 3)),
+        np.zeros(28),
+    )
 
 
 @njit(**JIT)
-def set_values(rules: Rules, g: tuple, vals: np.ndarray) -> None:
+def set_values(vidx: np.ndarray, g: tuple, vals: np.ndarray) -> None:
     """``vals`` of the loop at geometry ``g`` (:meth:`dualmech.models.slider_crank.Batch.inputs`)."""
     for k in range(6):
-        vals[rules.vidx[k]] = g[k]
+        vals[vidx[k]] = g[k]
 
 
 @njit(**JIT)
-def slider_line(g: tuple, f: np.ndarray, k4: np.ndarray, p2: np.ndarray) -> None:
-    """``F``, ``k4`` and the crank pin ``P2`` at geometry ``g`` (``docs/conventions.md``)."""
+def slider_line(g: tuple) -> tuple:
+    """``F``, ``k4`` and the crank pin ``P2`` at geometry ``g`` (``docs/conventions.md``), 3-tuples."""
     th, s1, a1, _, a4, al4 = g
-    f[0], f[1], f[2] = -a4, 0.0, 0.0
-    k4[0], k4[1], k4[2] = 0.0, math.sin(al4), math.cos(al4)
-    p2[0], p2[1], p2[2] = a1 * math.cos(th), a1 * math.sin(th), s1
+    return (-a4, 0.0, 0.0), (0.0, math.sin(al4), math.cos(al4)), (a1 * math.cos(th), a1 * math.sin(th), s1)
 
 
 @njit(**JIT)
-def reach_and_foot(g: tuple, sc: Scratch) -> tuple[float, float]:
+def reach_and_foot(g: tuple) -> tuple[float, float]:
     """``rho / a2`` and the ``S4`` of the foot of the perpendicular from ``P2``
     (:func:`dualmech.core.assembly.reach`, :func:`~dualmech.core.assembly.foot_s4`)."""
-    f, k4, p2, d = sc.vec[0], sc.vec[1], sc.vec[2], sc.vec[3]
-    slider_line(g, f, k4, p2)
-    for i in range(3):
-        d[i] = p2[i] - f[i]
-    along = dot(d, k4)
-    return math.sqrt(max(dot(d, d) - along**2, 0.0)) / g[3], -along
+    f, k4, p2 = slider_line(g)
+    d = (p2[0] - f[0], p2[1] - f[1], p2[2] - f[2])
+    along = d[0] * k4[0] + d[1] * k4[1] + d[2] * k4[2]
+    return math.sqrt(max(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - along**2, 0.0)) / g[3], -along
 
 
 @njit(**JIT)
@@ -103,61 +107,60 @@ def planar_estimate(g: tuple) -> float:
 
 
 @njit(**JIT)
-def along_slider_estimate(g: tuple, sc: Scratch) -> float:
+def along_slider_estimate(g: tuple) -> float:
     """:func:`dualmech.models.slider_crank.along_slider_estimate` at one position."""
-    f, k4, p2, d = sc.vec[0], sc.vec[1], sc.vec[2], sc.vec[3]
-    slider_line(g, f, k4, p2)
-    for i in range(3):
-        d[i] = p2[i] - f[i]
-    return g[3] - dot(d, k4)
+    f, k4, p2 = slider_line(g)
+    return g[3] - ((p2[0] - f[0]) * k4[0] + (p2[1] - f[1]) * k4[1] + (p2[2] - f[2]) * k4[2])
 
 
 @njit(**JIT)
-def on_branch(g: tuple, s4: float, sc: Scratch) -> bool:
+def on_branch(g: tuple, s4: float) -> bool:
     """``(P3 - P2)·k4 < 0`` with ``P3 = F - S4 k4``: the conventions' assembly branch."""
-    f, k4, p2 = sc.vec[0], sc.vec[1], sc.vec[2]
-    slider_line(g, f, k4, p2)
-    return (f[0] - s4 * k4[0] - p2[0]) * k4[0] + (f[1] - s4 * k4[1] - p2[1]) * k4[1] \
-        + (f[2] - s4 * k4[2] - p2[2]) * k4[2] < 0
+    f, k4, p2 = slider_line(g)
+    return (f[0] - s4 * k4[0] - p2[0]) * k4[0] + (f[1] - s4 * k4[1] - p2[1]) * k4[1] + (
+        f[2] - s4 * k4[2] - p2[2]
+    ) * k4[2] < 0
 
 
 @njit(**JIT)
-def state_from_slider(g: tuple, s4: float, x: np.ndarray, sc: Scratch) -> None:
+def _unit(v: tuple) -> tuple:
+    n = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    return v[0] / n, v[1] / n, v[2] / n
+
+
+@njit(**JIT)
+def _cross(a: tuple, b: tuple) -> tuple:
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
+
+
+@njit(**JIT)
+def state_from_slider(g: tuple, s4: float, x: np.ndarray) -> None:
     """:func:`dualmech.models.slider_crank.state_from_slider` at one position, into ``x``."""
-    f, k4, p2, u, v, w, ref = sc.vec[0], sc.vec[1], sc.vec[2], sc.vec[3], sc.vec[4], sc.vec[5], sc.vec[6]
-    rod, rz, rx = sc.mats[0], sc.mats[1], sc.mats[2]
-    slider_line(g, f, k4, p2)
-    for i in range(3):
-        u[i] = f[i] - s4 * k4[i] - p2[i]
-    norm = math.sqrt(dot(u, u))
-    for i in range(3):
-        u[i] /= norm
-    ref[:] = 0.0
-    ref[0 if abs(u[2]) > 0.9 else 2] = 1.0
-    cross(ref, u, v)
-    norm = math.sqrt(dot(v, v))
-    for i in range(3):
-        v[i] /= norm
-    cross(u, v, w)
-    for i in range(3):
-        rod[i, 0], rod[i, 1], rod[i, 2] = u[i], v[i], w[i]
+    f, k4, p2 = slider_line(g)
+    u = _unit((f[0] - s4 * k4[0] - p2[0], f[1] - s4 * k4[1] - p2[1], f[2] - s4 * k4[2] - p2[2]))
+    ref = (1.0, 0.0, 0.0) if abs(u[2]) > 0.9 else (0.0, 0.0, 1.0)
+    v = _unit(_cross(ref, u))
+    w = _cross(u, v)
+    rod = (u[0], v[0], w[0], u[1], v[1], w[1], u[2], v[2], w[2])  # columns u, v, w
     c, s = math.cos(g[0]), math.sin(g[0])
-    rz[:] = 0.0
-    rz[0, 0], rz[0, 1], rz[1, 0], rz[1, 1], rz[2, 2] = c, -s, s, c, 1.0
+    rz_t = (c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0)  # Rz(theta1)^T
     ang = -g[5] - math.pi / 2
     c, s = math.cos(ang), math.sin(ang)
-    rx[:] = 0.0
-    rx[0, 0], rx[1, 1], rx[1, 2], rx[2, 1], rx[2, 2] = 1.0, c, -s, s, c
+    rx = (1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
+    rod_t = (rod[0], rod[3], rod[6], rod[1], rod[4], rod[7], rod[2], rod[5], rod[8])
+    ball2, ball3 = (
+        tmul(rz_t, rod),
+        tmul(rod_t, rx),
+    )  # ball 2 = Rz^T R_rod, ball 3 = R_rod^T Rx(-alpha4 - pi/2)
     x[0] = s4
-    for i in range(3):
-        for j in range(3):  # ball 2 = Rz^T R_rod, ball 3 = R_rod^T Rx(-alpha4 - pi/2)
-            x[1 + 3 * i + j] = rz[0, i] * rod[0, j] + rz[1, i] * rod[1, j] + rz[2, i] * rod[2, j]
-            x[10 + 3 * i + j] = rod[0, i] * rx[0, j] + rod[1, i] * rx[1, j] + rod[2, i] * rx[2, j]
+    for k in range(9):
+        x[1 + k], x[10 + k] = ball2[k], ball3[k]
 
 
 @njit(**JIT)
 def _blend(g: tuple, lam: float) -> tuple:
-    """Geometry ``lam`` of the way from the planar reference to ``g`` (:func:`~dualmech.models.slider_crank._blend`)."""
+    """Geometry ``lam`` of the way from the planar reference to ``g``
+    (:func:`~dualmech.models.slider_crank._blend`)."""
     th, s1, a1, a2, a4, al4 = g
     ref = 1.5 * math.pi if math.sin(al4) < 0 else 0.5 * math.pi
     diff = (al4 - ref + math.pi) % (2 * math.pi) - math.pi
@@ -165,25 +168,27 @@ def _blend(g: tuple, lam: float) -> tuple:
 
 
 @njit(**JIT)
-def _attempt(fl: FlatLoop, rules: Rules, g: tuple, s4: float, x: np.ndarray, w: Work,
-             sc: Scratch) -> tuple[int, int, float]:
+def _attempt(
+    fl: FlatLoop, rules: Rules, g: tuple, s4: float, x: np.ndarray, vals: np.ndarray, w: Work
+) -> tuple[int, int, float]:
     """Close from the state that points the rod toward the slider at ``s4``: (code, iterations, residual)."""
-    state_from_slider(g, s4, x, sc)
-    set_values(rules, g, sc.vals)
-    return solve_closure(fl, sc.vals, x, rules.tols, w)
+    state_from_slider(g, s4, x)
+    set_values(rules.vidx, g, vals)
+    return solve_closure(fl, vals, x, rules.tols, w)
 
 
 @njit(**JIT)
-def continuation(fl: FlatLoop, rules: Rules, g: tuple, x: np.ndarray, w: Work, sc: Scratch) -> bool:
-    """:func:`dualmech.models.slider_crank.continuation` at one position: whether every step closed on the branch."""
+def continuation(fl: FlatLoop, rules: Rules, g: tuple, x: np.ndarray, vals: np.ndarray, w: Work) -> bool:
+    """:func:`dualmech.models.slider_crank.continuation` at one position: whether every step closed
+    on the branch."""
     start = _blend(g, 0.0)
-    state_from_slider(start, planar_estimate(start), x, sc)
+    state_from_slider(start, planar_estimate(start), x)
     steps = rules.continuation_steps
     for k in range(steps + 1):
         b = _blend(g, 1.0 if k == steps else k * (1.0 / steps))
-        set_values(rules, b, sc.vals)
-        code, _, _ = solve_closure(fl, sc.vals, x, rules.tols, w)
-        if not (code == OK and on_branch(b, x[0], sc)):
+        set_values(rules.vidx, b, vals)
+        code, _, _ = solve_closure(fl, vals, x, rules.tols, w)
+        if not (code == OK and on_branch(b, x[0])):
             return False
     return True
 
@@ -194,34 +199,40 @@ def close_reachable(fl: FlatLoop, rules: Rules, g: tuple, w: Work, sc: Scratch) 
 
     Returns (status code of :class:`Rules`, iterations, closure residual).
     """
-    x, again = sc.x[0], sc.x[1]
-    code, iters, residual = _attempt(fl, rules, g, planar_estimate(g), x, w, sc)
-    wrong = code == OK and not on_branch(g, x[0], sc)
+    x, again, vals, codes = sc.x[0], sc.x[1], sc.vals, rules.codes
+    code, iters, residual = _attempt(fl, rules, g, planar_estimate(g), x, vals, w)
+    wrong = code == OK and not on_branch(g, x[0])
     if code == NOT_CONVERGED or wrong:  # second estimate: the rod laid along the slider line
-        code2, it2, res2 = _attempt(fl, rules, g, along_slider_estimate(g, sc), again, w, sc)
+        code2, it2, res2 = _attempt(fl, rules, g, along_slider_estimate(g), again, vals, w)
         iters += it2
-        if code2 != NOT_CONVERGED and not (code2 == OK and not on_branch(g, again[0], sc)):
+        if code2 != NOT_CONVERGED and not (code2 == OK and not on_branch(g, again[0])):
             x[:] = again
             code, residual, wrong = code2, res2, False
-    status = rules.codes[5] if code == NO_ASSEMBLY else rules.codes[0]
+    status = codes[5] if code == NO_ASSEMBLY else codes[0]
     if code == NOT_CONVERGED or wrong:
-        if continuation(fl, rules, g, sc.x[2], w, sc):
+        if continuation(fl, rules, g, sc.x[2], vals, w):
             x[:] = sc.x[2]
         elif code == OK:
-            status = rules.codes[3]
+            status = codes[3]
         else:
-            status = rules.codes[4]
-        set_values(rules, g, sc.vals)
-        evaluate(fl, sc.vals, x, w.frames, w.lines)
-        residual = closure_residual(w.frames, length_scale(fl, sc.vals))
+            status = codes[4]
+        set_values(rules.vidx, g, vals)
+        evaluate(fl, vals, x, w.frames, w.lines)
+        residual = closure_residual(w.frames, length_scale(fl, vals))
     return status, iters, residual
 
 
 @njit(**JIT)
-def pins(fl: FlatLoop, rules: Rules, g: tuple, x: np.ndarray, w: Work, sc: Scratch, p2: np.ndarray,
-         p3: np.ndarray) -> None:
-    """Evaluate the loop at ``x`` (into ``w``) and give the ball centres ``P2``, ``P3`` of its frames."""
-    set_values(rules, g, sc.vals)
-    evaluate(fl, sc.vals, x, w.frames, w.lines)
-    p2[0], p2[1], p2[2] = frame_origin(w.frames, 0)
-    p3[0], p3[1], p3[2] = frame_origin(w.frames, 1)
+def pins(
+    fl: FlatLoop,
+    vidx: np.ndarray,
+    g: tuple,
+    x: np.ndarray,
+    vals: np.ndarray,
+    frames: np.ndarray,
+    lines: np.ndarray,
+) -> tuple:
+    """Evaluate the loop at ``x`` (into ``frames``, ``lines``) and give the ball centres ``P2``, ``P3``."""
+    set_values(vidx, g, vals)
+    evaluate(fl, vals, x, frames, lines)
+    return frame_origin(frames, 0), frame_origin(frames, 1)

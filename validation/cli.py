@@ -16,6 +16,7 @@ import numpy as np
 from dualmech.core.table import ResultTable
 from dualmech.models.case import load_case, preset_names, preset_path
 from dualmech.validation.cli_errors import one_line_errors
+from dualmech.validation.cli_solve import STREAM_POSITIONS, output_format, stream_solve, write_table
 from dualmech.validation.engines import ENGINES, run_engine
 
 
@@ -51,7 +52,8 @@ def summarize(table: ResultTable, units: str = "consistent") -> str:
 
 @main.command()
 @click.argument("case")
-@click.option("-o", "--output", type=click.Path(dir_okay=False), help="CSV file for the table.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False),
+              help="File for the table: OUT.csv or OUT.parquet (streamed row groups).")
 @click.option("--engine", type=click.Choice(list(ENGINES)), default="dualmech", show_default=True)
 @click.option("--frames", type=click.Choice(["world", "joint"]), default="world", show_default=True,
               help="'joint' also writes the thesis's joint-frame components (OUT.joint.csv).")
@@ -61,9 +63,13 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
     if frames == "joint" and not output:
         raise ValueError("--frames joint: the joint-frame table goes beside the -o file (OUT.joint.csv); give -o OUT.csv")
     c = load_case(case)
+    if output and output_format(output) and engine == "dualmech" and frames == "world" \
+            and len(c.motion.angles_deg) > STREAM_POSITIONS:  # long: streamed, chunk by chunk, into the file
+        click.echo(stream_solve(c, output))
+        return
     table = run_engine(engine, c)
     if output:
-        table.to_csv(output)
+        write_table(table, output)
         if frames == "joint":
             from dualmech.models.joint_frames import write_joint_frame_csv
 
@@ -94,14 +100,15 @@ def mjcf(case: str, output: str) -> None:
 @main.command()
 @click.option("--cases", default=1000, show_default=True, help="Random cases of 360 positions for the in-house solver.")
 @click.option("--judge-cases", default=5, show_default=True, help="How many of them the judges solve (they are slower).")
-@click.option("--big", default=0, show_default=True, help="Also stream this many positions in chunks (memory check).")
-@click.option("--no-profile", is_flag=True, help="Skip the profile of the in-house solver.")
+@click.option("--big", default=2_000_000, show_default=True,
+              help="Positions of one case solved into Parquet, streamed (0: skip).")
+@click.option("--repeats", default=3, show_default=True, help="Runs per figure (the median is quoted).")
 @one_line_errors
-def benchmark(cases: int, judge_cases: int, big: int, no_profile: bool) -> None:
-    """Positions per second of the in-house solver and of the judges, in one run (Markdown)."""
+def benchmark(cases: int, judge_cases: int, big: int, repeats: int) -> None:
+    """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, in one run (Markdown)."""
     from dualmech.validation.benchmark import run_benchmark
 
-    click.echo(run_benchmark(cases, judge_cases, big, profile=not no_profile))
+    click.echo(run_benchmark(cases, judge_cases, big, repeats))
 
 
 @main.command(name="case-path")

@@ -25,11 +25,21 @@ from numba import njit
 
 from dualmech.core import closure
 from dualmech.core.kernel.dual_nb import INLINE, JIT, tmul, trodrigues
-from dualmech.core.kernel.loop_nb import FlatLoop, closure_residual, evaluate, length_scale, screw_matrix, state_size
+from dualmech.core.kernel.loop_nb import (
+    FlatLoop,
+    closure_residual,
+    evaluate,
+    length_scale,
+    screw_matrix,
+    state_size,
+)
 
 #: Closure outcome codes (:class:`dualmech.core.closure.ClosureStatus`).
-OK, NOT_CONVERGED, NO_ASSEMBLY = (int(closure.ClosureStatus.OK), int(closure.ClosureStatus.NOT_CONVERGED),
-                                  int(closure.ClosureStatus.NO_ASSEMBLY))
+OK, NOT_CONVERGED, NO_ASSEMBLY = (
+    int(closure.ClosureStatus.OK),
+    int(closure.ClosureStatus.NOT_CONVERGED),
+    int(closure.ClosureStatus.NO_ASSEMBLY),
+)
 
 
 class ClosureTols(NamedTuple):
@@ -46,8 +56,15 @@ class ClosureTols(NamedTuple):
 
 def closure_tols() -> ClosureTols:
     """The current values of :mod:`dualmech.core.closure`'s constants and ``solve_closure``'s limits."""
-    return ClosureTols(closure.CLOSURE_TOL, closure.ROUNDING_TOL, closure.STATIONARY_COSINE, closure.NEAR_ROOT,
-                       closure.DFP_RESTART, 30, 200)
+    return ClosureTols(
+        closure.CLOSURE_TOL,
+        closure.ROUNDING_TOL,
+        closure.STATIONARY_COSINE,
+        closure.NEAR_ROOT,
+        closure.DFP_RESTART,
+        30,
+        200,
+    )
 
 
 class Work(NamedTuple):
@@ -90,15 +107,41 @@ def make_work(fl: FlatLoop) -> Work:
 @njit(**JIT)
 def _make_work(fl: FlatLoop, s: int) -> Work:
     r, m, g, k = fl.table.shape[0], fl.screws.shape[0], fl.gauges.size, fl.n_step
-    return Work(np.zeros((r, 2, 3, 3)), np.zeros((m, 2, 3)), np.zeros((3, 2, 3, 3)), np.zeros((6 + g, k)),
-                np.zeros((g, m)), np.zeros((g, 3)), np.zeros((3, 3)), np.zeros(3), np.zeros(max(6 + g, k)),
-                np.zeros((k, k)), np.zeros(k), np.zeros(k), np.zeros(s), np.zeros(s), np.zeros((3, s)), np.zeros(s),
-                np.zeros((18 + g, k)), np.zeros(18), np.zeros((4, k)), np.zeros((k, k)), np.zeros(k), np.zeros(k),
-                np.zeros((2, m)), np.zeros((m, 2, 3)), np.zeros((m + 1, 2, 3)), np.zeros((r, 2, 3)), np.zeros((r, 2, 3)))
+    return Work(
+        np.zeros((r, 2, 3, 3)),
+        np.zeros((m, 2, 3)),
+        np.zeros((3, 2, 3, 3)),
+        np.zeros((6 + g, k)),
+        np.zeros((g, m)),
+        np.zeros((g, 3)),
+        np.zeros((3, 3)),
+        np.zeros(3),
+        np.zeros(max(6 + g, k)),
+        np.zeros((k, k)),
+        np.zeros(k),
+        np.zeros(k),
+        np.zeros(s),
+        np.zeros(s),
+        np.zeros((3, s)),
+        np.zeros(s),
+        np.zeros((18 + g, k)),
+        np.zeros(18),
+        np.zeros((4, k)),
+        np.zeros((k, k)),
+        np.zeros(k),
+        np.zeros(k),
+        np.zeros((2, m)),
+        np.zeros((m, 2, 3)),
+        np.zeros((m + 1, 2, 3)),
+        np.zeros((r, 2, 3)),
+        np.zeros((r, 2, 3)),
+    )
 
 
 @njit(**JIT)
-def residual_at(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, lines: np.ndarray) -> float:
+def residual_at(
+    fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, lines: np.ndarray
+) -> float:
     """Evaluate the loop at ``x`` (into ``frames``, ``lines``) and return its closure residual."""
     evaluate(fl, vals, x, frames, lines)
     return closure_residual(frames, length_scale(fl, vals))
@@ -181,25 +224,40 @@ def _lu_solve(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:
 
 
 @njit(**JIT)
-def newton_step(fl: FlatLoop, vals: np.ndarray, w: Work) -> None:
-    """``w.step``: screws times step = minus the closure error, with the spin gauge (eq. 11, 23a).
+def newton_step(
+    fl: FlatLoop,
+    vals: np.ndarray,
+    frames: np.ndarray,
+    lines: np.ndarray,
+    mat: np.ndarray,
+    gauge: np.ndarray,
+    axes: np.ndarray,
+    err: np.ndarray,
+    sq: np.ndarray,
+    rhs: np.ndarray,
+    step: np.ndarray,
+) -> None:
+    """``step``: screws times step = minus the closure error, with the spin gauge (eq. 11, 23a).
 
-    The loop must have been evaluated at the current point (into ``w.frames``, ``w.lines``).
+    The loop must have been evaluated at the current point (into ``frames``, ``lines``); the
+    other arrays are the scratch of a :class:`Work` of the same names.
     The closure error is the skew part of :math:`\\hat B`, the dual part over the length
     scale (:func:`dualmech.core.loop.closure_error`).
     """
     scale = length_scale(fl, vals)
-    frames, err = w.frames, w.err
-    screw_matrix(fl, frames, w.lines, scale, w.mat, w.gauge, w.axes)
+    screw_matrix(fl, frames, lines, scale, mat, gauge, axes)
     last = frames.shape[0] - 1
     for p in range(2):
         b = frames[last, p]
         div = -1.0 if p == 0 else -scale
-        err[3 * p], err[3 * p + 1], err[3 * p + 2] = (0.5 * (b[2, 1] - b[1, 2]) / div, 0.5 * (b[0, 2] - b[2, 0]) / div,
-                                                      0.5 * (b[1, 0] - b[0, 1]) / div)
+        err[3 * p], err[3 * p + 1], err[3 * p + 2] = (
+            0.5 * (b[2, 1] - b[1, 2]) / div,
+            0.5 * (b[0, 2] - b[2, 0]) / div,
+            0.5 * (b[1, 0] - b[0, 1]) / div,
+        )
     rows = 6 + fl.gauges.size
     err[6:rows] = 0.0
-    least_squares(w.mat, err[:rows], w.step, w.sq, w.rhs)
+    least_squares(mat, err[:rows], step, sq, rhs)
 
 
 @njit(**JIT)
@@ -212,6 +270,7 @@ def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: 
     left unevaluated by the iteration limit is stepped back to the last accepted one.
     """
     base, step, frames, lines, k0 = w.base, w.step, w.frames, w.lines, fl.n_scalar
+    mat, gauge, axes, err, sq, rhs = w.mat, w.gauge, w.axes, w.err, w.sq, w.rhs
     base[:] = x
     step[:] = 0.0
     base_res, stalls, halvings, iters, residual, active = math.inf, 0, 0, 0, math.inf, True
@@ -221,7 +280,7 @@ def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: 
         done = res <= tols.closure
         if res > base_res and halvings < 6 and not done:
             halvings += 1
-            retract(k0, base, step, 0.5 ** halvings, x)
+            retract(k0, base, step, 0.5**halvings, x)
             continue
         if done:
             active = False
@@ -231,7 +290,7 @@ def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: 
         if (not improved and res <= tols.rounding) or stalls >= 3:
             active = False
             break
-        newton_step(fl, vals, w)
+        newton_step(fl, vals, frames, lines, mat, gauge, axes, err, sq, rhs, step)
         base[:] = x
         base_res, halvings = res, 0
         retract(k0, x, step, 1.0, x)

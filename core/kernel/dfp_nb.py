@@ -15,14 +15,24 @@ import math
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.closure_nb import (NO_ASSEMBLY, NOT_CONVERGED, OK, ClosureTols, Work, newton, residual_at,
-                                             retract)
+from dualmech.core.kernel.closure_nb import (
+    NO_ASSEMBLY,
+    NOT_CONVERGED,
+    OK,
+    ClosureTols,
+    Work,
+    newton,
+    residual_at,
+    retract,
+)
 from dualmech.core.kernel.dual_nb import JIT
 from dualmech.core.kernel.loop_nb import FlatLoop, length_scale, screw_matrix
 
 
 @njit(**JIT)
-def objective(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, grad: np.ndarray, w: Work) -> tuple[float, float, float]:
+def objective(
+    fl: FlatLoop, vals: np.ndarray, x: np.ndarray, grad: np.ndarray, w: Work
+) -> tuple[float, float, float]:
     """DFP objective at ``x``: returns (f, stationarity cosine, closure residual); ``grad`` ``(K,)``
     gets the gradient and ``w.jac`` the Jacobian with the gauge rows below it
     (:func:`dualmech.core.closure._objective`)."""
@@ -45,8 +55,9 @@ def objective(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, grad: np.ndarray, w
             for i in range(3):
                 i1, i2 = (i + 1) % 3, (i + 2) % 3
                 jac[3 * i + c, col] = re[i1] * b[0, i2, c] - re[i2] * b[0, i1, c]
-                jac[9 + 3 * i + c, col] = (re[i1] * b[1, i2, c] - re[i2] * b[1, i1, c]
-                                           + du[i1] * b[0, i2, c] - du[i2] * b[0, i1, c]) / scale
+                jac[9 + 3 * i + c, col] = (
+                    re[i1] * b[1, i2, c] - re[i2] * b[1, i1, c] + du[i1] * b[0, i2, c] - du[i2] * b[0, i1, c]
+                ) / scale
     f, rr, jj, gg = 0.0, 0.0, 0.0, 0.0
     for m in range(18):
         rr += r[m] * r[m]
@@ -103,7 +114,9 @@ def dfp_update(h: np.ndarray, s: np.ndarray, y: np.ndarray, hy: np.ndarray) -> N
 
 
 @njit(**JIT)
-def dfp(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work) -> tuple[int, float, float]:
+def dfp(
+    fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work
+) -> tuple[int, float, float]:
     """DFP from ``x`` (updated in place); returns (iterations, residual, stationarity cosine)."""
     grad, g_t, p, y = w.grads[0], w.grads[1], w.grads[2], w.grads[3]
     f, cosine, res = objective(fl, vals, x, grad, w)
@@ -147,7 +160,9 @@ def _rank(res: float, cosine: float, tols: ClosureTols) -> int:
 
 
 @njit(**JIT)
-def solve_closure(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work) -> tuple[int, int, float]:
+def solve_closure(
+    fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work
+) -> tuple[int, int, float]:
     """Close the loop from the estimate ``x`` (updated in place): (status code, iterations, residual).
 
     :func:`dualmech.core.closure.solve_closure` for one position: Newton; where it

@@ -86,7 +86,8 @@ def origin(m: np.ndarray, tmp: np.ndarray, out: np.ndarray) -> None:
 
 @njit(**INLINE)
 def rotation(axis: int, angle: float, slide: float, out: np.ndarray) -> None:
-    """``out`` ``(2, 3, 3)`` = :math:`X, Y` or :math:`Z(\\theta + \\varepsilon s)` for ``axis`` 0, 1, 2 (thesis 2.4)."""
+    """``out`` ``(2, 3, 3)`` = :math:`X, Y` or :math:`Z(\\theta + \\varepsilon s)` for ``axis`` 0, 1, 2
+    (thesis section 2.4)."""
     c, s = math.cos(angle), math.sin(angle)
     cd, sd = -slide * s, slide * c
     out[:] = 0.0
@@ -118,27 +119,43 @@ def rodrigues(w: np.ndarray, out: np.ndarray) -> None:
 
 # -- 3x3 matrices as 9-tuples (row-major): values in registers, no memory traffic ---------
 
+
 @njit(**INLINE)
 def tmul(a: tuple, b: tuple) -> tuple:
     """Product of 3x3 matrices given as row-major 9-tuples."""
-    return (a[0] * b[0] + a[1] * b[3] + a[2] * b[6], a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
-            a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
-            a[3] * b[0] + a[4] * b[3] + a[5] * b[6], a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
-            a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
-            a[6] * b[0] + a[7] * b[3] + a[8] * b[6], a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
-            a[6] * b[2] + a[7] * b[5] + a[8] * b[8])
+    return (
+        a[0] * b[0] + a[1] * b[3] + a[2] * b[6],
+        a[0] * b[1] + a[1] * b[4] + a[2] * b[7],
+        a[0] * b[2] + a[1] * b[5] + a[2] * b[8],
+        a[3] * b[0] + a[4] * b[3] + a[5] * b[6],
+        a[3] * b[1] + a[4] * b[4] + a[5] * b[7],
+        a[3] * b[2] + a[4] * b[5] + a[5] * b[8],
+        a[6] * b[0] + a[7] * b[3] + a[8] * b[6],
+        a[6] * b[1] + a[7] * b[4] + a[8] * b[7],
+        a[6] * b[2] + a[7] * b[5] + a[8] * b[8],
+    )
 
 
 @njit(**INLINE)
 def tadd(a: tuple, b: tuple) -> tuple:
     """Sum of two 9-tuples."""
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5], a[6] + b[6],
-            a[7] + b[7], a[8] + b[8])
+    return (
+        a[0] + b[0],
+        a[1] + b[1],
+        a[2] + b[2],
+        a[3] + b[3],
+        a[4] + b[4],
+        a[5] + b[5],
+        a[6] + b[6],
+        a[7] + b[7],
+        a[8] + b[8],
+    )
 
 
 @njit(**INLINE)
 def trotation(axis: int, angle: float, slide: float) -> tuple:
-    """Primary and dual parts of :math:`X, Y` or :math:`Z(\\theta + \\varepsilon s)` (``axis`` 0, 1, 2) as 9-tuples."""
+    """Primary and dual parts of :math:`X, Y` or :math:`Z(\\theta + \\varepsilon s)` (``axis`` 0, 1, 2),
+    as 9-tuples."""
     c, s = math.cos(angle), math.sin(angle)
     cd, sd = -slide * s, slide * c
     if axis == 0:
@@ -157,6 +174,14 @@ def trodrigues(w0: float, w1: float, w2: float) -> tuple:
     else:
         a, b = math.sin(angle) / angle, (1.0 - math.cos(angle)) / angle**2
     d = 1.0 - b * angle**2
-    return (d + b * w0 * w0, b * w0 * w1 - a * w2, b * w0 * w2 + a * w1,
-            b * w1 * w0 + a * w2, d + b * w1 * w1, b * w1 * w2 - a * w0,
-            b * w2 * w0 - a * w1, b * w2 * w1 + a * w0, d + b * w2 * w2)
+    return (
+        d + b * w0 * w0,
+        b * w0 * w1 - a * w2,
+        b * w0 * w2 + a * w1,
+        b * w1 * w0 + a * w2,
+        d + b * w1 * w1,
+        b * w1 * w2 - a * w0,
+        b * w2 * w0 - a * w1,
+        b * w2 * w1 + a * w0,
+        d + b * w2 * w2,
+    )

@@ -4,7 +4,8 @@ The per-position form of :func:`dualmech.core.reactions.body_motion` and
 :func:`~dualmech.core.reactions.momentum_rate`: from a body's twist
 :math:`\\omega + \\varepsilon v_O` and its rate, what the joints must supply to it,
 
-.. math:: \\hat N = \\dot{\\hat H} - \\hat W = m a_G - m g + \\varepsilon\\,(I_G\\dot\\omega + \\omega\\times I_G\\omega
+.. math:: \\hat N = \\dot{\\hat H} - \\hat W = m a_G - m g
+          + \\varepsilon\\,(I_G\\dot\\omega + \\omega\\times I_G\\omega
           + G\\times m (a_G - g))
 
 (dual Euler equation, eq. 59-61, less the weight as a dual force through ``G``),
@@ -20,17 +21,34 @@ from dualmech.core.kernel.dual_nb import JIT, cross, matvec
 
 
 @njit(**JIT)
-def required_wrench(mass: float, com_body: np.ndarray, inertia: np.ndarray, rotation: np.ndarray,
-                    origin: np.ndarray, twist: np.ndarray, accel: np.ndarray, gravity: np.ndarray,
-                    scratch: np.ndarray, out: np.ndarray) -> None:
+def required_wrench(
+    mass: float,
+    com_body: np.ndarray,
+    inertia: np.ndarray,
+    rotation: np.ndarray,
+    origin: np.ndarray,
+    twist: np.ndarray,
+    accel: np.ndarray,
+    gravity: np.ndarray,
+    scratch: np.ndarray,
+    out: np.ndarray,
+) -> None:
     """``out`` ``(2, 3)``: :math:`\\hat N` of the module docstring, world axes, moments about O.
 
     ``com_body`` ``(3,)`` and ``inertia`` ``(3, 3)`` in body axes (about the centre of
     mass); ``rotation`` ``(3, 3)`` body axes in world; ``origin`` ``(3,)``; ``twist``,
     ``accel`` ``(2, 3)``; ``scratch`` ``(8, 3)``.
     """
-    com, vel, acc, tmp, spin, ang, lin, i_w = (scratch[0], scratch[1], scratch[2], scratch[3], scratch[4],
-                                               scratch[5], scratch[6], scratch[7])
+    com, vel, acc, tmp, spin, ang, lin, i_w = (
+        scratch[0],
+        scratch[1],
+        scratch[2],
+        scratch[3],
+        scratch[4],
+        scratch[5],
+        scratch[6],
+        scratch[7],
+    )
     omega, omega_dot = twist[0], accel[0]
     matvec(rotation, com_body, com)
     for i in range(3):
@@ -55,8 +73,9 @@ def required_wrench(mass: float, com_body: np.ndarray, inertia: np.ndarray, rota
 
 
 @njit(**JIT)
-def _world_inertia_times(rotation: np.ndarray, inertia: np.ndarray, v: np.ndarray, tmp: np.ndarray,
-                         out: np.ndarray) -> None:
+def _world_inertia_times(
+    rotation: np.ndarray, inertia: np.ndarray, v: np.ndarray, tmp: np.ndarray, out: np.ndarray
+) -> None:
     """``out = R I R^T v`` (``tmp`` ``(3,)`` scratch)."""
     for i in range(3):
         out[i] = rotation[0, i] * v[0] + rotation[1, i] * v[1] + rotation[2, i] * v[2]

@@ -60,8 +60,9 @@ ROW, CARRIER, COLUMN, VALUE_INDEX = 0, 1, 2, 3
 
 def value_names(loop: Loop) -> tuple[str, ...]:
     """Names of ``vals``: the loop's inputs, then its parameters, each once, in table order."""
-    params = [v.name for r in loop.rows for f in FIELDS
-              if isinstance(v := getattr(r, f), Var) and v.kind == "param"]
+    params = [
+        v.name for r in loop.rows for f in FIELDS if isinstance(v := getattr(r, f), Var) and v.kind == "param"
+    ]
     return tuple(dict.fromkeys(list(loop.inputs) + params))
 
 
@@ -104,9 +105,15 @@ def flatten(loop: Loop) -> FlatLoop:
     """The :class:`FlatLoop` of ``loop``."""
     names = value_names(loop)
     table, const = _entries(loop, names)
-    return FlatLoop(table, const, _screws(loop, names), np.array(loop.spin_gauges, dtype=np.int64),
-                    names.index(loop.length_scale) if loop.length_scale else -1, len(loop.unknowns),
-                    loop.n_unknown)
+    return FlatLoop(
+        table,
+        const,
+        _screws(loop, names),
+        np.array(loop.spin_gauges, dtype=np.int64),
+        names.index(loop.length_scale) if loop.length_scale else -1,
+        len(loop.unknowns),
+        loop.n_unknown,
+    )
 
 
 def state_size(fl: FlatLoop) -> int:
@@ -115,8 +122,9 @@ def state_size(fl: FlatLoop) -> int:
 
 
 @njit(**INLINE)
-def _turn(axis: int, angle: float, slide: float, no_angle: bool, no_slide: bool, pre_re: tuple,
-          pre_du: tuple) -> tuple:
+def _turn(
+    axis: int, angle: float, slide: float, no_angle: bool, no_slide: bool, pre_re: tuple, pre_du: tuple
+) -> tuple:
     """``pre @ rot_axis(angle + eps slide)`` on 9-tuples, skipping what constant zeros make needless
     (as :func:`dualmech.core.loop._turn`)."""
     if no_angle and no_slide:
@@ -144,10 +152,18 @@ def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, 
     for i in range(table.shape[0]):
         for f in range(5):  # the row's five entries at this position
             k = table[i, KIND + f]
-            v[f] = const[i, f] if k == CONST else (vals[table[i, REF + f]] if k == VALUE else x[table[i, REF + f]])
-        zero = (const[i, 0] == 0.0 and table[i, KIND] == CONST, const[i, 1] == 0.0 and table[i, KIND + 1] == CONST,
-                const[i, 2] == 0.0 and table[i, KIND + 2] == CONST, const[i, 3] == 0.0 and table[i, KIND + 3] == CONST,
-                const[i, 4] == 0.0 and table[i, KIND + 4] == CONST)
+            v[f] = (
+                const[i, f]
+                if k == CONST
+                else (vals[table[i, REF + f]] if k == VALUE else x[table[i, REF + f]])
+            )
+        zero = (
+            const[i, 0] == 0.0 and table[i, KIND] == CONST,
+            const[i, 1] == 0.0 and table[i, KIND + 1] == CONST,
+            const[i, 2] == 0.0 and table[i, KIND + 2] == CONST,
+            const[i, 3] == 0.0 and table[i, KIND + 3] == CONST,
+            const[i, 4] == 0.0 and table[i, KIND + 4] == CONST,
+        )
         for stage in range(3):  # Z(theta + eps S), Y(eta), X(alpha + eps a); a ball replaces the first two
             if stage < 2 and table[i, SPHERICAL]:
                 if stage == 0:
@@ -156,7 +172,17 @@ def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, 
                             lines[m, 0, r], lines[m, 1, r] = pre_re[3 * r + k], pre_du[3 * r + k]
                         m += 1
                     o = fl.n_scalar + 9 * ball
-                    rot = (x[o], x[o + 1], x[o + 2], x[o + 3], x[o + 4], x[o + 5], x[o + 6], x[o + 7], x[o + 8])
+                    rot = (
+                        x[o],
+                        x[o + 1],
+                        x[o + 2],
+                        x[o + 3],
+                        x[o + 4],
+                        x[o + 5],
+                        x[o + 6],
+                        x[o + 7],
+                        x[o + 8],
+                    )
                     pre_re, pre_du = tmul(pre_re, rot), tmul(pre_du, rot)
                     ball += 1
                 continue
@@ -168,8 +194,9 @@ def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, 
                         lines[m, 0, r] = 0.0 if slide else pre_re[3 * r + axis]
                         lines[m, 1, r] = pre_re[3 * r + axis] if slide else pre_du[3 * r + axis]
                     m += 1
-            pre_re, pre_du = _turn(axis, v[fa], 0.0 if fs < 0 else v[fs], zero[fa], fs < 0 or zero[fs],
-                                   pre_re, pre_du)
+            pre_re, pre_du = _turn(
+                axis, v[fa], 0.0 if fs < 0 else v[fs], zero[fa], fs < 0 or zero[fs], pre_re, pre_du
+            )
         for r in range(9):
             frames[i, 0, r // 3, r % 3] = pre_re[r]
             frames[i, 1, r // 3, r % 3] = pre_du[r]
@@ -209,8 +236,15 @@ def frame_origin(frames: np.ndarray, i: int) -> tuple:
 
 
 @njit(**JIT)
-def screw_matrix(fl: FlatLoop, frames: np.ndarray, lines: np.ndarray, scale: float, mat: np.ndarray,
-                 gauge: np.ndarray, axes: np.ndarray) -> None:
+def screw_matrix(
+    fl: FlatLoop,
+    frames: np.ndarray,
+    lines: np.ndarray,
+    scale: float,
+    mat: np.ndarray,
+    gauge: np.ndarray,
+    axes: np.ndarray,
+) -> None:
     """The unknowns' screws as columns ``mat`` ``(6 + G, n_step)``, dual rows over ``scale``, with the
     spin-gauge rows; ``gauge`` ``(G, M)`` gets ``u . s_j`` for every screw up to the gauged row
     (:func:`~dualmech.core.loop.screw_jacobian`, :func:`~dualmech.core.loop.gauge_rows`);
@@ -228,7 +262,9 @@ def screw_matrix(fl: FlatLoop, frames: np.ndarray, lines: np.ndarray, scale: flo
     for j in range(lines.shape[0]):
         for g in range(gauges.size):
             if screws[j, ROW] <= gauges[g]:
-                gauge[g, j] = axes[g, 0] * lines[j, 0, 0] + axes[g, 1] * lines[j, 0, 1] + axes[g, 2] * lines[j, 0, 2]
+                gauge[g, j] = (
+                    axes[g, 0] * lines[j, 0, 0] + axes[g, 1] * lines[j, 0, 1] + axes[g, 2] * lines[j, 0, 2]
+                )
         col = screws[j, COLUMN]
         if col < 0:
             continue

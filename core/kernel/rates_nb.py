@@ -19,79 +19,101 @@ from dualmech.core.kernel.loop_nb import FlatLoop, screw_matrix
 
 
 @njit(**JIT)
-def _known(fl: FlatLoop, values: np.ndarray, unknown: np.ndarray, out: np.ndarray) -> None:
-    """Per-screw values: the inputs' from ``values`` (indexed like ``vals``), the unknowns' from ``unknown``."""
-    for j in range(fl.screws.shape[0]):
-        col = fl.screws[j, 2]
-        out[j] = values[fl.screws[j, 3]] if col < 0 else unknown[col]
-
-
-@njit(**JIT)
-def _bracket(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
-    """Dual cross product ``out = a x b`` of dual vectors ``(2, 3)`` (:func:`dualmech.core.dual.dcross`)."""
-    for i in range(3):
-        i1, i2 = (i + 1) % 3, (i + 2) % 3
-        out[0, i] = a[0, i1] * b[0, i2] - a[0, i2] * b[0, i1]
-        out[1, i] = (a[0, i1] * b[1, i2] - a[0, i2] * b[1, i1]) + (a[1, i1] * b[0, i2] - a[1, i2] * b[0, i1])
-
-
-@njit(**JIT)
-def _rhs(fl: FlatLoop, w: Work, values: np.ndarray, with_transport: bool) -> None:
-    """``w.err``: minus the known screws' motion (and the carried screws' terms), gauge rows too."""
-    rows = 6 + fl.gauges.size
-    w.err[:rows] = 0.0
-    for j in range(fl.screws.shape[0]):
+def _rhs(
+    screws: np.ndarray,
+    gauges: np.ndarray,
+    lines: np.ndarray,
+    gauge: np.ndarray,
+    axes: np.ndarray,
+    values: np.ndarray,
+    unknown: np.ndarray,
+    per_screw: np.ndarray,
+    transport: np.ndarray,
+    with_transport: bool,
+    err: np.ndarray,
+) -> None:
+    """``per_screw``: each screw's value (inputs' from ``values``, indexed like ``vals``, unknowns' from
+    ``unknown``); ``err``: minus the known screws' motion and, ``with_transport``, the carried screws'
+    terms, with the gauge rows (:func:`dualmech.core.rates.solve_rates`)."""
+    for j in range(screws.shape[0]):
+        col = screws[j, 2]
+        per_screw[j] = values[screws[j, 3]] if col < 0 else unknown[col]
+    err[: 6 + gauges.size] = 0.0
+    for j in range(screws.shape[0]):
+        v = 0.0 if screws[j, 2] >= 0 else per_screw[j]  # the unknowns' part is on the left-hand side
         for i in range(3):
-            w.err[i] -= w.lines[j, 0, i] * values[j]
-            w.err[3 + i] -= w.lines[j, 1, i] * values[j]
-            if with_transport:
-                w.err[i] -= w.transport[j, 0, i]
-                w.err[3 + i] -= w.transport[j, 1, i]
-        for g in range(fl.gauges.size):
-            w.err[6 + g] -= w.gauge[g, j] * values[j]
-            if with_transport and fl.screws[j, 0] <= fl.gauges[g]:
-                a = w.axes[g]
-                w.err[6 + g] -= a[0] * w.transport[j, 0, 0] + a[1] * w.transport[j, 0, 1] + a[2] * w.transport[j, 0, 2]
+            err[i] -= lines[j, 0, i] * v + (transport[j, 0, i] if with_transport else 0.0)
+            err[3 + i] -= lines[j, 1, i] * v + (transport[j, 1, i] if with_transport else 0.0)
+        for g in range(gauges.size):
+            err[6 + g] -= gauge[g, j] * v
+            if with_transport and screws[j, 0] <= gauges[g]:
+                err[6 + g] -= (
+                    axes[g, 0] * transport[j, 0, 0]
+                    + axes[g, 1] * transport[j, 0, 1]
+                    + axes[g, 2] * transport[j, 0, 2]
+                )
 
 
 @njit(**JIT)
-def _transport(fl: FlatLoop, w: Work, rates: np.ndarray, motion: np.ndarray, cum: np.ndarray) -> None:
-    """``w.transport[j]`` = :math:`\\hat V_{c(j)}\\times\\hat s_j \\dot q_j`, with ``cum`` ``(M + 1, 2, 3)`` the
-    running sums of the screws' motions (:func:`dualmech.core.rates._transport`)."""
+def _transport(
+    screws: np.ndarray, lines: np.ndarray, rates: np.ndarray, cum: np.ndarray, transport: np.ndarray
+) -> None:
+    """``transport[j]`` = :math:`\\hat V_{c(j)}\\times\\hat s_j \\dot q_j`, with ``cum`` ``(M + 1, 2, 3)`` the
+    running sums of the screws' motions (:func:`dualmech.core.rates._transport`): a dual cross product."""
     cum[0] = 0.0
-    for j in range(fl.screws.shape[0]):
+    for j in range(screws.shape[0]):
         for p in range(2):
             for i in range(3):
-                motion[p, i] = w.lines[j, p, i] * rates[j]
-                cum[j + 1, p, i] = cum[j, p, i] + motion[p, i]
-        _bracket(cum[fl.screws[j, 1]], motion, w.transport[j])
+                cum[j + 1, p, i] = cum[j, p, i] + lines[j, p, i] * rates[j]
+        a, r = cum[screws[j, 1]], rates[j]
+        for i in range(3):
+            i1, i2 = (i + 1) % 3, (i + 2) % 3
+            b0i1, b0i2, b1i1, b1i2 = (
+                lines[j, 0, i1] * r,
+                lines[j, 0, i2] * r,
+                lines[j, 1, i1] * r,
+                lines[j, 1, i2] * r,
+            )
+            transport[j, 0, i] = a[0, i1] * b0i2 - a[0, i2] * b0i1
+            transport[j, 1, i] = (a[0, i1] * b1i2 - a[0, i2] * b1i1) + (a[1, i1] * b0i2 - a[1, i2] * b0i1)
 
 
 @njit(**JIT)
 def solve_rates(fl: FlatLoop, vdot: np.ndarray, vddot: np.ndarray, w: Work) -> None:
     """Rates and accelerations of the loop evaluated in ``w`` (closed), for input rates ``vdot``
-    and accelerations ``vddot`` (indexed like ``vals``, parameters 0).  Fills ``w.q_dot``, ``w.q_ddot``, ``w.twists``, ``w.accels``."""
-    m = fl.screws.shape[0]
-    screw_matrix(fl, w.frames, w.lines, 1.0, w.mat, w.gauge, w.axes)
-    rate, acc = w.per_screw[0], w.per_screw[1]
-    w.q_dot[:] = 0.0
-    _known(fl, vdot, w.q_dot, rate)
-    _rhs(fl, w, rate, False)
-    least_squares(w.mat, w.err[:6 + fl.gauges.size], w.q_dot, w.sq, w.rhs)
-    _known(fl, vdot, w.q_dot, rate)
-    _transport(fl, w, rate, w.tmp[0, 0, :2], w.cum)
-    w.q_ddot[:] = 0.0
-    _known(fl, vddot, w.q_ddot, acc)
-    _rhs(fl, w, acc, True)
-    least_squares(w.mat, w.err[:6 + fl.gauges.size], w.q_ddot, w.sq, w.rhs)
-    _known(fl, vddot, w.q_ddot, acc)
-    w.twists[:] = 0.0
-    w.accels[:] = 0.0
-    for i in range(w.twists.shape[0]):
-        for j in range(m):
-            if fl.screws[j, 0] > i:
+    and accelerations ``vddot`` (indexed like ``vals``, parameters 0).  Fills ``w.q_dot``,
+    ``w.q_ddot``, ``w.twists``, ``w.accels``."""
+    screws, gauges, lines, mat, gauge, axes, err = (
+        fl.screws,
+        fl.gauges,
+        w.lines,
+        w.mat,
+        w.gauge,
+        w.axes,
+        w.err,
+    )
+    rate, acc, transport, q_dot, q_ddot = w.per_screw[0], w.per_screw[1], w.transport, w.q_dot, w.q_ddot
+    rows = err[: 6 + gauges.size]
+    screw_matrix(fl, w.frames, lines, 1.0, mat, gauge, axes)
+    _rhs(screws, gauges, lines, gauge, axes, vdot, q_dot, rate, transport, False, err)
+    least_squares(mat, rows, q_dot, w.sq, w.rhs)
+    for j in range(screws.shape[0]):
+        if screws[j, 2] >= 0:
+            rate[j] = q_dot[screws[j, 2]]
+    _transport(screws, lines, rate, w.cum, transport)
+    _rhs(screws, gauges, lines, gauge, axes, vddot, q_ddot, acc, transport, True, err)
+    least_squares(mat, rows, q_ddot, w.sq, w.rhs)
+    for j in range(screws.shape[0]):
+        if screws[j, 2] >= 0:
+            acc[j] = q_ddot[screws[j, 2]]
+    twists, accels = w.twists, w.accels
+    twists[:] = 0.0
+    accels[:] = 0.0
+    for i in range(twists.shape[0]):
+        for j in range(screws.shape[0]):
+            if screws[j, 0] > i:
                 continue
             for p in range(2):
                 for c in range(3):
-                    w.twists[i, p, c] += w.lines[j, p, c] * rate[j]
-                    w.accels[i, p, c] += w.lines[j, p, c] * acc[j] + w.transport[j, p, c]
+                    twists[i, p, c] += lines[j, p, c] * rate[j]
+                    accels[i, p, c] += lines[j, p, c] * acc[j] + transport[j, p, c]

@@ -3,8 +3,8 @@
 Designs are independent; chunks of :data:`~dualmech.models.tolerance.sampling.CHUNK_DESIGNS`
 run in this process, in a process pool (``jobs``) or on a Dask cluster (``scheduler``) through
 :func:`dualmech.validation.executors.execute`.  Each chunk's designs are solved together by
-:func:`~dualmech.models.slider_crank.iter_analyses` (designs x positions in one batch; no
-loop over positions).  A finished chunk is stored at once as ``DIR/chunks/chunk-NNNNNN.npz``
+:func:`~dualmech.models.slider_crank_kernel.solve_cases` (designs x positions in chunks, compiled,
+in parallel).  A finished chunk is stored at once as ``DIR/chunks/chunk-NNNNNN.npz``
 (written to a temporary name, then renamed), so an interrupted study resumes where it stopped;
 ``DIR/study.json`` names the case, SPEC, ``n`` and seed, and a folder holding another study is
 refused.  At the end the chunks are streamed, in design order, into ``DIR/samples.csv`` (and
@@ -25,7 +25,8 @@ from typing import Iterator
 import numpy as np
 
 from dualmech.models.case import Case, CaseError, case_from_dict
-from dualmech.models.slider_crank import iter_analyses, solve_case, to_table
+from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank_kernel import solve_cases
 from dualmech.models.tolerance.outputs import COUNTS, design_outputs, output_names
 from dualmech.models.tolerance.sampling import chunk_bounds, n_chunks, sample_chunk
 from dualmech.models.tolerance.spec import Spec, design_case, nominal_values, spec_from_dict
@@ -73,7 +74,7 @@ def solve_chunk(case_raw: dict, spec_dict: dict, n: int, seed: int, index: int) 
             designs.append(design_case(case, spec, row, design_name(first + i)))
         except CaseError as err:
             raise CaseError(f"{design_name(first + i)} (sampled from the SPEC): {err}") from None
-    tables = [to_table(an) for an in iter_analyses(designs)]
+    tables = solve_cases(designs)
     return {"index": index, "x": x, "outputs": design_outputs(tables, case.loads.mode)}
 
 

@@ -26,20 +26,27 @@ BASE = load_case("a4-30-s1-3.5")
 
 
 def _numpy_table(case: Case) -> ResultTable:
+    """The batched numpy implementation of the same algorithm: the kernel's oracle."""
     return slider_crank.to_table(slider_crank.analyze(case))
 
 
 def assert_kernel_agrees(case: Case) -> ResultTable:
-    """Kernel and numpy solver on ``case``: identical statuses, identical NaN patterns, numbers to round-off."""
+    """Kernel and numpy solver on ``case``: identical statuses and NaN patterns, numbers to round-off."""
     ref, got = _numpy_table(case), slider_crank_kernel.solve_case(case)
     differ = np.flatnonzero(got.status != ref.status)
-    assert differ.size == 0, (f"{case.name}: statuses differ at theta1 = {ref['theta1_deg'][differ][:5]}: "
-                              f"kernel {got.status[differ][:5]}, numpy {ref.status[differ][:5]}")
+    assert differ.size == 0, (
+        f"{case.name}: statuses differ at theta1 = {ref['theta1_deg'][differ][:5]}: "
+        f"kernel {got.status[differ][:5]}, numpy {ref.status[differ][:5]}"
+    )
     for name, col in ref.columns.items():
         assert np.array_equal(np.isnan(got[name]), np.isnan(col)), f"{case.name}: NaN pattern of {name}"
     g, m = case.geometry, case.motion
-    floors = {"S4": g.rod_length, "S4_dot": g.crank_length * abs(m.speed),  # S4 may be constant: at least
-              "S4_ddot": g.crank_length * (m.speed**2 + abs(m.accel)), "transmission": 1.0}  # the crank pin's
+    floors = {
+        "S4": g.rod_length,
+        "S4_dot": g.crank_length * abs(m.speed),  # S4 may be constant: at least
+        "S4_ddot": g.crank_length * (m.speed**2 + abs(m.accel)),
+        "transmission": 1.0,
+    }  # the crank pin's
     # near the edge of assembly the closure condition c amplifies round-off: S4 by 1/c, its rates by
     # 1/c^2 and 1/c^3, reactions by 1/c^3 (core/assembly.py); the differences are weighed by c^k
     c = np.where(np.isnan(ref["closure_condition"]), 1.0, ref["closure_condition"])
@@ -48,18 +55,35 @@ def assert_kernel_agrees(case: Case) -> ResultTable:
     for q, k in zip(KINEMATICS, (1, 2, 3, 1)):
         scale = max(np.nanmax(np.abs(ref[q]), initial=0.0), floors[q])
         weighed = np.abs(got[q] - ref[q])[~limit] * c[~limit] ** k / scale
-        assert_allclose(weighed[~np.isnan(weighed)], 0.0, rtol=0, atol=KERNEL_VS_NUMPY_KINEMATICS,
-                        err_msg=f"{case.name}: {q}")
+        assert_allclose(
+            weighed[~np.isnan(weighed)],
+            0.0,
+            rtol=0,
+            atol=KERNEL_VS_NUMPY_KINEMATICS,
+            err_msg=f"{case.name}: {q}",
+        )
     mode = "torque" if case.loads.drive_torque is not None else "force"
     for q, r in relative_differences(ref, got, mode, REACTION_COLUMNS).items():
         weighed = r * c**3
-        assert_allclose(weighed[~np.isnan(weighed)], 0.0, rtol=0, atol=KERNEL_VS_NUMPY_REACTIONS,
-                        err_msg=f"{case.name}: {q}")
+        assert_allclose(
+            weighed[~np.isnan(weighed)],
+            0.0,
+            rtol=0,
+            atol=KERNEL_VS_NUMPY_REACTIONS,
+            err_msg=f"{case.name}: {q}",
+        )
+    assert got.meta["messages"] == ref.meta["messages"]
     for q in ("S1", "theta1_deg"):
         assert_allclose(got[q], ref[q], rtol=0, atol=KERNEL_VS_NUMPY_KINEMATICS, equal_nan=True, err_msg=q)
     # c itself is as well conditioned as S4 away from the edge; at c ~ 0 it carries sqrt(r) like S4
-    assert_allclose(got["closure_condition"], ref["closure_condition"], rtol=0, atol=KERNEL_VS_NUMPY_AT_LIMIT,
-                    equal_nan=True, err_msg="closure_condition")
+    assert_allclose(
+        got["closure_condition"],
+        ref["closure_condition"],
+        rtol=0,
+        atol=KERNEL_VS_NUMPY_AT_LIMIT,
+        equal_nan=True,
+        err_msg="closure_condition",
+    )
     return got
 
 
@@ -71,31 +95,47 @@ def test_every_preset(name: str) -> None:
 @settings(max_examples=30, deadline=None, derandomize=True)
 @given(
     a4=st.floats(-25.0, 45.0),
-    twist=st.one_of(st.floats(185.0, 355.0), st.floats(5.0, 175.0), st.sampled_from([181.0, 359.0, 0.0, 180.0])),
+    twist=st.one_of(
+        st.floats(185.0, 355.0), st.floats(5.0, 175.0), st.sampled_from([181.0, 359.0, 0.0, 180.0])
+    ),
     s1=st.floats(-12.0, 12.0),
     amp=st.floats(0.0, 6.0),
     cycles=st.sampled_from([0.0, 1.0, 2.0, 3.0]),
     torque_mode=st.booleans(),
 )
-def test_random_geometries(a4: float, twist: float, s1: float, amp: float, cycles: float,
-                           torque_mode: bool) -> None:
-    """Both twist signs, near 180/360 degrees, offsets that leave some angles unassemblable, both load modes."""
-    case = BASE.with_values({
-        "geometry.slider_offset": a4, "geometry.slider_twist_deg": twist, "geometry.crank_axial_shift": s1,
-        "motion.axial_amplitude": amp, "motion.axial_cycles": cycles,
-        "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 3.0},
-    })
-    loads = {"drive_torque": 100.0, "slider_force": None} if torque_mode else {"drive_torque": None,
-                                                                              "slider_force": 250.0}
+def test_random_geometries(
+    a4: float, twist: float, s1: float, amp: float, cycles: float, torque_mode: bool
+) -> None:
+    """Both twist signs, near 180/360 degrees, offsets leaving some angles unassemblable, both load modes."""
+    case = BASE.with_values(
+        {
+            "geometry.slider_offset": a4,
+            "geometry.slider_twist_deg": twist,
+            "geometry.crank_axial_shift": s1,
+            "motion.axial_amplitude": amp,
+            "motion.axial_cycles": cycles,
+            "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 3.0},
+        }
+    )
+    loads = (
+        {"drive_torque": 100.0, "slider_force": None}
+        if torque_mode
+        else {"drive_torque": None, "slider_force": 250.0}
+    )
     assert_kernel_agrees(with_loads(case, **loads))
 
 
 @pytest.mark.parametrize("offset", [38.0 - 1e-9, 38.0, 38.0 + 1e-9, 38.0 - 1e-4, 38.0 + 1e-3])
 def test_near_the_edge_of_assembly(offset: float) -> None:
     """a1 + a4 = a2 at theta1 = 0 (planar): the rod turns normal to the slider line there."""
-    case = BASE.with_values({"geometry.slider_offset": offset, "geometry.slider_twist_deg": 270.0,
-                             "geometry.crank_axial_shift": 0.0,
-                             "motion.angles_deg": {"start": -2.0, "stop": 2.0, "step": 0.01}})
+    case = BASE.with_values(
+        {
+            "geometry.slider_offset": offset,
+            "geometry.slider_twist_deg": 270.0,
+            "geometry.crank_axial_shift": 0.0,
+            "motion.angles_deg": {"start": -2.0, "stop": 2.0, "step": 0.01},
+        }
+    )
     got = assert_kernel_agrees(case)
     assert {"assembly_limit"} <= set(got.status) or offset > 38.0, "the band around the edge was not reached"
 
@@ -105,7 +145,9 @@ def test_near_dead_centres() -> None:
     ideal = with_loads(load_case("ideal"), drive_torque=100.0, slider_force=None)
     words = set()
     for centre in (90.0, 270.0):
-        case = ideal.with_values({"motion.angles_deg": {"start": centre - 1e-6, "stop": centre + 1e-6, "step": 1e-7}})
+        case = ideal.with_values(
+            {"motion.angles_deg": {"start": centre - 1e-6, "stop": centre + 1e-6, "step": 1e-7}}
+        )
         words |= set(assert_kernel_agrees(case).status)
     assert {"dead_centre", "ok"} <= words
 
@@ -113,9 +155,16 @@ def test_near_dead_centres() -> None:
 def test_many_cases_in_one_chunk_equal_one_at_a_time() -> None:
     """Positions of different cases share a chunk (and threads) without mixing their geometry."""
     rng = np.random.default_rng(7)
-    cases = [BASE.with_values({"geometry.slider_offset": float(rng.uniform(0, 30)),
-                               "geometry.slider_twist_deg": float(rng.uniform(240, 300)),
-                               "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 0.5}}) for _ in range(6)]
+    cases = [
+        BASE.with_values(
+            {
+                "geometry.slider_offset": float(rng.uniform(0, 30)),
+                "geometry.slider_twist_deg": float(rng.uniform(240, 300)),
+                "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 0.5},
+            }
+        )
+        for _ in range(6)
+    ]
     cranks = [c.motion.state(c.geometry.crank_axial_shift) for c in cases]
     together = slider_crank_kernel.analyze_chunk(cases, cranks)
     start = 0
@@ -123,5 +172,5 @@ def test_many_cases_in_one_chunk_equal_one_at_a_time() -> None:
         alone = slider_crank_kernel.solve_case(case)
         n = len(alone)
         for name, col in alone.columns.items():
-            assert_allclose(together.columns[name][start:start + n], col, rtol=0, atol=0, equal_nan=True)
+            assert_allclose(together.columns[name][start : start + n], col, rtol=0, atol=0, equal_nan=True)
         start += n

@@ -1,0 +1,97 @@
+"""``dualmech solve`` output: the table as CSV or Parquet, and long in-house cases streamed chunk by chunk.
+
+A case of more than :data:`STREAM_POSITIONS` crank positions solved by the in-house engine
+never exists whole in memory: the compiled kernel analyses it chunk by chunk into one
+reused buffer (:func:`~dualmech.models.slider_crank_kernel.iter_chunks`) and each chunk
+goes to the file at once (a Parquet row group, or CSV rows), so memory is bounded by the
+chunk.  Its summary then gives what can be gathered on the way: status counts, stroke,
+worst closure residual and the ``no_assembly`` ranges (the design peaks need the table:
+load the Parquet file).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from dualmech.core.status import STATUSES
+from dualmech.core.table import ParquetWriter, ResultTable, write_parquet
+from dualmech.models.case import Case
+
+#: Cases longer than this stream to their file (one chunk of the kernel each).
+STREAM_POSITIONS = 100_000
+#: Output formats by file suffix.
+FORMATS = (".csv", ".parquet")
+
+
+def output_format(path: str | Path) -> str:
+    """``.csv`` or ``.parquet`` from the file name; a ValueError naming the suffix otherwise."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in FORMATS:
+        raise ValueError(
+            f"-o {path}: unknown output format {suffix or '(no suffix)'!r} (valid: {', '.join(FORMATS)})"
+        )
+    return suffix
+
+
+def write_table(table: ResultTable, path: str | Path) -> None:
+    """Write ``table`` to ``path`` in the format of its suffix (:func:`output_format`)."""
+    if output_format(path) == ".parquet":
+        write_parquet(table, path)
+    else:
+        table.to_csv(path)
+
+
+class _Tally:
+    """What a streamed solve's summary needs, gathered chunk by chunk."""
+
+    def __init__(self) -> None:
+        self.counts = np.zeros(len(STATUSES), dtype=np.int64)
+        self.extremes: list[tuple[float, float]] = []  # (S4, theta1_deg) of each chunk's max and min
+        self.worst = -np.inf
+        self.no_assembly: list[np.ndarray] = []
+
+    def add(self, columns: dict[str, np.ndarray], codes: np.ndarray) -> None:
+        self.counts += np.bincount(codes, minlength=len(STATUSES))
+        s4, theta = columns["S4"], columns["theta1_deg"]
+        if np.isfinite(s4).any():
+            for i in (int(np.nanargmax(s4)), int(np.nanargmin(s4))):
+                self.extremes.append((float(s4[i]), float(theta[i])))
+        if np.isfinite(columns["residual"]).any():
+            self.worst = max(self.worst, float(np.nanmax(columns["residual"])))
+        self.no_assembly.append(codes == STATUSES.index("no_assembly"))
+
+    def text(self, case: Case, messages: list[str]) -> str:
+        lines = [f"case {case.name} (dualmech): {int(self.counts.sum())} positions, streamed"]
+        lines.append("status: " + ", ".join(f"{w} {n}" for w, n in sorted(zip(STATUSES, self.counts)) if n))
+        if self.extremes:
+            hi = max(self.extremes, key=lambda e: e[0])  # first of equal maxima, as nanargmax
+            lo = min(self.extremes, key=lambda e: e[0])
+            lines.append(
+                f"stroke: {hi[0] - lo[0]:.9g} (max S4 {hi[0]:.9g} at {hi[1]:g} deg, "
+                f"min S4 {lo[0]:.9g} at {lo[1]:g} deg)"
+            )
+        if np.isfinite(self.worst):
+            lines.append(f"worst closure residual: {self.worst:.3g}")
+        return "\n".join(lines + messages)
+
+
+def stream_solve(case: Case, path: str | Path) -> str:
+    """Solve ``case`` with the compiled in-house engine chunk by chunk into ``path``; return the summary."""
+    from dualmech.models.slider_crank import no_assembly_message, no_assembly_ranges
+    from dualmech.models.slider_crank_kernel import CHUNK_POSITIONS, iter_chunks, to_table
+
+    parquet = output_format(path) == ".parquet"
+    tally = _Tally()
+    with ParquetWriter(path) if parquet else Path(path).open("w") as out:
+        for k, chunk in enumerate(iter_chunks(case, CHUNK_POSITIONS)):
+            tally.add(chunk.columns, chunk.status)
+            if parquet:
+                out.write(chunk.columns, chunk.status)
+                continue
+            text = to_table(case, chunk).to_csv()
+            out.write(text if k == 0 else text.split("\n", 1)[1])
+    theta = np.asarray(case.motion.angles_deg, dtype=float)
+    ranges = no_assembly_ranges(theta, np.concatenate(tally.no_assembly))
+    return tally.text(case, no_assembly_message(ranges))
