@@ -51,6 +51,8 @@ DEAD_CENTRE_STATUS_BAND = Tolerance(1e-8, "rigid engines flag |t| < 1e-9 (DEAD_C
 #: Status agreement: ``ok`` against ``assembly_limit`` only where the reference's closure_condition is this close
 #: to the flag ASSEMBLY_LIMIT_CONDITION (each engine flags from its own pose).
 ASSEMBLY_LIMIT_STATUS_BAND = Tolerance(1e-8, "rigid engines' closure_condition agree to ~1e-12 (their poses agree to ~1e-13 of a2); 1e-8 is a generous margin around the flag")
+#: Pose (S1, S4) of rows at the assembly limit, judge vs reference, relative to the case's length scale.
+ASSEMBLY_LIMIT_POSE = Tolerance(1e-6, "S4 carries the closure error / closure_condition (-> its square root at the exact edge); rigid engines measured up to 1.6e-7 of a2 apart at the exact edge")
 #: Status agreement for the MuJoCo simulation's assembly-limit flag.
 SIM_ASSEMBLY_LIMIT_STATUS_BAND = Tolerance(1e-4, "the simulated pose differs from the rigid one by <= 1e-5 of a2 (SIM_STROKE), and so does its closure_condition; 10x that")
 #: Status agreement for the MuJoCo simulation, which flags dead centres in a wider band.

@@ -129,7 +129,7 @@ def test_dead_centre_flags_may_differ_only_within_the_band(matrix, results):
     i = int(np.argmin(np.where(ref.status == Status.OK, np.abs(ref["transmission"]), np.inf)))
     band = matrix.tolerance("pinocchio", "dead_centre_band").value
     reactions = {c: np.nan for c in ref.columns if c.startswith("j") or c in ("slider_load", "drive_torque")}
-    flagged = _edited(judge, slice(i, i + 1), Status.DEAD_CENTRE, **reactions)
+    flagged = _edited(judge, slice(i, i + 1), Status.DEAD_CENTRE, **reactions, transmission=0.4 * band)
     near = _edited(ref, slice(i, i + 1), transmission=0.5 * band)
     far = _edited(ref, slice(i, i + 1), transmission=0.5)
     tols = matrix.tolerances["pinocchio"]
@@ -137,6 +137,10 @@ def test_dead_centre_flags_may_differ_only_within_the_band(matrix, results):
                if c.quantity == STATUS)
     status = [c for c in compare_case(mc.id, mc.mode, far, flagged, matrix.quantities, tols) if c.quantity == STATUS]
     assert not status[0].passed and "reference ok, judge dead_centre" in status[0].detail
+    far_judge = _edited(flagged, slice(i, i + 1), transmission=0.5)  # the judge's own t says it is no dead centre
+    status = [c for c in compare_case(mc.id, mc.mode, near, far_judge, matrix.quantities, tols)
+              if c.quantity == STATUS]
+    assert not status[0].passed
 
 
 def test_missing_case_or_engine_is_incomplete_never_pass(matrix, results):
@@ -289,7 +293,8 @@ def test_assembly_limit_flags_may_differ_only_near_the_flag(matrix, results):
     ref, judge = results[mc.id]["dualmech"], results[mc.id]["pinocchio"]
     band = matrix.tolerance("pinocchio", "assembly_limit_band").value
     rates = {c: np.nan for c in ref.columns if c not in ("theta1_deg", "S1", "S4", "closure_condition")}
-    flagged = _edited(judge, slice(1, 2), Status.ASSEMBLY_LIMIT, **rates)
+    flagged = _edited(judge, slice(1, 2), Status.ASSEMBLY_LIMIT, **rates,
+                      closure_condition=ASSEMBLY_LIMIT_CONDITION.value - 0.5 * band)
     tols = matrix.tolerances["pinocchio"]
     for condition, passes in ((ASSEMBLY_LIMIT_CONDITION.value + 0.5 * band, True),
                               (ASSEMBLY_LIMIT_CONDITION.value + 2.0 * band, False), (0.5, False)):
@@ -297,3 +302,28 @@ def test_assembly_limit_flags_may_differ_only_near_the_flag(matrix, results):
         status = [c for c in compare_case(mc.id, mc.mode, edited, flagged, matrix.quantities, tols)
                   if c.quantity == STATUS]
         assert status[0].passed is passes, (condition, status[0].detail)
+
+
+def test_the_pose_at_the_assembly_limit_is_held_to_its_own_tolerance(matrix, results):
+    """S4 where the rod is nearly normal to the slider line: ASSEMBLY_LIMIT_POSE, not the kinematics tolerance."""
+    from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_LIMIT_POSE
+
+    mc = matrix.cases[0]
+    ref, judge = results[mc.id]["dualmech"], results[mc.id]["pinocchio"]
+    rates = {c: np.nan for c in ref.columns if c not in ("theta1_deg", "S1", "S4", "closure_condition")}
+    at_limit = {"closure_condition": 0.5 * ASSEMBLY_LIMIT_CONDITION.value, **rates}
+    ref = _edited(ref, slice(1, 2), Status.ASSEMBLY_LIMIT, **at_limit)
+    length = np.nanmax(np.abs(ref["S4"]))
+    tols = matrix.tolerances["pinocchio"]
+    for shift, passes, word in ((0.1, True, Status.ASSEMBLY_LIMIT), (10.0, False, Status.ASSEMBLY_LIMIT),
+                                (0.1, False, Status.OK)):
+        moved = _edited(judge, slice(1, 2), word, **(at_limit if word != Status.OK else {}),
+                        S4=ref["S4"][1] + shift * ASSEMBLY_LIMIT_POSE.value * length)
+        if word == Status.OK:  # the judge's own pose is at the limit: only the reference's flag remains
+            ref_ok = _edited(ref, slice(1, 2), Status.OK, **{c: judge[c][1] for c in rates})
+            moved = _edited(moved, slice(1, 2), closure_condition=0.5)
+            checks = compare_case(mc.id, mc.mode, ref_ok, moved, matrix.quantities, tols)
+        else:
+            checks = compare_case(mc.id, mc.mode, ref, moved, matrix.quantities, tols)
+        s4 = next(c for c in checks if c.quantity == "S4")
+        assert s4.passed is passes, (shift, word, s4.detail)
