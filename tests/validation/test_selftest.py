@@ -97,8 +97,10 @@ def _digest(paths: list[Path]) -> str:
 
 
 def test_harness_kills_reports_survivors_and_stale_faults(tmp_path):
-    """A reaction sign (matrix), the S1 law (tests: the one-case matrix has no axial motion), a no-op edit
-    that must SURVIVE, and a stale fault that must be an ERROR; the checkout is left untouched."""
+    """A judge's sign (matrix), the S1 law (tests: the one-case matrix has no axial motion), a no-op edit
+    that must SURVIVE, and a stale fault that must be an ERROR; the checkout is left untouched.
+
+    The matrix kill also shows that the scratch copy is what runs: the checkout has no such fault."""
     matrix = tmp_path / "small.toml"
     matrix.write_text(SMALL_MATRIX)
     by_id = {m.id: m for m in FULL.mutants}
@@ -106,7 +108,7 @@ def test_harness_kills_reports_survivors_and_stale_faults(tmp_path):
                   "# D'Alembert: what the joints must supply to each body",
                   "# D'Alembert: the joints supply to each body", "solver", "a comment edit: no behaviour")
     stale = Mutant("stale", "core/reactions.py", "this text is not in the file", "x", "solver", "stale")
-    cat = Catalogue((by_id["reaction-sign-j4-force"], by_id["s1-law-cos"], noop, stale), str(matrix),
+    cat = Catalogue((by_id["pin-acceleration-sign"], by_id["s1-law-cos"], noop, stale), str(matrix),
                     ("tests/models/test_common_mode.py",))
     files = sorted({ROOT / m.file for m in cat.mutants})
     before = _digest(files)
@@ -114,7 +116,7 @@ def test_harness_kills_reports_survivors_and_stale_faults(tmp_path):
     assert _digest(files) == before
     assert report.pristine.verdict == "pass", report.pristine.detail
     verdicts = {o.mutant.id: o.run.verdict for o in report.outcomes}
-    assert verdicts == {"reaction-sign-j4-force": "matrix", "s1-law-cos": "tests", "comment-only": "pass",
+    assert verdicts == {"pin-acceleration-sign": "matrix", "s1-law-cos": "tests", "comment-only": "pass",
                         "stale": "error"}, report.outcomes
     assert report.killed == 2 and not report.passed
     text = format_report(report, jobs=2)
