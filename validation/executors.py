@@ -48,16 +48,17 @@ def check_address(address: str) -> str:
     return address.strip()
 
 
-def worker_init(parent: int) -> None:
-    """Pool worker initializer: leave SIGINT to the parent, and end with it.
+def worker_init() -> None:
+    """Pool worker initializer: leave SIGINT to the run, and end with it.
 
     A run killed hard (SIGKILL, an OOM kill) cannot shut its pool down, and idle
     workers would otherwise wait on their queue forever.  On Linux the kernel
-    sends SIGTERM to the worker when its parent exits (``PR_SET_PDEATHSIG``);
-    elsewhere only the SIGINT part applies.
+    sends SIGTERM to the worker when its parent, the run, exits (``PR_SET_PDEATHSIG``).
+    Elsewhere only the SIGINT part applies.
     """
     import signal
 
+    parent = os.getppid()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         import ctypes
@@ -86,13 +87,27 @@ def execute(task: Callable[..., dict], calls: list[tuple], jobs: int, scheduler:
         yield from _on_pool(task, calls, jobs, leftovers)
 
 
+def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
+    """A pool of ``jobs`` fresh worker processes (``spawn``), children of this process.
+
+    Not ``fork``: a process that has run a parallel numba kernel holds threading-layer
+    state (OpenMP, workqueue) that a forked child inherits and can deadlock on.  Not
+    ``forkserver`` either: its server outlives a killed run.  A spawned worker starts
+    from nothing, ends with this process and leaves SIGINT to it (:func:`worker_init`).
+    """
+    import multiprocessing
+
+    return cf.ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
+                                  initializer=worker_init)
+
+
 def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
     return [f.result() for f in futures
             if f not in handed and f.done() and not f.cancelled() and f.exception() is None]
 
 
 def _on_pool(task: Callable[..., dict], calls: list[tuple], jobs: int, leftovers: list[dict]) -> Iterator[dict]:
-    pool = cf.ProcessPoolExecutor(max_workers=jobs, initializer=worker_init, initargs=(os.getpid(),))
+    pool = process_pool(jobs)
     futures = [pool.submit(task, *call) for call in calls]
     handed: set[Any] = set()
     try:

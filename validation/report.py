@@ -33,7 +33,6 @@ import shutil
 import tempfile
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from importlib import import_module
 from pathlib import Path
@@ -49,7 +48,7 @@ from dualmech.models.units import DIMENSIONS, axis_label, column_unit
 from dualmech.validation import runner
 from dualmech.validation.runner import ProgressCallback
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Check, Comparison, compare_run, relative_differences
-from dualmech.validation.executors import worker_init
+from dualmech.validation.executors import process_pool
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.provenance import KEY_LIBRARIES
 from dualmech.validation.rundir import locked, record_files, remove_stale
@@ -594,8 +593,7 @@ def render_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: 
     pngs: list[bytes] = []
     with contextlib.ExitStack() as stack:
         if jobs > 1 and len(specs) > 1:
-            pool = stack.enter_context(ProcessPoolExecutor(max_workers=jobs, initializer=worker_init,
-                                                           initargs=(os.getpid(),)))
+            pool = stack.enter_context(process_pool(jobs))
             rendered = pool.map(_render, jobs_list, chunksize=max(1, len(specs) // (4 * jobs)))
         else:
             rendered = map(_render, jobs_list)

@@ -79,7 +79,8 @@ def test_sigint_keeps_every_finished_result(small, tmp_path):  # noqa: F811
     out, marks = tmp_path / "run", tmp_path / "marks"
     marks.mkdir()
     slow = {e: f"{FAKES}:solve_case_marked_{e}" for e in FAKE_REGISTRY}
-    script = (
+    script = (  # SIGINT handled as at a terminal, even when this test runs as a background job (SIG_IGN inherited)
+        "import signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
         "from dualmech.validation.matrix import load_matrix; from dualmech.validation.runner import run_matrix; "
         f"run_matrix(load_matrix({str(small)!r}), {str(out)!r}, jobs=2, registry={slow!r})"
     )

@@ -20,8 +20,21 @@ from .test_validate import FAKE_REGISTRY, FAKES, ROOT, small  # noqa: F401  (sma
 def _children(pid: int) -> set[int]:
     out: set[int] = set()
     for task in Path(f"/proc/{pid}/task").glob("*"):
-        text = (task / "children").read_text().split()
+        try:
+            text = (task / "children").read_text().split()
+        except OSError:  # the thread or process has gone meanwhile
+            continue
         out |= {int(p) for p in text}
+    return out
+
+
+def _descendants(pid: int) -> set[int]:
+    """Every process below ``pid`` (pool workers hang below a forkserver)."""
+    out, todo = set(), [pid]
+    while todo:
+        kids = _children(todo.pop()) - out
+        out |= kids
+        todo += kids
     return out
 
 
@@ -34,8 +47,9 @@ def _alive(pid: int) -> bool:
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG and /proc are Linux-only")
-def test_workers_die_with_a_killed_run(small, tmp_path):  # noqa: F811
-    """SIGKILL the run halfway: its pool workers must not linger, waiting on their queue forever."""
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+def test_workers_die_with_a_killed_run(small, tmp_path, sig):  # noqa: F811
+    """Kill the run halfway: its pool workers must not linger, waiting on their queue forever."""
     slow = dict(FAKE_REGISTRY, dualmech=f"{FAKES}:solve_case_slow")
     out = tmp_path / "run"
     script = (
@@ -48,10 +62,10 @@ def test_workers_die_with_a_killed_run(small, tmp_path):  # noqa: F811
         deadline = time.time() + 60
         while time.time() < deadline and not list((out / "cases").glob("*.json")):
             time.sleep(0.05)
-        workers = _children(proc.pid)
-        assert len(workers) == 2, workers
+        workers = _descendants(proc.pid)
+        assert len(workers) >= 2, workers  # two workers (and multiprocessing's resource tracker)
     finally:
-        proc.send_signal(signal.SIGKILL)
+        proc.send_signal(sig)
         proc.wait()
     deadline = time.time() + 10
     while time.time() < deadline and any(_alive(w) for w in workers):
