@@ -43,8 +43,8 @@ def depends_on_kernel(path: str) -> None:
     _SOURCES.append(Path(path).resolve())
 
 
-class _KernelLocator(caching.InTreeCacheLocator):
-    """numba cache locator for the kernel's files: fresh only if none of :data:`_SOURCES` changed."""
+class _Digest:
+    """numba cache locator mixin for the kernel's files: fresh only if none of :data:`_SOURCES` changed."""
 
     def get_source_stamp(self) -> str:
         digest = hashlib.sha256()
@@ -59,4 +59,12 @@ class _KernelLocator(caching.InTreeCacheLocator):
         return super().from_function(py_func, py_file)
 
 
-caching.CacheImpl._locator_classes.insert(0, _KernelLocator)
+class _KernelUserLocator(_Digest, caching.UserProvidedCacheLocator):
+    """In ``NUMBA_CACHE_DIR`` when it is set (e.g. a read-only install)."""
+
+
+class _KernelInTreeLocator(_Digest, caching.InTreeCacheLocator):
+    """Beside the source otherwise (``__pycache__``)."""
+
+
+caching.CacheImpl._locator_classes[:0] = [_KernelUserLocator, _KernelInTreeLocator]
