@@ -341,6 +341,7 @@ def gate_main(argv: list[str]) -> int:
 def _python(scratch: Path, code: str, args: list[str], timeout: float) -> tuple[int | None, str, str]:
     """Run ``python -c BOOT+code scratch *args`` in ``scratch``; ``None`` as exit code on timeout."""
     env = {**os.environ, **_ENV}
+    env.pop("NUMBA_CACHE_DIR", None)  # keep the kernel cache in the copy (it carries the warm one)
     cmd = [sys.executable, "-c", BOOT + code, str(scratch), *args]
     try:
         proc = subprocess.run(cmd, cwd=scratch, env=env, capture_output=True, text=True, timeout=timeout)
