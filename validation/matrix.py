@@ -141,6 +141,10 @@ EXPECTATIONS: dict[str, str] = {"no_assembly": "every case assembles at no crank
 #: and 1,000 cases of 360 positions take ~8 min on the slowest judge (MuJoCo simulation,
 #: 1.3 ms per position, README "Speed") on one core.
 MAX_MATRIX_CASES = 1000
+#: Most crank positions of one case in a validation run: every engine's whole table of a case is
+#: held, stored and compared at once (~30 columns x 4 engines x 8 bytes x this, well under 1 GiB
+#: with Python's overheads); longer studies stream through ``dualmech solve`` in chunks.
+MAX_VALIDATE_POSITIONS = 20_000
 #: Longest name that becomes a file or folder name (matrix name, case ids), characters.
 MAX_NAME_CHARS = 100
 #: Longest description or sweep label, characters (one line of a report).
@@ -496,6 +500,15 @@ def _text(key: str, value: Any) -> str:
         raise MatrixError(str(err)) from None
 
 
+def _check_positions(case_id: str, case: Case) -> None:
+    """Refuse a case with more crank positions than :data:`MAX_VALIDATE_POSITIONS` (one line)."""
+    n = int(case.motion.angles_deg.size)
+    if n > MAX_VALIDATE_POSITIONS:
+        raise MatrixError(f"case {case_id}: motion.angles_deg gives {n:,} crank positions; a validation run "
+                          f"compares whole tables, at most {MAX_VALIDATE_POSITIONS:,} per case (use a coarser step, "
+                          "or `dualmech solve`, which streams any length)")
+
+
 def _check_expect(key: str, value: Any) -> str | None:
     """A declared expectation: ``None`` or a key of :data:`EXPECTATIONS`."""
     if value is not None and (not isinstance(value, str) or value not in EXPECTATIONS):
@@ -695,6 +708,7 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
                         case = mode_base.with_values({**values, "name": case_id})
                     except ValueError as err:
                         raise MatrixError(f"sweep {sw_name} ({mode}): {err}") from None
+                    _check_positions(case_id, case)
                     cases[case_id] = {"raw": case.raw, "mode": mode, "values": values, "sweeps": [],
                                       "labels": {}, "is_base": is_base, "declared": {}}
                 elif cases[case_id]["values"] != values:

@@ -97,3 +97,13 @@ def test_a_constant_or_round_off_panel_is_a_line_of_text_with_its_unit():
     assert _flat_note([table], "drive_torque", case.units).startswith("constant:\ndrive_torque = 100 lbf·in")
     assert _flat_note([table], "j4_mz", case.units).startswith("zero to round-off")
     assert _flat_note([table], "j1_fx", case.units) is None
+
+
+def test_validate_bounds_the_positions_of_one_case(design, tmp_path):
+    """A validation run holds whole tables: a case beyond MAX_VALIDATE_POSITIONS is one line, exit 2."""
+    from dualmech.validation.matrix import MAX_VALIDATE_POSITIONS
+
+    big = tmp_path / "big.toml"
+    big.write_text(design.read_text().replace("step = 10.0", f"step = {360.0 / (MAX_VALIDATE_POSITIONS + 10):.12g}"))
+    result = CliRunner().invoke(main, ["validate", str(big), "-o", str(tmp_path / "run")])
+    assert result.exit_code == 2 and "dualmech solve" in result.output and "\n" not in result.output.strip()
