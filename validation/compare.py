@@ -8,8 +8,9 @@ verdicts about the mechanism; ``branch_jump``, ``not_converged`` and ``not_finit
 are failures of the engine, and so is any non-finite number where the word says the
 value is given (an ``ok`` row with NaN or inf).  Per row, the judge's word must equal
 the reference's, except where a stated rule (:data:`STATUS_RULES`) explains the
-difference: ``ok`` against ``dead_centre`` where the reference's ``|transmission|`` is
-within the judge's ``dead_centre_band``, and ``ok`` against ``assembly_limit`` where its
+difference: in drive-torque mode, ``ok`` against ``dead_centre`` where both engines'
+``|transmission|`` lie between half the in-house flag and the judge's ``dead_centre_band``
+(never at an exact dead centre, where every engine owes the flag), and ``ok`` against ``assembly_limit`` where its
 ``closure_condition`` is within the judge's ``assembly_limit_band`` of the flag
 ``ASSEMBLY_LIMIT_CONDITION`` (``validation/tolerances.py``), since each engine sets
 these flags from its own values.  Rows the two engines agree not to assemble
@@ -51,7 +52,7 @@ import numpy as np
 from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
 from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.validation.matrix import Matrix, ResolvedTolerance
-from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_LIMIT_POSE
+from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_LIMIT_POSE, DEAD_CENTRE_TRANSMISSION
 
 #: Unit group of each comparable column: relative differences share one scale per group.
 UNIT_GROUP: dict[str, str] = {
@@ -279,21 +280,27 @@ _EXACT = ResolvedTolerance("exact", 0.0, "statuses must agree row by row, except
 
 @dataclass(frozen=True)
 class StatusRule:
-    """Where two engines may say ``ok`` and ``flag`` at the same row: ``||X[column]| - at| <= band`` for both.
+    """Where two engines may say ``ok`` and ``flag`` at the same row.
 
-    Each engine sets ``flag`` from its own value of ``column``; values that agree to
-    round-off can still fall on either side of the threshold ``at``.
+    Both engines' ``|X[column]|`` must lie within ``band`` of ``at`` and at or above
+    ``floor``, and the case's load mode must be one of ``modes``.  Each engine sets
+    ``flag`` from its own value of ``column``, so values that agree to round-off can
+    fall on either side of its threshold; below ``floor`` (under every engine's
+    threshold) the flag is owed, whatever the band.
     """
 
     flag: str
     column: str
     at: float
     band: str  # the name of the band's tolerance in the matrix (per judge)
+    floor: float = 0.0
+    modes: tuple[str, ...] = ()  # load modes where the rule applies; () = every mode
 
 
 #: The only status differences the gate accepts, each at its engine-set threshold.
 STATUS_RULES: tuple[StatusRule, ...] = (
-    StatusRule(Status.DEAD_CENTRE, "transmission", 0.0, "dead_centre_band"),
+    StatusRule(Status.DEAD_CENTRE, "transmission", 0.0, "dead_centre_band",
+               floor=0.5 * DEAD_CENTRE_TRANSMISSION.value, modes=("torque",)),
     StatusRule(Status.ASSEMBLY_LIMIT, "closure_condition", ASSEMBLY_LIMIT_CONDITION.value, "assembly_limit_band"),
 )
 
@@ -332,8 +339,15 @@ def reference_check(case_id: str, reference: ResultTable, quantities: tuple[str,
                  len(reference), 0, n_bad, n_bad == 0, "; ".join(notes))
 
 
+def _in_band(values: np.ndarray, rule: StatusRule, band: ResolvedTolerance) -> np.ndarray:
+    """Rows, shape ``(n,)``, whose ``|values|`` lie within ``band`` of ``rule.at`` and at or above ``rule.floor``."""
+    size = np.abs(values)
+    with np.errstate(invalid="ignore"):  # a value an engine does not give is never in the band
+        return (np.abs(size - rule.at) <= band.value) & (size >= rule.floor)
+
+
 def status_check(case_id: str, reference: ResultTable, judge: ResultTable, quantities: tuple[str, ...],
-                 bands: dict[str, ResolvedTolerance]) -> Check:
+                 bands: dict[str, ResolvedTolerance], mode: str = "") -> Check:
     """The judge's ``status`` check: its own failures, and agreement with the reference row by row.
 
     Rows where the reference itself failed are left to :func:`reference_check`; a
@@ -350,13 +364,11 @@ def status_check(case_id: str, reference: ResultTable, judge: ResultTable, quant
     explained = np.zeros_like(differ)
     for rule in STATUS_RULES:
         band = bands.get(rule.band)
-        if band is None:
+        if band is None or (rule.modes and mode not in rule.modes):
             continue
         pair = (is_status(rs, Status.OK) & is_status(js, rule.flag)) | (
             is_status(rs, rule.flag) & is_status(js, Status.OK))
-        with np.errstate(invalid="ignore"):  # a value an engine does not give is never near
-            near = pair & (np.abs(np.abs(reference[rule.column]) - rule.at) <= band.value) & (
-                np.abs(np.abs(judge[rule.column]) - rule.at) <= band.value)
+        near = pair & _in_band(reference[rule.column], rule, band) & _in_band(judge[rule.column], rule, band)
         if near.any():
             notes.append(f"{int(near.sum())} {rule.flag} flag(s) differ within {band.value:g} of "
                          f"|{rule.column}| = {rule.at:g} ({band.name})")
@@ -446,7 +458,7 @@ def compare_case(
     if len(judge) != len(reference) or not np.allclose(judge["theta1_deg"], theta, rtol=0, atol=1e-9):
         detail = f"rows differ: {len(judge)} crank angles against the reference's {len(reference)}"
         return [_fail(case_id, engine, STATUS, _EXACT, detail)]
-    checks = [status_check(case_id, reference, judge, quantities, tolerances)]
+    checks = [status_check(case_id, reference, judge, quantities, tolerances, mode)]
     if expect == EXPECT_NO_ASSEMBLY:
         return checks
     rel = relative_differences(reference, judge, mode, quantities)

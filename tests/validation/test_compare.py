@@ -327,3 +327,16 @@ def test_the_pose_at_the_assembly_limit_is_held_to_its_own_tolerance(matrix, res
             checks = compare_case(mc.id, mc.mode, ref, moved, matrix.quantities, tols)
         s4 = next(c for c in checks if c.quantity == "S4")
         assert s4.passed is passes, (shift, word, s4.detail)
+
+
+@pytest.mark.parametrize("t, mode", [(1e-13, "torque"), (5e-9, "force")])
+def test_a_judge_that_never_flags_a_dead_centre_fails(matrix, results, t, mode):
+    """At an exact dead centre (below every engine's flag), or in force mode, no band excuses an ok."""
+    mc = next(m for m in matrix.cases if m.mode == "torque")
+    ref, judge = results[mc.id]["dualmech"], results[mc.id]["pinocchio"]
+    reactions = {c: np.nan for c in ref.columns if c.startswith("j") or c in ("slider_load", "drive_torque")}
+    flagged = _edited(ref, slice(1, 2), Status.DEAD_CENTRE, **reactions, transmission=t)
+    unflagged = _edited(judge, slice(1, 2), transmission=t)
+    status = [c for c in compare_case(mc.id, mode, flagged, unflagged, matrix.quantities,
+                                      matrix.tolerances["pinocchio"]) if c.quantity == STATUS]
+    assert not status[0].passed and "reference dead_centre, judge ok" in status[0].detail
