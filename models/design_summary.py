@@ -64,7 +64,7 @@ class DesignSummary:
         out = [f"case {self.case} ({self.engine}): "
                + ", ".join(f"{w} {n}" for w, n in self.statuses.items()),
                f"stroke: {self.stroke:.9g} {self.length_unit}".rstrip()]
-        out += [f"peak {p}" for p in self.peaks]
+        out += [f"peak {p}" for p in self.peaks if np.isfinite(p.value)]
         if self.dead_centres:
             out.append(f"dead centres (no finite reactions) at theta1 = {_angles(self.dead_centres)} deg")
         if self.near_dead_centres:
@@ -78,10 +78,11 @@ def _angles(values: tuple[float, ...], limit: int = 8) -> str:
     return shown + (f", ... ({len(values)} positions)" if len(values) > limit else "")
 
 
-def _peak(name: str, magnitude: np.ndarray, theta: np.ndarray, unit: str) -> Peak | None:
+def _peak(name: str, magnitude: np.ndarray, theta: np.ndarray, unit: str) -> Peak:
+    """The largest finite ``magnitude`` and its angle; NaN for both when there is none (no ok row)."""
     finite = np.isfinite(magnitude)
     if not finite.any():
-        return None
+        return Peak(name, float("nan"), float("nan"), unit)
     i = int(np.flatnonzero(finite)[np.argmax(magnitude[finite])])
     return Peak(name, float(magnitude[i]), float(theta[i]), unit)
 
@@ -111,7 +112,7 @@ def design_summary(table: ResultTable, units: str = "consistent") -> DesignSumma
         case=table.case, engine=table.engine,
         stroke=float(s4.max() - s4.min()) if s4.size else float("nan"),
         length_unit=column_unit("S4", units),
-        peaks=tuple(p for p in peaks if p is not None),
+        peaks=tuple(peaks),  # every name of PEAK_NAMES, in order
         dead_centres=tuple(float(a) for a in theta[is_status(table.status, Status.DEAD_CENTRE)]),
         near_dead_centres=tuple(float(a) for a in theta[near]),
         statuses={str(w): int(n) for w, n in zip(words, counts)},

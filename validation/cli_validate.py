@@ -174,11 +174,10 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
 
 def run_versions(outdir: Path) -> dict[str, str]:
     """The key library versions recorded in the run directory's ``run.json``."""
-    from dualmech.validation.provenance import KEY_LIBRARIES
+    from dualmech.validation.provenance import key_versions
     from dualmech.validation.runner import load_run
 
-    _, run = load_run(outdir)
-    return {k: run.get("versions", {}).get(k, "unknown") for k in KEY_LIBRARIES}
+    return key_versions(load_run(outdir)[1])
 
 
 def _cores() -> int:

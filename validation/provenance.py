@@ -49,6 +49,11 @@ def versions(names: tuple[str, ...] = LIBRARIES) -> dict[str, str]:
     return {name: version_of(name) for name in names}
 
 
+def key_versions(run: dict) -> dict[str, str]:
+    """The :data:`KEY_LIBRARIES` versions a stored ``run.json`` recorded (``"unknown"`` where absent)."""
+    return {name: run.get("versions", {}).get(name, "unknown") for name in KEY_LIBRARIES}
+
+
 def machine() -> dict:
     """The computer a run happened on."""
     return {

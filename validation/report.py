@@ -42,7 +42,7 @@ import numpy as np
 
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.design_summary import (
-    JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION, PEAK_NAMES, DesignSummary, Peak, design_summary,
+    JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION, DesignSummary, design_summary,
 )
 from dualmech.models.units import DIMENSIONS, axis_label, column_unit
 from dualmech.validation import runner
@@ -50,7 +50,7 @@ from dualmech.validation.runner import ProgressCallback
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Check, Comparison, compare_run, relative_differences
 from dualmech.validation.executors import process_pool
 from dualmech.validation.matrix import Matrix
-from dualmech.validation.provenance import KEY_LIBRARIES
+from dualmech.validation.provenance import key_versions
 from dualmech.validation.rundir import locked, record_files, remove_stale
 
 #: Figures of each sweep and load mode: (key, title, columns, panel grid (rows, cols)).
@@ -256,20 +256,9 @@ def copy_errata(outdir: Path) -> str | None:
 
 
 def design_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> list[DesignSummary]:
-    """The reference engine's :class:`DesignSummary` of every case it solved, with the peak of every column.
-
-    A peak a case lacks (no ok row) is NaN, so every row has the same columns.
-    """
-    rows = []
-    for mc in matrix.cases:
-        table = results.get(mc.id, {}).get(matrix.reference)
-        if isinstance(table, ResultTable):
-            d = design_summary(table, mc.raw.get("units", "consistent"))
-            names = [p.name for p in d.peaks]
-            full = [next((p for p in d.peaks if p.name == n), Peak(n, float("nan"), float("nan"), ""))
-                    for n in PEAK_NAMES] if names != list(PEAK_NAMES) else list(d.peaks)
-            rows.append(replace(d, peaks=tuple(full)))
-    return rows
+    """The reference engine's :class:`DesignSummary` of every case it solved (every peak, NaN where none)."""
+    tables = ((mc, results.get(mc.id, {}).get(matrix.reference)) for mc in matrix.cases)
+    return [design_summary(t, mc.raw.get("units", "consistent")) for mc, t in tables if isinstance(t, ResultTable)]
 
 
 def dead_centre_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> list[dict]:
@@ -653,7 +642,7 @@ def comparison_summary(matrix: Matrix, comparison: Comparison, run: dict) -> dic
         "n_checks": len(comparison.checks),
         "n_failed": len(comparison.failures()),
         "n_missing": len(comparison.missing),
-        "versions": {k: run.get("versions", {}).get(k, "unknown") for k in KEY_LIBRARIES},
+        "versions": key_versions(run),
         "run": {k: run.get(k) for k in ("started", "seconds", "jobs", "scheduler", "machine", "versions")},
         "cases": [{"id": mc.id, "mode": mc.mode, "values": mc.values, "sweeps": list(mc.sweeps)} for mc in matrix.cases],
         "strokes": comparison.strokes,
