@@ -432,7 +432,7 @@ class Chunk:
         return WORDS[self.status]
 
 
-def _case_arrays(cases: Sequence[Case]) -> tuple[np.ndarray, tuple]:
+def case_arrays(cases: Sequence[Case]) -> tuple[np.ndarray, tuple]:
     """Geometry ``(cases, 4)`` and the per-case body and load arrays of :func:`analyze_positions`."""
     geo = np.array(
         [
@@ -471,14 +471,29 @@ def analyze_chunk(
 
     ``out`` ``(len(OUT_COLUMNS), >= n)``: a buffer to reuse (its first ``n`` columns are written).
     """
-    fl, rules, n_state = _setup()
     counts = [len(c) for c in cranks]
-    n = sum(counts)
-    crank = np.empty((6, n))
+    crank = np.empty((6, sum(counts)))
     for k, name in enumerate(("theta", "s", "theta_dot", "s_dot", "theta_ddot", "s_ddot")):
         np.concatenate([getattr(c, name) for c in cranks], out=crank[k])
     case_of = np.repeat(np.arange(len(cases), dtype=np.int64), counts)
-    geo, bodies = _case_arrays(cases)
+    geo, bodies = case_arrays(cases)
+    return analyze_positions(crank, case_of, geo, bodies, out)
+
+
+def analyze_positions(
+    crank: np.ndarray, case_of: np.ndarray, geo: np.ndarray, bodies: tuple, out: np.ndarray | None = None
+) -> Chunk:
+    """Analyse positions given as arrays (no :class:`Case` objects: for many designs at once).
+
+    ``crank`` ``(6, n)``: theta [rad], S1 and their first and second time derivatives; ``case_of``
+    ``(n,)`` int64: the design of each position, indexing the first axis of ``geo`` ``(designs, 4)``
+    (a1, a2, a4, alpha4 [rad]) and of each array of ``bodies`` (the layout of :func:`case_arrays`:
+    masses ``(designs, 3)``, centres of mass ``(designs, 3, 3)``, inertias ``(designs, 3, 3, 3)``
+    of crank, rod and slider, gravity ``(designs, 3)``, given drive torque and slider load
+    ``(designs,)``, NaN where not given).  ``out``: a ``(len(OUT_COLUMNS), >= n)`` buffer to reuse.
+    """
+    fl, rules, n_state = _setup()
+    n = crank.shape[1]
     if out is None or out.shape[1] < n:
         out = np.empty((len(OUT_COLUMNS), n))
     out = out[:, :n]

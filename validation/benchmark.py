@@ -31,7 +31,7 @@ from typing import Callable
 import numpy as np
 
 from dualmech.models.case import Case, load_case
-from dualmech.models.slider_crank_kernel import _case_arrays, _pool, solve_cases, threads
+from dualmech.models.slider_crank_kernel import case_arrays, _pool, solve_cases, threads
 from dualmech.validation.cli_solve import stream_solve
 
 #: Crank-state fields in the kernel's order.
@@ -110,7 +110,7 @@ def closed_form(cases: list[Case]) -> list[np.ndarray]:
     def one(case: Case) -> np.ndarray:
         state = case.motion.state(case.geometry.crank_axial_shift)
         crank = np.stack([getattr(state, f) for f in CRANK_FIELDS])
-        geo, (mass, com, inertia, gravity, torque, load) = _case_arrays([case])
+        geo, (mass, com, inertia, gravity, torque, load) = case_arrays([case])
         out = np.empty((23, crank.shape[1]))
         closed_form_range(
             0, crank.shape[1], crank, geo[0], mass[0], com[0], inertia[0], gravity[0], torque[0], load[0], out
