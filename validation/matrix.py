@@ -449,7 +449,31 @@ def _group_of(quantity: str) -> str:
     return next(g for g, cols in GROUPS.items() if quantity in cols)
 
 
-def _resolve_tolerances(table: Any, judges: tuple[str, ...], quantities: tuple[str, ...]) -> dict:
+def resolve_tolerances(table: Any, judges: tuple[str, ...],
+                       quantities: tuple[str, ...]) -> dict[str, dict[str, ResolvedTolerance]]:
+    """Each judge's tolerance for every quantity, the stroke and the status bands.
+
+    Parameters
+    ----------
+    table : dict or None
+        The matrix file's ``[tolerances]`` table: ``quantity|group = value|name`` for every judge and
+        ``[tolerances.<engine>]`` sub-tables for one judge; ``None`` for none.
+    judges : tuple of str
+        Engine names to resolve for.
+    quantities : tuple of str
+        Compared columns (a subset of ``COMPARABLE``).
+
+    Returns
+    -------
+    dict
+        ``{judge: {quantity: ResolvedTolerance}}``; the most specific setting wins
+        (judge.quantity, judge.group, quantity, group), else the judge's default of the group.
+
+    Raises
+    ------
+    MatrixError
+        An unknown engine, quantity or group, or a value that is neither a number nor a tolerance name.
+    """
     table = {} if table is None else table
     if not isinstance(table, dict):
         raise MatrixError(f"tolerances: expected a table, got {show(table)}")
@@ -751,7 +775,7 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
         cases=matrix_cases,
         sweeps=tuple(sweep_objs),
         labels=labels,
-        tolerances=_resolve_tolerances(data.get("tolerances"), judges, quantities_t),
+        tolerances=resolve_tolerances(data.get("tolerances"), judges, quantities_t),
     )
 
 

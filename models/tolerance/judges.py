@@ -46,9 +46,9 @@ class SpotCheck:
 
 def judge_tolerances(engine: str) -> dict:
     """The matrix's default tolerances of judge ``engine`` for every comparable column and the stroke."""
-    from dualmech.validation.matrix import COMPARABLE, _resolve_tolerances
+    from dualmech.validation.matrix import COMPARABLE, resolve_tolerances
 
-    return _resolve_tolerances(None, (engine,), COMPARABLE)[engine]
+    return resolve_tolerances(None, (engine,), COMPARABLE)[engine]
 
 
 def spot_check(design: Case, reference: ResultTable, engine: str, judge: ResultTable) -> SpotCheck:
