@@ -19,8 +19,8 @@ g       a positive offset a4 reduces the stroke
 ======  =====================================================================
 
 :func:`thesis_findings` returns one record per finding (``id``, ``finding``,
-``verdict``, ``evidence``, ``values``); :func:`stroke_table` the stroke over
-a4 x alpha4 x S1.  ``docs/findings.md`` is the written verdict; ``docs/errata.md``
+``verdict``, ``evidence``, ``values``); the stroke over a4 x alpha4 x S1 and the dead
+centres come from :mod:`dualmech.models.stroke`.  ``docs/findings.md`` is the written verdict; ``docs/errata.md``
 the deviations of the printed equations behind them.
 """
 
@@ -31,16 +31,24 @@ from typing import Any
 
 import numpy as np
 
-from dualmech.core.motion import CrankState
+from dualmech.core.status import RATES_GIVEN, Status, is_status
+from dualmech.core.thresholds import Tolerance
 from dualmech.models.case import Case, load_case, preset_names
 from dualmech.models.joint_frames import joint_frame_columns
 from dualmech.models.slider_crank import Analysis, analyze_many, to_table
-from dualmech.validation.tolerances import FINDING_IDENTITY, FINDING_REGULAR_TRANSMISSION
+from dualmech.models.stroke import (STROKE_OFFSETS, STROKE_SHIFTS, STROKE_TWISTS, assembly_limit_s1,
+                                    dead_centres, stroke_table)
 
-#: Grid of the stroke table (thesis section 3.1 and issue 2).
-STROKE_OFFSETS = (0.0, 10.0, 20.0, 30.0)
-STROKE_TWISTS = (232.0, 270.0, 310.0)
-STROKE_SHIFTS = (0.0, 3.0, 3.5, 6.0, 9.0)
+#: A printed identity of the thesis "holds" when violated by less than this fraction of the case's force
+#: (or moment) scale.
+FINDING_IDENTITY = Tolerance(
+    1e-9, "the in-house reactions satisfy the Newton-Euler equations to ~1e-15 of their scale; 1e-9 leaves "
+    "room for the 1/|t| condition factor near (not at) dead centres")
+#: Rows with |transmission| at least this are 'away from dead centres' when a finding's size is quoted in
+#: force units.
+FINDING_REGULAR_TRANSMISSION = Tolerance(
+    0.2, "torque-mode reactions scale like 1/|t|; for |t| >= 0.2 they are within 5x of their regular size, "
+    "so quoted forces are not dead-centre spikes")
 #: Crank angles (deg) off a dead centre at which the 1/t growth of the slider load is shown.
 DEAD_CENTRE_OFFSETS_DEG = (1e-2, 1e-3)
 #: Twists of the alpha4 sweep at a4 = 20, S1 = 0 (the thesis reports convergence only for 232..310).
@@ -66,10 +74,6 @@ def _joint_columns(case: Case, an: Analysis) -> dict[str, np.ndarray]:
     return joint_frame_columns(case, to_table(an))
 
 
-def _fixed_crank(theta: np.ndarray, s1: float) -> CrankState:
-    """Crank states with unit speed and no acceleration: then S4_dot = dS4/dtheta1, S4_ddot = d2S4/dtheta1^2."""
-    n = theta.shape[0]
-    return CrankState(theta, np.full(n, s1), np.ones(n), np.zeros(n), np.zeros(n), np.zeros(n))
 
 
 def _scale(values: np.ndarray) -> float:
@@ -83,114 +87,16 @@ def _fmt(x: float) -> str:
 
 # ----------------------------------------------------------------------------- dead centres
 
-def dead_centres(cases: list[Case], iterations: int = 48) -> list[np.ndarray]:
-    """Crank angles (deg) where the transmission factor vanishes, per case, by batched bisection.
-
-    Brackets come from sign changes of the in-house transmission on the case's
-    grid; each bisection step is one batched in-house analysis of all brackets.
-    """
-    ans = analyze_many(cases)
-    lo_all, hi_all, owner = [], [], []
-    exact: list[list[float]] = [[] for _ in cases]
-    for i, an in enumerate(ans):
-        t, th = an.transmission, an.crank.theta
-        for k in range(len(th)):
-            k2 = (k + 1) % len(th)
-            if t[k] == 0.0:
-                exact[i].append(float(np.degrees(th[k])))
-            elif t[k] * t[k2] < 0.0:
-                hi = th[k2] if k2 else th[k] + (th[1] - th[0])
-                lo_all.append(th[k]), hi_all.append(hi), owner.append(i)
-    lo, hi, owner = np.array(lo_all), np.array(hi_all), np.array(owner, dtype=int)
-    if lo.size:
-        t_lo = _transmission_at(cases, owner, lo)
-        for _ in range(iterations):
-            mid = 0.5 * (lo + hi)
-            t_mid = _transmission_at(cases, owner, mid)
-            left = np.sign(t_mid) == np.sign(t_lo)
-            lo, t_lo = np.where(left, mid, lo), np.where(left, t_mid, t_lo)
-            hi = np.where(left, hi, mid)
-    out = []
-    for i in range(len(cases)):
-        roots = list(np.degrees(0.5 * (lo + hi))[owner == i] % 360.0) + exact[i]
-        out.append(np.sort(np.array(roots)))
-    return out
 
 
-def _transmission_at(cases: list[Case], owner: np.ndarray, theta: np.ndarray) -> np.ndarray:
-    groups = [np.flatnonzero(owner == i) for i in range(len(cases))]
-    used = [i for i, g in enumerate(groups) if g.size]
-    ans = analyze_many([cases[i] for i in used],
-                       [_fixed_crank(theta[groups[i]], cases[i].geometry.crank_axial_shift) for i in used])
-    out = np.empty_like(theta)
-    for i, an in zip(used, ans):
-        out[groups[i]] = an.transmission
-    return out
 
 
 # ----------------------------------------------------------------------------- stroke
 
-def stroke_of(cases: list[Case], newton_steps: int = 6) -> list[dict[str, Any]]:
-    """Stroke (max S4 - min S4 over a revolution) of each case, extremes refined by Newton on dS4/dtheta1.
-
-    Cases whose rod cannot reach the slider line somewhere on the revolution get
-    ``assembles = False`` and no stroke.
-    """
-    grid = [c.with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 1.0}}) for c in cases]
-    ans = analyze_many(grid)
-    rows, todo = [], []
-    for case, an in zip(cases, ans):
-        ok = np.isin(an.status, ["ok", "dead_centre"])
-        row: dict[str, Any] = {
-            "a4": case.geometry.slider_offset, "alpha4_deg": case.geometry.slider_twist_deg,
-            "S1": case.geometry.crank_axial_shift, "assembles": bool(ok.all()),
-            "no_assembly_positions": int((an.status == "no_assembly").sum()),
-            "stroke": None, "s4_min": None, "s4_max": None, "theta_min_deg": None, "theta_max_deg": None,
-        }
-        rows.append(row)
-        if ok.all():
-            todo.append((row, case, an.crank.theta[[np.argmin(an.s4), np.argmax(an.s4)]]))
-    if not todo:
-        return rows
-    theta = np.stack([t for _, _, t in todo])
-    for _ in range(newton_steps):
-        sub = analyze_many([c for _, c, _ in todo],
-                           [_fixed_crank(theta[i], c.geometry.crank_axial_shift) for i, (_, c, _) in enumerate(todo)])
-        d1 = np.stack([a.rates.q_dot[:, 0] for a in sub])
-        d2 = np.stack([a.rates.q_ddot[:, 0] for a in sub])
-        theta = theta - d1 / d2
-    sub = analyze_many([c for _, c, _ in todo],
-                       [_fixed_crank(theta[i], c.geometry.crank_axial_shift) for i, (_, c, _) in enumerate(todo)])
-    for i, ((row, _, _), a) in enumerate(zip(todo, sub)):
-        row.update(s4_min=float(a.s4[0]), s4_max=float(a.s4[1]), stroke=float(a.s4[1] - a.s4[0]),
-                   theta_min_deg=float(np.degrees(theta[i, 0]) % 360.0),
-                   theta_max_deg=float(np.degrees(theta[i, 1]) % 360.0))
-    return rows
 
 
-def stroke_table(base: Case | None = None) -> list[dict[str, Any]]:
-    """Stroke for a4 in {0, 10, 20, 30} x alpha4 in {232, 270, 310} x S1 in {0, 3, 3.5, 6, 9} (thesis example).
-
-    Returns one dict per combination: ``a4``, ``alpha4_deg``, ``S1``, ``assembles``,
-    ``no_assembly_positions``, ``stroke``, ``s4_min``, ``s4_max``, ``theta_min_deg``,
-    ``theta_max_deg`` (lengths in inches; ``stroke`` None where the mechanism
-    cannot assemble over the whole revolution).
-    """
-    base = load_case("thesis/ideal") if base is None else base
-    cases = [base.with_values({"geometry.slider_offset": a4, "geometry.slider_twist_deg": tw,
-                               "geometry.crank_axial_shift": s1})
-             for tw in STROKE_TWISTS for a4 in STROKE_OFFSETS for s1 in STROKE_SHIFTS]
-    return stroke_of(cases)
 
 
-def assembly_limit_s1(case: Case) -> float:
-    """Largest constant S1 at which the rod still reaches the slider line at every crank angle (alpha4 = 270).
-
-    The distance from P2 to the slider line is :math:`\\sqrt{(a_1\\cos\\theta_1 + a_4)^2 + S_1^2}`,
-    largest at :math:`\\theta_1 = 0`; it must not exceed :math:`a_2`.
-    """
-    g = case.geometry
-    return math.sqrt(max(g.rod_length**2 - (g.crank_length + abs(g.slider_offset)) ** 2, 0.0))
 
 
 # ----------------------------------------------------------------------------- the findings
@@ -198,7 +104,7 @@ def assembly_limit_s1(case: Case) -> float:
 def _finding_a(solved) -> dict[str, Any]:
     worst = {}
     for case, an, cols in solved:
-        ok = an.status == "ok"
+        ok = an.status == Status.OK
         target = -case.loads.drive_torque / case.geometry.crank_length
         worst[case.name] = float(np.abs(cols["2F2j"][ok] - target).max() / abs(target))
     w = max(worst.values())
@@ -214,13 +120,13 @@ def _finding_a(solved) -> dict[str, Any]:
 
 
 def _regular(an: Analysis) -> np.ndarray:
-    return (an.status == "ok") & (np.abs(an.transmission) >= FINDING_REGULAR_TRANSMISSION.value)
+    return (an.status == Status.OK) & (np.abs(an.transmission) >= FINDING_REGULAR_TRANSMISSION.value)
 
 
 def _finding_b(solved) -> dict[str, Any]:
     planar, spatial, balance = {}, {}, 0.0
     for case, an, cols in solved:
-        ok = an.status == "ok"
+        ok = an.status == Status.OK
         f_scale = max(_scale(cols[k][ok]) for k in cols if k[1] == "F")
         # crank axial balance: 1F1k + 2F2k = m1 S1_ddot (= 0 for constant S1)
         m1 = case.bodies.crank.mass
@@ -251,7 +157,7 @@ def _finding_b(solved) -> dict[str, Any]:
 def _finding_c(solved) -> dict[str, Any]:
     worst = 0.0
     for case, an, cols in solved:
-        ok = an.status == "ok"
+        ok = an.status == Status.OK
         f_scale = max(_scale(cols[k][ok]) for k in cols if k[1] == "F")
         t4 = np.abs(np.stack([cols["4T4i"], cols["4T4j"], cols["4T4k"]])[:, ok]).max()
         worst = max(worst, float(t4 / (f_scale * case.geometry.rod_length)))
@@ -271,7 +177,7 @@ def _finding_d(solved) -> dict[str, Any]:
     printed, corrected, s1_zero = {}, 0.0, {}
     planar_dev = 0.0
     for case, an, cols in solved:
-        ok = an.status == "ok"
+        ok = an.status == Status.OK
         reg = _regular(an)
         s1, th = an.crank.s, an.crank.theta
         a1 = case.geometry.crank_length
@@ -352,9 +258,9 @@ def _finding_f(base: Case) -> dict[str, Any]:
     beyond = [base.with_values({"geometry.slider_offset": a4, "geometry.crank_axial_shift": lim + 0.5})
               for a4, lim in limits.items()]
     ans = analyze_many(checks + beyond)
-    solved_ok = all(np.isin(an.status, ["ok", "dead_centre"]).all() for an in ans[:len(checks)])
+    solved_ok = all(is_status(an.status, *RATES_GIVEN).all() for an in ans[:len(checks)])
     worst_residual = max(float(an.closure_residual.max()) for an in ans[:len(checks)])
-    refused = [int((an.status == "no_assembly").sum()) for an in ans[len(checks):]]
+    refused = [int(is_status(an.status, Status.NO_ASSEMBLY).sum()) for an in ans[len(checks):]]
     return {
         "id": "f", "finding": ("convergence limits: with a4 = 0 the program fails for S1 > 1.5 in, with a4 >= 10 for "
                                "S1 > 3.5 in; with a4 = 20, S1 = 0 it converges only for 232 <= alpha4 <= 310 deg"),
@@ -426,5 +332,4 @@ def thesis_findings(cases: list[Case] | None = None) -> list[dict[str, Any]]:
     ]
 
 
-__all__ = ["thesis_findings", "stroke_table", "stroke_of", "dead_centres", "assembly_limit_s1", "thesis_cases",
-           "is_planar"]
+__all__ = ["thesis_findings", "thesis_cases", "is_planar", "FINDING_IDENTITY", "FINDING_REGULAR_TRANSMISSION"]

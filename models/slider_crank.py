@@ -40,11 +40,12 @@ from dualmech.core.rates import Rates, solve_rates
 from dualmech.core.reactions import BodyMotion, Reactions, body_motion, solve_reactions
 from dualmech.core.status import Status, is_status, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
+from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, DEAD_CENTRE_TRANSMISSION
 from dualmech.models.case import Case
-from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
 
-#: |transmission| below which a torque-mode position is a dead centre (validation/tolerances.py, DEAD_CENTRE_TRANSMISSION).
-DEAD_CENTRE = 1e-9
+#: |transmission| below which the in-house engine flags a torque-mode position a dead centre (its numpy
+#: path and the compiled kernel read this name; the number and its reason: core/thresholds.py).
+DEAD_CENTRE = DEAD_CENTRE_TRANSMISSION.value
 #: Geometry steps of the continuation fallback (from the planar mechanism to the case).
 CONTINUATION_STEPS = 8
 #: Positions analysed together at most: bounds memory (about 9 kB of work arrays per position) and keeps

@@ -382,7 +382,7 @@ def _setup() -> tuple[FlatLoop, Rules, int]:
     from dualmech.core.kernel.loop_nb import value_names
     from dualmech.core.status import Status
     from dualmech.models import slider_crank as sc
-    from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
+    from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
 
     names = value_names(sc.LOOP)
     vidx = np.array([names.index(k) for k in ("theta1", "S1", "a1", "a2", "a4", "alpha4")], dtype=np.int64)

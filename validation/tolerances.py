@@ -6,25 +6,15 @@ quantity is stated beside it.  Comparison code reads only this module.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+# The solver's own thresholds (the dead-centre flag and the edges of assembly) live in the lower package,
+# core/thresholds.py, with their reasons; imported here because every judge applies the same ones.
+from dualmech.core.thresholds import (  # noqa: F401  (re-exported: matrix files name them)
+    ASSEMBLY_LIMIT_CONDITION,
+    ASSEMBLY_REACH,
+    DEAD_CENTRE_TRANSMISSION,
+    Tolerance,
+)
 
-
-@dataclass(frozen=True)
-class Tolerance:
-    """A tolerance and the one-line reason for its size."""
-
-    value: float
-    reason: str
-
-
-#: In-house solver self-consistency.
-CLOSURE_RESIDUAL = Tolerance(1e-12, "Newton is iterated to machine precision; 1e-12 leaves ~100 ulp of a2-sized lengths")
-#: Dead-centre flag: |transmission| below this makes the slider load meaningless in torque mode.
-DEAD_CENTRE_TRANSMISSION = Tolerance(1e-9, "below 1e-9 the slider load ~ T/(a1 t) carries fewer than ~7 significant digits")
-#: Assembly-limit flag, every engine: closure_condition |u·k4| below this makes a row ``assembly_limit`` (S1, S4 given).
-ASSEMBLY_LIMIT_CONDITION = Tolerance(1e-2, "S4 carries the closure error times 1/c, S4_ddot and reactions ~1/c^3: rigid engines measured 2.8e-10 apart (row-relative) at c = 1.4e-3, ~1/c^2, so 1e-2 keeps 100x under MATRIX_KINEMATICS")
-#: Edge of reach, every engine: P2 farther than a2 from the slider line by more than this (relative to a2) is ``no_assembly``.
-ASSEMBLY_REACH = Tolerance(1e-12, "P2 and the slider line are placed to ~1e-16 of the length scale; rounding must not decide assembly_limit vs no_assembly at the exact edge")
 
 # ----------------------------------------------------------------------------- validation matrix
 # Judge vs in-house, per crank position (validation/compare.py):
@@ -108,9 +98,3 @@ DYN_INVERSE_CONSISTENCY = Tolerance(1e-9, "psi_ddot from the interpolated ODE (~
 DYN_MUJOCO_RUNUP = Tolerance(1e-6, "MuJoCo's soft connect (time constant 2 dt, impedance 0.9999) errs ~ dt^2 v^2; measured <= 1.2e-8 at dt = 1e-4 s up to 27 rad/s (3e-9 at 5e-5 s); the issue asks 1e-4")
 #: Force-balanced design: shaking force relative to the unbalanced design's peak.
 BALANCE_SHAKING_FORCE = Tolerance(1e-9, "the mass centre is stationary exactly; what is left is round-off of the joint forces (~1e-16 of the peak measured)")
-
-# ----------------------------------------------------------------------------- thesis findings and errata (models/findings.py)
-#: A printed identity of the thesis "holds" when violated by less than this fraction of the case's force (or moment) scale.
-FINDING_IDENTITY = Tolerance(1e-9, "the in-house reactions satisfy the Newton-Euler equations to ~1e-15 of their scale; 1e-9 leaves room for the 1/|t| condition factor near (not at) dead centres")
-#: Rows with |transmission| at least this are 'away from dead centres' when a finding's size is quoted in force units.
-FINDING_REGULAR_TRANSMISSION = Tolerance(0.2, "torque-mode reactions scale like 1/|t|; for |t| >= 0.2 they are within 5x of their regular size, so quoted forces are not dead-centre spikes")

@@ -1,0 +1,35 @@
+"""Thresholds the solver decides with: the edges of assembly and the dead-centre flag.
+
+These are the in-house engine's own numerical decisions (which status word a row gets), not
+tolerances of a comparison; every engine applies the same ones so that their statuses can be
+compared row by row (``docs/conventions.md``, "Edges of assembly" and "Dead centres").  The
+tolerances the judges are compared with live in ``validation/tolerances.py``, which imports
+these where it needs them: each number has this one home.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """A tolerance or threshold and the one-line reason for its size."""
+
+    value: float
+    reason: str
+
+
+#: Dead-centre flag: |transmission| below this makes the slider load meaningless in torque mode.
+DEAD_CENTRE_TRANSMISSION = Tolerance(
+    1e-9, "below 1e-9 the slider load ~ T/(a1 t) carries fewer than ~7 significant digits")
+#: Assembly-limit flag, every engine: closure_condition |u·k4| below this makes a row ``assembly_limit``
+#: (S1, S4 given).
+ASSEMBLY_LIMIT_CONDITION = Tolerance(
+    1e-2, "S4 carries the closure error times 1/c, S4_ddot and reactions ~1/c^3: rigid engines measured "
+    "2.8e-10 apart (row-relative) at c = 1.4e-3, ~1/c^2, so 1e-2 keeps 100x under MATRIX_KINEMATICS")
+#: Edge of reach, every engine: P2 farther than a2 from the slider line by more than this (relative to a2)
+#: is ``no_assembly``.
+ASSEMBLY_REACH = Tolerance(
+    1e-12, "P2 and the slider line are placed to ~1e-16 of the length scale; rounding must not decide "
+    "assembly_limit vs no_assembly at the exact edge")
