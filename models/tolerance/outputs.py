@@ -1,8 +1,11 @@
 """What one sampled design delivers: stroke, peak joint loads, how much of the cycle assembles.
 
-Every output is read from the engines' common :class:`~dualmech.core.table.ResultTable`
-(``docs/conventions.md``, "Output columns"), so the in-house solver and the judges are read
-alike.  Per design (``docs/conventions.md``, "Tolerance analysis"):
+Every output is read from the in-house engine's columns (``docs/conventions.md``, "Output
+columns"): a design's rows come as ``(designs, positions)`` blocks, either from the compiled
+kernel (:func:`~dualmech.models.slider_crank_kernel.analyze_positions`, reduced block by block
+by :class:`DesignReduction` without building a table per design) or from the engines' common
+:class:`~dualmech.core.table.ResultTable` (:func:`design_outputs`, so the judges are read alike).
+Per design (``docs/conventions.md``, "Tolerance analysis"):
 
 * ``stroke`` -- ``max S4 - min S4`` over the assembled positions (:data:`~dualmech.core.status.ASSEMBLED`);
 * ``peak_jN_force`` -- the largest ``|(jN_fx, jN_fy, jN_fz)|`` over the ``ok`` positions (N = 1..4);
@@ -23,11 +26,11 @@ A peak is the maximum over the sampled crank angles; its crank position is the o
 from __future__ import annotations
 
 from enum import StrEnum
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
-from dualmech.core.status import ASSEMBLED, Status, is_status
+from dualmech.core.status import ASSEMBLED, STATUSES, Status
 from dualmech.core.table import ResultTable
 
 
@@ -52,52 +55,115 @@ COUNTS: tuple[str, ...] = ("assembled_fraction", "dead_centres", "failed_positio
 FAILURES: tuple[str, ...] = (Status.BRANCH_JUMP, Status.NOT_CONVERGED, Status.NOT_FINITE)
 
 
+def _codes(words: frozenset[str] | tuple[str, ...]) -> np.ndarray:
+    """Codes (positions in :data:`~dualmech.core.status.STATUSES`) of a set of status words."""
+    return np.array(sorted(STATUSES.index(str(w)) for w in words), dtype=np.int8)
+
+
+_ASSEMBLED, _FAILED = _codes(ASSEMBLED), _codes(FAILURES)
+_OK, _DEAD = STATUSES.index(Status.OK), STATUSES.index(Status.DEAD_CENTRE)
+
+
+def status_codes(words: np.ndarray) -> np.ndarray:
+    """Status words (any shape) as codes into :data:`~dualmech.core.status.STATUSES`, same shape, int8."""
+    unique, inverse = np.unique(np.asarray(words, dtype=str), return_inverse=True)
+    return np.array([STATUSES.index(w) for w in unique], dtype=np.int8)[inverse].reshape(np.shape(words))
+
+
 def output_names(mode: str) -> tuple[str, ...]:
     """The outputs of a design in load mode ``mode`` (``"torque"`` or ``"force"``), in column order."""
     return ("stroke",) + tuple(n for n, _ in FORCES + MOMENTS) + (SOLVED_LOAD[mode][0],)
 
 
-def _magnitude(tables: Sequence[ResultTable], prefix: str) -> np.ndarray:
-    """``|(x, y, z)|`` of a vector column triple, ``(m, p)``."""
-    parts = [np.stack([t[f"{prefix}{a}"] for t in tables]) for a in "xyz"]
-    return np.sqrt(parts[0] ** 2 + parts[1] ** 2 + parts[2] ** 2)
+def needed_columns(mode: str) -> tuple[str, ...]:
+    """The engine columns the outputs of load mode ``mode`` are read from."""
+    vectors = tuple(f"{prefix}{a}" for _, prefix in FORCES + MOMENTS for a in "xyz")
+    return ("S4",) + vectors + (SOLVED_LOAD[mode][1],)
 
 
-def _masked_arg(values: np.ndarray, mask: np.ndarray, largest: bool) -> np.ndarray:
-    """Index ``(m,)`` of the largest (smallest) finite ``values`` ``(m, p)`` where ``mask``; -1 if none."""
-    ok = mask & np.isfinite(values)
-    fill = -np.inf if largest else np.inf
-    filled = np.where(ok, values, fill)
-    idx = np.argmax(filled, axis=1) if largest else np.argmin(filled, axis=1)
-    return np.where(ok.any(axis=1), idx, -1)
+def candidate_values(columns: Mapping[str, np.ndarray], codes: np.ndarray,
+                     mode: str) -> dict[str, tuple[np.ndarray, ...]]:
+    """Per output, the values it is the extreme of, ``(designs, positions)`` each, masked.
 
-
-def _at(values: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """``values[i, idx[i]]``, NaN where ``idx`` is -1."""
-    got = values[np.arange(values.shape[0]), np.maximum(idx, 0)]
-    return np.where(idx >= 0, got, np.nan)
-
-
-def _peak_quantities(tables: Sequence[ResultTable], mode: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Per peak output: the values it maximises ``(m, p)`` and the rows it may use ``(m, p)``."""
-    status = np.stack([np.asarray(t.status, dtype=str) for t in tables])
-    usable = status == Status.OK.value
-    out = {name: (_magnitude(tables, prefix), usable) for name, prefix in FORCES + MOMENTS}
+    ``stroke`` -> (S4 where assembled else -inf, S4 where assembled else +inf); every peak ->
+    (its magnitude where the row is ``ok`` and it is finite, else -inf,).  ``columns`` ``(designs, positions)``
+    in the units of the columns; ``codes`` the rows' status codes.
+    """
+    assembled = np.isin(codes, _ASSEMBLED) & np.isfinite(columns["S4"])
+    ok = codes == _OK
+    out: dict[str, tuple[np.ndarray, ...]] = {
+        "stroke": (np.where(assembled, columns["S4"], -np.inf), np.where(assembled, columns["S4"], np.inf))}
+    for name, prefix in FORCES + MOMENTS:
+        x, y, z = (columns[f"{prefix}{a}"] for a in "xyz")
+        out[name] = (_where_finite(ok, np.sqrt(x**2 + y**2 + z**2)),)
     name, column = SOLVED_LOAD[mode]
-    out[name] = (np.abs(np.stack([t[column] for t in tables])), usable)
+    out[name] = (_where_finite(ok, np.abs(columns[column])),)
     return out
+
+
+def _where_finite(mask: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """``values`` where ``mask`` and finite, else -inf (a peak never comes from such a row)."""
+    return np.where(mask & np.isfinite(values), values, -np.inf)
+
+
+class DesignReduction:
+    """Every output of ``m`` designs, reduced block by block over their positions (batched numpy).
+
+    :meth:`add` takes a block of whole designs ``first .. first + d - 1`` at some of their
+    positions; after every position of every design was added once, :meth:`result` gives
+    what :func:`design_outputs` gives for their tables.
+    """
+
+    def __init__(self, m: int, mode: str) -> None:
+        self.mode = mode
+        self.extremes = {name: [np.full(m, -np.inf)] for name in output_names(mode)}
+        self.extremes["stroke"].append(np.full(m, np.inf))
+        self.counts = {k: np.zeros(m, dtype=np.int64) for k in ("positions", "assembled", "dead", "failed")}
+
+    def add(self, first: int, columns: Mapping[str, np.ndarray], codes: np.ndarray) -> None:
+        """Fold in designs ``first ..`` at a block of positions: ``columns`` and ``codes`` ``(d, q)``."""
+        rows = slice(first, first + codes.shape[0])
+        for name, values in candidate_values(columns, codes, self.mode).items():
+            best = self.extremes[name]
+            best[0][rows] = np.maximum(best[0][rows], values[0].max(axis=1))
+            if len(values) > 1:
+                best[1][rows] = np.minimum(best[1][rows], values[1].min(axis=1))
+        self.counts["positions"][rows] += codes.shape[1]
+        self.counts["assembled"][rows] += np.isin(codes, _ASSEMBLED).sum(axis=1)
+        self.counts["dead"][rows] += (codes == _DEAD).sum(axis=1)
+        self.counts["failed"][rows] += np.isin(codes, _FAILED).sum(axis=1)
+
+    def result(self) -> dict[str, np.ndarray]:
+        """Every output, count and the status, arrays ``(m,)`` (module docstring)."""
+        hi, lo = self.extremes["stroke"]
+        out = {"stroke": np.where(np.isfinite(hi) & np.isfinite(lo), hi - lo, np.nan)}
+        for name in output_names(self.mode)[1:]:
+            peak = self.extremes[name][0]
+            out[name] = np.where(np.isfinite(peak), peak, np.nan)
+        frac = self.counts["assembled"] / self.counts["positions"]
+        out["assembled_fraction"] = frac
+        out["dead_centres"] = self.counts["dead"].copy()
+        out["failed_positions"] = self.counts["failed"].copy()
+        design = np.where(frac == 1.0, DesignStatus.OK.value, DesignStatus.PARTIAL.value).astype(object)
+        design[frac == 0.0] = DesignStatus.NO_ASSEMBLY.value
+        out["status"] = design
+        return out
+
+
+def _stacked(tables: Sequence[ResultTable], mode: str) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The needed columns and the status codes of ``m`` tables over the same angles, ``(m, p)``."""
+    columns = {c: np.stack([t[c] for t in tables]) for c in needed_columns(mode)}
+    return columns, status_codes(np.stack([np.asarray(t.status, dtype=str) for t in tables]))
 
 
 def peak_positions(tables: Sequence[ResultTable], mode: str) -> dict[str, tuple[np.ndarray, ...]]:
     """Row indices behind every output, ``(m,)`` each (-1 if none): ``stroke`` -> (argmax S4, argmin S4),
     every peak -> (its argmax,)."""
-    status = np.stack([np.asarray(t.status, dtype=str) for t in tables])
-    assembled = is_status(status.ravel(), *ASSEMBLED).reshape(status.shape)
-    s4 = np.stack([t["S4"] for t in tables])
-    out: dict[str, tuple[np.ndarray, ...]] = {
-        "stroke": (_masked_arg(s4, assembled, True), _masked_arg(s4, assembled, False))}
-    for name, (values, usable) in _peak_quantities(tables, mode).items():
-        out[name] = (_masked_arg(values, usable, True),)
+    columns, codes = _stacked(tables, mode)
+    out: dict[str, tuple[np.ndarray, ...]] = {}
+    for name, values in candidate_values(columns, codes, mode).items():
+        idx = (np.argmax(values[0], axis=1),) + ((np.argmin(values[1], axis=1),) if len(values) > 1 else ())
+        out[name] = tuple(np.where(np.isfinite(v[np.arange(v.shape[0]), i]), i, -1) for v, i in zip(values, idx))
     return out
 
 
@@ -106,20 +172,7 @@ def design_outputs(tables: Sequence[ResultTable], mode: str) -> dict[str, np.nda
 
     ``tables`` are the designs' result tables, all over the same crank angles.
     """
-    status = np.stack([np.asarray(t.status, dtype=str) for t in tables])
-    flat = status.ravel()
-    assembled = is_status(flat, *ASSEMBLED).reshape(status.shape)
-    s4 = np.stack([t["S4"] for t in tables])
-    where = peak_positions(tables, mode)
-    hi, lo = where["stroke"]
-    out = {"stroke": _at(s4, hi) - _at(s4, lo)}
-    for name, (values, _) in _peak_quantities(tables, mode).items():
-        out[name] = _at(values, where[name][0])
-    frac = assembled.mean(axis=1)
-    out["assembled_fraction"] = frac
-    out["dead_centres"] = (status == Status.DEAD_CENTRE.value).sum(axis=1)
-    out["failed_positions"] = is_status(flat, *FAILURES).reshape(status.shape).sum(axis=1)
-    design = np.where(frac == 1.0, DesignStatus.OK.value, DesignStatus.PARTIAL.value).astype(object)
-    design[frac == 0.0] = DesignStatus.NO_ASSEMBLY.value
-    out["status"] = design
-    return out
+    columns, codes = _stacked(tables, mode)
+    reduction = DesignReduction(len(tables), mode)
+    reduction.add(0, columns, codes)
+    return reduction.result()

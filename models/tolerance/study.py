@@ -2,12 +2,12 @@
 
 Designs are independent; chunks of :data:`~dualmech.models.tolerance.sampling.CHUNK_DESIGNS`
 run in this process, in a process pool (``jobs``) or on a Dask cluster (``scheduler``) through
-:func:`dualmech.validation.executors.execute`.  Each chunk's designs are solved together by
-:func:`~dualmech.models.slider_crank_kernel.solve_cases` (designs x positions in chunks, compiled,
-in parallel).  A finished chunk is stored at once as ``DIR/chunks/chunk-NNNNNN.npz``
-(written to a temporary name, then renamed), so an interrupted study resumes where it stopped;
-``DIR/study.json`` names the case, SPEC, ``n`` and seed, and a folder holding another study is
-refused.  At the end the chunks are streamed, in design order, into ``DIR/samples.csv`` (and
+:func:`dualmech.validation.executors.execute`.  Each chunk's designs are solved together as the
+compiled kernel's arrays, in blocks of bounded memory, and reduced per design
+(:mod:`~dualmech.models.tolerance.designs`).  A finished chunk is stored at once as
+``DIR/chunks/chunk-NNNNNN.npz`` (written to a temporary name, then renamed), so an interrupted
+study resumes where it stopped; ``DIR/study.json`` names the case, SPEC, ``n`` and seed, and a
+folder holding another study is refused.  At the end the chunks are streamed, in design order, into ``DIR/samples.csv`` (and
 ``DIR/samples.parquet`` when pyarrow is installed, one row group per chunk) and summarised into
 ``DIR/summary.json``.
 """
@@ -24,9 +24,9 @@ from typing import Iterator
 
 import numpy as np
 
-from dualmech.models.case import Case, CaseError, case_from_dict
+from dualmech.models.case import Case, case_from_dict
 from dualmech.models.slider_crank import solve_case
-from dualmech.models.slider_crank_kernel import solve_cases
+from dualmech.models.tolerance.designs import analyse_designs, design_arrays, design_name
 from dualmech.models.tolerance.outputs import COUNTS, design_outputs, output_names
 from dualmech.models.tolerance.sampling import chunk_bounds, n_chunks, sample_chunk
 from dualmech.models.tolerance.spec import Spec, design_case, nominal_values, spec_from_dict
@@ -54,28 +54,16 @@ class StudyInput:
                 "seed": self.seed}
 
 
-def design_name(index: int) -> str:
-    """Name of sampled design ``index`` (its row in ``samples.csv``)."""
-    return f"design-{index:07d}"
-
-
 def solve_chunk(case_raw: dict, spec_dict: dict, n: int, seed: int, index: int) -> dict:
-    """Task: sample chunk ``index``, build and solve its designs together, return its rows.
+    """Task: sample chunk ``index``, solve its designs together as arrays, return its rows.
 
     Returns ``{"index", "x" (m, k), "outputs": {name: (m,)}}``.  Picklable arguments only
     (runs in pool workers and on Dask workers).
     """
     case, spec = case_from_dict(case_raw), spec_from_dict(spec_dict)
     x = sample_chunk(spec, nominal_values(case, spec), n, seed, index)
-    first, _ = chunk_bounds(n, index)
-    designs = []
-    for i, row in enumerate(x):
-        try:
-            designs.append(design_case(case, spec, row, design_name(first + i)))
-        except CaseError as err:
-            raise CaseError(f"{design_name(first + i)} (sampled from the SPEC): {err}") from None
-    tables = solve_cases(designs)
-    return {"index": index, "x": x, "outputs": design_outputs(tables, case.loads.mode)}
+    designs = design_arrays(case, spec, x, chunk_bounds(n, index)[0])
+    return {"index": index, "x": x, "outputs": analyse_designs(designs, case.loads.mode)}
 
 
 def _chunk_path(outdir: Path, index: int) -> Path:
