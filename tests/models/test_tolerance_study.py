@@ -84,3 +84,14 @@ def test_a_folder_of_another_study_or_of_something_else_is_refused(tmp_path):
     (tmp_path / "b/notes.txt").write_text("mine")
     with pytest.raises(ValueError, match="not empty"):
         run_study(_study(n=20), "mc", tmp_path / "b", judge_samples=0)
+
+
+def test_a_dask_cluster_gives_the_same_samples_and_summary(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    study = _study(n=40)
+    run_study(study, "both", tmp_path / "local", jobs=1, judge_samples=0)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        run_study(study, "both", tmp_path / "dask", scheduler=cluster.scheduler_address, judge_samples=0)
+    assert (tmp_path / "local/samples.csv").read_bytes() == (tmp_path / "dask/samples.csv").read_bytes()
+    assert _without_timing(tmp_path / "local/summary.json") == _without_timing(tmp_path / "dask/summary.json")
