@@ -40,6 +40,16 @@ def foot_s4(p2: np.ndarray, foot: np.ndarray, k4: np.ndarray) -> np.ndarray:
     return -(d @ k4 if np.ndim(k4) == 1 else np.einsum("ni,ni->n", d, k4))
 
 
+def on_branch(p2: np.ndarray, p3: np.ndarray, k4: np.ndarray) -> np.ndarray:
+    """``(P3 - P2)·k4 < 0``, shape ``(n,)``: the pose is on the assembly branch of ``docs/conventions.md``.
+
+    The branch the thesis starts from (planar, ``theta1 = 0``: ``S4 = +sqrt(a2^2 - (a1 + a4)^2)``);
+    a solution on the other one is ``branch_jump``.  ``p2``, ``p3`` ``(n, 3)``; ``k4`` ``(3,)`` or ``(n, 3)``.
+    """
+    rod = np.atleast_2d(p3) - np.atleast_2d(p2)
+    return (rod @ k4 if np.ndim(k4) == 1 else np.einsum("ni,ni->n", rod, k4)) < 0
+
+
 def closure_condition(p2: np.ndarray, p3: np.ndarray, k4: np.ndarray) -> np.ndarray:
     """``c = |(P3 - P2)·k4| / |P3 - P2|`` of a closed pose, shape ``(n,)``."""
     rod = np.atleast_2d(p3) - np.atleast_2d(p2)
@@ -63,7 +73,7 @@ def edge_status(status: np.ndarray, closed: np.ndarray, rho: np.ndarray, conditi
     condition : numpy.ndarray, shape (n,)
         :func:`closure_condition` of the engine's pose (read only where ``closed``).
     reach_tol, band : float
-        ``ASSEMBLY_REACH`` and ``ASSEMBLY_LIMIT_CONDITION`` of ``validation/tolerances.py``.
+        ``ASSEMBLY_REACH`` and ``ASSEMBLY_LIMIT_CONDITION`` of ``core/thresholds.py``.
 
     Returns
     -------

@@ -75,11 +75,24 @@ class CrankMotion:
         deg = self.angles_deg if angles_deg is None else np.asarray(angles_deg, dtype=float)
         theta = np.radians(deg)
         n = theta.shape[0]
-        amp, cyc = self.axial_amplitude, self.axial_cycles
         w, wd = np.float64(self.speed), np.float64(self.accel)  # numpy floats: overflow gives inf, not an error
+        return self.at(axial_shift, theta, np.full(n, w), np.full(n, wd))
+
+    def at(self, axial_shift: float, theta: np.ndarray, theta_dot: np.ndarray,
+           theta_ddot: np.ndarray) -> CrankState:
+        """Crank state of any motion :math:`\theta_1(t)`, with :math:`S_1` following it (eq. 27-28).
+
+        ``theta`` [rad], ``theta_dot`` [rad/s], ``theta_ddot`` [rad/s^2], each ``(n,)`` (or
+        broadcastable to ``theta``'s shape); the one home of the axial law
+        :math:`S_1(\theta_1)` (module docstring) and its rates.
+        """
+        theta = np.asarray(theta, dtype=float)
+        w = np.broadcast_to(np.asarray(theta_dot, dtype=float), theta.shape).copy()
+        wd = np.broadcast_to(np.asarray(theta_ddot, dtype=float), theta.shape).copy()
+        amp, cyc = self.axial_amplitude, self.axial_cycles
         phase = cyc * theta
         s = axial_shift + amp * np.sin(phase)
         with np.errstate(over="ignore", invalid="ignore"):  # engines flag such rows not_finite
             s_dot = amp * cyc * np.cos(phase) * w
             s_ddot = amp * cyc * (np.cos(phase) * wd - cyc * np.sin(phase) * w**2)
-        return CrankState(theta, s, np.full(n, w), s_dot, np.full(n, wd), s_ddot)
+        return CrankState(theta, s, w, s_dot, wd, s_ddot)

@@ -129,6 +129,16 @@ class Reactions:
     drive_torque: np.ndarray
     residual: np.ndarray
 
+    def columns(self) -> dict[str, np.ndarray]:
+        """The reaction columns of a result table (``docs/conventions.md``), each ``(n,)``, in the order of
+        :data:`~dualmech.core.table.REACTION_COLUMNS`: ``j1_fx`` ... ``j4_mz``, ``slider_load``, ``drive_torque``."""
+        cols = {}
+        for name, arr in (("j1_f", self.j1_force), ("j1_m", self.j1_moment), ("j2_f", self.j2), ("j3_f", self.j3),
+                          ("j4_f", self.j4_force), ("j4_m", self.j4_moment)):
+            for k, axis in enumerate("xyz"):
+                cols[f"{name}{axis}"] = arr[:, k]
+        return {**cols, "slider_load": self.slider_load, "drive_torque": self.drive_torque}
+
 
 def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, BodyMotion, BodyMotion],
                     p2: np.ndarray, p3: np.ndarray, k4: np.ndarray, gravity: np.ndarray,

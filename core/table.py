@@ -80,16 +80,25 @@ class ResultTable:
 
     def to_csv(self, path: str | Path | None = None) -> str:
         """Write the table as CSV (all :data:`COLUMNS`, full precision); return the text."""
-        buf = io.StringIO()
-        writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(COLUMNS)
-        data = [self.columns[c] for c in NUMERIC_COLUMNS]
-        for i in range(len(self)):
-            writer.writerow([repr(float(col[i])) for col in data] + [self.status[i]])
-        text = buf.getvalue()
-        if path is not None:
-            Path(path).write_text(text)
-        return text
+        return write_csv({c: self.columns[c] for c in NUMERIC_COLUMNS}, self.status, path)
+
+
+def write_csv(columns: dict[str, np.ndarray], status: np.ndarray, path: str | Path | None = None) -> str:
+    """CSV text of ``columns`` (each ``(n,)``, full precision by ``repr``) then ``status`` ``(n,)``.
+
+    The one CSV writer of dualmech's outputs (result tables, simulations); the header is the
+    column names in order, then ``status``.  Written to ``path`` if given; the text is returned.
+    """
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow([*columns, "status"])
+    data = list(columns.values())
+    for i in range(status.shape[0]):
+        writer.writerow([repr(float(col[i])) for col in data] + [status[i]])
+    text = buf.getvalue()
+    if path is not None:
+        Path(path).write_text(text)
+    return text
 
 
 def read_csv(path: str | Path, engine: str = "", case: str = "") -> ResultTable:

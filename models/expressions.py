@@ -28,7 +28,7 @@ import operator
 import time
 from typing import Any, Callable
 
-from dualmech.models.case import SCALE
+from dualmech.models.inputs import SCALE
 
 #: A load as a function of time and state: ``f(t, psi, psi_dot, s4, s4_dot) -> float``.
 LoadFunction = Callable[[float, float, float, float, float], float]

@@ -36,8 +36,14 @@ from dualmech.core.thresholds import Tolerance
 from dualmech.models.case import Case, load_case, preset_names
 from dualmech.models.joint_frames import joint_frame_columns
 from dualmech.models.slider_crank import Analysis, analyze_many, to_table
-from dualmech.models.stroke import (STROKE_OFFSETS, STROKE_SHIFTS, STROKE_TWISTS, assembly_limit_s1,
-                                    dead_centres, stroke_table)
+from dualmech.models.stroke import (
+    STROKE_OFFSETS,
+    STROKE_SHIFTS,
+    STROKE_TWISTS,
+    assembly_limit_s1,
+    dead_centres,
+    stroke_table,
+)
 
 #: A printed identity of the thesis "holds" when violated by less than this fraction of the case's force
 #: (or moment) scale.
@@ -62,12 +68,6 @@ THESIS_FAILURES = ((0.0, 3.0), (0.0, 3.5), (0.0, 6.0), (0.0, 9.0), (10.0, 6.0), 
 def thesis_cases() -> list[Case]:
     """The bundled presets of the thesis's worked example."""
     return [load_case(n) for n in preset_names() if n.startswith("thesis/")]
-
-
-def is_planar(case: Case) -> bool:
-    """``S1 = 0`` at every position and the slider line in the crank plane (``cos alpha4 = 0``)."""
-    g, m = case.geometry, case.motion
-    return g.crank_axial_shift == 0.0 and m.axial_amplitude == 0.0 and abs(math.cos(g.slider_twist)) < 1e-12
 
 
 def _joint_columns(case: Case, an: Analysis) -> dict[str, np.ndarray]:
@@ -132,7 +132,7 @@ def _finding_b(solved) -> dict[str, Any]:
         m1 = case.bodies.crank.mass
         balance = max(balance, float(np.abs(cols["1F1k"][ok] + cols["2F2k"][ok] - m1 * an.crank.s_ddot[ok]).max()
                                      / f_scale))
-        if is_planar(case):
+        if case.is_planar:
             planar[case.name] = float(np.abs(cols["2F2k"][ok]).max() / f_scale)
         else:
             spatial[case.name] = float(np.abs(cols["2F2k"][_regular(an)]).max())
@@ -189,7 +189,7 @@ def _finding_d(solved) -> dict[str, Any]:
         corr = np.maximum(np.abs(dev_i - a1 * np.sin(th) * cols["1F1k"]),
                           np.abs(dev_j + a1 * np.cos(th) * cols["1F1k"]))
         corrected = max(corrected, float(corr[ok].max() / max(m_scale, f_scale * a1)))
-        if is_planar(case):
+        if case.is_planar:
             planar_dev = max(planar_dev, float(np.maximum(np.abs(dev_i), np.abs(dev_j))[ok].max() / max(m_scale, 1e-300)))
         else:
             printed[case.name] = float(np.maximum(np.abs(dev_i), np.abs(dev_j))[reg].max())
@@ -332,4 +332,4 @@ def thesis_findings(cases: list[Case] | None = None) -> list[dict[str, Any]]:
     ]
 
 
-__all__ = ["thesis_findings", "thesis_cases", "is_planar", "FINDING_IDENTITY", "FINDING_REGULAR_TRANSMISSION"]
+__all__ = ["thesis_findings", "thesis_cases", "FINDING_IDENTITY", "FINDING_REGULAR_TRANSMISSION"]

@@ -381,7 +381,7 @@ def _setup() -> tuple[FlatLoop, Rules, int]:
     from dualmech.core.kernel.closure_nb import closure_tols
     from dualmech.core.kernel.loop_nb import value_names
     from dualmech.core.status import Status
-    from dualmech.models import slider_crank as sc
+    from dualmech.models import slider_crank_loop as sc
     from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
 
     names = value_names(sc.LOOP)

@@ -13,7 +13,8 @@ import sys
 import click
 import numpy as np
 
-from dualmech.models.case import ANGLE_DEG, Range, load_case, show
+from dualmech.models.case import load_case
+from dualmech.models.inputs import ANGLE_DEG, Range, show
 from dualmech.models.forward_dynamics import MAX_EVALUATIONS, TIME_LIMIT
 from dualmech.validation.cli_errors import one_line_errors
 

@@ -78,7 +78,8 @@ from pathlib import Path
 from typing import Any
 
 from dualmech.core.table import KINEMATIC_COLUMNS, REACTION_COLUMNS
-from dualmech.models.case import Case, Range, case_from_dict, check_text, key_text, load_case, preset_names, show
+from dualmech.models.case import Case, case_from_dict, load_case, preset_names
+from dualmech.models.inputs import Range, check_text, key_text, show
 from dualmech.models.toml_input import read_toml
 from dualmech.validation import tolerances as tolerance_table
 from dualmech.validation.engines import ENGINES

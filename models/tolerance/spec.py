@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 from scipy.special import ndtr
 
-from dualmech.models.case import Case, CaseError, Range, case_from_dict, key_text, show
+from dualmech.models.case import Case, case_from_dict
+from dualmech.models.inputs import CaseError, Range, key_text, show
 from dualmech.models.toml_input import read_toml
 
 

@@ -3,10 +3,11 @@
 import numpy as np
 from numpy.testing import assert_allclose
 
+from dualmech.core.closure import _objective
 from dualmech.core.loop import LoopState, closure_error, closure_residual, evaluate, rodrigues, screw_jacobian
 from dualmech.models.case import load_case
-from dualmech.core.closure import _objective
-from dualmech.models.slider_crank import LOOP, Batch, close_loop, state_from_slider
+from dualmech.models.slider_crank_closure import close_loop, state_from_slider
+from dualmech.models.slider_crank_loop import LOOP, Batch
 from tests.tolerances import FINITE_DIFFERENCE
 
 

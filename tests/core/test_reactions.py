@@ -7,7 +7,7 @@ from numpy.testing import assert_allclose
 
 from dualmech.core.reactions import BodyMotion, kinetic_energy, momentum, solve_reactions
 from dualmech.models.case import load_case, with_loads
-from dualmech.models.slider_crank import analyze, slider_axis
+from dualmech.models.slider_crank import analyze
 from tests.tolerances import BALANCE
 
 BASE = load_case("a4-30-s1-3.5")
@@ -132,7 +132,7 @@ def test_reactions_rotate_with_the_frame():
     bodies = _bodies(case)
     rot = [BodyMotion(q @ m.rotation, m.origin @ q.T, m.com @ q.T, m.com_vel @ q.T, m.com_acc @ q.T,
                       m.omega @ q.T, m.omega_dot @ q.T) for m in an.motions]
-    _, k4 = slider_axis(case)
+    k4 = case.geometry.k4
     # in the rotated frame the drive axis is q z: express the torque as the force-mode equivalent to stay general
     given = an.reactions.slider_load
     r0 = solve_reactions(bodies, an.motions, an.p2, an.p3, k4, case.loads.gravity, np.nan, given)

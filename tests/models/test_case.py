@@ -161,9 +161,9 @@ def test_toml_skeleton_ignores_dots_and_brackets_inside_strings(tmp_path):
 def test_the_rod_axisymmetry_check_does_not_depend_on_the_unit_system(scale):
     """A rod centre of mass 1e-9 of its length off the axis is refused at every length scale (was: absolute 1e-12)."""
     from dualmech.core.inertia import BodyInertia
-    from dualmech.models.case import _check_rod_axisymmetric
+    from dualmech.models.bodies import check_rod_axisymmetric
 
     inertia = np.diag([1.0, 5.0, 5.0]) * scale**2
-    _check_rod_axisymmetric(BodyInertia(1.0, np.array([0.5, 0.0, 0.0]) * scale, inertia))
+    check_rod_axisymmetric(BodyInertia(1.0, np.array([0.5, 0.0, 0.0]) * scale, inertia))
     with pytest.raises(CaseError, match="off the rod axis"):
-        _check_rod_axisymmetric(BodyInertia(1.0, np.array([0.5, 1e-9, 0.0]) * scale, inertia))
+        check_rod_axisymmetric(BodyInertia(1.0, np.array([0.5, 1e-9, 0.0]) * scale, inertia))

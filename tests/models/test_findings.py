@@ -12,9 +12,15 @@ from scipy.optimize import brentq, minimize_scalar
 
 from dualmech.models.case import load_case
 from dualmech.models.findings import FINDING_REGULAR_TRANSMISSION, thesis_cases, thesis_findings
-from dualmech.models.stroke import (STROKE_OFFSETS, STROKE_SHIFTS, STROKE_TWISTS, assembly_limit_s1, stroke_of,
-                                    stroke_table)
 from dualmech.models.slider_crank import analyze
+from dualmech.models.stroke import (
+    STROKE_OFFSETS,
+    STROKE_SHIFTS,
+    STROKE_TWISTS,
+    assembly_limit_s1,
+    stroke_of,
+    stroke_table,
+)
 from tests.models import thesis_oracles as th
 
 #: Reactions from two independent linear solves of the same equations, relative to the case's force scale.

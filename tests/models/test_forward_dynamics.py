@@ -11,11 +11,18 @@ from scipy.integrate import solve_ivp
 
 from dualmech.core import planar as P
 from dualmech.core.reactions import kinetic_energy
+from dualmech.models import dynamics_coefficients as dc
 from dualmech.models import forward_dynamics as fd
 from dualmech.models.case import case_from_dict, load_case
+from dualmech.models.expressions import load_expression
+from dualmech.models.simulation import SIMULATION_COLUMNS
 from dualmech.models.slider_crank import analyze
-from dualmech.validation.tolerances import (DYN_ENERGY_CONSERVATION, DYN_INVERSE_CONSISTENCY, DYN_PLANAR_INERTIA,
-                                            DYN_WORK_ENERGY)
+from dualmech.validation.tolerances import (
+    DYN_ENERGY_CONSERVATION,
+    DYN_INVERSE_CONSISTENCY,
+    DYN_PLANAR_INERTIA,
+    DYN_WORK_ENERGY,
+)
 
 
 def _bodies(case):
@@ -57,14 +64,14 @@ def test_planar_inertia_eq40_equals_twice_the_in_house_kinetic_energy(name):
     model, phi = fd.planar_model(case)
     theta = rng.uniform(0, 2 * np.pi, 50)
     speed = rng.uniform(0.5, 20.0)
-    an = analyze(case, fd.crank_state(case, theta, speed, 0.0))
+    an = analyze(case, case.crank_state(theta, speed, 0.0))
     kinetic = sum(kinetic_energy(b, m) for b, m in zip(_bodies(case), an.motions))
     paper = P.generalized_inertia(model, theta - phi)
     assert_allclose(paper, 2 * kinetic / speed**2, rtol=DYN_PLANAR_INERTIA.value)
     assert_allclose(P.pose(model, theta - phi).s, an.s4, rtol=0,
                     atol=DYN_PLANAR_INERTIA.value * case.geometry.rod_length)
     # the spatial coefficients reduce to the paper's derivative and gravity torque in the plane
-    co = fd.coefficients(case, theta)
+    co = dc.coefficients(case, theta)
     scale = paper.max()
     assert_allclose(co.inertia_derivative, P.generalized_inertia_derivative(model, theta - phi),
                     rtol=0, atol=DYN_PLANAR_INERTIA.value * scale)
@@ -76,14 +83,14 @@ def test_planar_inertia_eq40_equals_twice_the_in_house_kinetic_energy(name):
 def test_inertia_derivative_is_the_derivative_of_the_tabulated_inertia():
     """I' from the in-house accelerations = d/dpsi of the (spectrally exact) interpolant of I, spatial case."""
     case = load_case("a4-30-s1-3.5").with_values({"motion.axial_amplitude": 1.0, "motion.axial_cycles": 2.0})
-    model = fd.coefficient_model(case)
+    model = dc.coefficient_model(case)
     assert model.mode == "table" and model.error <= 1e-12
     interp = model.interpolant
     k = np.arange(interp.coefficients.shape[1])
     rng = np.random.default_rng(31)
     theta = rng.uniform(0, 2 * np.pi, 30)
     d_inertia = (interp.coefficients[0] * 1j * k) @ np.exp(1j * np.outer(k, theta))
-    exact = fd.coefficients(case, theta)
+    exact = dc.coefficients(case, theta)
     assert_allclose(exact.inertia_derivative, d_inertia.real, rtol=0, atol=1e-10 * exact.inertia.max())
     for got, want in zip(model(theta), exact.stacked()):
         assert_allclose(got, want, rtol=0, atol=1e-11 * np.abs(want).max())
@@ -127,7 +134,7 @@ def test_inverse_dynamics_along_the_trajectory_reproduces_the_loads():
     sim = fd.simulate(case, 1.0, torque="80 + 20*sin(psi)", psidot0=3.0, damping=0.3, slider_damping=0.01,
                       slider_load=-2.0, samples=101)
     r = sim.reactions
-    _, s1p, _ = fd.axial_motion(case, sim.psi)
+    s1p = case.crank_state(sim.psi, 1.0, 0.0).s_dot  # dS1/dpsi
     expect = sim.torque - 0.3 * sim.psi_dot - r.j1_force[:, 2] * s1p
     assert_allclose(r.drive_torque, expect, rtol=0, atol=DYN_INVERSE_CONSISTENCY.value * np.abs(sim.torque).max())
     assert_allclose(r.slider_load, -2.0 + 0.01 * sim.s4_dot, rtol=1e-14)
@@ -160,23 +167,23 @@ def test_textbook_si_problem_against_the_papers_planar_model():
 
 def test_direct_coefficients_agree_with_the_table():
     case = load_case("a4-20-alpha-310")
-    table = fd.coefficient_model(case)
-    direct = fd.CoefficientModel(case, "direct")
+    table = dc.coefficient_model(case)
+    direct = dc.CoefficientModel(case, "direct")
     kw = dict(torque=50.0, psidot0=4.0, samples=5, rtol=1e-10, atol=1e-10)
     a = fd.simulate(case, 0.05, model=table, **kw)
     b = fd.simulate(case, 0.05, model=direct, **kw)
     assert_allclose(a.psi, b.psi, rtol=1e-9)
-    assert fd.coefficient_model(case.with_values({"motion.axial_amplitude": 0.5, "motion.axial_cycles": 1.5})
+    assert dc.coefficient_model(case.with_values({"motion.axial_amplitude": 0.5, "motion.axial_cycles": 1.5})
                                 ).mode == "direct"
 
 
 def test_load_expressions():
-    f = fd.load_expression("10000*(s4 - 0.5) + 1000*s4dot + (5 if t < 1 else 0) - sin(psi)*pi")
+    f = load_expression("10000*(s4 - 0.5) + 1000*s4dot + (5 if t < 1 else 0) - sin(psi)*pi")
     assert f(0.5, 0.0, 0.0, 0.6, 0.01) == pytest.approx(1000 + 10 + 5)
     for bad, match in (("import os", "cannot parse"), ("__import__('os')", "only calls|unknown name"),
                        ("x + 1", "unknown name"), ("psi.real", "not allowed"), ("'a'", "not a number")):
         with pytest.raises(ValueError, match=match):
-            fd.load_expression(bad)
+            load_expression(bad)
     assert fd.as_load(None, 3.0, "torque")(0, 0, 0, 0, 0) == 3.0
     with pytest.raises(ValueError, match="torque"):
         fd.as_load(float("nan"), 0.0, "torque")
@@ -191,7 +198,7 @@ def test_bad_inputs_are_refused():
     with pytest.raises(ValueError, match="samples"):
         fd.simulate(case, 1.0, samples=1)
     with pytest.raises(ValueError, match="full revolution"):
-        fd.coefficient_model(case.with_values({"geometry.slider_offset": 45.0}))
+        dc.coefficient_model(case.with_values({"geometry.slider_offset": 45.0}))
     with pytest.raises(ValueError, match="slider_twist_deg"):
         fd.planar_model(load_case("a4-20-alpha-232"))
     with pytest.raises(ValueError, match="S1 = 0"):
@@ -206,7 +213,7 @@ def test_cli_simulate(tmp_path):
                                     "--samples", "11", "-o", str(out)])
     assert res.exit_code == 0, res.output
     header = out.read_text().splitlines()[0].split(",")
-    assert header == [*fd.SIMULATION_COLUMNS, "status"]
+    assert header == [*SIMULATION_COLUMNS, "status"]
     assert len(out.read_text().splitlines()) == 12
     bad = CliRunner().invoke(main, ["simulate", "ideal", "--duration", "0.5", "--torque", "os.system('x')"])
     assert bad.exit_code == 2 and "error" in bad.output and "Traceback" not in bad.output
@@ -235,7 +242,7 @@ def test_cli_simulate(tmp_path):
 def test_hostile_expressions_fail_at_parse_time_in_one_line(text, words):
     start = time.perf_counter()
     with pytest.raises(ValueError) as err:
-        fd.load_expression(text)
+        load_expression(text)
     msg = str(err.value)
     assert "\n" not in msg and len(msg) < 300, msg
     for w in words:
@@ -244,14 +251,14 @@ def test_hostile_expressions_fail_at_parse_time_in_one_line(text, words):
 
 
 def test_expression_values_outside_the_reals_fail_with_the_state():
-    f = fd.load_expression("sqrt(psi - 10) + t**psi")
+    f = load_expression("sqrt(psi - 10) + t**psi")
     assert f(2.0, 11.0, 0.0, 0.0, 0.0) == pytest.approx(1.0 + 2.0**11, rel=1e-15)
     with pytest.raises(ValueError, match=r"not a real number\) at t=2, psi=3"):
         f(2.0, 3.0, 0.0, 0.0, 0.0)
     with pytest.raises(ValueError, match="exponent 17 exceeds 16"):
         f(2.0, 17.0, 0.0, 0.0, 0.0)
     # every whitelisted function, scalar, as numpy gave them before
-    g = fd.load_expression("clip(t, 0, 1) + mod(-1, 3) + sign(-t) + floor(2.5) + where(t < 1, 5, 6) + "
+    g = load_expression("clip(t, 0, 1) + mod(-1, 3) + sign(-t) + floor(2.5) + where(t < 1, 5, 6) + "
                            "maximum(t, 3) + minimum(t, 3) + arctan2(1, 1) + abs(-t) + log10(100)")
     expected = 1 + 2 - 1 + 2 + 6 + 3 + 2 + np.pi / 4 + 2 + 2
     assert g(2.0, 0.0, 0.0, 0.0, 0.0) == pytest.approx(expected, rel=1e-15)
@@ -285,7 +292,7 @@ def test_simulate_refuses_bad_numbers_before_integrating(kwargs, words):
 
 def test_the_integrator_stops_on_its_budget_and_says_where():
     case = load_case("ideal")
-    model = fd.coefficient_model(case)
+    model = dc.coefficient_model(case)
     start = time.perf_counter()
     with pytest.raises(ValueError, match=r"stopped at t = [0-9.e-]+ s of 10 s: used its budget of 500 "):
         fd.simulate(case, 10.0, torque=100.0, model=model, max_evaluations=500, samples=3)

@@ -136,25 +136,26 @@ def test_crank_state_is_the_prescribed_motion():
 
 def test_other_branch_is_detected_and_refused(monkeypatch):
     """Seed Newton on the other assembly branch: the jump is detected and the right branch recovered."""
-    import dualmech.models.slider_crank as sc
+    import dualmech.models.slider_crank_closure as scc
     from dualmech.core.closure import ClosureStatus, solve_closure
     from dualmech.core.dual import Dual
+    from dualmech.models.slider_crank_loop import LOOP, Batch
     from tests.conftest import closed_form_s4
 
     case = BASE.with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 15.0}})
     theta = np.radians(case.motion.angles_deg)
     right = closed_form_s4(case, Dual(theta, np.zeros_like(theta))).re
-    f, k4 = sc.slider_axis(case)
+    f, k4 = case.geometry.foot, case.geometry.k4
     p2 = np.stack([12 * np.cos(theta), 12 * np.sin(theta), np.full_like(theta, 3.5)], 1)
     other = -2 * ((p2 - f) @ k4) - right  # the second root of the sphere-line quadratic
-    batch = sc.Batch.of([case], [case.motion.state(3.5)])
-    assert sc.on_branch(batch, right).all() and not sc.on_branch(batch, other).any()
+    batch = Batch.of([case], [case.motion.state(3.5)])
+    assert scc.slider_on_branch(batch, right).all() and not scc.slider_on_branch(batch, other).any()
     # Newton alone happily closes the loop on the other branch ...
-    alone = solve_closure(sc.LOOP, batch.inputs(), sc.state_from_slider(batch, other))
-    assert (alone.status == ClosureStatus.OK).all() and not sc.on_branch(batch, alone.state.scalars[:, 0]).any()
+    alone = solve_closure(LOOP, batch.inputs(), scc.state_from_slider(batch, other))
+    assert (alone.status == ClosureStatus.OK).all() and not scc.slider_on_branch(batch, alone.state.scalars[:, 0]).any()
     # ... close_loop sees it and recovers the conventions' branch
-    monkeypatch.setattr(sc, "planar_estimate", lambda b: other)
-    state, status, _, _ = sc.close_loop(batch)
+    monkeypatch.setattr(scc, "planar_estimate", lambda b: other)
+    state, status, _, _ = scc.close_loop(batch)
     assert (status == "ok").all()
     assert_allclose(state.scalars[:, 0], right, rtol=0, atol=S4_VS_CLOSED_FORM * 50)
 
