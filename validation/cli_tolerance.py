@@ -3,7 +3,8 @@
 A thin shell over :func:`dualmech.models.tolerance.study.run_study` and
 :func:`dualmech.validation.tolerance_report.write_tolerance_report`; ``docs/conventions.md``
 ("Tolerance analysis") defines the SPEC, every column and the summary.
-Exit codes: 0 every spot check passed; 1 a judge disagreed (named on stderr); 2 bad input.
+Exit codes: 0 every spot check passed; 1 a judge disagreed, or the exact sensitivities disagree with
+central differences of the solver (named on stderr); 2 bad input.
 """
 
 from __future__ import annotations
@@ -62,9 +63,16 @@ def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir:
     _print_summary(summary)
     click.echo(f"wrote {', '.join(str(Path(outdir) / f) for f in files)}")
     failed = [s for s in summary["judges"] if not s["passed"]]
-    if failed:
-        for s in failed:
-            click.echo(f"FAIL: {s['engine']} disagrees on {s['design']}: {'; '.join(s['failures'])[:300]}",
-                       err=True)
+    for s in failed:
+        click.echo(f"FAIL: {s['engine']} disagrees on {s['design']}: {'; '.join(s['failures'])[:300]}", err=True)
+    check = summary["sensitivity_check"]
+    if check is not None and not check["passed"]:
+        click.echo(f"FAIL: d {check['output']} / d {check['key']} = {check['exact']!r} (exact) against "
+                   f"{check['central_difference']!r} (central differences of the solver), "
+                   f"{check['worst_ratio']:.3g} x the tolerance", err=True)
+    if failed or (check is not None and not check["passed"]):
         sys.exit(1)
-    click.echo(f"PASS: {len(summary['judges'])} spot checks (judges agree on every sampled design checked)")
+    checked = "" if check is None else (f"; sensitivities agree with the solver's differences "
+                                        f"(worst {check['worst_ratio']:.2g} of the tolerance)")
+    click.echo(f"PASS: {len(summary['judges'])} spot checks (judges agree on every sampled design checked)"
+               f"{checked}")

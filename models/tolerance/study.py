@@ -216,6 +216,7 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
 
     Sampled key values ``(n, k)`` and outputs are ``None`` for ``method = "linear"``.
     """
+    from dualmech.models.tolerance.differences import check_sensitivities
     from dualmech.models.tolerance.judges import candidates, run_spot_checks
     from dualmech.models.tolerance.sampling import judge_picks
     from dualmech.models.tolerance.sensitivity import sensitivities
@@ -240,6 +241,7 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
     solved = design_outputs([table], mode)
     nominal = {name: float(solved[name][0]) for name in output_names(mode)}
     sens = sensitivities(study.case, study.spec, table) if method != "mc" else None
+    check = check_sensitivities(study.case, study.spec, sens).to_dict() if sens is not None else None
     timing["sensitivity_s"] = time.perf_counter() - start
     stats = summarize(study.spec, nominal, x, samples, sens)
     if samples is not None:
@@ -253,7 +255,7 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
     summary = {"n": study.n if samples is not None else 0, "seed": study.seed, "method": method,
                "case": study.case.name, "mode": study.case.loads.mode, "keys": list(study.spec.keys),
                "nominal_values": dict(zip(study.spec.keys, nominal_values(study.case, study.spec).tolist())),
-               "spec": study.spec.to_dict(), **stats, "judges": [s.to_dict() for s in spots],
+               "spec": study.spec.to_dict(), **stats, "sensitivity_check": check, "judges": [s.to_dict() for s in spots],
                "judges_passed": all(s.passed for s in spots), "timing": timing, "versions": versions()}
     summary = _finite_json(summary)
     (outdir / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True) + "\n")

@@ -1,6 +1,7 @@
 """Exact sensitivities (models/tolerance/sensitivity.py) against central differences of the solver."""
 
 import copy
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -8,6 +9,7 @@ from numpy.testing import assert_allclose
 
 from dualmech.models.case import case_from_dict, load_case
 from dualmech.models.slider_crank import solve_case
+from dualmech.models.tolerance.differences import check_sensitivities
 from dualmech.models.tolerance.outputs import design_outputs, output_names
 from dualmech.models.tolerance.sensitivity import SensitivityError, output_group, sensitivities
 from dualmech.models.tolerance.spec import design_case, nominal_values, spec_from_dict
@@ -94,3 +96,18 @@ def test_restated_outputs_must_reproduce_the_solver():
     table.columns["j2_fy"] = table.columns["j2_fy"] * (1.0 + 1e-7)
     with pytest.raises(SensitivityError, match="differs from the solver"):
         sensitivities(case, spec, table)
+
+
+@pytest.mark.parametrize("make", [_force_mode_case, _torque_mode_case], ids=["force-mode", "torque-mode"])
+def test_the_run_time_check_passes_exact_sensitivities_and_names_a_wrong_one(make):
+    """Deliberate fault: one derivative 1e-4 too large (relative) fails the check, which names it."""
+    case, keys = make()
+    spec = spec_from_dict({"tolerances": {k: {"dist": "normal", "sd": 0.1} for k in keys}})
+    exact = sensitivities(case, spec)
+    check = check_sensitivities(case, spec, exact)
+    assert check.passed and check.worst_ratio <= 1.0
+    name, key = "peak_j2_force", "geometry.rod_length"
+    values = {n: dict(v) for n, v in exact.values.items()}
+    values[name][key] *= 1.0 + 1e-4
+    wrong = check_sensitivities(case, spec, replace(exact, values=values))
+    assert not wrong.passed and (wrong.output, wrong.key) == (name, key)

@@ -38,6 +38,7 @@ def test_the_bundled_study_runs_judged_and_reported(tmp_path):
     md = (tmp_path / "report.md").read_text()
     assert "## Spot checks by the judges" in md and "figures/tornado-stroke.png" in md
     assert (tmp_path / "samples.csv").read_text().count("\n") == 41
+    assert s["sensitivity_check"]["passed"] and "central differences of the compiled solver" in md
 
 
 def test_linear_method_needs_no_samples(tmp_path):
@@ -87,6 +88,27 @@ def test_a_judge_disagreeing_with_a_design_is_named_and_exits_1(tmp_path, monkey
     assert "FAIL: pinocchio disagrees on design-" in result.stderr
     assert "FAIL: mujoco disagrees on design-" in result.stderr
     assert not json.loads((tmp_path / "summary.json").read_text())["judges_passed"]
+
+
+def test_sensitivities_the_solver_disagrees_with_are_named_and_exit_1(tmp_path, monkeypatch):
+    """Deliberate fault: the exact derivative of the stroke by a4 comes out 1e-3 too large."""
+    from dataclasses import replace
+
+    import dualmech.models.tolerance.sensitivity as sensitivity
+
+    real = sensitivity.sensitivities
+
+    def off(case, spec, table=None):
+        exact = real(case, spec, table)
+        values = {n: dict(v) for n, v in exact.values.items()}
+        values["stroke"]["geometry.slider_offset"] *= 1.001
+        return replace(exact, values=values)
+
+    monkeypatch.setattr(sensitivity, "sensitivities", off)
+    result = _run(CASE, "--spec", SPEC, "--method", "linear", "-o", tmp_path, "--judge-samples", 0)
+    assert result.exit_code == 1, result.output + result.stderr
+    assert "FAIL: d stroke / d geometry.slider_offset" in result.stderr
+    assert not json.loads((tmp_path / "summary.json").read_text())["sensitivity_check"]["passed"]
 
 
 def test_spot_check_passes_on_the_same_design_and_fails_on_a_perturbed_one():
