@@ -159,21 +159,21 @@ def test_newton_starts_from_a_crude_guess():
 
 
 def test_assembled_keyframe_closes_the_loop():
-    from dualmech.models.mjcf import case_to_mjcf
+    from dualmech.models.mjcf import KEY_NAME, MjcfStart, runnable_mjcf
 
     case = load_case("thesis/a4-20-alpha-310")
     qpos = mujoco_engine.assembled_qpos(case, row=30)
-    text = case_to_mjcf(case, keyframe=qpos)
+    text = runnable_mjcf(case, MjcfStart(qpos, np.zeros(6), 0.0), 1e-4)
     m = mujoco.MjModel.from_xml_string(text)
     d = mujoco.MjData(m)
-    mujoco.mj_resetDataKeyframe(m, d, m.key("assembled").id)
+    mujoco.mj_resetDataKeyframe(m, d, m.key(KEY_NAME).id)
     mujoco.mj_forward(m, d)
     assert np.linalg.norm(d.efc_pos[:3]) < 1e-14 * case.geometry.rod_length
     assert_allclose(d.qpos[-1], exact_slider_motion(case, np.radians([30.0]))[0][0], rtol=1e-14, atol=0)
     # (Pinocchio 4.1 reads this keyframe's scalar joints as uninitialized memory whenever the file has a
     # <compiler> element: a Pinocchio parser bug, so its referenceConfigurations are not checked here.)
-    with pytest.raises(ValueError, match="keyframe"):
-        case_to_mjcf(case, keyframe=np.zeros(3))
+    with pytest.raises(ValueError, match="start.qpos"):
+        MjcfStart(np.zeros(3), np.zeros(6), 0.0)
 
 
 # ----------------------------------------------------------------------------- MuJoCo facts the path relies on
