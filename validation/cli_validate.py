@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import IO
 
 import click
 
@@ -43,6 +44,22 @@ def _engine_list(values: tuple[str, ...]) -> tuple[str, ...]:
         if n not in ENGINES:
             raise ValueError(f"--engines: {n!r} is not an engine (valid: {', '.join(ENGINES)})")
     return names
+
+
+#: Console width when stdout is a pipe or a file: wide enough that no table cell is ever cut or wrapped.
+UNBOUNDED_WIDTH = 100_000
+
+
+def summary_console(terminal: bool, file: IO[str] | None = None):
+    """The console ``validate`` prints its summary on.
+
+    On a terminal, the terminal's width (rich may abbreviate cells to fit).  Into a pipe
+    or a file (CI logs), :data:`UNBOUNDED_WIDTH`: every row and cell prints whole, the table
+    at its natural width and each message on one line.
+    """
+    from rich.console import Console
+
+    return Console(file=file, width=None if terminal else UNBOUNDED_WIDTH)
 
 
 def summary_table(matrix, comparison, title: str):
@@ -103,8 +120,6 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     Exits 1 when any judge disagrees with the reference beyond tolerance, an engine
     fails, or (with --baseline) anything regressed.
     """
-    from rich.console import Console
-
     from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline
     from dualmech.validation.compare import compare_run
     from dualmech.validation.junit import describe, write_junit
@@ -121,7 +136,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     outdir = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
     if report_dir:
         check_output_folder(report_dir)
-    console = Console(width=None if sys.stdout.isatty() else 120)  # CI logs: one row per line
+    console = summary_console(sys.stdout.isatty())
     try:
         with rich_progress(f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines") as bar:
             outcome = run_matrix(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)

@@ -56,3 +56,55 @@ def test_mjcf_opens_assembled(tmp_path):
     mujoco.mj_forward(model, data)
     gap = data.site("rod_end").xpos - data.site("slider_pin").xpos
     assert np.linalg.norm(gap) < 1e-10 * 50.0
+
+
+# ----------------------------------------------------------------------------- summary tables in logs
+
+#: A [labels] symbol long enough that the validate table is wider than the 120 columns once used for logs.
+LONG_SYMBOL = "offset_of_the_slider_axis_from_the_crank_axis_measured_along_x_in_inches"
+
+
+def _wide_matrix(tmp_path) -> str:
+    path = tmp_path / "wide.toml"
+    path.write_text(f'''name = "wide"
+base = "thesis/ideal"
+engines = ["dualmech", "pinocchio", "mujoco"]
+set = {{ "motion.angles_deg" = {{ start = 0.0, stop = 360.0, step = 90.0 }} }}
+[labels]
+"geometry.slider_offset" = "{LONG_SYMBOL}"
+[[sweep]]
+name = "a4"
+grid = {{ "geometry.slider_offset" = [10.0, 20.0] }}
+''')
+    return str(path)
+
+
+def test_validate_table_in_a_log_prints_every_row_and_cell_whole(tmp_path):
+    """Through a pipe (CliRunner's output is not a terminal) no cell is cut, however wide the table."""
+    result = CliRunner().invoke(main, ["validate", _wide_matrix(tmp_path), "-o", str(tmp_path / "run"),
+                                       "--jobs", "1"])
+    assert result.exit_code == 0, result.output
+    rows = [line for line in result.stdout.splitlines() if line.startswith("torque_")]
+    ids = ["torque_base"] + [f"torque_{LONG_SYMBOL}={a4}" for a4 in (10, 20)]
+    assert [r.split()[0] for r in rows] == ids, result.stdout
+    assert all(r.count("✓") == 2 for r in rows), rows  # both judges' cells, whole
+    assert "…" not in result.stdout  # stdout: the progress bars on stderr may abbreviate
+    assert max(len(r) for r in rows) > 120  # wider than the 120 columns once used for logs
+
+
+def test_summary_console_abbreviates_only_on_a_terminal():
+    """The same wide table into a narrow terminal is cut with an ellipsis (what a log must never show)."""
+    import io
+
+    from rich.table import Table
+
+    from dualmech.validation.cli_validate import summary_console
+
+    table = Table()
+    for name in ("case", "stroke (dualmech)", "pinocchio", "mujoco"):
+        table.add_column(name, no_wrap=True)
+    table.add_row(f"torque_{LONG_SYMBOL}=10", "24.530151", "✓ 9.2e-05", "✓ 9.0e-05")
+    for terminal, cut in ((False, False), (True, True)):
+        out = io.StringIO()
+        summary_console(terminal, file=out).print(table)  # a StringIO "terminal" is 80 columns wide
+        assert ("…" in out.getvalue()) is cut and (LONG_SYMBOL in out.getvalue()) is not cut
