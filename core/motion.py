@@ -75,7 +75,8 @@ class CrankMotion:
         deg = self.angles_deg if angles_deg is None else np.asarray(angles_deg, dtype=float)
         theta = np.radians(deg)
         n = theta.shape[0]
-        w, wd = np.float64(self.speed), np.float64(self.accel)  # numpy floats: overflow gives inf, not an error
+        # numpy floats: overflow gives inf, not an error
+        w, wd = np.float64(self.speed), np.float64(self.accel)
         return self.at(axial_shift, theta, np.full(n, w), np.full(n, wd))
 
     def at(self, axial_shift: float, theta: np.ndarray, theta_dot: np.ndarray,

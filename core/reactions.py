@@ -5,7 +5,8 @@ world origin (the inertia binor applied to the body's dual velocity, eq. 49-53)
 is :math:`\\hat H = m v_G + \\varepsilon (I_G\\omega + G\\times m v_G)`; its rate
 (dual Euler equation, eq. 59-61) is
 
-.. math:: \\dot{\\hat H} = m a_G + \\varepsilon\\,(I_G\\dot\\omega + \\omega\\times I_G\\omega + G\\times m a_G)
+.. math:: \\dot{\\hat H} = m a_G
+          + \\varepsilon\\,(I_G\\dot\\omega + \\omega\\times I_G\\omega + G\\times m a_G)
 
 and D'Alembert's principle (eq. 62-64) reads, for every body,
 :math:`\\sum \\hat F_{applied} - \\dot{\\hat H} = 0`, a dual force being
@@ -72,7 +73,8 @@ def _world_inertia(body: Body, rotation: np.ndarray) -> np.ndarray:
 def body_motion(body: Body, rotation: np.ndarray, origin: np.ndarray, twist: Dual, accel: Dual) -> BodyMotion:
     """Centre-of-mass motion from a body's twist :math:`\\omega + \\varepsilon v_O` and its rate.
 
-    .. math:: v_G = v_O + \\omega\\times G, \\qquad a_G = \\dot v_O + \\dot\\omega\\times G + \\omega\\times v_G
+    .. math:: v_G = v_O + \\omega\\times G, \\qquad
+              a_G = \\dot v_O + \\dot\\omega\\times G + \\omega\\times v_G
     """
     com = origin + (rotation @ np.asarray(body.com)[..., None])[..., 0]
     omega, omega_dot = twist.re, accel.re
@@ -82,7 +84,8 @@ def body_motion(body: Body, rotation: np.ndarray, origin: np.ndarray, twist: Dua
 
 
 def momentum(body: Body, motion: BodyMotion) -> Dual:
-    """Dual momentum about the world origin, :math:`m v_G + \\varepsilon(I_G\\omega + G\\times m v_G)`, ``(n, 3)``."""
+    """Dual momentum about the world origin, :math:`m v_G + \\varepsilon(I_G\\omega + G\\times m v_G)`,
+    ``(n, 3)``."""
     i_world = _world_inertia(body, motion.rotation)
     lin = _mass(body) * motion.com_vel
     return Dual(lin, np.einsum("nij,nj->ni", i_world, motion.omega) + np.cross(motion.com, lin))
@@ -130,11 +133,12 @@ class Reactions:
     residual: np.ndarray
 
     def columns(self) -> dict[str, np.ndarray]:
-        """The reaction columns of a result table (``docs/conventions.md``), each ``(n,)``, in the order of
-        :data:`~dualmech.core.table.REACTION_COLUMNS`: ``j1_fx`` ... ``j4_mz``, ``slider_load``, ``drive_torque``."""
+        """The reaction columns of a result table (``docs/conventions.md``), each ``(n,)``, in the order
+        of :data:`~dualmech.core.table.REACTION_COLUMNS`: ``j1_fx`` ... ``j4_mz``, ``slider_load``,
+        ``drive_torque``."""
         cols = {}
-        for name, arr in (("j1_f", self.j1_force), ("j1_m", self.j1_moment), ("j2_f", self.j2), ("j3_f", self.j3),
-                          ("j4_f", self.j4_force), ("j4_m", self.j4_moment)):
+        for name, arr in (("j1_f", self.j1_force), ("j1_m", self.j1_moment), ("j2_f", self.j2),
+                          ("j3_f", self.j3), ("j4_f", self.j4_force), ("j4_m", self.j4_moment)):
             for k, axis in enumerate("xyz"):
                 cols[f"{name}{axis}"] = arr[:, k]
         return {**cols, "slider_load": self.slider_load, "drive_torque": self.drive_torque}
@@ -166,7 +170,8 @@ def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, 
     if np.any(torque_mode == np.isfinite(load)):
         raise ValueError("solve_reactions: at every position give exactly one of drive_torque / slider_load")
     k4 = np.broadcast_to(k4, p2.shape)
-    weights = [force_at(m.com, _mass(b) * np.broadcast_to(gravity, m.com.shape)) for b, m in zip(bodies, motions)]
+    weights = [force_at(m.com, _mass(b) * np.broadcast_to(gravity, m.com.shape))
+               for b, m in zip(bodies, motions)]
     # D'Alembert: what the joints must supply to each body, f + eps m_O
     need = [momentum_rate(b, m) - w for b, m, w in zip(bodies, motions, weights)]
     d = p3 - p2

@@ -288,7 +288,8 @@ def preset_path(name: str) -> Path:
     names = preset_names()
     matches = [n for n in names if n == name or n.split("/", 1)[1] == name]
     if len(matches) != 1:
-        raise CaseError(f"case: {show(name)} is neither a file nor a bundled preset (presets: {', '.join(names)})")
+        raise CaseError(f"case: {show(name)} is neither a file nor a bundled preset (presets: "
+                        f"{', '.join(names)})")
     group, stem = matches[0].split("/", 1)
     return Path(str(resources.files("dualmech.models") / "cases" / group / f"{stem}.toml"))
 

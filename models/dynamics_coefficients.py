@@ -42,7 +42,8 @@ def influence_coefficients(an: Analysis) -> tuple[np.ndarray, np.ndarray, gi.Inf
     """
     bodies = an.case.bodies.ordered
     masses = np.array([b.mass for b in bodies])
-    inertia = np.stack([m.rotation @ b.inertia @ np.swapaxes(m.rotation, 1, 2) for b, m in zip(bodies, an.motions)])
+    inertia = np.stack([m.rotation @ b.inertia @ np.swapaxes(m.rotation, 1, 2)
+                        for b, m in zip(bodies, an.motions)])
     coeffs = gi.InfluenceCoefficients(
         com_rate=np.stack([m.com_vel for m in an.motions]),
         omega_rate=np.stack([m.omega for m in an.motions]),
@@ -99,7 +100,8 @@ def _checked(case: Case, theta: np.ndarray) -> np.ndarray:
         order = np.argsort(deg)
         where = format_angle_ranges(no_assembly_ranges(deg[order], bad[order]))
         raise ValueError(f"case {case.name}: the crank cannot turn through {where} deg "
-                         f"({', '.join(sorted(set(c.status[bad])))}); forward dynamics needs a full revolution")
+                         f"({', '.join(sorted(set(c.status[bad])))}); forward dynamics needs a full "
+                         "revolution")
     return c.stacked()
 
 
@@ -151,7 +153,8 @@ def _require_full_revolution(case: Case, count: int = 3600) -> None:
     bad = reach(p2, g.foot, g.k4, g.rod_length) >= 1.0
     if bad.any():
         where = format_angle_ranges(no_assembly_ranges(np.degrees(theta), bad))
-        raise ValueError(f"case {case.name}: the rod cannot reach the slider line at crank angles {where} deg; "
+        raise ValueError(f"case {case.name}: the rod cannot reach the slider line at crank angles {where} "
+                         "deg; "
                          "forward dynamics needs a crank that turns through a full revolution")
 
 

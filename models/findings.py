@@ -1,4 +1,4 @@
-"""Verdicts on the printed findings of Rahman (1991), sections 3.2-3.3, computed live from the in-house solver.
+"""Verdicts on the printed findings of Rahman (1991), sections 3.2-3.3, computed live by the in-house solver.
 
 The thesis's worked example (section 3.1: a1 = 12 in, a2 = 50 in, 50 rpm, drive
 torque 100 lbf.in, r1 = 1.5 in, r2 = 1 in, cube 3 in, 0.28 lbf/in^3,
@@ -20,13 +20,13 @@ g       a positive offset a4 reduces the stroke
 
 :func:`thesis_findings` returns one record per finding (``id``, ``finding``,
 ``verdict``, ``evidence``, ``values``); the stroke over a4 x alpha4 x S1 and the dead
-centres come from :mod:`dualmech.models.stroke`.  ``docs/findings.md`` is the written verdict; ``docs/errata.md``
+centres come from :mod:`dualmech.models.stroke`.  ``docs/findings.md`` is the written verdict;
+``docs/errata.md``
 the deviations of the printed equations behind them.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -60,7 +60,8 @@ DEAD_CENTRE_OFFSETS_DEG = (1e-2, 1e-3)
 #: Twists of the alpha4 sweep at a4 = 20, S1 = 0 (the thesis reports convergence only for 232..310).
 TWIST_SWEEP = (185.0, 200.0, 215.0, 232.0, 310.0, 325.0, 340.0, 355.0)
 #: The combinations the thesis reports as failing to converge (a4, S1) at alpha4 = 270.
-THESIS_FAILURES = ((0.0, 3.0), (0.0, 3.5), (0.0, 6.0), (0.0, 9.0), (10.0, 6.0), (10.0, 9.0), (20.0, 6.0), (20.0, 9.0))
+THESIS_FAILURES = ((0.0, 3.0), (0.0, 3.5), (0.0, 6.0), (0.0, 9.0), (10.0, 6.0), (10.0, 9.0), (20.0, 6.0),
+                   (20.0, 9.0))
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -112,9 +113,12 @@ def _finding_a(solved) -> dict[str, Any]:
     return {
         "id": "a", "finding": "2F2j (rod on crank along j2) is constant, -T/a1 = -8.33 lbf, at any offset",
         "verdict": verdict,
-        "evidence": (f"max |2F2j + T/a1| / (T/a1) = {_fmt(w)} over every position of all {len(worst)} presets "
-                     "(planar and spatial). It is the crank's moment balance about its axis: with theta1_ddot = 0, "
-                     "no gravity and the crank's centre of mass on its radial line, T + a1*2F2j = 0 exactly."),
+        "evidence": (f"max |2F2j + T/a1| / (T/a1) = {_fmt(w)} over every position of all {len(worst)} "
+                     "presets "
+                     "(planar and spatial). It is the crank's moment balance about its axis: with "
+                     "theta1_ddot = 0, "
+                     "no gravity and the crank's centre of mass on its radial line, T + a1*2F2j = 0 "
+                     "exactly."),
         "values": {"max_relative_deviation": w, "per_case": worst},
     }
 
@@ -130,7 +134,8 @@ def _finding_b(solved) -> dict[str, Any]:
         f_scale = max(_scale(cols[k][ok]) for k in cols if k[1] == "F")
         # crank axial balance: 1F1k + 2F2k = m1 S1_ddot (= 0 for constant S1)
         m1 = case.bodies.crank.mass
-        balance = max(balance, float(np.abs(cols["1F1k"][ok] + cols["2F2k"][ok] - m1 * an.crank.s_ddot[ok]).max()
+        axial = cols["1F1k"][ok] + cols["2F2k"][ok] - m1 * an.crank.s_ddot[ok]
+        balance = max(balance, float(np.abs(axial).max()
                                      / f_scale))
         if case.is_planar:
             planar[case.name] = float(np.abs(cols["2F2k"][ok]).max() / f_scale)
@@ -141,13 +146,19 @@ def _finding_b(solved) -> dict[str, Any]:
     verdict = "planar only" if holds_planar and s > 0 else ("confirmed" if holds_planar else "refuted")
     worst = max(spatial, key=spatial.get) if spatial else ""
     return {
-        "id": "b", "finding": "the axial force at the crank pin 2F2k is zero throughout the revolution at any offset",
+        "id": "b", "finding": "the axial force at the crank pin 2F2k is zero throughout the revolution at "
+                              "any offset",
         "verdict": verdict,
-        "evidence": (f"planar presets: max |2F2k| = {_fmt(p)} of the force scale. Spatial presets, away from dead "
-                     f"centres (|t| >= {FINDING_REGULAR_TRANSMISSION.value}): max |2F2k| from {_fmt(s)} lbf up to "
-                     f"{_fmt(spatial.get(worst, 0.0))} lbf ({worst}). The rod leans out of the crank plane, so its "
-                     "force has an axial part that the cylindrical joint must react: 2F2k = -1F1k + m1*S1_ddot "
-                     f"(holds to {balance:.1e} of the force scale). The thesis got zero because it prescribed "
+        "evidence": (f"planar presets: max |2F2k| = {_fmt(p)} of the force scale. Spatial presets, away from "
+                     "dead "
+                     f"centres (|t| >= {FINDING_REGULAR_TRANSMISSION.value}): max |2F2k| from {_fmt(s)} lbf "
+                     "up to "
+                     f"{_fmt(spatial.get(worst, 0.0))} lbf ({worst}). The rod leans out of the crank plane, "
+                     "so its "
+                     "force has an axial part that the cylindrical joint must react: 2F2k = -1F1k + "
+                     "m1*S1_ddot "
+                     f"(holds to {balance:.1e} of the force scale). The thesis got zero because it "
+                     "prescribed "
                      "1F1k = m1*S1_ddot "
                      "(errata E10)."),
         "values": {"planar_max_relative": p, "spatial_max_lbf": spatial, "axial_balance_residual": balance},
@@ -165,9 +176,12 @@ def _finding_c(solved) -> dict[str, Any]:
     return {
         "id": "c", "finding": "all torque components at joint 4 (4T4i, 4T4j, 4T4k) are zero",
         "verdict": verdict,
-        "evidence": (f"max |4T4| = {_fmt(worst)} of (force scale x a2) over all presets. True for this model only: "
-                     "the slider translates, its centre of mass is at the ball centre P3 and the rod's force acts "
-                     "through P3, so nothing has a moment about P3. A slider whose centre of mass is off P3, or "
+        "evidence": (f"max |4T4| = {_fmt(worst)} of (force scale x a2) over all presets. True for this model "
+                     "only: "
+                     "the slider translates, its centre of mass is at the ball centre P3 and the rod's force "
+                     "acts "
+                     "through P3, so nothing has a moment about P3. A slider whose centre of mass is off P3, "
+                     "or "
                      "gravity with such an offset, gives joint-4 torques."),
         "values": {"max_relative": worst},
     }
@@ -190,7 +204,8 @@ def _finding_d(solved) -> dict[str, Any]:
                           np.abs(dev_j + a1 * np.cos(th) * cols["1F1k"]))
         corrected = max(corrected, float(corr[ok].max() / max(m_scale, f_scale * a1)))
         if case.is_planar:
-            planar_dev = max(planar_dev, float(np.maximum(np.abs(dev_i), np.abs(dev_j))[ok].max() / max(m_scale, 1e-300)))
+            planar_dev = max(planar_dev,
+                             float(np.maximum(np.abs(dev_i), np.abs(dev_j))[ok].max() / max(m_scale, 1e-300)))
         else:
             printed[case.name] = float(np.maximum(np.abs(dev_i), np.abs(dev_j))[reg].max())
             if case.geometry.crank_axial_shift == 0.0:
@@ -200,10 +215,14 @@ def _finding_d(solved) -> dict[str, Any]:
         "id": "d", "finding": "1T1i = -1F1j*S1 and 1T1j = 1F1i*S1 (so both vanish when S1 = 0)",
         "verdict": "planar only" if planar_dev <= FINDING_IDENTITY.value and hi > 0 else "refuted",
         "evidence": (f"planar presets: holds to {_fmt(planar_dev)}. Spatial presets (|t| >= "
-                     f"{FINDING_REGULAR_TRANSMISSION.value}): violated by {_fmt(lo)} to {_fmt(hi)} lbf.in. The exact "
-                     "relations are 1T1i = -1F1j*S1 + a1*sin(theta1)*1F1k and 1T1j = 1F1i*S1 - a1*cos(theta1)*1F1k "
-                     f"(the thesis's own (69p)-(69q) with f1xd = f1yd = 0; in-house residual {_fmt(corrected)}): the "
-                     "printed form drops the axial reaction 1F1k that the thesis set to m1*S1_ddot = 0 (errata E10). "
+                     f"{FINDING_REGULAR_TRANSMISSION.value}): violated by {_fmt(lo)} to {_fmt(hi)} lbf.in. "
+                     "The exact "
+                     "relations are 1T1i = -1F1j*S1 + a1*sin(theta1)*1F1k and 1T1j = 1F1i*S1 - "
+                     "a1*cos(theta1)*1F1k "
+                     "(the thesis's own (69p)-(69q) with f1xd = f1yd = 0; in-house residual "
+                     f"{_fmt(corrected)}): the "
+                     "printed form drops the axial reaction 1F1k that the thesis set to m1*S1_ddot = 0 "
+                     "(errata E10). "
                      "With S1 = 0 but alpha4 != 270 the moments do not vanish: "
                      + ", ".join(f"{k}: max |1T1| = {_fmt(v)} lbf.in" for k, v in s1_zero.items()) + "."),
         "values": {"planar_max_relative": planar_dev, "spatial_max_lbf_in": printed,
@@ -232,26 +251,34 @@ def _finding_e(cases: list[Case], solved) -> dict[str, Any]:
     listing = "; ".join(f"{k.removeprefix('thesis-')}: " + ", ".join(f"{v:.2f}" for v in vals)
                         for k, vals in per_case.items())
     return {
-        "id": "e", "finding": "the spikes near 100 and 300 deg are round-off in the acceleration formulas (theta2 near 0)",
+        "id": "e", "finding": "the spikes near 100 and 300 deg are round-off in the acceleration formulas "
+                              "(theta2 near 0)",
         "verdict": "refuted",
-        "evidence": (f"they are the physical dead centres of torque mode, where the rod is normal to the crank-pin "
-                     f"path (transmission t = 0, theta2 = 0 or 180 deg). Exact angles (deg): {listing}. Moving "
+        "evidence": ("they are the physical dead centres of torque mode, where the rod is normal to the "
+                     "crank-pin "
+                     f"path (transmission t = 0, theta2 = 0 or 180 deg). Exact angles (deg): {listing}. "
+                     "Moving "
                      f"{ratio:g}x closer to a dead centre multiplies the slider load by {min(growth):.3f}-"
-                     f"{max(growth):.3f} (load ~ 1/t), while S4_ddot changes by at most {_fmt(max(accel_jump))} of its "
-                     f"cycle peak between the dead centre and {DEAD_CENTRE_OFFSETS_DEG[1]:g} deg from it: the "
+                     f"{max(growth):.3f} (load ~ 1/t), while S4_ddot changes by at most "
+                     f"{_fmt(max(accel_jump))} of its "
+                     f"cycle peak between the dead centre and {DEAD_CENTRE_OFFSETS_DEG[1]:g} deg from it: "
+                     "the "
                      "accelerations are smooth there, the forces are not, and no arithmetic can remove a 1/t "
                      "singularity (in slider-load mode there is none)."),
-        "values": {"dead_centres_deg": per_case, "load_growth": growth, "accel_jump_near_dead_centre": accel_jump},
+        "values": {"dead_centres_deg": per_case, "load_growth": growth,
+                   "accel_jump_near_dead_centre": accel_jump},
     }
 
 
 def _finding_f(base: Case) -> dict[str, Any]:
-    limits = {a4: assembly_limit_s1(base.with_values({"geometry.slider_offset": a4})) for a4 in STROKE_OFFSETS}
+    limits = {a4: assembly_limit_s1(base.with_values({"geometry.slider_offset": a4}))
+              for a4 in STROKE_OFFSETS}
     checks = []
     for a4, s1 in THESIS_FAILURES:
         checks.append(base.with_values({"geometry.slider_offset": a4, "geometry.crank_axial_shift": s1}))
     for a4, lim in limits.items():
-        checks.append(base.with_values({"geometry.slider_offset": a4, "geometry.crank_axial_shift": lim - 0.01}))
+        checks.append(base.with_values({"geometry.slider_offset": a4,
+                                        "geometry.crank_axial_shift": lim - 0.01}))
     for tw in TWIST_SWEEP:
         checks.append(base.with_values({"geometry.slider_offset": 20.0, "geometry.slider_twist_deg": tw,
                                         "geometry.crank_axial_shift": 0.0}))
@@ -262,16 +289,24 @@ def _finding_f(base: Case) -> dict[str, Any]:
     worst_residual = max(float(an.closure_residual.max()) for an in ans[:len(checks)])
     refused = [int(is_status(an.status, Status.NO_ASSEMBLY).sum()) for an in ans[len(checks):]]
     return {
-        "id": "f", "finding": ("convergence limits: with a4 = 0 the program fails for S1 > 1.5 in, with a4 >= 10 for "
-                               "S1 > 3.5 in; with a4 = 20, S1 = 0 it converges only for 232 <= alpha4 <= 310 deg"),
+        "id": "f", "finding": ("convergence limits: with a4 = 0 the program fails for S1 > 1.5 in, with a4 "
+                               ">= 10 for "
+                               "S1 > 3.5 in; with a4 = 20, S1 = 0 it converges only for 232 <= alpha4 <= 310 "
+                               "deg"),
         "verdict": "refuted" if solved_ok else "not reproduced",
-        "evidence": ("these are limits of the thesis's solver, not of the mechanism. The rod reaches the slider line "
+        "evidence": ("these are limits of the thesis's solver, not of the mechanism. The rod reaches the "
+                     "slider line "
                      "at every crank angle iff max distance(P2, line) <= a2; at alpha4 = 270 that is S1 <= "
-                     "sqrt(a2^2 - (a1 + a4)^2) = " + ", ".join(f"{lim:.2f} in (a4 = {a4:g})" for a4, lim in limits.items())
-                     + "; at a4 = 20, S1 = 0 the distance is at most a1 + a4 = 32 in < a2 for every alpha4. The in-house "
-                     f"solver closes all {len(checks)} checked cases ({len(THESIS_FAILURES)} the thesis reports as failing, "
-                     f"S1 0.01 in below each limit, alpha4 in {TWIST_SWEEP[0]:g}..{TWIST_SWEEP[-1]:g}) at every degree "
-                     f"(worst closure residual {_fmt(worst_residual)} of a2) and reports no_assembly 0.5 in beyond each "
+                     "sqrt(a2^2 - (a1 + a4)^2) = "
+                     "" + ", ".join(f"{lim:.2f} in (a4 = {a4:g})" for a4, lim in limits.items())
+                     + "; at a4 = 20, S1 = 0 the distance is at most a1 + a4 = 32 in < a2 for every alpha4. "
+                       "The in-house "
+                     f"solver closes all {len(checks)} checked cases ({len(THESIS_FAILURES)} the thesis "
+                     "reports as failing, "
+                     f"S1 0.01 in below each limit, alpha4 in {TWIST_SWEEP[0]:g}..{TWIST_SWEEP[-1]:g}) at "
+                     "every degree "
+                     f"(worst closure residual {_fmt(worst_residual)} of a2) and reports no_assembly 0.5 in "
+                     "beyond each "
                      f"limit ({', '.join(map(str, refused))} of 360 positions)."),
         "values": {"s1_limit_in": limits, "all_solved": solved_ok, "worst_closure_residual": worst_residual,
                    "no_assembly_beyond_limit": refused},
@@ -293,10 +328,14 @@ def _finding_g(table: list[dict[str, Any]]) -> dict[str, Any]:
     return {
         "id": "g", "finding": "a positive offset a4 reduces the stroke",
         "verdict": "refuted" if grows else "not reproduced",
-        "evidence": ("the stroke grows with a4 in every (alpha4, S1) row of the stroke table; with S1 = 0, for "
-                     "a4 = 0, 10, 20, 30 in: " + "; ".join(lines) + " in. What does fall is the slider position "
-                     "itself (max S4 " + " -> ".join(f"{x:.2f}" for x in smax) + " in at alpha4 = 270): the curves of "
-                     "fig. 5 move down, their height does not shrink. For the planar offset crank the stroke is "
+        "evidence": ("the stroke grows with a4 in every (alpha4, S1) row of the stroke table; with S1 = 0, "
+                     "for "
+                     "a4 = 0, 10, 20, 30 in: "
+                     "" + "; ".join(lines) + " in. What does fall is the slider position "
+                     "itself (max S4 "
+                     "" + " -> ".join(f"{x:.2f}" for x in smax) + " in at alpha4 = 270): the curves of "
+                     "fig. 5 move down, their height does not shrink. For the planar offset crank the stroke "
+                     "is "
                      "sqrt((a2 + a1)^2 - a4^2) - sqrt((a2 - a1)^2 - a4^2) >= 2 a1."),
         "values": {"stroke_grows_with_a4": grows},
     }

@@ -197,8 +197,7 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
     """
     duration, damping, slider_damping, rtol, atol, interpolation_tol = _checked_settings(
         duration, damping, slider_damping, rtol, atol, interpolation_tol, samples, method)
-    budget = _Budget(max_evaluations, time_limit)
-    loads = case.loads
+    budget, loads = _Budget(max_evaluations, time_limit), case.loads
     tau_a = as_load(torque, loads.drive_torque if loads.mode == "torque" else 0.0, "torque", TORQUE)
     force = as_load(slider_load, loads.slider_force if loads.mode == "force" else 0.0, "slider_load", FORCE)
     psi0 = (float(np.radians(case.motion.angles_deg[0])) if psi0 is None
@@ -206,8 +205,8 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
     psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0, CRANK_SPEED)
     model = coefficient_model(case, interpolation_tol) if model is None else model
     rhs = _EquationOfMotion(model, tau_a, force, damping, slider_damping)
-    t_out = np.linspace(0.0, duration, int(samples))
-    sol = _integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]), t_out, method, rtol, atol)
+    sol = _integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
+                     np.linspace(0.0, duration, int(samples)), method, rtol, atol)
     info = {"method": method, "rtol": rtol, "atol": atol, "nfev": int(sol.nfev), "coefficients": model.mode,
             "table_size": model.size, "interpolation_error": model.error, "message": sol.message}
     return _trajectory(case, rhs, sol.t, sol.y, info)
@@ -247,7 +246,8 @@ class _EquationOfMotion:
         s4dot = s4p * w
         ta = self.torque(t, psi, w, s4, s4dot)
         f = self.slider_load(t, psi, w, s4, s4dot)
-        tau = ta + grav + gi.slider_force(s4p, f) + gi.damping_force(w, s4p, self.damping, self.slider_damping)
+        damper = gi.damping_force(w, s4p, self.damping, self.slider_damping)
+        tau = ta + grav + gi.slider_force(s4p, f) + damper
         acc = gi.acceleration(inertia, d_inertia, w, tau)
         return np.array([w, acc, ta * w, -f * s4dot, self.damping * w * w + self.slider_damping * s4dot**2])
 
@@ -274,9 +274,11 @@ def _integrate(rhs: _EquationOfMotion, budget: _Budget, y0: np.ndarray, t_out: n
     budget.start()
     try:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # non-finite rates: _Stopped
-            sol = solve_ivp(counted_rhs, (0.0, duration), y0, method=method, t_eval=t_out, rtol=rtol, atol=atol_vec)
+            sol = solve_ivp(counted_rhs, (0.0, duration), y0, method=method, t_eval=t_out, rtol=rtol,
+                            atol=atol_vec)
     except _Stopped as stop:
-        raise ValueError(f"simulate: stopped at t = {stop.t:.6g} s of {duration:g} s: {stop.reason}") from None
+        raise ValueError(f"simulate: stopped at t = {stop.t:.6g} s of {duration:g} s: "
+                         f"{stop.reason}") from None
     if not sol.success:
         raise ValueError(f"simulate: the integrator stopped at t = {sol.t[-1]:.6g} s of {duration:g} s: "
                          f"{str(sol.message).splitlines()[0]}")
@@ -321,7 +323,8 @@ def planar_model(case: Case) -> tuple[PlanarSliderCrank, float]:
     """
     g = case.geometry
     if abs(math.cos(g.slider_twist)) >= PLANAR_TWIST_COSINE:
-        raise ValueError(f"geometry.slider_twist_deg: {g.slider_twist_deg!r} is not planar; expected 90 or 270")
+        raise ValueError(f"geometry.slider_twist_deg: {g.slider_twist_deg!r} is not planar; expected 90 or "
+                         "270")
     if g.crank_axial_shift != 0.0 or case.motion.axial_amplitude != 0.0:
         raise ValueError(f"geometry.crank_axial_shift: the planar model needs S1 = 0 (got shift "
                          f"{g.crank_axial_shift!r}, amplitude {case.motion.axial_amplitude!r})")

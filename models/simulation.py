@@ -29,7 +29,8 @@ class Simulation:
         (without damping).
     kinetic, potential : :math:`T` and :math:`V = -\\sum m_b g\\cdot c_b` (in-house motion).
     work_drive, work_slider, dissipated : :math:`\\int\\tau^A\\dot\\psi\\,dt`,
-        :math:`-\\int F\\dot S_4\\,dt`, :math:`\\int (c_1\\dot\\psi^2 + c_4\\dot S_4^2)dt` (integrated with the ODE).
+        :math:`-\\int F\\dot S_4\\,dt`, :math:`\\int (c_1\\dot\\psi^2 + c_4\\dot S_4^2)dt`
+        (integrated with the ODE).
     reactions : Reactions
         In-house joint reactions along the trajectory (world axes; ``slider_load``
         there includes the slider damper, ``drive_torque`` = ``j1_mz`` = motor torque
@@ -62,7 +63,8 @@ class Simulation:
     info: dict
 
     def energy_residual(self) -> np.ndarray:
-        """Work–energy balance :math:`\\Delta(T + V) - (W^A + W^S - D)`, ``(n,)`` (zero for an exact solution)."""
+        """Work–energy balance :math:`\\Delta(T + V) - (W^A + W^S - D)`, ``(n,)`` (zero for an exact
+        solution)."""
         e = self.kinetic + self.potential
         return (e - e[0]) - (self.work_drive + self.work_slider - self.dissipated)
 
@@ -78,8 +80,8 @@ class Simulation:
         }
 
     def to_csv(self, path: str | Path | None = None) -> str:
-        """CSV text of :meth:`columns` plus ``status`` (full precision, :func:`~dualmech.core.table.write_csv`);
-        written to ``path`` if given."""
+        """CSV text of :meth:`columns` plus ``status`` (full precision,
+        :func:`~dualmech.core.table.write_csv`); written to ``path`` if given."""
         return write_csv(self.columns(), self.status, path)
 
 

@@ -78,7 +78,8 @@ def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[
     state, status, iters, residual = close_loop(batch)
     chain = evaluate(LOOP, batch.inputs(), state)
     c = batch.crank
-    rates = solve_rates(chain, LOOP, {"theta1": c.theta_dot, "S1": c.s_dot}, {"theta1": c.theta_ddot, "S1": c.s_ddot})
+    rates = solve_rates(chain, LOOP, {"theta1": c.theta_dot, "S1": c.s_dot},
+                        {"theta1": c.theta_ddot, "S1": c.s_ddot})
     p2, p3 = origin(chain.frames[0]), origin(chain.frames[1])
     u = (p3 - p2) / batch.a2[:, None]
     hub = np.stack([np.zeros_like(c.s), np.zeros_like(c.s), c.s], 1)
@@ -101,7 +102,8 @@ def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[
         reactions = solve_reactions(bodies, motions, p2, p3, k4, gravity,
                                     np.repeat(given[:, 0], counts), np.repeat(given[:, 1], counts))
     torque_mode = np.repeat(np.isfinite(given[:, 0]), counts)
-    status[is_status(status, Status.OK) & torque_mode & (np.abs(transmission) < DEAD_CENTRE)] = Status.DEAD_CENTRE.value
+    dead = is_status(status, Status.OK) & torque_mode & (np.abs(transmission) < DEAD_CENTRE)
+    status[dead] = Status.DEAD_CENTRE.value
     out, start = [], 0
     for case, crank, n in zip(cases, cranks, counts):
         sl = slice(start, start + n)
@@ -182,7 +184,8 @@ def no_assembly_message(ranges: list[tuple[float, float]]) -> list[str]:
     """The message naming the crank-angle ranges (degrees) where the rod cannot reach the slider line."""
     if not ranges:
         return []
-    return [f"no_assembly: the rod cannot reach the slider line at crank angles {format_angle_ranges(ranges)} deg"]
+    return ["no_assembly: the rod cannot reach the slider line at crank angles "
+            f"{format_angle_ranges(ranges)} deg"]
 
 
 def format_angle_ranges(ranges: list[tuple[float, float]]) -> str:

@@ -142,7 +142,8 @@ def _close_reachable(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, n
 
     Newton (with its DFP fallback) from the plane-geometry estimate; positions that
     did not converge or landed on the other branch are retried from
-    :func:`along_slider_estimate`, then by :func:`continuation`.  Positions where DFP found a non-zero stationary
+    :func:`along_slider_estimate`, then by :func:`continuation`.  Positions where DFP found a non-zero
+    stationary
     closure error are ``no_assembly`` (the rod cannot reach the slider line).
     """
     res = solve_closure(LOOP, batch.inputs(), state_from_slider(batch, planar_estimate(batch)))
@@ -151,7 +152,8 @@ def _close_reachable(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, n
     retry = np.flatnonzero((codes == ClosureStatus.NOT_CONVERGED) | wrong)
     if retry.size:  # second estimate: the rod laid along the slider line
         sub_batch = batch.take(retry)
-        again = solve_closure(LOOP, sub_batch.inputs(), state_from_slider(sub_batch, along_slider_estimate(sub_batch)))
+        second = state_from_slider(sub_batch, along_slider_estimate(sub_batch))
+        again = solve_closure(LOOP, sub_batch.inputs(), second)
         fixed = (again.status != ClosureStatus.NOT_CONVERGED) & ~(
             (again.status == ClosureStatus.OK) & ~slider_on_branch(sub_batch, again.state.scalars[:, 0]))
         sel = np.flatnonzero(fixed)

@@ -68,16 +68,18 @@ class Batch:
     @staticmethod
     def of(cases: Sequence[Case], cranks: Sequence[CrankState]) -> "Batch":
         counts = [len(c) for c in cranks]
-        crank = CrankState(*(np.concatenate([getattr(c, f.name) for c in cranks]) for f in fields(CrankState)))
-        geo = [(c.geometry.crank_length, c.geometry.rod_length, c.geometry.slider_offset, c.geometry.slider_twist)
-               for c in cases]
+        crank = CrankState(*(np.concatenate([getattr(c, f.name) for c in cranks])
+                             for f in fields(CrankState)))
+        geo = [(c.geometry.crank_length, c.geometry.rod_length, c.geometry.slider_offset,
+                c.geometry.slider_twist) for c in cases]
         return Batch(crank, *(np.repeat(col, counts) for col in zip(*geo)))
 
     def __len__(self) -> int:
         return len(self.crank)
 
     def take(self, index: np.ndarray) -> "Batch":
-        return Batch(self.crank.take(index), self.a1[index], self.a2[index], self.a4[index], self.alpha4[index])
+        return Batch(self.crank.take(index), self.a1[index], self.a2[index], self.a4[index],
+                     self.alpha4[index])
 
     def inputs(self) -> dict[str, np.ndarray]:
         """Inputs and parameters of :data:`LOOP`."""
@@ -89,7 +91,8 @@ class Batch:
         return slider_line(self.a4, self.alpha4)
 
     def crank_pin(self) -> np.ndarray:
-        """``P2`` ``(n, 3)`` from the prescribed crank state (:func:`~dualmech.models.mechanism.crank_pin`)."""
+        """``P2`` ``(n, 3)`` from the prescribed crank state
+        (:func:`~dualmech.models.mechanism.crank_pin`)."""
         return crank_pin(self.a1, self.crank.theta, self.crank.s)
 
     def foot_s4(self) -> np.ndarray:
@@ -97,5 +100,6 @@ class Batch:
         return foot_s4(self.crank_pin(), *self.slider_line())
 
     def reach(self) -> np.ndarray:
-        """Distance from ``P2`` to the slider line over ``a2`` (:func:`~dualmech.core.assembly.reach`), ``(n,)``."""
+        """Distance from ``P2`` to the slider line over ``a2`` (:func:`~dualmech.core.assembly.reach`),
+        ``(n,)``."""
         return reach(self.crank_pin(), *self.slider_line(), self.a2)

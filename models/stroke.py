@@ -27,7 +27,8 @@ STROKE_SHIFTS = (0.0, 3.0, 3.5, 6.0, 9.0)
 
 
 def _fixed_crank(theta: np.ndarray, s1: float) -> CrankState:
-    """Crank states with unit speed and no acceleration: then S4_dot = dS4/dtheta1, S4_ddot = d2S4/dtheta1^2."""
+    """Crank states with unit speed and no acceleration: then S4_dot = dS4/dtheta1,
+    S4_ddot = d2S4/dtheta1^2."""
     n = theta.shape[0]
     return CrankState(theta, np.full(n, s1), np.ones(n), np.zeros(n), np.zeros(n), np.zeros(n))
 
@@ -45,7 +46,7 @@ def dead_centres(cases: list[Case], iterations: int = 48) -> list[np.ndarray]:
         exact.append(np.degrees(th[t == 0.0]))
         k = np.flatnonzero((t != 0.0) & (t * np.roll(t, -1) < 0.0))  # a sign change to the next position
         step = th[1] - th[0] if th.shape[0] > 1 else 0.0
-        nxt = np.append(th[1:], th[-1] + step)  # the bracket closing the revolution ends one step past the grid
+        nxt = np.append(th[1:], th[-1] + step)  # the bracket closing the revolution: one step past the grid
         lo_parts.append(th[k])
         hi_parts.append(nxt[k])
         owner_parts.append(np.full(k.shape[0], i))
@@ -99,14 +100,15 @@ def stroke_of(cases: list[Case], newton_steps: int = 6) -> list[dict[str, Any]]:
     if not todo:
         return rows
     theta = np.stack([t for _, _, t in todo])
+    todo_cases = [c for _, c, _ in todo]
     for _ in range(newton_steps):
-        sub = analyze_many([c for _, c, _ in todo],
-                           [_fixed_crank(theta[i], c.geometry.crank_axial_shift) for i, (_, c, _) in enumerate(todo)])
+        sub = analyze_many(todo_cases, [_fixed_crank(theta[i], c.geometry.crank_axial_shift)
+                                        for i, c in enumerate(todo_cases)])
         d1 = np.stack([a.rates.q_dot[:, 0] for a in sub])
         d2 = np.stack([a.rates.q_ddot[:, 0] for a in sub])
         theta = theta - d1 / d2
-    sub = analyze_many([c for _, c, _ in todo],
-                       [_fixed_crank(theta[i], c.geometry.crank_axial_shift) for i, (_, c, _) in enumerate(todo)])
+    sub = analyze_many(todo_cases, [_fixed_crank(theta[i], c.geometry.crank_axial_shift)
+                                    for i, c in enumerate(todo_cases)])
     for i, ((row, _, _), a) in enumerate(zip(todo, sub)):
         row.update(s4_min=float(a.s4[0]), s4_max=float(a.s4[1]), stroke=float(a.s4[1] - a.s4[0]),
                    theta_min_deg=float(np.degrees(theta[i, 0]) % 360.0),
@@ -115,7 +117,8 @@ def stroke_of(cases: list[Case], newton_steps: int = 6) -> list[dict[str, Any]]:
 
 
 def stroke_table(base: Case | None = None) -> list[dict[str, Any]]:
-    """Stroke for a4 in {0, 10, 20, 30} x alpha4 in {232, 270, 310} x S1 in {0, 3, 3.5, 6, 9} (thesis example).
+    """Stroke for a4 in {0, 10, 20, 30} x alpha4 in {232, 270, 310} x S1 in {0, 3, 3.5, 6, 9} (thesis
+    example).
 
     Returns one dict per combination: ``a4``, ``alpha4_deg``, ``S1``, ``assembles``,
     ``no_assembly_positions``, ``stroke``, ``s4_min``, ``s4_max``, ``theta_min_deg``,

@@ -62,6 +62,7 @@ def test_the_check_sees_nested_and_from_imports() -> None:
     source = ("import numpy\nfrom dualmech.core.dual import Dual\n\n"
               "def f():\n    from dualmech.validation.tolerances import SIM_STROKE\n    return SIM_STROKE\n")
     bad = upward_imports("models", ROOT / "models" / "x.py", source)
-    assert bad == ["models/x.py:5 imports dualmech.validation.tolerances (a models module may not import validation)"]
+    assert bad == ["models/x.py:5 imports dualmech.validation.tolerances (a models module may not import "
+                   "validation)"]
     assert upward_imports("core", ROOT / "core" / "x.py", "import dualmech.models.case\n") == [
         "core/x.py:1 imports dualmech.models.case (a core module may not import models)"]

@@ -1,4 +1,13 @@
-"""Tolerances of the in-house solver's own tests, each with its reason (judges: validation/tolerances.py)."""
+"""Tolerances of the in-house solver's own tests, each with its reason and measured value.
+
+Why not in ``validation/tolerances.py``: that module is the suite's table of what a judge is held
+to, and matrix files name its entries (``validation/matrix.py`` offers every ``Tolerance`` in it),
+so a test-only number there would become a selectable comparison tolerance and would move the
+regression gate's contract whenever a test changes.  Here are the numbers only tests use (the
+in-house solver against closed forms, identities, the kernel, another unit system); a test that
+compares a judge imports ``validation/tolerances.py``.  The solver's own decision thresholds are
+``core/thresholds.py``.
+"""
 
 #: S4 against the closed form, relative to a2: Newton stops at a closure residual of 1e-14 (x a2).
 S4_VS_CLOSED_FORM = 1e-12
@@ -22,8 +31,8 @@ KERNEL_VS_NUMPY_KINEMATICS = 1e-12
 #: The same for reactions, relative to the case's peak and condition-scaled by |t| in torque mode:
 #: 3x3 products summed in another order; measured <= 5.1e-14.
 KERNEL_VS_NUMPY_REACTIONS = 1e-11
-#: S4 at assembly_limit rows (c < 1e-2), kernel against numpy, relative to a2: a closure residual r moves S4 by
-#: ~r/c, and by ~sqrt(2 r) at c = 0 (r ~ 1e-14: 1.4e-7); measured 2.3e-10 at the exact edge.
+#: S4 at assembly_limit rows (c < 1e-2), kernel against numpy, relative to a2: a closure residual r moves S4
+#: by ~r/c, and by ~sqrt(2 r) at c = 0 (r ~ 1e-14: 1.4e-7); measured 2.3e-10 at the exact edge.
 KERNEL_VS_NUMPY_AT_LIMIT = 1e-6
 #: The in-house answers in another length unit against the unscaled ones in that unit, relative to each unit
 #: group's scale (reactions condition-weighted by |t|): scale factors are not powers of two, so round-off

@@ -7,7 +7,7 @@ from dualmech.core.closure import ClosureStatus, solve_closure
 from dualmech.models.case import load_case
 from dualmech.models.slider_crank_closure import planar_estimate, state_from_slider
 from dualmech.models.slider_crank_loop import LOOP, Batch
-from tests.conftest import assembly_margin, exact_slider_motion
+from tests.oracles import assembly_margin, exact_slider_motion
 from tests.tolerances import S4_VS_CLOSED_FORM
 
 

@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose
 from dualmech.core.motion import CrankState
 from dualmech.models.case import load_case
 from dualmech.models.slider_crank import analyze, analyze_many, solve_case
-from tests.conftest import assembly_margin, exact_slider_motion
+from tests.oracles import assembly_margin, exact_slider_motion
 from tests.tolerances import BATCH_VS_SINGLE, RATES_VS_EXACT, S4_VS_CLOSED_FORM
 
 BASE = load_case("a4-30-s1-3.5")
@@ -138,13 +138,11 @@ def test_other_branch_is_detected_and_refused(monkeypatch):
     """Seed Newton on the other assembly branch: the jump is detected and the right branch recovered."""
     import dualmech.models.slider_crank_closure as scc
     from dualmech.core.closure import ClosureStatus, solve_closure
-    from dualmech.core.dual import Dual
     from dualmech.models.slider_crank_loop import LOOP, Batch
-    from tests.conftest import closed_form_s4
 
     case = BASE.with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 15.0}})
     theta = np.radians(case.motion.angles_deg)
-    right = closed_form_s4(case, Dual(theta, np.zeros_like(theta))).re
+    right = exact_slider_motion(case, theta)[0]
     f, k4 = case.geometry.foot, case.geometry.k4
     p2 = np.stack([12 * np.cos(theta), 12 * np.sin(theta), np.full_like(theta, 3.5)], 1)
     other = -2 * ((p2 - f) @ k4) - right  # the second root of the sphere-line quadratic

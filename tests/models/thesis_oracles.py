@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tests import oracles
+
 c, s = np.cos, np.sin
 
 # ============================================================================ printed matrices (1)-(4)
@@ -157,12 +159,12 @@ def thesis_newton(x, geom, iterations: int, diagonal: bool = True):
 
 
 def exact_s4(th1, s1, a1, a2, a4, al4):
-    """Sphere-line intersection on the branch (P3 - P2).k4 < 0; scalar or array th1."""
+    """Sphere-line intersection on the branch (P3 - P2).k4 < 0 (:mod:`tests.oracles`); scalar or array th1."""
     th1 = np.asarray(th1, dtype=float)
-    k = np.array([0.0, s(al4), c(al4)])
-    d = np.stack([a1 * c(th1) + a4, a1 * s(th1), np.full_like(th1, s1)], -1)
-    kd = d @ k
-    return -kd + np.sqrt(kd**2 - (d * d).sum(-1) + a2**2)
+    foot, k = oracles.slider_line(a4, al4)
+    p2 = np.stack([a1 * c(th1), a1 * s(th1), np.full_like(th1, s1)], -1)
+    s4 = oracles.sphere_line_s4(p2, foot, k, a2)
+    return s4.reshape(th1.shape)
 
 
 def thesis_angles(th1, s1, a1, a2, a4, al4) -> np.ndarray:

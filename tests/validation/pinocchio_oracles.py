@@ -1,14 +1,8 @@
 """Test oracles for the Pinocchio judge: random cases, closed-form motion, Newton–Euler residuals.
 
-Nothing here calls Pinocchio or the in-house solver.  The motion is the closed
-form of ``docs/conventions.md`` (sphere–line intersection on the branch
-``(P3 - P2)·k4 < 0``) with its rates from the differentiated loop equation
-``|P3 - P2|^2 = a2^2``:
-
-.. math::
-    e = P_3 - P_2, \\qquad
-    \\dot S_4 = -\\frac{e\\cdot\\dot P_2}{e\\cdot k_4}, \\qquad
-    \\ddot S_4 = \\frac{|\\dot e|^2 - e\\cdot\\ddot P_2}{e\\cdot k_4}.
+Nothing here calls Pinocchio or the in-house solver.  The motion is the tests' closed
+form (``tests/oracles.py``: sphere–line intersection on the branch ``(P3 - P2)·k4 < 0``,
+rates from the differentiated loop equation ``|P3 - P2|^2 = a2^2``).
 
 Body motions follow the conventions' body frames; the rod has zero spin, so
 ``omega_rod = u × u_dot`` and ``omega_dot_rod = u × u_ddot``.
@@ -18,8 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from dualmech.core.motion import CrankState
 from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS, ResultTable
 from dualmech.models.case import Case, case_from_dict
+from tests.oracles import slider_motion
 
 
 def physical_inertia(rng: np.random.Generator) -> list[list[float]]:
@@ -67,33 +63,16 @@ def random_case(rng: np.random.Generator, mode: str, gravity: bool = True, step:
 
 
 def oracle_motion(case: Case) -> dict[str, np.ndarray]:
-    """Closed-form positions, velocities and accelerations of P2 and P3 and S4's rates, each (n, 3) or (n,).
+    """Closed-form positions, velocities and accelerations of P2 and P3 and S4's rates, each (n, 3) or (n,)
+    (:func:`tests.oracles.slider_motion`), with the crank state they follow.
 
     NaN where the rod cannot reach the slider line.
     """
-    g = case.geometry
-    st = case.motion.state(g.crank_axial_shift)
-    a1, a2 = g.crank_length, g.rod_length
-    k4 = np.array([0.0, np.sin(g.slider_twist), np.cos(g.slider_twist)])
-    F = np.array([-g.slider_offset, 0.0, 0.0])
-    w, wd = st.theta_dot, st.theta_ddot
-    c, s = np.cos(st.theta), np.sin(st.theta)
-    p2 = np.stack([a1 * c, a1 * s, st.s], -1)
-    v2 = np.stack([-a1 * s * w, a1 * c * w, st.s_dot], -1)
-    acc2 = np.stack([-a1 * c * w**2 - a1 * s * wd, -a1 * s * w**2 + a1 * c * wd, st.s_ddot], -1)
-    d = p2 - F
-    kd = d @ k4
-    with np.errstate(invalid="ignore"):
-        s4 = -kd + np.sqrt(kd**2 - (d * d).sum(-1) + a2**2)
-    p3 = F - s4[:, None] * k4
-    e = p3 - p2
-    s4_dot = -(e * v2).sum(-1) / (e @ k4)
-    v3 = -s4_dot[:, None] * k4
-    e_dot = v3 - v2
-    s4_ddot = ((e_dot * e_dot).sum(-1) - (e * acc2).sum(-1)) / (e @ k4)
-    acc3 = -s4_ddot[:, None] * k4
-    return {"state": st, "k4": k4, "p2": p2, "v2": v2, "a2": acc2, "p3": p3, "v3": v3, "a3": acc3,
-            "S4": s4, "S4_dot": s4_dot, "S4_ddot": s4_ddot}
+    mo = slider_motion(case)
+    n, m = mo["theta"].shape[0], case.motion
+    mo["state"] = CrankState(mo["theta"], mo["S1"], np.full(n, m.speed), mo["S1_dot"], np.full(n, m.accel),
+                             mo["S1_ddot"])
+    return mo
 
 
 def body_motion(case: Case, mo: dict) -> dict[str, tuple]:

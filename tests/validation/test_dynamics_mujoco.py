@@ -3,7 +3,7 @@
 The model is the case's MJCF (``models/mjcf.py``), edited here with MjSpec: for a held ``S1``
 the axial slide and its servo are removed and the crank body is placed at ``S1``; actuators are
 disabled (loads are applied through ``qfrc_applied`` and joint damping).  Configurations come
-from the closed-form oracle (``tests/conftest.py`` formula), never from the in-house solver.
+from the closed-form oracle (``tests/oracles.py``), never from the in-house solver.
 
 * Generalized inertia: ``n^T M n`` with ``n`` the null-space vector of the loop constraints
   (connect gap, zero rod spin ``u . omega_rod = 0``, and ``S1_dot = S1' theta_dot`` when the
@@ -23,6 +23,7 @@ from dualmech.models import forward_dynamics as fd
 from dualmech.models.case import load_case
 from dualmech.models.mjcf import case_to_mjcf, default_settings
 from dualmech.validation.tolerances import DYN_MUJOCO_INERTIA, DYN_MUJOCO_INERTIA_DERIVATIVE, DYN_MUJOCO_RUNUP
+from tests import oracles
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -31,14 +32,12 @@ RUNUP_TIMESTEP = 1e-4
 
 
 def _closed_form(case, theta, s1):
-    """S4, P2, P3 on the branch (P3 - P2).k4 < 0 -- the sphere-line intersection (test oracle)."""
+    """S4, P2, P3 on the branch (P3 - P2).k4 < 0 at one crank angle: the tests' closed form (tests/oracles.py)."""
     g = case.geometry
-    k4 = np.array([0.0, math.sin(g.slider_twist), math.cos(g.slider_twist)])
-    f = np.array([-g.slider_offset, 0.0, 0.0])
+    foot, k4 = oracles.slider_line(g.slider_offset, g.slider_twist)
     p2 = np.array([g.crank_length * math.cos(theta), g.crank_length * math.sin(theta), s1])
-    d = p2 - f
-    s4 = -k4 @ d + math.sqrt((k4 @ d) ** 2 - d @ d + g.rod_length**2)
-    return s4, p2, f - s4 * k4
+    s4 = float(oracles.sphere_line_s4(p2, foot, k4, g.rod_length)[0])
+    return s4, p2, foot - s4 * k4
 
 
 def _build(case, hold_axial: bool, damping: tuple[float, float] = (0.0, 0.0)):

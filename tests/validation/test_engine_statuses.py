@@ -26,7 +26,7 @@ from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case, case_from_dict
 from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, MATRIX_KINEMATICS, SIM_STROKE
-from tests.conftest import assembly_margin
+from tests.oracles import assembly_margin
 from tests.tolerances import S4_AT_ASSEMBLY_LIMIT
 
 ENGINES = {"dualmech": "dualmech.models.slider_crank", "pinocchio": "dualmech.validation.pinocchio_engine",

@@ -16,7 +16,7 @@ from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS, NUMERIC_COLUMNS, 
 from dualmech.models.case import load_case, preset_names, with_loads
 from dualmech.validation.cli import main
 from dualmech.validation.tolerances import MUJOCO_RIGID_KINEMATICS, MUJOCO_RIGID_REACTIONS
-from tests.conftest import assembly_margin, exact_slider_motion
+from tests.oracles import assembly_margin, exact_slider_motion
 from tests.validation.pinocchio_oracles import condition, group_scales, newton_euler_residuals, power_terms, random_case
 
 mujoco = pytest.importorskip("mujoco")

@@ -7,7 +7,7 @@ from numpy.testing import assert_allclose
 from dualmech.core.table import FORCE_COLUMNS, KINEMATIC_COLUMNS, MOMENT_COLUMNS, REACTION_COLUMNS
 from dualmech.models.case import load_case
 from dualmech.validation.tolerances import PINOCCHIO_VS_CLOSED_FORM
-from tests.conftest import assembly_margin, exact_slider_motion
+from tests.oracles import assembly_margin, exact_slider_motion
 from tests.validation.pinocchio_oracles import random_case
 
 pin = pytest.importorskip("pinocchio")

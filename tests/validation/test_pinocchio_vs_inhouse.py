@@ -97,7 +97,7 @@ def _probe(geometry, theta):
 
 @pytest.mark.parametrize("geometry, theta, expected", STATUS_PROBES, ids=["after-gap", "inside-gap"])
 def test_pinocchio_status_at_the_probes(geometry, theta, expected):
-    from tests.conftest import assembly_margin
+    from tests.oracles import assembly_margin
 
     case = _probe(geometry, theta)
     table = pinocchio_solve(case)
