@@ -349,7 +349,7 @@ def test_a_matrix_is_bounded_before_it_is_expanded():
 
 def test_report_of_a_crank_at_rest_has_no_balancing_ratio():
     """crank_rpm = 0 (quasi-static, a meaningful case) divided by a zero shaking force in the report."""
-    from dualmech.validation.report import balancing
+    from dualmech.validation.report.sections import balancing
 
     data = tomllib.loads(MATRIX.format(name="rest"))
     data["set"]["motion.crank_rpm"] = 0.0

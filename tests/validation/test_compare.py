@@ -245,7 +245,7 @@ def test_a_broken_report_section_fails_the_report(small, tmp_path, monkeypatch):
     matrix = load_matrix(small)
     out = tmp_path / "run"
     run_matrix(matrix, out, jobs=1, registry=FAKE_REGISTRY)
-    monkeypatch.setattr(report, "FINDINGS_FUNCTION", f"{FAKES}:solve_case_raises")
+    monkeypatch.setattr(report.sections, "FINDINGS_FUNCTION", f"{FAKES}:solve_case_raises")
     with pytest.raises(report.ReportError, match="report section 'findings' failed: TypeError"):
         report.write_report(out, None, jobs=1)
     assert not Path(out / "summary.json").exists()

@@ -1,0 +1,217 @@
+"""Which figures a report draws, and drawing them in processes.
+
+:func:`figure_specs` plans every figure of a run (what to draw and from which tables);
+:func:`render_figures` draws them with :mod:`~dualmech.validation.report.plots`, in ``jobs`` processes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import re
+import warnings
+
+import numpy as np
+from dualmech.core.table import REACTION_COLUMNS, ResultTable
+from dualmech.validation.compare import STROKE, Comparison, relative_differences
+from dualmech.validation.executors import process_pool
+from dualmech.validation.matrix import Matrix
+from dualmech.validation.report.plots import Figure, difference_figure, heatmap_figure, sweep_figure
+from dualmech.validation.runner import ProgressCallback
+
+#: Figures of each sweep and load mode: (key, title, columns, panel grid (rows, cols)).
+SWEEP_FIGURES: tuple[tuple[str, str, tuple[str, ...], tuple[int, int]], ...] = (
+    ("S4", "slider displacement S4", ("S4",), (1, 1)),
+    (
+        "joint1",
+        "joint 1 (ground on crank): force and moment about O",
+        ("j1_fx", "j1_fy", "j1_fz", "j1_mx", "j1_my", "j1_mz"),
+        (2, 3),
+    ),
+    ("joint2", "joint 2 (crank on rod): force", ("j2_fx", "j2_fy", "j2_fz"), (1, 3)),
+    ("joint3", "joint 3 (rod on slider): force", ("j3_fx", "j3_fy", "j3_fz"), (1, 3)),
+    (
+        "joint4",
+        "joint 4 (ground on slider): force and moment about P3",
+        ("j4_fx", "j4_fy", "j4_fz", "j4_mx", "j4_my", "j4_mz"),
+        (2, 3),
+    ),
+    ("loads", "slider load and drive torque", ("slider_load", "drive_torque"), (1, 2)),
+)
+
+
+#: One planned figure: (file key, section, group, title, caption, (drawing function name, its arguments)).
+FigureSpec = tuple[str, str, str, str, str, tuple[str, tuple]]
+
+
+def figure_specs(matrix: Matrix, results: dict, comparison: Comparison) -> list[FigureSpec]:
+    """Every figure of the report: the sweeps', then each judge's difference plot, then its heat map."""
+    return [
+        *_sweep_specs(matrix, results),
+        *_difference_specs(matrix, results),
+        *_heatmap_specs(matrix, comparison),
+    ]
+
+
+def _sweep_specs(matrix: Matrix, results: dict) -> list[FigureSpec]:
+    """The :data:`SWEEP_FIGURES` of every sweep and load mode that has any result."""
+    specs = []
+    units = matrix.cases[0].raw.get("units", "consistent") if matrix.cases else "consistent"
+    for sw in matrix.sweeps:
+        for mode, ids in sw.case_ids.items():
+            cases = []
+            for cid in ids:
+                per = {e: t for e, t in results.get(cid, {}).items() if isinstance(t, ResultTable)}
+                label = matrix.case_by_id(cid).labels.get(sw.name, cid)
+                cases.append((label, per))
+            if not any(cases_per for _, cases_per in cases):
+                continue
+            for key, what, cols, grid in SWEEP_FIGURES:
+                title = f"{what}: {sw.name} sweep, {mode} mode"
+                caption = (
+                    f"{sw.label}; {mode} mode. Lines: {matrix.reference}; markers: "
+                    f"{', '.join(matrix.judges)}. Dotted verticals: dead centres; "
+                    "triangles: values beyond the axis."
+                )
+                specs.append(
+                    (
+                        _file_key(f"{sw.name}-{mode}-{key}"),
+                        "sweep",
+                        sw.name,
+                        title,
+                        caption,
+                        (
+                            "sweep",
+                            (
+                                title,
+                                cols,
+                                grid,
+                                cases,
+                                matrix.reference,
+                                matrix.judges,
+                                mode == "torque",
+                                units,
+                            ),
+                        ),
+                    )
+                )
+    return specs
+
+
+def _difference_specs(matrix: Matrix, results: dict) -> list[FigureSpec]:
+    """Per judge: the worst relative difference over kinematics and over reactions, row by row."""
+    specs: list[FigureSpec] = []
+    kin_q = tuple(q for q in matrix.quantities if q not in REACTION_COLUMNS)
+    rea_q = tuple(q for q in matrix.quantities if q in REACTION_COLUMNS)
+    for e in matrix.judges:
+        rows: dict[str, list] = {m: [] for m in matrix.modes}
+        for mc in matrix.cases:
+            per = results.get(mc.id, {})
+            ref, judge = per.get(matrix.reference), per.get(e)
+            if (
+                not isinstance(ref, ResultTable)
+                or not isinstance(judge, ResultTable)
+                or len(ref) != len(judge)
+            ):
+                continue
+            rel = relative_differences(ref, judge, mc.mode, matrix.quantities)
+            rows[mc.mode].append(
+                (mc.id, ref["theta1_deg"], _row_worst(rel, kin_q, len(ref)), _row_worst(rel, rea_q, len(ref)))
+            )
+        rows = {m: r for m, r in rows.items() if r}
+        if rows:
+            tols = matrix.tolerances[e]
+            kt = min((tols[q].value for q in kin_q), default=float("nan"))
+            rt = min((tols[q].value for q in rea_q), default=float("nan"))
+            specs.append(
+                (
+                    _file_key(f"difference-{e}"),
+                    "difference",
+                    e,
+                    f"{e}: relative difference against {matrix.reference}",
+                    "Worst relative difference r over the compared columns at each crank position "
+                    "(log scale); dashed: the tolerance. Gaps: rows not compared (dead centres, "
+                    "unassembled).",
+                    ("difference", (e, rows, (kt, rt))),
+                )
+            )
+    return specs
+
+
+def _row_worst(rel: dict[str, np.ndarray], quantities: tuple[str, ...], n: int) -> np.ndarray:
+    """Per row, the largest of ``rel[q]`` over ``quantities`` (shape ``(n,)``); NaN where none compared."""
+    if not quantities:
+        return np.full(n, np.nan)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: nothing compared there
+        return np.nanmax(np.stack([rel[q] for q in quantities]), axis=0)
+
+
+def _heatmap_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec]:
+    """Per judge: the worst relative difference per case and quantity, with its failures."""
+    specs: list[FigureSpec] = []
+    for e in matrix.judges:
+        ids = [mc.id for mc in matrix.cases if comparison.for_engine(mc.id, e)]
+        if not ids:
+            continue
+        qs = list(matrix.quantities) + [STROKE]
+        vals = np.full((len(ids), len(qs)), np.nan)
+        failed = np.zeros((len(ids), len(qs)), dtype=bool)
+        for i, cid in enumerate(ids):
+            for c in comparison.for_engine(cid, e):
+                if c.quantity in qs:
+                    j = qs.index(c.quantity)
+                    vals[i, j] = c.max_rel
+                    failed[i, j] = not c.passed
+                elif not c.passed:  # status or engine failure: the whole row
+                    failed[i, :] = True
+        specs.append(
+            (
+                _file_key(f"heatmap-{e}"),
+                "heatmap",
+                e,
+                f"{e}: agreement per case and quantity",
+                "log10 of the worst relative difference; red boxes: out of tolerance (or the engine failed).",
+                ("heatmap", (e, ids, qs, vals, failed)),
+            )
+        )
+    return specs
+
+
+def _file_key(text: str) -> str:
+    """A figure file stem that needs no escaping in URLs or Markdown."""
+    return re.sub(r"[^A-Za-z0-9.-]", "-", text)
+
+
+_FIGURE_FUNCTIONS = {"sweep": sweep_figure, "difference": difference_figure, "heatmap": heatmap_figure}
+
+
+def _render(job: tuple[str, tuple]) -> bytes:
+    name, args = job
+    return _FIGURE_FUNCTIONS[name](*args)
+
+
+def render_figures(
+    matrix: Matrix,
+    results: dict,
+    comparison: Comparison,
+    jobs: int = 1,
+    progress: ProgressCallback | None = None,
+) -> list[Figure]:
+    """Every figure of the report, rendered in ``jobs`` processes.
+
+    ``progress(done, total, key)`` is called after each figure.
+    """
+    specs = figure_specs(matrix, results, comparison)
+    jobs_list = [spec[5] for spec in specs]
+    pngs: list[bytes] = []
+    with contextlib.ExitStack() as stack:
+        if jobs > 1 and len(specs) > 1:
+            pool = stack.enter_context(process_pool(jobs))
+            rendered = pool.map(_render, jobs_list, chunksize=max(1, len(specs) // (4 * jobs)))
+        else:
+            rendered = map(_render, jobs_list)
+        for spec, png in zip(specs, rendered):
+            pngs.append(png)
+            if progress is not None:
+                progress(len(pngs), len(specs), spec[0])
+    return [Figure(*spec[:5], png) for spec, png in zip(specs, pngs)]

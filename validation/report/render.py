@@ -1,0 +1,252 @@
+"""Writing a report: the Jinja2 templates of ``validation/templates/`` filled with the sections.
+
+:func:`write_report` renders a self-contained HTML page (autoescaped, figures embedded as base64
+PNG; nothing loaded from the network) and a Markdown summary (every value escaped by
+:func:`markdown_escape`, figures beside it under ``figures/``), and writes ``summary.json``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Callable
+
+from dualmech.models.design_summary import JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION
+from dualmech.validation import runner
+from dualmech.validation.compare import Check, Comparison, compare_run
+from dualmech.validation.matrix import Matrix
+from dualmech.validation.provenance import key_versions
+from dualmech.validation.report.figures import render_figures
+from dualmech.validation.report.plots import Figure
+from dualmech.validation.report.sections import (
+    balancing,
+    copy_errata,
+    dead_centre_rows,
+    design_rows,
+    engine_versions,
+    findings,
+    stroke_rows,
+    summary_rows,
+    tolerance_rows,
+)
+from dualmech.validation.rundir import locked, record_files, remove_stale
+from dualmech.validation.runner import ProgressCallback
+
+#: The report's Jinja2 templates.
+TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
+
+
+@dataclass(frozen=True)
+class ReportFiles:
+    """Where :func:`write_report` put its output."""
+
+    html: Path
+    markdown: Path
+    summary: Path
+    figures: tuple[Path, ...]
+    seconds: float
+    verdict: str  # PASS, FAIL or INCOMPLETE (validation/compare.py Verdict)
+
+
+def markdown_escape(value: Any) -> str:
+    """Text safe inside Markdown (and its tables): markup characters and HTML are escaped."""
+    text = "" if value is None else str(value)
+    text = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    text = text.replace("\r", " ").replace("\n", " ")
+    out = []
+    for ch in text:
+        out.append("\\" + ch if ch in "\\`*_{}[]()#+!|~" else ch)
+    return "".join(out)
+
+
+def _fmt(x: Any, spec: str = ".3g") -> str:
+    """The templates' ``fmt`` filter: ``format(x, spec)``, with a dash for None and NaN."""
+    if x is None:
+        return "–"
+    if isinstance(x, float) and math.isnan(x):
+        return "–"
+    if isinstance(x, float) and math.isinf(x):
+        return "∞"
+    return format(x, spec)
+
+
+def environment(loader_dir: Path, markdown: bool) -> Any:
+    """A Jinja2 environment over the templates in ``loader_dir``: HTML autoescaped, or Markdown escaped.
+
+    Both fail on an undefined variable and have the ``fmt`` filter (numbers to short text).
+    """
+    from jinja2 import Environment, FileSystemLoader, StrictUndefined, select_autoescape
+
+    if markdown:
+        env = Environment(
+            loader=FileSystemLoader(str(loader_dir)),
+            autoescape=False,
+            undefined=StrictUndefined,
+            finalize=markdown_escape,
+            trim_blocks=True,
+            lstrip_blocks=True,
+            keep_trailing_newline=True,
+        )
+    else:
+        env = Environment(
+            loader=FileSystemLoader(str(loader_dir)),
+            undefined=StrictUndefined,
+            autoescape=select_autoescape(["html", "j2"], default_for_string=True, default=True),
+            trim_blocks=True,
+            lstrip_blocks=True,
+        )
+    env.filters["fmt"] = _fmt
+    return env
+
+
+def comparison_summary(matrix: Matrix, comparison: Comparison, run: dict) -> dict:
+    """The JSON summary of a run (``summary.json``): every check, strokes, verdicts."""
+    return {
+        "format": "dualmech-summary/1",
+        "matrix": matrix.name,
+        "reference": matrix.reference,
+        "engines": list(matrix.engines),
+        "passed": comparison.passed,
+        "verdict": str(comparison.verdict),
+        "n_checks": len(comparison.checks),
+        "n_failed": len(comparison.failures()),
+        "n_missing": len(comparison.missing),
+        "versions": key_versions(run),
+        "run": {k: run.get(k) for k in ("started", "seconds", "jobs", "scheduler", "machine", "versions")},
+        "cases": [
+            {"id": mc.id, "mode": mc.mode, "values": mc.values, "sweeps": list(mc.sweeps)}
+            for mc in matrix.cases
+        ],
+        "strokes": comparison.strokes,
+        "dead_centres": comparison.dead_centres,
+        "errors": comparison.errors,
+        "checks": [c.to_dict() for c in comparison.checks],
+    }
+
+
+def write_report(
+    rundir: str | Path,
+    outdir: str | Path | None = None,
+    *,
+    jobs: int = 1,
+    comparison: Comparison | None = None,
+    progress: ProgressCallback | None = None,
+) -> ReportFiles:
+    """Render the report of the run in ``rundir`` into ``outdir`` (default: ``rundir``).
+
+    Writes ``report.html`` (self-contained), ``report.md``, ``summary.json`` and
+    ``figures/*.png``, and lists them in the folder's manifest
+    (:mod:`~dualmech.validation.rundir`: only a dualmech folder, one writer at a time,
+    and only figures it wrote before are removed when they are no longer drawn).
+    """
+    start = time.perf_counter()
+    rundir = Path(rundir)
+    matrix, run = runner.load_run(rundir)
+    results = runner.load_results(rundir, matrix)
+    if comparison is None:
+        comparison = compare_run(matrix, results)
+    with locked(outdir if outdir is not None else rundir) as outdir:
+        figures = _section(
+            "figures", render_figures, matrix, results, comparison, jobs=jobs, progress=progress
+        )
+        balance_figure, balance_rows = _section("balancing", balancing, matrix)
+        figures = [*figures, *([balance_figure] if balance_figure is not None else [])]
+        find = (
+            _section("findings", findings) if matrix.of_thesis else None
+        )  # about the thesis's mechanism only
+        paths = _write_figures(outdir, figures)
+        context = _context(matrix, run, results, comparison, figures)
+        context.update(
+            findings=find,
+            balancing=balance_rows,
+            errata=copy_errata(outdir) if find else None,
+            report_seconds=time.perf_counter() - start,
+        )
+        files = ReportFiles(
+            outdir / "report.html",
+            outdir / "report.md",
+            outdir / "summary.json",
+            tuple(paths),
+            0.0,
+            str(comparison.verdict),
+        )
+        write_text_atomic(
+            files.html,
+            environment(TEMPLATES, markdown=False).get_template("report.html.j2").render(**context),
+        )
+        write_text_atomic(
+            files.markdown,
+            environment(TEMPLATES, markdown=True).get_template("report.md.j2").render(**context),
+        )
+        runner.write_json_atomic(files.summary, comparison_summary(matrix, comparison, run), pretty=True)
+        record_files(outdir, [files.html, files.markdown, files.summary])
+    return replace(files, seconds=time.perf_counter() - start)
+
+
+def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
+    """Write the figures' PNGs; remove those this folder's earlier reports wrote that are no longer drawn."""
+    figdir = outdir / "figures"
+    figdir.mkdir(parents=True, exist_ok=True)
+    paths = [figdir / f"{f.key}.png" for f in figures]
+    for f, p in zip(figures, paths):
+        p.write_bytes(f.png)
+    record_files(outdir, paths)
+    remove_stale(outdir, paths, "figures")
+    return paths
+
+
+def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison, figures: list[Figure]) -> dict:
+    """The template variables that summarise the run (everything but the model-package sections)."""
+    failures: list[Check] = comparison.failures()
+    return {
+        "matrix": matrix,
+        "run": run,
+        "passed": comparison.passed,
+        "verdict": str(comparison.verdict),
+        "n_missing": len(comparison.missing),
+        "n_checks": len(comparison.checks),
+        "failures": failures[:200],
+        "n_failures": len(failures),
+        "summary": summary_rows(matrix, comparison),
+        "strokes": stroke_rows(matrix, comparison),
+        "tolerances": tolerance_rows(matrix),
+        "dead_centres": dead_centre_rows(matrix, results),
+        "engine_versions": engine_versions(results),
+        "design": design_rows(matrix, results),
+        "design_columns": [
+            name
+            for _, forces, moments in JOINTS
+            for name in (f"{forces[0][:2]} |f|", *([f"{moments[0][:2]} |m|"] if moments else []))
+        ]
+        + ["|drive_torque|", "|slider_load|"],
+        "near_dead_centre": NEAR_DEAD_CENTRE_TRANSMISSION,
+        "figures": figures,
+        "sections": [(s.name, s.label) for s in matrix.sweeps],
+        "n_done": len(results),
+        "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+    }
+
+
+class ReportError(RuntimeError):
+    """A section of the report could not be built; the message is one line."""
+
+
+def _section(name: str, build: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+    """``build(*args, **kwargs)``; any exception becomes a :class:`ReportError` naming the section."""
+    try:
+        return build(*args, **kwargs)
+    except Exception as err:
+        lines = str(err).strip().splitlines()
+        raise ReportError(
+            f"report section {name!r} failed: {type(err).__name__}: {lines[0][:200] if lines else ''}"
+        ) from err
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` so that readers see the old file or the new one, never half."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)

@@ -1,0 +1,236 @@
+"""The report's sections as data: rows for the templates' tables, computed from a finished run.
+
+Every function here returns plain rows (dicts) or :class:`~dualmech.models.design_summary.DesignSummary`
+objects; :mod:`~dualmech.validation.report.render` puts them into the templates.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from importlib import import_module
+from pathlib import Path
+
+import numpy as np
+from dualmech.core.status import Status, is_status
+from dualmech.core.table import REACTION_COLUMNS, ResultTable
+from dualmech.models.design_summary import DesignSummary, design_summary
+from dualmech.validation.compare import ENGINE, STATUS, STROKE, Comparison
+from dualmech.validation.matrix import Matrix
+from dualmech.validation.report.plots import Figure
+from dualmech.validation.rundir import record_files
+
+#: The model package's function that lists the thesis's printed findings with verdicts.
+FINDINGS_FUNCTION = "dualmech.models.findings:thesis_findings"
+
+
+def engine_verdict(comparison: Comparison, case: str, engine: str) -> dict:
+    """Verdict of one (case, judge): passed, worst ratio to tolerance, worst quantity, failures."""
+    checks = comparison.for_engine(case, engine)
+    if not checks:
+        return {"passed": None, "ratio": float("nan"), "worst": "", "failed": [], "max_rel": float("nan")}
+    worst = max(checks, key=lambda c: c.ratio if np.isfinite(c.ratio) else 1e300)
+    numeric = [c for c in checks if c.quantity not in (STATUS, ENGINE) and np.isfinite(c.max_rel)]
+    return {
+        "passed": all(c.passed for c in checks),
+        "ratio": worst.ratio,
+        "worst": worst.quantity,
+        "failed": [c.quantity for c in checks if not c.passed],
+        "max_rel": max((c.max_rel for c in numeric), default=float("nan")),
+    }
+
+
+def summary_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
+    """One row per case: mode, in-house stroke, dead-centre rows, and a verdict per judge."""
+    rows = []
+    for mc in matrix.cases:
+        strokes = comparison.strokes.get(mc.id, {})
+        ref_error = comparison.errors.get(mc.id, {}).get(matrix.reference)
+        ref_failed = [c.detail for c in comparison.for_engine(mc.id, matrix.reference) if not c.passed]
+        rows.append(
+            {
+                "case": mc.id,
+                "mode": mc.mode,
+                "run": bool(comparison.strokes.get(mc.id) or comparison.errors.get(mc.id)),
+                "reference_error": ref_error or ("; ".join(ref_failed) if ref_failed else None),
+                "stroke": strokes.get(matrix.reference, float("nan")),
+                "dead_centre": comparison.dead_centres.get(mc.id, {}).get(matrix.reference, 0),
+                "judges": {e: engine_verdict(comparison, mc.id, e) for e in matrix.judges},
+            }
+        )
+    return rows
+
+
+def stroke_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
+    """Per case: the stroke per engine and each judge's difference from the reference."""
+    rows = []
+    for mc in matrix.cases:
+        s = comparison.strokes.get(mc.id, {})
+        ref = s.get(matrix.reference, float("nan"))
+        rows.append(
+            {
+                "case": mc.id,
+                "strokes": {e: s.get(e, float("nan")) for e in matrix.engines},
+                "diffs": {e: s.get(e, float("nan")) - ref for e in matrix.judges},
+            }
+        )
+    return rows
+
+
+def findings() -> list[dict]:
+    """The thesis's printed findings with verdicts, from the model package (a failure fails the report)."""
+    module, func = FINDINGS_FUNCTION.split(":")
+    rows = getattr(import_module(module), func)()
+    return [
+        {
+            "finding": str(r.get("finding", "")),
+            "verdict": str(r.get("verdict", "")),
+            "evidence": str(r.get("evidence", "")),
+        }
+        for r in rows
+    ]
+
+
+def balancing(matrix: Matrix) -> tuple[Figure | None, list[dict]]:
+    """Shaking force before and after force balancing (Sinatra–Angeles): a polar figure and a table.
+
+    The figure is for the first of these cases that assembles (``None`` if none does);
+    the table gives, for the base case and the last case of each sweep (the spatial
+    offsets), the peak shaking force and shaking moment over the cycle for the
+    original and the balanced design (NaN for a case that assembles nowhere).
+    """
+    from dualmech.models.balancing import balanced_case, shaking, shaking_force_polar
+
+    base = next((c for c in matrix.cases if c.is_base), matrix.cases[0])
+    picks = [base] + [
+        next(c for c in matrix.cases if c.id == s.case_ids[base.mode][-1])
+        for s in matrix.sweeps
+        if s.case_ids.get(base.mode)
+    ]
+    picks = list({mc.id: mc for mc in picks}.values())  # the base case may also end a sweep
+    rows = []
+    for mc in picks:
+        case = mc.case()
+        before, after = shaking(case), shaking(balanced_case(case))
+        peak = {
+            name: _peak_norm(getattr(s, attr))
+            for name, s, attr in (
+                ("force_before", before, "force"),
+                ("force_after", after, "force"),
+                ("moment_before", before, "moment"),
+                ("moment_after", after, "moment"),
+            )
+        }
+        ratio = (
+            peak["force_after"] / peak["force_before"] if peak["force_before"] > 0 else None
+        )  # at rest: none
+        rows.append({"case": mc.id, **peak, "ratio": ratio})
+    drawn = next((mc for mc, row in zip(picks, rows) if np.isfinite(row["force_before"])), None)
+    if drawn is None:
+        return None, rows
+    with tempfile.TemporaryDirectory() as tmp:
+        case = drawn.case()
+        png = Path(shaking_force_polar(case, balanced_case(case), Path(tmp) / "shaking.png")).read_bytes()
+    figure = Figure(
+        "balancing-shaking-force",
+        "balancing",
+        "balancing",
+        f"shaking force, {drawn.id}: original and force-balanced design",
+        "Tip of the shaking force's component normal to the crank axis over one revolution. "
+        "Balanced: crank and rod mass centres at xi1 = -(1 + mu2)/mu1, xi2 = -1/mu2 "
+        "(docs/conventions.md; errata S7).",
+        png,
+    )
+    return figure, rows
+
+
+def _peak_norm(vectors: np.ndarray) -> float:
+    """Largest Euclidean norm over the rows of ``vectors`` (shape ``(n, 3)``) that are finite; NaN if none."""
+    norms = np.linalg.norm(vectors, axis=1)
+    norms = norms[np.isfinite(norms)]
+    return float(norms.max()) if norms.size else float("nan")
+
+
+def tolerance_rows(matrix: Matrix) -> list[dict]:
+    """Distinct tolerances of the matrix, with the judges and quantities they apply to."""
+    by_name: dict[tuple, dict] = {}
+    for e, qs in matrix.tolerances.items():
+        for q, t in qs.items():
+            row = by_name.setdefault(
+                (t.name, t.value, t.reason),
+                {"name": t.name, "value": t.value, "reason": t.reason, "where": {}},
+            )
+            row["where"].setdefault(e, []).append(q)
+    out = []
+    for row in by_name.values():
+        where = "; ".join(f"{e}: {_compact_quantities(qs)}" for e, qs in row["where"].items())
+        out.append({"name": row["name"], "value": row["value"], "reason": row["reason"], "where": where})
+    return out
+
+
+def _compact_quantities(qs: list[str]) -> str:
+    kin = [q for q in qs if q not in REACTION_COLUMNS and q != STROKE]
+    rea = [q for q in qs if q in REACTION_COLUMNS]
+    parts = []
+    if rea and len(rea) == len(REACTION_COLUMNS):
+        parts.append("all reactions")
+    elif rea:
+        parts.append(", ".join(rea))
+    if kin:
+        parts.append(", ".join(kin))
+    if STROKE in qs:
+        parts.append("stroke")
+    return ", ".join(parts)
+
+
+def engine_versions(results: dict[str, dict[str, ResultTable | str]]) -> dict[str, dict[str, str]]:
+    """Per engine, every meta entry whose key mentions a version (as the engines report them)."""
+    out: dict[str, dict[str, str]] = {}
+    for per in results.values():
+        for e, t in per.items():
+            if isinstance(t, ResultTable):
+                for k, v in t.meta.items():
+                    if "version" in k.lower():
+                        out.setdefault(e, {})[k] = str(v)
+    return out
+
+
+def copy_errata(outdir: Path) -> str | None:
+    """Copy the repository's ``docs/errata.md`` beside the report (so the folder can move).
+
+    Returns its file name, or None for an installed package without the repository's docs.
+    """
+    errata = Path(__file__).resolve().parents[2] / "docs" / "errata.md"
+    if not errata.is_file():  # an installed package without the repository's docs
+        return None
+    shutil.copyfile(errata, Path(outdir) / "errata.md")
+    record_files(outdir, ["errata.md"])
+    return "errata.md"
+
+
+def design_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> list[DesignSummary]:
+    """The reference engine's :class:`DesignSummary` of every case it solved (every peak, NaN where none)."""
+    tables = ((mc, results.get(mc.id, {}).get(matrix.reference)) for mc in matrix.cases)
+    return [
+        design_summary(t, mc.raw.get("units", "consistent")) for mc, t in tables if isinstance(t, ResultTable)
+    ]
+
+
+def dead_centre_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> list[dict]:
+    """Per case with any flagged row: the crank angles each engine flags ``dead_centre``."""
+    rows = []
+    for mc in matrix.cases:
+        per = results.get(mc.id, {})
+        flagged = {}
+        for e in matrix.engines:
+            t = per.get(e)
+            if isinstance(t, ResultTable):
+                flagged[e] = [float(x) for x in t["theta1_deg"][is_status(t.status, Status.DEAD_CENTRE)]]
+        if any(flagged.values()):
+            rows.append(
+                {
+                    "case": mc.id,
+                    "angles": {e: ", ".join(f"{a:g}" for a in v) or "none" for e, v in flagged.items()},
+                }
+            )
+    return rows
