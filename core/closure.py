@@ -19,10 +19,20 @@ from enum import IntEnum
 import numpy as np
 
 from dualmech.core.dual import skew
-from dualmech.core.loop import (Chain, Loop, LoopState, Screw, closure_error, closure_residual, evaluate, gauge_rows,
-                                screw_jacobian)
+from dualmech.core.loop import (
+    Chain,
+    Loop,
+    LoopState,
+    Screw,
+    closure_error,
+    closure_residual,
+    evaluate,
+    gauge_rows,
+    screw_jacobian,
+)
 
-#: Closure residual (dimensionless, see :func:`~dualmech.core.loop.closure_residual`) at which a position counts as closed.
+#: Closure residual (dimensionless, see :func:`~dualmech.core.loop.closure_residual`) at which a position
+#: counts as closed.
 CLOSURE_TOL = 1e-14
 #: A residual this small that Newton can no longer halve is rounding noise: also closed.
 ROUNDING_TOL = 1e-12
@@ -168,7 +178,8 @@ def _take_chain(chain, index: np.ndarray):
 
 
 def _objective(loop, inputs, state):
-    """DFP objective :math:`\\tfrac12\\|\\hat B - \\hat I\\|^2`, gradient, Jacobian (+ gauge rows), stationarity cosine, residual.
+    """DFP objective :math:`\\tfrac12\\|\\hat B - \\hat I\\|^2`, gradient, Jacobian (+ gauge rows),
+    stationarity cosine, residual.
 
     The whole matrix, not only its skew part: a loop product rotated by :math:`\\pi`
     has no skew part, and minimizing the skew part alone converges to such spurious
@@ -239,20 +250,23 @@ def davidon_fletcher_powell(loop: Loop, inputs: dict[str, np.ndarray], state: Lo
 
 
 def _gauss_newton_inverse(jac_g: np.ndarray) -> np.ndarray:
-    """Inverse of the Gauss-Newton Hessian with the gauge rows (full rank off singular poses), ``(n, k, k)``."""
+    """Inverse of the Gauss-Newton Hessian with the gauge rows (full rank off singular poses),
+    ``(n, k, k)``."""
     gram = np.swapaxes(jac_g, 1, 2) @ jac_g
     gram += 1e-12 * np.trace(gram, axis1=1, axis2=2)[:, None, None] * np.eye(gram.shape[-1])
     return np.linalg.pinv(gram, hermitian=True)
 
 
 def _dfp_update(h: np.ndarray, s: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """DFP update of the inverse Hessian: :math:`H + ss^T/s^Ty - Hyy^TH/y^THy` (skipped where not positive)."""
+    """DFP update of the inverse Hessian: :math:`H + ss^T/s^Ty - Hyy^TH/y^THy` (skipped where not
+    positive)."""
     sy = np.einsum("ni,ni->n", s, y)
     hy = np.einsum("nij,nj->ni", h, y)
     yhy = np.einsum("ni,ni->n", y, hy)
     good = (sy > 1e-300) & (yhy > 1e-300)
     sy, yhy = np.where(good, sy, 1.0), np.where(good, yhy, 1.0)
-    upd = h + np.einsum("ni,nj->nij", s, s) / sy[:, None, None] - np.einsum("ni,nj->nij", hy, hy) / yhy[:, None, None]
+    upd = (h + np.einsum("ni,nj->nij", s, s) / sy[:, None, None]
+           - np.einsum("ni,nj->nij", hy, hy) / yhy[:, None, None])
     return np.where(good[:, None, None], upd, h)
 
 

@@ -57,7 +57,11 @@ class Dual:
         return Dual(-self.re, -self.du)
 
     def __mul__(self, other: "Dual | np.ndarray | float") -> "Dual":
-        """Elementwise product; :math:`(a+\\varepsilon a^\\circ)(b+\\varepsilon b^\\circ) = ab + \\varepsilon(ab^\\circ + a^\\circ b)`."""
+        """Elementwise product:
+
+        .. math:: (a+\\varepsilon a^\\circ)(b+\\varepsilon b^\\circ)
+                  = ab + \\varepsilon(ab^\\circ + a^\\circ b)
+        """
         if isinstance(other, Dual):
             return Dual(self.re * other.re, self.re * other.du + self.du * other.re)
         return Dual(self.re * other, self.du * other)
@@ -111,7 +115,8 @@ def dsqrt(x: Dual) -> Dual:
 
 
 def dcross(a: Dual, b: Dual) -> Dual:
-    """Dual cross product of dual vectors: :math:`a\\times b + \\varepsilon(a\\times b^\\circ + a^\\circ\\times b)`.
+    """Dual cross product of dual vectors:
+    :math:`a\\times b + \\varepsilon(a\\times b^\\circ + a^\\circ\\times b)`.
 
     For a twist ``a`` and a line or twist ``b`` this is the rate of change of
     ``b`` carried by the motion ``a`` (the Lie bracket of screws).
@@ -166,7 +171,8 @@ def identity(batch: tuple[int, ...] = ()) -> Dual:
 
 
 def from_pose(rotation: np.ndarray, origin: np.ndarray) -> Dual:
-    """Dual matrix :math:`R + \\varepsilon [p]_\\times R` of a frame at ``origin`` with orientation ``rotation``."""
+    """Dual matrix :math:`R + \\varepsilon [p]_\\times R` of a frame at ``origin`` with orientation
+    ``rotation``."""
     return Dual(rotation, skew(origin) @ rotation)
 
 

@@ -64,7 +64,8 @@ class InfluenceCoefficients:
     omega_rate_prime: np.ndarray
 
 
-def generalized_inertia(masses: np.ndarray, inertia_world: np.ndarray, coeffs: InfluenceCoefficients) -> np.ndarray:
+def generalized_inertia(masses: np.ndarray, inertia_world: np.ndarray,
+                        coeffs: InfluenceCoefficients) -> np.ndarray:
     """:math:`I(\\theta) = \\sum_b m_b |v_b|^2 + w_b\\cdot J_b w_b`, shape ``(n,)`` (mass·length²).
 
     Parameters
@@ -148,7 +149,8 @@ def damping_force(theta_dot: np.ndarray | float, slider_rate: np.ndarray,
 def acceleration(inertia: np.ndarray, inertia_derivative: np.ndarray, theta_dot: np.ndarray | float,
                  generalized_force_value: np.ndarray | float) -> np.ndarray:
     """Forward dynamics :math:`\\ddot\\theta = (\\tau - \\tfrac12 I'\\dot\\theta^2)/I` (eq. 39)."""
-    return (generalized_force_value + coriolis_coefficient(inertia_derivative, theta_dot) * theta_dot) / inertia
+    coriolis = coriolis_coefficient(inertia_derivative, theta_dot) * theta_dot
+    return (generalized_force_value + coriolis) / inertia
 
 
 def project_mass_matrix(mass_matrix: np.ndarray, basis: np.ndarray) -> np.ndarray:

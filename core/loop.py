@@ -174,7 +174,8 @@ def rodrigues(w: np.ndarray) -> np.ndarray:
     return np.eye(3) + a * k + b * (k @ k)
 
 
-def _value(v: float | Var, inputs: dict[str, np.ndarray], unknowns: dict[str, np.ndarray], n: int) -> np.ndarray:
+def _value(v: float | Var, inputs: dict[str, np.ndarray], unknowns: dict[str, np.ndarray],
+           n: int) -> np.ndarray:
     if isinstance(v, Var):
         return (unknowns if v.kind == "unknown" else inputs)[v.name]
     return np.full(n, float(v))
@@ -226,7 +227,8 @@ def evaluate(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState) -> Cha
         first = len(screws)
         if row.spherical:
             for k in range(3):
-                screws.append(Screw(prefix.column(k), ("unknown", len(loop.unknowns) + 3 * ball + k), i, first))
+                var = ("unknown", len(loop.unknowns) + 3 * ball + k)
+                screws.append(Screw(prefix.column(k), var, i, first))
             rot = state.rotations[:, ball]
             prefix = Dual(prefix.re @ rot, prefix.du @ rot)
             ball += 1
@@ -291,7 +293,8 @@ def closure_error(chain: Chain, loop: Loop) -> np.ndarray:
 
 
 def closure_residual(chain: Chain, loop: Loop) -> np.ndarray:
-    """Size of :math:`\\hat B - \\hat I`, ``(n,)``: max-abs of the primary part and of the dual part over the length scale.
+    """Size of :math:`\\hat B - \\hat I`, ``(n,)``: max-abs of the primary part and of the dual part over
+    the length scale.
 
     Unlike :func:`closure_error` this also sees a loop product that is a rotation by
     :math:`\\pi` (zero skew part, not the identity) -- the spurious root that the

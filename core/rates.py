@@ -53,7 +53,8 @@ class Rates:
 
 
 def _rate_matrix(chain: Chain, loop: Loop) -> tuple[np.ndarray, np.ndarray]:
-    """Matrix ``(n, 6+g, k)`` of the unknown screws with gauge rows, and the screw-to-gauge rows ``(n, g, m)``."""
+    """Matrix ``(n, 6+g, k)`` of the unknown screws with gauge rows, and the screw-to-gauge rows
+    ``(n, g, m)``."""
     n = chain.closure.re.shape[0]
     g = len(loop.spin_gauges)
     mat = np.zeros((n, 6 + g, loop.n_unknown))
@@ -68,7 +69,8 @@ def _rate_matrix(chain: Chain, loop: Loop) -> tuple[np.ndarray, np.ndarray]:
 
 def _screw_values(chain: Chain, known: dict[str, np.ndarray], unknown: np.ndarray) -> np.ndarray:
     """Per-screw values ``(n, m)`` from the inputs' and the unknowns' rates."""
-    return np.stack([known[s.var[1]] if s.var[0] == "input" else unknown[:, s.var[1]] for s in chain.screws], axis=1)
+    return np.stack([known[s.var[1]] if s.var[0] == "input" else unknown[:, s.var[1]] for s in chain.screws],
+                    axis=1)
 
 
 def _motion_sum(chain: Chain, values: np.ndarray, upto_row: int | None = None) -> Dual:
@@ -83,7 +85,8 @@ def _motion_sum(chain: Chain, values: np.ndarray, upto_row: int | None = None) -
 
 
 def _transport(chain: Chain, rates: np.ndarray) -> list[Dual]:
-    """Per screw, :math:`\\hat V_{c(j)}\\times\\hat s_j \\dot q_j` -- the rate at which the carried screw turns."""
+    """Per screw, :math:`\\hat V_{c(j)}\\times\\hat s_j \\dot q_j` -- the rate at which the carried screw
+    turns."""
     out = []
     cumulative = [Dual(np.zeros(rates.shape[:1] + (3,)), np.zeros(rates.shape[:1] + (3,)))]
     for j, s in enumerate(chain.screws):
@@ -112,7 +115,8 @@ def solve_rates(chain: Chain, loop: Loop, input_rates: dict[str, np.ndarray],
     mat, gauge = _rate_matrix(chain, loop)
     zeros = np.zeros(n * loop.n_unknown).reshape(n, loop.n_unknown)
     known = _screw_values(chain, input_rates, zeros)
-    rhs_v = -np.concatenate([_motion_sum(chain, known).stacked(), np.einsum("ngm,nm->ng", gauge, known)], axis=1)
+    rhs_v = -np.concatenate([_motion_sum(chain, known).stacked(), np.einsum("ngm,nm->ng", gauge, known)],
+                            axis=1)
     q_dot = least_squares(mat, rhs_v)
 
     rates = _screw_values(chain, input_rates, q_dot)

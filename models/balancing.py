@@ -83,7 +83,8 @@ def _ratio(name: str, value: float) -> float:
 
 
 def balancing_point(mu1: float, mu2: float) -> BalancingPoint:
-    """Force-balancing coordinates for :math:`\\mu_1 = m_1/m_3`, :math:`\\mu_2 = m_2/m_3` (eq. 74–75, derived).
+    """Force-balancing coordinates for :math:`\\mu_1 = m_1/m_3`, :math:`\\mu_2 = m_2/m_3`
+    (eq. 74–75, derived).
 
     .. math:: \\xi_1 = -(1+\\mu_2)/\\mu_1,\\; \\xi_2 = -1/\\mu_2,\\; \\eta_1 = \\eta_2 = 0
 
@@ -188,7 +189,8 @@ def shaking_force_polar(case_before: Case, case_after: Case, path: str | Path) -
         peak = float(np.linalg.norm(f, axis=1).max())
         ang = np.arctan2(f[:, 1], f[:, 0])
         ax.plot(ang, np.hypot(f[:, 0], f[:, 1]), style, lw=1.5, label=f"{label}: peak |f| = {peak:.3g}")
-    ax.set_title(f"shaking force on the frame, {case_before.name}\n({case_before.units}, x-y components)", fontsize=10)
+    ax.set_title(f"shaking force on the frame, {case_before.name}\n({case_before.units}, x-y components)",
+                 fontsize=10)
     ax.legend(loc="lower left", bbox_to_anchor=(0.0, -0.15), fontsize=9)
     path = Path(path)
     fig.savefig(path, dpi=120, bbox_inches="tight")

@@ -29,7 +29,8 @@ JOINTS: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
 
 #: The name of every peak a summary gives, in order.
 PEAK_NAMES: tuple[str, ...] = tuple(
-    f"{joint} |{kind}|" for joint, forces, moments in JOINTS for kind, cols in (("force", forces), ("moment", moments))
+    f"{joint} |{kind}|" for joint, forces, moments in JOINTS
+    for kind, cols in (("force", forces), ("moment", moments))
     if cols) + ("|drive_torque|", "|slider_load|")
 
 

@@ -39,7 +39,8 @@ def _vec(table: ResultTable, prefix: str) -> np.ndarray:
 
 
 def joint_frame_columns(case: Case, table: ResultTable) -> dict[str, np.ndarray]:
-    """The joint-frame components of a result table, as ``(n,)`` arrays keyed by :data:`JOINT_FRAME_COLUMNS`."""
+    """The joint-frame components of a result table, as ``(n,)`` arrays keyed by
+    :data:`JOINT_FRAME_COLUMNS`."""
     g = case.geometry
     th = np.radians(table["theta1_deg"])
     c1, s1 = np.cos(th), np.sin(th)
@@ -53,7 +54,8 @@ def joint_frame_columns(case: Case, table: ResultTable) -> dict[str, np.ndarray]
     with np.errstate(invalid="ignore", divide="ignore"):
         j3 /= np.linalg.norm(j3, axis=1, keepdims=True)
     frames = {
-        "2": np.stack([np.stack([c1, s1, zero], 1), np.stack([-s1, c1, zero], 1), np.tile([0.0, 0, 1], (len(th), 1))], 1),
+        "2": np.stack([np.stack([c1, s1, zero], 1), np.stack([-s1, c1, zero], 1),
+                       np.tile([0.0, 0, 1], (len(th), 1))], 1),
         "3": np.stack([u, j3, np.cross(u, j3)], 1),
         "4": np.broadcast_to(np.array([[1.0, 0, 0], [0, np.cos(a), -np.sin(a)], k4]), (len(th), 3, 3)),
     }

@@ -62,7 +62,8 @@ def unit_system(label: str) -> UnitSystem:
     try:
         return UNIT_SYSTEMS[label]
     except (KeyError, TypeError):
-        raise ValueError(f"units: {label!r} is not a known unit label (valid: {', '.join(UNIT_SYSTEMS)})") from None
+        raise ValueError(f"units: {label!r} is not a known unit label "
+                         f"(valid: {', '.join(UNIT_SYSTEMS)})") from None
 
 
 def column_unit(column: str, label: str) -> str:
