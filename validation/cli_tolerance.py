@@ -64,7 +64,8 @@ def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir:
     click.echo(f"wrote {', '.join(str(Path(outdir) / f) for f in files)}")
     failed = [s for s in summary["judges"] if not s["passed"]]
     for s in failed:
-        click.echo(f"FAIL: {s['engine']} disagrees on {s['design']}: {'; '.join(s['failures'])[:300]}", err=True)
+        click.echo(f"FAIL: {s['engine']} disagrees on {s['design']}: {'; '.join(s['failures'])[:300]}",
+                   err=True)
     check = summary["sensitivity_check"]
     if check is not None and not check["passed"]:
         click.echo(f"FAIL: d {check['output']} / d {check['key']} = {check['exact']!r} (exact) against "

@@ -59,7 +59,8 @@ class DifferenceCheck:
 
     def to_dict(self) -> dict:
         """JSON-ready form (``summary.json``, ``sensitivity_check``)."""
-        return {"passed": self.passed, "worst_ratio": self.worst_ratio, "output": self.output, "key": self.key,
+        return {"passed": self.passed, "worst_ratio": self.worst_ratio, "output": self.output,
+                "key": self.key,
                 "exact": self.exact, "central_difference": self.difference, "steps": self.steps,
                 "rtol": RTOL, "atol": ATOL, "method": "central differences of the compiled solver"}
 
@@ -101,7 +102,8 @@ def check_sensitivities(case: Case, spec: Spec, sens: Sensitivities) -> Differen
         g = np.array([sens.values[name][key] for key in spec.keys])
         with np.errstate(invalid="ignore"):
             ratio = np.abs(g - d) / (RTOL * np.abs(d) + ATOL * scale / sd)
-        ratio = np.where(np.isnan(g) & np.isnan(d), 0.0, np.nan_to_num(ratio, nan=np.inf))  # one-sided NaN fails
+        # NaN on both sides: no position to differentiate at; on one side only: a failure
+        ratio = np.where(np.isnan(g) & np.isnan(d), 0.0, np.nan_to_num(ratio, nan=np.inf))
         j = int(np.argmax(ratio))
         if ratio[j] > worst[0]:
             worst = (float(ratio[j]), name, spec.keys[j], float(g[j]), float(d[j]))

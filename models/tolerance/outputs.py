@@ -86,8 +86,8 @@ def candidate_values(columns: Mapping[str, np.ndarray], codes: np.ndarray,
     """Per output, the values it is the extreme of, ``(designs, positions)`` each, masked.
 
     ``stroke`` -> (S4 where assembled else -inf, S4 where assembled else +inf); every peak ->
-    (its magnitude where the row is ``ok`` and it is finite, else -inf,).  ``columns`` ``(designs, positions)``
-    in the units of the columns; ``codes`` the rows' status codes.
+    (its magnitude where the row is ``ok`` and it is finite, else -inf,).  ``columns``
+    ``(designs, positions)`` in the units of the columns; ``codes`` the rows' status codes.
     """
     assembled = np.isin(codes, _ASSEMBLED) & np.isfinite(columns["S4"])
     ok = codes == _OK
@@ -163,7 +163,8 @@ def peak_positions(tables: Sequence[ResultTable], mode: str) -> dict[str, tuple[
     out: dict[str, tuple[np.ndarray, ...]] = {}
     for name, values in candidate_values(columns, codes, mode).items():
         idx = (np.argmax(values[0], axis=1),) + ((np.argmin(values[1], axis=1),) if len(values) > 1 else ())
-        out[name] = tuple(np.where(np.isfinite(v[np.arange(v.shape[0]), i]), i, -1) for v, i in zip(values, idx))
+        rows = np.arange(codes.shape[0])
+        out[name] = tuple(np.where(np.isfinite(v[rows, i]), i, -1) for v, i in zip(values, idx))
     return out
 
 

@@ -7,9 +7,9 @@ compiled kernel's arrays, in blocks of bounded memory, and reduced per design
 (:mod:`~dualmech.models.tolerance.designs`).  A finished chunk is stored at once as
 ``DIR/chunks/chunk-NNNNNN.npz`` (written to a temporary name, then renamed), so an interrupted
 study resumes where it stopped; ``DIR/study.json`` names the case, SPEC, ``n`` and seed, and a
-folder holding another study is refused.  At the end the chunks are streamed, in design order, into ``DIR/samples.csv`` (and
-``DIR/samples.parquet`` when pyarrow is installed, one row group per chunk) and summarised into
-``DIR/summary.json``.
+folder holding another study is refused.  At the end the chunks are streamed, in design order,
+into ``DIR/samples.csv`` (and ``DIR/samples.parquet`` when pyarrow is installed, one row group
+per chunk) and summarised into ``DIR/summary.json``.
 """
 
 from __future__ import annotations
@@ -254,7 +254,8 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
     summary = {"n": study.n if samples is not None else 0, "seed": study.seed, "method": method,
                "case": study.case.name, "mode": study.case.loads.mode, "keys": list(study.spec.keys),
                "nominal_values": dict(zip(study.spec.keys, nominal_values(study.case, study.spec).tolist())),
-               "spec": study.spec.to_dict(), **stats, "sensitivity_check": check, "judges": [s.to_dict() for s in spots],
+               "spec": study.spec.to_dict(), **stats, "sensitivity_check": check,
+               "judges": [s.to_dict() for s in spots],
                "judges_passed": all(s.passed for s in spots), "timing": timing, "versions": versions()}
     summary = _finite_json(summary)
     (outdir / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True) + "\n")

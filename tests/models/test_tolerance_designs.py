@@ -1,5 +1,6 @@
 """Sampled designs as kernel arrays (models/tolerance/designs.py): the same designs as the case loader builds,
-the same outputs as their tables, however the positions are blocked, and the loader's verdict on bad values."""
+the same outputs as their tables, however the positions are blocked, and the loader's verdict on bad
+values."""
 
 import copy
 
@@ -29,10 +30,12 @@ def _case(mode, step=9.0):
 
 
 def _spec(keys):
-    wide = {"geometry.slider_offset": 30.0, "geometry.crank_axial_shift": 4.0, "geometry.slider_twist_deg": 30.0,
+    wide = {"geometry.slider_offset": 30.0, "geometry.crank_axial_shift": 4.0,
+            "geometry.slider_twist_deg": 30.0,
             "loads.drive_torque": 50.0, "loads.slider_force": 20.0, "geometry.crank_length": 2.0,
             "bodies.rod_radius": 0.3, "motion.crank_rpm": 20.0}
-    return spec_from_dict({"tolerances": {k: {"dist": "uniform", "low": -wide[k], "high": wide[k]} for k in keys}})
+    table = {k: {"dist": "uniform", "low": -wide[k], "high": wide[k]} for k in keys}
+    return spec_from_dict({"tolerances": table})
 
 
 ARRAYS_ONLY = {"torque": ("geometry.slider_offset", "geometry.crank_axial_shift", "geometry.slider_twist_deg",
