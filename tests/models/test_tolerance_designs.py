@@ -90,3 +90,30 @@ def test_a_value_the_loader_refuses_is_named_with_its_design(key, bad, message):
     design_arrays(case, spec, x[:2], first=10)  # the designs around it load
     with pytest.raises(CaseError, match=message):
         design_arrays(case, spec, x, first=10)
+
+
+def test_the_corners_refuse_a_chunk_exactly_when_the_loader_refuses_one_of_its_designs():
+    """Chunks straddling every bound of the array keys (ranges and the proportions bound, 1e12 x a1 = 1.2e13):
+    refused iff some design is, so the convexity the corner check relies on holds for these keys."""
+    rng = np.random.default_rng(11)
+    case, spec = _case("torque"), _spec(ARRAYS_ONLY["torque"])
+    edges = np.array([1.2e13, 1.2e13, 1e6, 1e15])  # a4, S1 (proportions), alpha4 deg, torque (ranges)
+    refused = 0
+    for trial in range(40):
+        x = rng.choice([-1.0, 1.0], size=(6, 4)) * edges * rng.uniform(0.9, 1.005, size=(6, 4))
+        x[:, rng.integers(4, size=2)] = rng.uniform(-5.0, 5.0, size=(6, 2))  # some keys well inside
+        loader = []
+        for row in x:
+            try:
+                design_case(case, spec, row, "d")
+                loader.append(True)
+            except CaseError:
+                loader.append(False)
+        try:
+            design_arrays(case, spec, x)
+            arrays = True
+        except CaseError:
+            arrays = False
+        assert arrays == all(loader), (trial, x)
+        refused += not arrays
+    assert 5 < refused < 35  # both verdicts reached
