@@ -38,3 +38,23 @@ KERNEL_VS_NUMPY_AT_LIMIT = 1e-6
 #: group's scale (reactions condition-weighted by |t|): scale factors are not powers of two, so round-off
 #: only; measured <= 5.4e-13.
 UNIT_CHANGE = 1e-11
+#: Identities of the planar model in closed form (core/planar.py): round-off of O(1) quantities.
+PLANAR_IDENTITY = 1e-13
+#: Errata checks: round-off of products of O(1) trigonometric entries and O(a) lengths, relative to the
+#: length scale.
+ERRATA_ROUND_OFF = 1e-12
+#: Errata checks: 8th-order central differences with h = 2e-3 rad: truncation ~1e-20, round-off
+#: ~eps/h^2 ~ 1e-10 for f''.
+HIGH_ORDER_DIFFERENCE = 1e-8
+#: Errata checks: complex-step first derivatives are exact to round-off.
+COMPLEX_STEP = 1e-13
+#: Errata checks: "wrong" means wrong by at least this fraction of the natural scale (theta1_dot,
+#: a1*theta1_dot, ...); every such threshold is >= 5x below the measured deviation quoted in docs/errata.md.
+PRINTED_IS_WRONG = 1e-3
+#: Findings: reactions from two independent linear solves of the same equations, relative to the case's
+#: force scale.
+FINDINGS_REACTIONS = 1e-9
+#: Findings: extremes and roots located to round-off of lengths ~50 in (S4) or angles (deg).
+FINDINGS_LOCATION = 1e-9
+#: The thesis's printed input numbers (masses, inertias, speeds) carry 10-11 significant digits.
+PRINTED_DIGITS = 1e-9

@@ -10,10 +10,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.core import planar as P
-from tests.tolerances import BATCH_VS_SINGLE, FINITE_DIFFERENCE
-
-#: Identities of the planar model in closed form: round-off of O(1) quantities.
-IDENTITY = 1e-13
+from tests.tolerances import BATCH_VS_SINGLE, FINITE_DIFFERENCE, PLANAR_IDENTITY
 
 
 def _model(rng, offset=None, slider_com=None) -> P.PlanarSliderCrank:
@@ -38,10 +35,10 @@ def test_pose_closes_the_loop_on_the_branch():
     m = _model(rng)
     p = P.pose(m, _psi(rng))
     pin = p.r12 + p.r23
-    assert_allclose(pin[:, 1], m.offset, rtol=0, atol=IDENTITY)
-    assert_allclose(np.linalg.norm(p.r23, axis=1), m.rod_length, rtol=IDENTITY)
+    assert_allclose(pin[:, 1], m.offset, rtol=0, atol=PLANAR_IDENTITY)
+    assert_allclose(np.linalg.norm(p.r23, axis=1), m.rod_length, rtol=PLANAR_IDENTITY)
     assert np.all(p.r23[:, 0] > 0)
-    assert_allclose(p.s, pin[:, 0], rtol=IDENTITY)
+    assert_allclose(p.s, pin[:, 0], rtol=PLANAR_IDENTITY)
 
 
 def test_influence_coefficients_are_derivatives():
@@ -65,7 +62,7 @@ def test_twist_shaping_vector_spans_the_null_space_of_A():
     psi = _psi(rng)
     a = P.constraint_matrix(m, psi)
     u = P.twist_shaping_vector(m, psi)
-    assert_allclose(np.einsum("nij,nj->ni", a, u), 0.0, rtol=0, atol=IDENTITY)
+    assert_allclose(np.einsum("nij,nj->ni", a, u), 0.0, rtol=0, atol=PLANAR_IDENTITY)
     p, k = P.pose(m, psi), P.influence(P.pose(m, psi))
     printed = u.copy()
     printed[:, 4:6] = np.stack([-(p.r12 + k.r_theta[:, None] * p.r23)[:, 1],
@@ -79,7 +76,7 @@ def test_generalized_inertia_eq40_is_u_M_u():
     m = _model(rng)
     psi = _psi(rng)
     u = P.twist_shaping_vector(m, psi)
-    assert_allclose(P.generalized_inertia(m, psi), np.einsum("ni,ij,nj->n", u, P.inertia_dyad(m), u), rtol=IDENTITY)
+    assert_allclose(P.generalized_inertia(m, psi), np.einsum("ni,ij,nj->n", u, P.inertia_dyad(m), u), rtol=PLANAR_IDENTITY)
 
 
 def test_coriolis_eq41_corrected_is_minus_u_M_udot_and_the_printed_one_is_not():
@@ -90,7 +87,7 @@ def test_coriolis_eq41_corrected_is_minus_u_M_udot_and_the_printed_one_is_not():
     expect = -np.einsum("ni,ij,nj->n", u, P.inertia_dyad(m), du) * psidot  # eq. (39): C psidot = -u^T M udot
     got = P.coriolis(m, psi, psidot)
     scale = np.abs(expect).max()
-    assert_allclose(got, expect, rtol=0, atol=IDENTITY * scale)
+    assert_allclose(got, expect, rtol=0, atol=PLANAR_IDENTITY * scale)
     h = 1e-6
     fd = (P.generalized_inertia(m, psi + h) - P.generalized_inertia(m, psi - h)) / (2 * h)
     assert_allclose(P.generalized_inertia_derivative(m, psi), fd, rtol=0, atol=FINITE_DIFFERENCE * scale)
@@ -138,9 +135,9 @@ def test_generalized_force_parts():
     k = P.influence(P.pose(m, psi))
     tau = P.generalized_force(m, psi, 2.0, drive_torque=5.0, crank_damping=0.3, slider_damping=0.7, slider_force=-4.0)
     expect = 5.0 + P.gravity_torque(m, psi) - (0.3 + 0.7 * k.r_s**2) * 2.0 - 4.0 * k.r_s
-    assert_allclose(tau, expect, rtol=IDENTITY)
+    assert_allclose(tau, expect, rtol=PLANAR_IDENTITY)
     acc = P.acceleration(m, psi, 2.0, tau)
-    assert_allclose(P.generalized_inertia(m, psi) * acc, P.coriolis(m, psi, 2.0) * 2.0 + tau, rtol=IDENTITY)
+    assert_allclose(P.generalized_inertia(m, psi) * acc, P.coriolis(m, psi, 2.0) * 2.0 + tau, rtol=PLANAR_IDENTITY)
 
 
 def test_balancing_point_derived_not_printed():
@@ -157,7 +154,7 @@ def test_balancing_point_derived_not_printed():
                                    rod_com=[xi2 * m.rod_length, 0.0])
 
     c = P.mass_centre(with_xi2(-1 / mu2), psi)
-    assert_allclose(c, np.broadcast_to(c[0], c.shape), rtol=0, atol=IDENTITY * m.rod_length)
+    assert_allclose(c, np.broadcast_to(c[0], c.shape), rtol=0, atol=PLANAR_IDENTITY * m.rod_length)
     printed = P.mass_centre(with_xi2(+1 / mu2), psi)
     assert np.ptp(printed, axis=0).max() > 1e-2 * m.crank_length
 

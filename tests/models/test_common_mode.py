@@ -26,7 +26,7 @@ from numpy.testing import assert_allclose
 
 from dualmech.models.case import case_from_dict
 from dualmech.models.slider_crank import solve_case
-from tests.tolerances import COMMON_MODE_INPUT
+from tests.tolerances import COMMON_MODE_INPUT, PRINTED_DIGITS
 
 # ----------------------------------------------------------------------------- thesis section 3.1
 # Printed data (section 3.1): a1 = 12 in, a2 = 50 in, crank radius r1 = 1.5 in, rod radius r2 = 1 in,
@@ -54,8 +54,6 @@ SLIDER_INERTIA = (0.0293478261,) * 3
 CRANK_COM, ROD_COM, SLIDER_COM = (6.0, 0.0, 0.0), (25.0, 0.0, 0.0), (0.0, 0.0, 0.0)
 #: 50 rpm = 2 pi 50 / 60 rad/s = 5.2359878 rad/s.
 THETA1_DOT = 5.2359877560
-#: The printed numbers above carry 10-11 significant digits.
-PRINTED_DIGITS = 1e-9
 
 
 def _thesis_dict(**motion) -> dict:

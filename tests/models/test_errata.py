@@ -18,16 +18,12 @@ from dualmech.core.dual import Dual, rot_x, rot_y, rot_z
 from dualmech.models.case import load_case
 from dualmech.models.slider_crank import analyze
 from tests.models import thesis_oracles as th
-
-#: Round-off of products of O(1) trigonometric entries and O(a) lengths, relative to the length scale.
-ROUND_OFF = 1e-12
-#: 8th-order central differences with h = 2e-3 rad: truncation ~1e-20, round-off ~eps/h^2 ~ 1e-10 for f''.
-FINITE_DIFFERENCE = 1e-8
-#: Complex-step first derivatives are exact to round-off.
-COMPLEX_STEP = 1e-13
-#: "Wrong" means wrong by at least this fraction of the natural scale (theta1_dot, a1*theta1_dot, ...);
-#: every such threshold is >= 5x below the measured deviation quoted in docs/errata.md.
-WRONG = 1e-3
+from tests.tolerances import (
+    COMPLEX_STEP,
+    ERRATA_ROUND_OFF,
+    HIGH_ORDER_DIFFERENCE,
+    PRINTED_IS_WRONG,
+)
 
 W1 = 2 * math.pi * 50 / 60  # thesis example: 50 rpm
 PLANAR = (0.0, 12.0, 50.0, 30.0, math.radians(270.0))  # (S1, a1, a2, a4, alpha4)
@@ -51,15 +47,15 @@ def test_e1_printed_matrices_place_p2_and_p3():
         a4, s4 = rng.uniform(-30, 30), rng.uniform(-60, 60)
         al4 = rng.uniform(0, 2 * math.pi)
         assert_allclose(th.frame_origin(th.m1(th1, s1, a1)), [a1 * math.cos(th1), a1 * math.sin(th1), s1],
-                        rtol=0, atol=ROUND_OFF * 60)
+                        rtol=0, atol=ERRATA_ROUND_OFF * 60)
         m4 = th.m4(s4, al4, a4)
         p3 = -m4[0].T @ th.frame_origin(m4)  # origin of {4} in {1}: M4 maps {1} into {4}
         assert_allclose(p3, np.array([-a4, 0, 0]) - s4 * np.array([0, math.sin(al4), math.cos(al4)]),
-                        rtol=0, atol=ROUND_OFF * 60)
+                        rtol=0, atol=ERRATA_ROUND_OFF * 60)
         for mat in (th.m1(th1, s1, a1), th.l2(th1, s1, a1), th.l3(th1, s1), m4):
-            assert_allclose(mat[0].T @ mat[0], np.eye(3), rtol=0, atol=ROUND_OFF)
+            assert_allclose(mat[0].T @ mat[0], np.eye(3), rtol=0, atol=ERRATA_ROUND_OFF)
             skew = mat[0].T @ mat[1]  # a dual rotation R + eps [p]x R has R^T D skew-symmetric
-            assert_allclose(skew + skew.T, 0.0, rtol=0, atol=ROUND_OFF * 60)
+            assert_allclose(skew + skew.T, 0.0, rtol=0, atol=ERRATA_ROUND_OFF * 60)
 
 
 def test_e1_printed_matrices_are_the_dual_rotation_products():
@@ -77,8 +73,8 @@ def test_e1_printed_matrices_are_the_dual_rotation_products():
             (th.m4(s4, al4, a4), rot_z(dual(0.0, s4)) @ rot_x(dual(al4, a4))),
         ]
         for printed, built in cases:
-            assert_allclose(printed[0], built.re[0], rtol=0, atol=ROUND_OFF * 20)
-            assert_allclose(printed[1], built.du[0], rtol=0, atol=ROUND_OFF * 20)
+            assert_allclose(printed[0], built.re[0], rtol=0, atol=ERRATA_ROUND_OFF * 20)
+            assert_allclose(printed[1], built.du[0], rtol=0, atol=ERRATA_ROUND_OFF * 20)
 
 
 def test_e1_printed_derivatives_and_operators_are_right():
@@ -125,7 +121,7 @@ def test_e2_zy_unknowns_cannot_close_a_spatial_loop(shape, floor):
     starts = [x_exact] + [x_exact + rng.normal(size=5) * [0.3, 0.3, 0.3, 0.3, 3.0] for _ in range(7)]
     assert _min_closure(geom, starts) > floor  # global minima (300 starts) 0.0603 and 0.227 of |B - I|
     planar = (th1,) + PLANAR
-    assert _min_closure(planar, [th.thesis_angles(th1, *PLANAR)[0]]) < ROUND_OFF
+    assert _min_closure(planar, [th.thesis_angles(th1, *PLANAR)[0]]) < ERRATA_ROUND_OFF
 
 
 def test_e2_printed_newton_stalls_off_the_mechanism_in_spatial_cases():
@@ -136,7 +132,7 @@ def test_e2_printed_newton_stalls_off_the_mechanism_in_spatial_cases():
         assert hist[-1] > 0.05 and abs(hist[-1] - hist[-50]) < 1e-9 * hist[-1]  # stalled, not closed
         assert abs(x[4] - x_exact[4]) > s4_err  # measured 0.259 and 3.27 in
     x, hist = th.thesis_newton(th.thesis_angles(th1, *PLANAR)[0] + [0.2, 0.1, -0.2, 0.1, 2.0], (th1,) + PLANAR, 6)
-    assert hist[4] < ROUND_OFF
+    assert hist[4] < ERRATA_ROUND_OFF
 
 
 # ============================================================================ E3 the diagonal device of eq. (22)
@@ -149,13 +145,13 @@ def test_e3_diagonal_terms_exclude_rotation_by_pi_roots():
         b = th.loop_product(x, *geom)
         return np.array([b[0][1, 0], b[0][2, 0], b[0][2, 1], b[1][1, 0] / 50, b[1][2, 0] / 50, b[1][2, 1] / 50])
     sol = scipy_least_squares(eqs_20_21, [1.77, 0.0, 0.67, math.pi, -38.76], xtol=1e-15, ftol=1e-15, gtol=1e-15)
-    assert np.linalg.norm(sol.fun) < ROUND_OFF  # a root of (20)-(21) ...
+    assert np.linalg.norm(sol.fun) < ERRATA_ROUND_OFF  # a root of (20)-(21) ...
     b = th.loop_product(sol.x, *geom)
     assert_allclose(np.diag(b[0]), [1, -1, -1], rtol=0, atol=1e-9)  # ... that is a rotation by pi, not closure
     _, v22 = th.newton_system(sol.x, *geom, diagonal=True)
     assert np.linalg.norm(v22) > 1.0  # (22) does not vanish there (measured 4.9)
     _, v_true = th.newton_system(th.thesis_angles(geom[0], *PLANAR)[0], *geom, diagonal=True)
-    assert np.linalg.norm(v_true) < ROUND_OFF  # and is harmless at the true root
+    assert np.linalg.norm(v_true) < ERRATA_ROUND_OFF  # and is harmless at the true root
 
 
 def test_e3_device_keeps_quadratic_convergence():
@@ -179,13 +175,13 @@ def test_e4_slider_rate_43_is_exact(shape):
     q, qd, _ = _rates(shape)
     a1 = shape[1]
     printed = th.printed_rates(q, W1, 0.0, a1, shape[2])[:, 4]
-    assert_allclose(printed, qd[:, 4], rtol=0, atol=FINITE_DIFFERENCE * a1 * W1)
+    assert_allclose(printed, qd[:, 4], rtol=0, atol=HIGH_ORDER_DIFFERENCE * a1 * W1)
 
 
 def test_e4_joint_rates_39_42_hold_only_in_the_planar_case():
     q, qd, _ = _rates(PLANAR)
     ok = _away_from_dead_centres(q)
-    assert_allclose(th.printed_rates(q, W1, 0.0, 12.0, 50.0)[ok, :4], qd[ok, :4], rtol=0, atol=FINITE_DIFFERENCE * W1)
+    assert_allclose(th.printed_rates(q, W1, 0.0, 12.0, 50.0)[ok, :4], qd[ok, :4], rtol=0, atol=HIGH_ORDER_DIFFERENCE * W1)
     for shape, floors in ((SPATIAL_S1, [1e-3, 0.1, 1e-3, 0.1]), (SPATIAL_TWIST, [0.05, 1.0, 0.02, 1.0])):
         q, qd, _ = _rates(shape)
         ok = _away_from_dead_centres(q)
@@ -199,9 +195,9 @@ def test_e4_system_38_row_6_contradicts_37f():
     a, b = th.system38(q, W1, 0.0, 12.0, 50.0)
     x = qd[:, [0, 2, 1, 3, 4]]
     r = np.einsum("nij,nj->ni", a, x) - b
-    assert_allclose(r[:, :5], 0.0, rtol=0, atol=FINITE_DIFFERENCE * 12 * W1)
-    assert_allclose(r[:, 5], W1 * 12.0 * np.sin(q[:, 0]), rtol=0, atol=FINITE_DIFFERENCE * 12 * W1)
-    assert_allclose(th.eq37_residuals(q, qd, W1, 0.0, 12.0, 50.0), 0.0, rtol=0, atol=FINITE_DIFFERENCE * 50 * W1)
+    assert_allclose(r[:, :5], 0.0, rtol=0, atol=HIGH_ORDER_DIFFERENCE * 12 * W1)
+    assert_allclose(r[:, 5], W1 * 12.0 * np.sin(q[:, 0]), rtol=0, atol=HIGH_ORDER_DIFFERENCE * 12 * W1)
+    assert_allclose(th.eq37_residuals(q, qd, W1, 0.0, 12.0, 50.0), 0.0, rtol=0, atol=HIGH_ORDER_DIFFERENCE * 50 * W1)
     # the least-squares solution of the printed 6x5 system invents eta rates in a planar mechanism
     sol = np.linalg.lstsq(a[20], b[20], rcond=None)[0]
     assert abs(sol[2]) > 1.0  # measured -6.06 rad/s where eta2_dot = 0
@@ -212,8 +208,8 @@ def test_e4_equations_37_fail_in_spatial_cases(shape):
     q, qd, _ = _rates(shape)
     r = np.abs(th.eq37_residuals(q, qd, W1, 0.0, 12.0, 50.0)).max(0)
     scale = np.array([W1, 12 * W1, W1, 12 * W1, W1, 12 * W1])
-    assert r[1] < FINITE_DIFFERENCE * scale[1]  # (37b): the rod's length rate, right
-    assert np.all(np.delete(r / scale, 1) > WRONG)  # the rest: measured >= 2e-3 (S1 = 3.5), >= 0.16 (alpha4 = 232)
+    assert r[1] < HIGH_ORDER_DIFFERENCE * scale[1]  # (37b): the rod's length rate, right
+    assert np.all(np.delete(r / scale, 1) > PRINTED_IS_WRONG)  # the rest: measured >= 2e-3 (S1 = 3.5), >= 0.16 (alpha4 = 232)
 
 
 # ============================================================================ E5 accelerations (38a)-(42a)
@@ -223,14 +219,14 @@ def test_e4_equations_37_fail_in_spatial_cases(shape):
 def test_e5_slider_acceleration_42a_is_the_derivative_of_43(shape):
     q, qd, qdd = _rates(shape)
     printed = th.printed_accels(q, qd, W1, 0.0, 0.0, 0.0, 12.0, 50.0)[:, 4]
-    assert_allclose(printed, qdd[:, 4], rtol=0, atol=FINITE_DIFFERENCE * 12 * W1**2)
+    assert_allclose(printed, qdd[:, 4], rtol=0, atol=HIGH_ORDER_DIFFERENCE * 12 * W1**2)
 
 
 def test_e5_joint_accelerations_hold_only_in_the_planar_case():
     q, qd, qdd = _rates(PLANAR)
     ok = _away_from_dead_centres(q)
     printed = th.printed_accels(q, qd, W1, 0.0, 0.0, 0.0, 12.0, 50.0)
-    assert_allclose(printed[ok, :4], qdd[ok, :4], rtol=0, atol=FINITE_DIFFERENCE * W1**2)
+    assert_allclose(printed[ok, :4], qdd[ok, :4], rtol=0, atol=HIGH_ORDER_DIFFERENCE * W1**2)
     q, qd, qdd = _rates(SPATIAL_TWIST)
     ok = _away_from_dead_centres(q)
     err = np.abs(th.printed_accels(q, qd, W1, 0.0, 0.0, 0.0, 12.0, 50.0)[ok, :4] - qdd[ok, :4]).max(0) / W1**2
@@ -242,7 +238,7 @@ def test_e5_thesis_pipeline_gets_the_slider_acceleration_wrong_in_spatial_cases(
     case = load_case("a4-20-alpha-232").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 2.0}})
     an = analyze(case)
     kin = th.kinematics(case, an.crank.theta)
-    assert_allclose(an.rates.q_ddot[:, 0], kin["S4dd"], rtol=0, atol=FINITE_DIFFERENCE * 12 * W1**2)
+    assert_allclose(an.rates.q_ddot[:, 0], kin["S4dd"], rtol=0, atol=HIGH_ORDER_DIFFERENCE * 12 * W1**2)
     q = th.thesis_angles(an.crank.theta, *SPATIAL_TWIST)
     pipeline = th.printed_accels(q, th.printed_rates(q, W1, 0.0, 12.0, 50.0), W1, 0.0, 0.0, 0.0, 12.0, 50.0)[:, 4]
     ok = _away_from_dead_centres(q)
@@ -252,7 +248,7 @@ def test_e5_thesis_pipeline_gets_the_slider_acceleration_wrong_in_spatial_cases(
         "geometry.slider_offset": 30.0, "geometry.slider_twist_deg": 270.0,
         "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 2.0}}), an.crank.theta)
     pipeline = th.printed_accels(q, th.printed_rates(q, W1, 0.0, 12.0, 50.0), W1, 0.0, 0.0, 0.0, 12.0, 50.0)[:, 4]
-    assert_allclose(pipeline, kin["S4dd"], rtol=0, atol=ROUND_OFF * 1e3 * 12 * W1**2)
+    assert_allclose(pipeline, kin["S4dd"], rtol=0, atol=ERRATA_ROUND_OFF * 1e3 * 12 * W1**2)
 
 
 # ============================================================================ E6 joint-rate vectors (30)-(31)
@@ -295,7 +291,7 @@ def test_e6_printed_joint_rates_30_31_miss_the_turned_eta_axis():
         zero = np.zeros_like(q[:, i])
         printed = np.stack([zero, qd[:, i + 1], qd[:, i]], -1)
         corrected = np.stack([-qd[:, i + 1] * np.sin(q[:, i]), qd[:, i + 1] * np.cos(q[:, i]), qd[:, i]], -1)
-        assert_allclose(corrected, exact, rtol=0, atol=FINITE_DIFFERENCE * W1)
+        assert_allclose(corrected, exact, rtol=0, atol=HIGH_ORDER_DIFFERENCE * W1)
         assert np.abs(printed - exact).max() > 0.2 * W1  # measured 0.25 (joint 2) and 1.07 (joint 3)
 
 
@@ -307,7 +303,7 @@ def test_e6_zy_rod_velocity_without_its_spin_is_the_in_house_rod_velocity():
     omega = np.einsum("nij,nj->ni", _rz(GRID), rel) + np.array([0, 0, W1])
     u = (an.p3 - an.p2) / 50.0
     perp = omega - np.einsum("ni,ni->n", omega, u)[:, None] * u
-    assert_allclose(perp, an.motions[1].omega, rtol=0, atol=FINITE_DIFFERENCE * W1)
+    assert_allclose(perp, an.motions[1].omega, rtol=0, atol=HIGH_ORDER_DIFFERENCE * W1)
 
 
 # ============================================================================ E7 eq. (28a)
@@ -448,20 +444,20 @@ def test_e11_expansions_match_except_62c():
                       -ti * st - fi * s1 * ct + tj * ct - fj * s1 * st + a1 * fk, fk, fi * a1 * st - fj * a1 * ct + tk]
         exact_62 = [p[0], d[0], p[1], d[1], p[2], d[2]]
         for k in (0, 1, 3, 4, 5):
-            assert_allclose(printed_62[k], exact_62[k], rtol=0, atol=ROUND_OFF * 100)
+            assert_allclose(printed_62[k], exact_62[k], rtol=0, atol=ERRATA_ROUND_OFF * 100)
         assert abs(printed_62[2] - exact_62[2]) > 1e-3 or abs(fi - fj) < 1e-3
-        assert_allclose(-fi * st + fj * ct, exact_62[2], rtol=0, atol=ROUND_OFF * 100)  # corrected (62c)
+        assert_allclose(-fi * st + fj * ct, exact_62[2], rtol=0, atol=ERRATA_ROUND_OFF * 100)  # corrected (62c)
         p, d = th.dvec(th.dtr(th.l2(t2, e2, a2)), (f2, np.zeros(3)))
         c2, s2, ce, se = math.cos(t2), math.sin(t2), math.cos(e2), math.sin(e2)
         printed_63 = [f2[0] * c2 * ce + f2[1] * s2 * ce - f2[2] * se, 0.0, -f2[0] * s2 + f2[1] * c2,
                       a2 * (f2[0] * c2 * se + f2[1] * s2 * se + f2[2] * ce),
                       f2[0] * c2 * se + f2[1] * s2 * se + f2[2] * ce, a2 * (f2[0] * s2 - f2[1] * c2)]
-        assert_allclose(printed_63, [p[0], d[0], p[1], d[1], p[2], d[2]], rtol=0, atol=ROUND_OFF * 100)
+        assert_allclose(printed_63, [p[0], d[0], p[1], d[1], p[2], d[2]], rtol=0, atol=ERRATA_ROUND_OFF * 100)
         p, d = th.dvec(th.dtr(th.l3(t3, e3)), (f3, np.zeros(3)))
         c3, s3, ce3, se3 = math.cos(t3), math.sin(t3), math.cos(e3), math.sin(e3)
         printed_64 = [f3[0] * c3 * ce3 + f3[1] * s3 * ce3 - f3[2] * se3, f3[0] * c3 * se3 + f3[1] * s3 * se3 + f3[2] * ce3,
                       f3[0] * s3 - f3[1] * c3]
-        assert_allclose(printed_64, p, rtol=0, atol=ROUND_OFF * 10)
+        assert_allclose(printed_64, p, rtol=0, atol=ERRATA_ROUND_OFF * 10)
         assert_allclose(d, 0.0, rtol=0, atol=0)
 
 
@@ -486,7 +482,7 @@ def test_e12_elimination_69_reproduces_a_consistent_solution():
         t1, s1, a1, t2, e2, a2 = (v[k] for k in ("t1", "s1", "a1", "t2", "e2", "a2"))
         f1p, f1d, f2p, f2d = v["f1p"], v["f1d"], v["f2p"], v["f2d"]
         tk, f1k = v["T1"][2], v["F1"][2]
-        atol = ROUND_OFF * 1e3
+        atol = ERRATA_ROUND_OFF * 1e3
         assert_allclose(-(f1k + f1p[2]), v["F2"][2], rtol=0, atol=atol)  # (69a)
         assert_allclose(-(f2p[1] + f2d[2] / a2), v["F3"][1], rtol=0, atol=atol)  # (69b)
         assert_allclose(f2d[1] / a2 - f2p[2], v["F3"][2], rtol=0, atol=atol)  # (69c)

@@ -22,11 +22,7 @@ from dualmech.models.stroke import (
     stroke_table,
 )
 from tests.models import thesis_oracles as th
-
-#: Reactions from two independent linear solves of the same equations, relative to the case's force scale.
-REACTIONS = 1e-9
-#: Extremes and roots located to round-off of lengths ~50 in (S4) or angles (deg).
-LOCATION = 1e-9
+from tests.tolerances import FINDINGS_LOCATION, FINDINGS_REACTIONS
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +65,7 @@ def test_a_tangential_pin_force_is_minus_torque_over_crank(findings, oracle_reac
     for case, an, x, rows, kin in oracle_reactions:
         target = -case.loads.drive_torque / case.geometry.crank_length
         ok = an.status == "ok"
-        assert_allclose(_rod_on_crank(x, kin)[ok, 1], target, rtol=REACTIONS)
+        assert_allclose(_rod_on_crank(x, kin)[ok, 1], target, rtol=FINDINGS_REACTIONS)
 
 
 def test_b_axial_pin_force_vanishes_only_in_planar_cases(findings, oracle_reactions):
@@ -79,9 +75,9 @@ def test_b_axial_pin_force_vanishes_only_in_planar_cases(findings, oracle_reacti
         axial = np.abs(_rod_on_crank(x, kin)[rows, 2]).max()
         scale = np.abs(x[rows]).max()
         if case.name == "thesis-ideal":
-            assert axial < REACTIONS * scale
+            assert axial < FINDINGS_REACTIONS * scale
         else:
-            assert_allclose(f["values"]["spatial_max_lbf"][case.name], axial, rtol=REACTIONS)
+            assert_allclose(f["values"]["spatial_max_lbf"][case.name], axial, rtol=FINDINGS_REACTIONS)
             assert axial > 1.0  # lbf: measured 1.47 (a4 = 30, S1 = 3) to 23.1 (alpha4 = 310)
 
 
@@ -89,7 +85,7 @@ def test_c_joint4_moments_vanish(findings, oracle_reactions):
     assert findings["c"]["verdict"] == "confirmed"
     for case, an, x, rows, kin in oracle_reactions:
         m4_p3 = x[:, 15:18] - np.cross(kin["P3"], x[:, 12:15])  # about P3
-        assert np.abs(m4_p3[rows]).max() < REACTIONS * np.abs(x[rows]).max() * case.geometry.rod_length
+        assert np.abs(m4_p3[rows]).max() < FINDINGS_REACTIONS * np.abs(x[rows]).max() * case.geometry.rod_length
 
 
 def test_d_crank_moments_need_the_axial_reaction(findings, oracle_reactions):
@@ -100,12 +96,12 @@ def test_d_crank_moments_need_the_axial_reaction(findings, oracle_reactions):
         fi, fj, fk, ti, tj = x[:, 0], x[:, 1], x[:, 2], x[:, 3], x[:, 4]
         dev = np.maximum(np.abs(ti + fj * s1), np.abs(tj - fi * s1))[rows].max()
         if case.name == "thesis-ideal":
-            assert dev < REACTIONS * np.abs(x[rows]).max() * a1
+            assert dev < FINDINGS_REACTIONS * np.abs(x[rows]).max() * a1
             continue
-        assert_allclose(f["values"]["spatial_max_lbf_in"][case.name], dev, rtol=REACTIONS)
+        assert_allclose(f["values"]["spatial_max_lbf_in"][case.name], dev, rtol=FINDINGS_REACTIONS)
         assert dev > 10.0  # lbf.in; measured 16.7 to 235
         # and the corrected relation holds: T1i = -F1j S1 + a1 sin(th1) F1k, T1j = F1i S1 - a1 cos(th1) F1k
-        atol = REACTIONS * np.abs(x[rows]).max() * a1
+        atol = FINDINGS_REACTIONS * np.abs(x[rows]).max() * a1
         assert_allclose((ti + fj * s1 - a1 * np.sin(th1) * fk)[rows], 0.0, rtol=0, atol=atol)
         assert_allclose((tj - fi * s1 + a1 * np.cos(th1) * fk)[rows], 0.0, rtol=0, atol=atol)
 
@@ -128,7 +124,7 @@ def test_e_spikes_sit_at_the_exact_dead_centres(findings):
             elif t[k] * t[k + 1] < 0.0:
                 roots.append(math.degrees(brentq(lambda a: _transmission(case, a), grid[k], grid[k + 1], xtol=1e-15)))
         got = f["values"]["dead_centres_deg"][case.name]
-        assert_allclose(got, roots, rtol=0, atol=1e-4 + LOCATION)  # record keeps 4 decimals
+        assert_allclose(got, roots, rtol=0, atol=1e-4 + FINDINGS_LOCATION)  # record keeps 4 decimals
         assert len(got) == 2 and 85 < got[0] < 125 and 265 < got[1] < 330
     assert_allclose(f["values"]["load_growth"], 10.0, rtol=0.01)  # load ~ 1/t: 10x closer, 10x larger
 
@@ -174,10 +170,10 @@ def test_g_stroke_table_and_verdict(findings):
     rng = np.random.default_rng(7)
     for row in rng.choice(table, size=12, replace=False):
         assert row["assembles"]
-        assert_allclose(row["stroke"], _exact_stroke(row["a4"], row["alpha4_deg"], row["S1"]), rtol=0, atol=LOCATION * 50)
+        assert_allclose(row["stroke"], _exact_stroke(row["a4"], row["alpha4_deg"], row["S1"]), rtol=0, atol=FINDINGS_LOCATION * 50)
     planar = {r["a4"]: r["stroke"] for r in table if r["alpha4_deg"] == 270.0 and r["S1"] == 0.0}
     for a4, stroke in planar.items():  # planar offset slider crank, closed form
-        assert_allclose(stroke, math.sqrt(62**2 - a4**2) - math.sqrt(38**2 - a4**2), rtol=0, atol=LOCATION * 50)
+        assert_allclose(stroke, math.sqrt(62**2 - a4**2) - math.sqrt(38**2 - a4**2), rtol=0, atol=FINDINGS_LOCATION * 50)
     assert findings["g"]["verdict"] == "refuted" and findings["g"]["values"]["stroke_grows_with_a4"]
 
 

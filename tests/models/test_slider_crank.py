@@ -155,7 +155,7 @@ def test_other_branch_is_detected_and_refused(monkeypatch):
     monkeypatch.setattr(scc, "planar_estimate", lambda b: other)
     state, status, _, _ = scc.close_loop(batch)
     assert (status == "ok").all()
-    assert_allclose(state.scalars[:, 0], right, rtol=0, atol=S4_VS_CLOSED_FORM * 50)
+    assert_allclose(state.scalars[:, 0], right, rtol=0, atol=S4_VS_CLOSED_FORM * case.geometry.rod_length)
 
 
 def test_wild_random_geometries_are_classified_right():
