@@ -58,3 +58,15 @@ FINDINGS_REACTIONS = 1e-9
 FINDINGS_LOCATION = 1e-9
 #: The thesis's printed input numbers (masses, inertias, speeds) carry 10-11 significant digits.
 PRINTED_DIGITS = 1e-9
+#: Power of the reactions against the kinetic energy's central difference along the crank (h = 1e-5 rad),
+#: relative to the largest power term: truncation ~h^2 ~ 1e-10; measured <= 1.0e-10.
+ENERGY_RATE_BY_DIFFERENCE = 1e-7
+#: Ground wrench plus weights against the momentum's central difference (h = 1e-5 rad), relative to the
+#: rate's peak: truncation ~h^2 ~ 1e-10 times the motion's third derivative; measured <= 1.8e-10.
+MOMENTUM_RATE_BY_DIFFERENCE = 1e-6
+#: Torque mode, its slider load fed back in force mode, torque mode again: the same linear solve twice,
+#: relative to each reaction's scale; measured <= 9e-16 (drive torque) and 2e-17 (reactions).
+MODE_ROUND_TRIP = 1e-10
+#: Reactions of a rotated copy of every input vector, rotated back, relative to each reaction's scale:
+#: round-off of the rotation; measured <= 5.4e-16 (components), 3.2e-15 (norms).
+FRAME_ROTATION = 1e-12
