@@ -10,12 +10,17 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 import click
 
 from dualmech.validation.cli_errors import one_line_errors
 from dualmech.validation.engines import ENGINES
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from dualmech.validation.matrix import Matrix
 
 #: How many failing checks / regressions ``validate`` lists under its table.
 SHOWN_FAILURES = 12
@@ -50,7 +55,7 @@ def _engine_list(values: tuple[str, ...]) -> tuple[str, ...]:
 UNBOUNDED_WIDTH = 100_000
 
 
-def summary_console(terminal: bool, file: IO[str] | None = None):
+def summary_console(terminal: bool, file: IO[str] | None = None) -> Console:
     """The console ``validate`` prints its summary on.
 
     On a terminal, the terminal's width (rich may abbreviate cells to fit).  Into a pipe
@@ -70,7 +75,7 @@ def summary_table(matrix, comparison, title: str):
 
     table = Table(title=title, title_justify="left", pad_edge=False, show_edge=False)
     table.add_column("case", no_wrap=True)
-    table.add_column(f"stroke ({matrix.reference})", justify="right")
+    table.add_column(f"stroke ({matrix.reference}){_length_unit(matrix)}", justify="right")
     table.add_column("dead c.", justify="right")
     for e in matrix.judges:
         table.add_column(e, no_wrap=True)
@@ -93,6 +98,14 @@ def summary_table(matrix, comparison, title: str):
                 cells.append(f"[red]✗ {v['failed'][0]}{more}[/]")
         table.add_row(row["case"], f"{row['stroke']:.6f}", str(row["dead_centre"]), *cells)
     return table
+
+
+def _length_unit(matrix: Matrix) -> str:
+    """`` [m]`` (rich markup): the length unit of the matrix's cases when they all state one, else ``""``."""
+    from dualmech.models.units import unit_system
+
+    lengths = {unit_system(c.raw.get("units", "consistent")).length for c in matrix.cases}
+    return f" \\[{lengths.pop()}]" if len(lengths) == 1 and "" not in lengths else ""  # \\[: not rich markup
 
 
 @click.command()

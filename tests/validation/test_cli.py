@@ -90,6 +90,7 @@ def test_validate_table_in_a_log_prints_every_row_and_cell_whole(tmp_path):
     assert all(r.count("✓") == 2 for r in rows), rows  # both judges' cells, whole
     assert "…" not in result.stdout  # stdout: the progress bars on stderr may abbreviate
     assert max(len(r) for r in rows) > 120  # wider than the 120 columns once used for logs
+    assert "stroke (dualmech) [in]" in result.stdout  # the unit of the thesis's cases
 
 
 def test_summary_console_abbreviates_only_on_a_terminal():
