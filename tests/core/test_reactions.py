@@ -75,7 +75,8 @@ def test_power_balance(seed, mode):
     (k_minus, k_plus), dt = _energy_along(case, an)
     dk_dt = (k_plus - k_minus) / dt
     scale = np.abs(np.stack([p_joint1, p_slider, p_gravity, dk_dt])[:, ok]).max()
-    assert_allclose((p_joint1 + p_slider + p_gravity)[ok], dk_dt[ok], rtol=0, atol=ENERGY_RATE_BY_DIFFERENCE * scale)
+    assert_allclose((p_joint1 + p_slider + p_gravity)[ok], dk_dt[ok], rtol=0,
+                    atol=ENERGY_RATE_BY_DIFFERENCE * scale)
 
 
 def test_power_balance_with_crank_acceleration():
