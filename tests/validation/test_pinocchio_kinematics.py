@@ -11,7 +11,7 @@ from tests.oracles import assembly_margin, exact_slider_motion
 from tests.validation.pinocchio_oracles import random_case
 
 pin = pytest.importorskip("pinocchio")
-from dualmech.validation import pinocchio_engine as pe  # noqa: E402
+from dualmech.validation import pinocchio_closure as pc, pinocchio_engine as pe  # noqa: E402
 
 TOL = PINOCCHIO_VS_CLOSED_FORM.value
 
@@ -31,7 +31,7 @@ def _check_closed_form(case, table):
     for col, exact, scale in (("S4", s4, a2), ("S4_dot", v, np.abs(v[rows]).max()),
                               ("S4_ddot", a, np.abs(a[rows]).max())):
         assert np.all(np.abs(table[col][rows] - exact[rows]) <= TOL * scale * cond), col
-    assert np.nanmax(table["residual"]) <= pe.CLOSURE_TOLERANCE * pe._length_scale(
+    assert np.nanmax(table["residual"]) <= pc.CLOSURE_TOLERANCE * pc.length_scale(
         case, case.motion.state(case.geometry.crank_axial_shift)) / a2
 
 
@@ -121,12 +121,12 @@ def test_wide_gaps_are_no_assembly_not_failures():
 
 def test_other_branch_is_refused(monkeypatch):
     """A crude guess on the far side of the slider line lands Newton on the other branch: branch_jump, NaN."""
-    original = pe._Closure.crude_guess
+    original = pc.Closure.crude_guess
 
     def wrong_side(self, theta, s1):
         return original(self, theta, s1, side=-1.0)  # (P3 - P2)·k4 = +a2 > 0
 
-    monkeypatch.setattr(pe._Closure, "crude_guess", wrong_side)
+    monkeypatch.setattr(pc.Closure, "crude_guess", wrong_side)
     case = load_case("a4-30-s1-6").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 30.0}})
     table = pe.solve_case(case)
     assert (table.status == "branch_jump").all()
@@ -137,8 +137,8 @@ def test_other_branch_is_refused(monkeypatch):
 
 
 def test_newton_without_iterations_reports_not_converged(monkeypatch):
-    monkeypatch.setattr(pe, "MAX_NEWTON_ITERATIONS", 0)
-    monkeypatch.setattr(pe, "LM_ITERATIONS", 0)
+    monkeypatch.setattr(pc, "MAX_NEWTON_ITERATIONS", 0)
+    monkeypatch.setattr(pc, "LM_ITERATIONS", 0)
     case = load_case("a4-30-s1-6").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 45.0}})
     table = pe.solve_case(case)
     assert (table.status == "not_converged").all()

@@ -1,0 +1,296 @@
+"""Pinocchio judge, pass 1: closing the loop at every crank position (thesis method, step 1 of
+:mod:`~dualmech.validation.pinocchio_engine`).
+
+The residual is the gap between the rod end and the slider pin, both Pinocchio frames, in world axes,
+
+.. math:: r(q) = p_{end}(q) - p_{pin}(q), \\qquad
+          J_c = J^{LWA}_{end,lin} - J^{LWA}_{pin,lin}  \\in R^{3\\times 6},
+
+and Gauss–Newton moves the free coordinates (rod quaternion, ``S4``) by the minimum-norm step
+:math:`\\delta = -J_f^T (J_f J_f^T + \\mu I)^{-1} r`, integrated on the configuration manifold with
+``pin.integrate``; Levenberg–Marquardt takes over when it stalls and tells a least-squares minimum
+with a gap (``no_assembly``) from a failure.  Positions continue from the previous one
+(:func:`continue_to`, :func:`close_positions`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+from dualmech.core.motion import CrankState
+from dualmech.core.status import Status
+from dualmech.core.table import STATUSES
+from dualmech.models.case import Case
+from dualmech.validation.pinocchio_model import PinocchioSliderCrank
+from scipy.linalg import lapack
+
+#: Closure tolerance on |r|, relative to the mechanism's length scale a1 + a2 + |a4| + max|S1|:
+#: ~50 ulp of the largest coordinate, far below the 1e-10 agreement asked of S4; Newton's quadratic
+#: convergence gets there.
+CLOSURE_TOLERANCE = 1e-14
+#: Gauss-Newton iterations per closure before falling back to Levenberg-Marquardt.
+MAX_NEWTON_ITERATIONS = 15
+#: Levenberg-Marquardt iterations allowed after that, to converge or find the least-squares minimum.
+LM_ITERATIONS = 200
+#: Largest continuation step in crank angle; larger gaps between tabulated angles are subdivided.
+MAX_STEP_DEG = 5.0
+#: When Newton fails or changes branch, the step is split by 4, at most this many times.
+STEP_REFINEMENTS = 3
+#: Damping mu of the Gauss-Newton step, relative to a2^2: bounds the step at the edge of assembly only.
+STEP_DAMPING = 1e-24
+#: |J_i·r| <= this * |J_i| |r| for every free column J_i at a non-zero residual: a least-squares minimum,
+#: the rod cannot reach the slider line.
+STATIONARY_GRADIENT = 1e-6
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+_LOCAL = pin.ReferenceFrame.LOCAL
+
+# internal status codes: indices into STATUSES (core/table.py)
+STATUS_WORDS = np.array(STATUSES, dtype=object)
+OK, DEAD, LIMIT, BRANCH, NOT_CONVERGED, NO_ASSEMBLY = (STATUSES.index(w) for w in (
+    Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.BRANCH_JUMP, Status.NOT_CONVERGED, Status.NO_ASSEMBLY))
+# coordinate layout of build_model (checked in Closure): q = (theta1, S1, quat(4), S4), v = (theta1, S1, w(3), S4)
+Q_S4, V_S4 = 6, 5
+
+
+def _min_norm_step(jc: np.ndarray, r: tuple[float, float, float], mu: float) -> list[float]:
+    """Damped minimum-norm Newton step ``x = -J^T (J J^T + mu I)^{-1} r`` on the free columns of ``jc``.
+
+    ``jc`` is the 3x6 closure Jacobian; ``J`` its free columns 2..5 (rod, S4).
+    The 3x3 solve is written out (adjugate of the symmetric ``G = J J^T + mu I``)
+    because the per-call overhead of ``numpy.linalg.solve`` dominates a 3x3 problem.
+    """
+    (_, _, a, b, c, d), (_, _, e, f, g, h), (_, _, i, j, k, l) = jc.tolist()
+    r0, r1, r2 = r
+    s00 = a * a + b * b + c * c + d * d + mu
+    s01 = a * e + b * f + c * g + d * h
+    s02 = a * i + b * j + c * k + d * l
+    s11 = e * e + f * f + g * g + h * h + mu
+    s12 = e * i + f * j + g * k + h * l
+    s22 = i * i + j * j + k * k + l * l + mu
+    c00 = s11 * s22 - s12 * s12
+    c01 = s02 * s12 - s01 * s22
+    c02 = s01 * s12 - s02 * s11
+    c11 = s00 * s22 - s02 * s02
+    c12 = s01 * s02 - s00 * s12
+    c22 = s00 * s11 - s01 * s01
+    det = -(s00 * c00 + s01 * c01 + s02 * c02)  # the minus sign makes x = -J^T G^{-1} r
+    if det == 0.0:
+        return [math.nan] * 4
+    y0 = (c00 * r0 + c01 * r1 + c02 * r2) / det
+    y1 = (c01 * r0 + c11 * r1 + c12 * r2) / det
+    y2 = (c02 * r0 + c12 * r1 + c22 * r2) / det
+    return [a * y0 + e * y1 + i * y2, b * y0 + f * y1 + j * y2, c * y0 + g * y1 + k * y2, d * y0 + h * y1 + l * y2]
+
+
+class Closure:
+    """Gauss–Newton loop closure on one model/data pair, reused for every position of a case.
+
+    After a converged :meth:`close`, ``self.AB`` (4x6) holds the rate equations
+    ``AB qdot = 0`` at the solution (rows: J_c, zero spin); its columns 2..5 are
+    ``A`` (free coordinates) and 0..1 are ``B`` (crank coordinates).
+    """
+
+    def __init__(self, pm: PinocchioSliderCrank, length_scale: float) -> None:
+        self.pm = pm
+        self.model = pm.model
+        self.data = pm.model.createData()
+        self.oMf = self.data.oMf  # a view on data's frame placements, updated in place
+        self.tol2 = (CLOSURE_TOLERANCE * length_scale) ** 2
+        self.mu = STEP_DAMPING * pm.a2**2
+        self.dv = np.zeros(pm.model.nv)
+        self.AB = np.empty((4, 6))
+        self.condition = math.nan  # |u·k4| at the last converged solution
+        layout = (pm.q_crank, pm.q_rod, pm.q_slider, pm.v_crank, pm.v_rod, pm.v_slider)
+        if layout != (slice(0, 2), slice(2, 6), slice(6, 7), slice(0, 2), slice(2, 5), slice(5, 6)):
+            raise ValueError(f"pinocchio model: unexpected coordinate layout {layout}")
+
+    def _evaluate(self, q: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float], float]:
+        """Closure Jacobian (3x6), residual ``p_end - p_pin`` and its squared norm at ``q``."""
+        model, data, oMf = self.model, self.data, self.oMf
+        fe, fp = self.pm.rod_end_frame, self.pm.slider_pin_frame
+        pin.computeJointJacobians(model, data, q)  # also places every joint (data.oMi)
+        jc = pin.getFrameJacobian(model, data, fe, LWA)[:3] - pin.getFrameJacobian(model, data, fp, LWA)[:3]
+        r = (oMf[fe].translation - oMf[fp].translation).tolist()
+        return jc, r, r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+
+    def close(self, q: np.ndarray) -> tuple[np.ndarray, int, int, float]:
+        """Newton from ``q`` (its crank coordinates are kept). Returns (q, status code, iterations, |r|).
+
+        Gauss–Newton with the tiny fixed damping; if it has not converged after
+        ``MAX_NEWTON_ITERATIONS`` (or the gap grew a hundredfold: no assembly nearby),
+        :meth:`_minimize` continues from the best iterate and decides between a
+        least-squares minimum with a gap (``no_assembly``) and plain failure (``not_converged``).
+        """
+        model, dv, tol2, mu = self.model, self.dv, self.tol2, self.mu
+        best_q, best_rr = q, math.inf
+        for it in range(MAX_NEWTON_ITERATIONS + 1):
+            jc, r, rr = self._evaluate(q)
+            if rr <= tol2:
+                return q, self._converged(jc), it, math.sqrt(rr)
+            if rr < best_rr:
+                best_q, best_rr = q, rr
+            if it == MAX_NEWTON_ITERATIONS or not rr <= 1e4 * best_rr:  # also catches NaN
+                break
+            dv[2:] = _min_norm_step(jc, r, mu)
+            q = pin.integrate(model, q, dv)
+        return self._minimize(best_q, it)
+
+    def _minimize(self, q: np.ndarray, it: int) -> tuple[np.ndarray, int, int, float]:
+        """Levenberg–Marquardt on |r|^2 from ``q``: converge, or stop at a least-squares minimum.
+
+        Marquardt's scaled damping ``(J_f^T J_f + lm diag(J_f^T J_f)) delta = -J_f^T r``
+        (the rod's rotations move the gap by ~a2 per radian, S4 by 1 per length:
+        isotropic damping would freeze S4 where the gap's curvature needs a large lm),
+        lm x1/3 on success, x4 on failure.  The iterates descend to a stationary point
+        of |r|^2; one with ``|r|`` above tolerance and the gap orthogonal to every free
+        column (``|J_i·r| <= STATIONARY_GRADIENT |J_i| |r|``) means the rod cannot reach
+        the slider line: ``no_assembly``.
+        """
+        model, dv, tol2 = self.model, self.dv, self.tol2
+        jc, r, rr = self._evaluate(q)
+        lm = 1e-3
+        for extra in range(LM_ITERATIONS + 1):
+            if not math.isfinite(rr):
+                break
+            if rr <= tol2:
+                return q, self._converged(jc), it + extra, math.sqrt(rr)
+            jf = jc[:, 2:]
+            gram = jf.T @ jf
+            col2 = np.diag(gram) + 1e-20 * np.max(np.diag(gram))  # floor: the rod's spin column is ~0
+            gradient = jf.T @ np.asarray(r)
+            if np.all(np.abs(gradient) <= STATIONARY_GRADIENT * np.sqrt(col2 * rr)):
+                return q, NO_ASSEMBLY, it + extra, math.sqrt(rr)
+            if extra == LM_ITERATIONS:
+                break
+            damping = lm * (col2 + 1e-12 * col2.max())
+            dv[2:] = -np.linalg.solve(gram + np.diag(damping), gradient)
+            trial = pin.integrate(model, q, dv)
+            jc_t, r_t, rr_t = self._evaluate(trial)
+            if rr_t < rr:
+                q, jc, r, rr, lm = trial, jc_t, r_t, rr_t, lm / 3.0
+            else:
+                lm *= 4.0
+                self._evaluate(q)  # restore data to the current iterate
+        return q, NOT_CONVERGED, it + extra, math.sqrt(rr)
+
+    def _converged(self, jc: np.ndarray) -> int:
+        """Store the rate equations at the solution; classify the branch."""
+        model, data, pm = self.model, self.data, self.pm
+        AB = self.AB
+        AB[:3] = jc
+        AB[3] = pin.getJointJacobian(model, data, pm.rod_joint, _LOCAL)[3]  # rod angular velocity along its x = u
+        along = float(data.oMi[pm.rod_joint].rotation[:, 0] @ pm.k4)  # u·k4, u = the rod frame's x axis
+        self.condition = abs(along)
+        return OK if along < 0.0 else BRANCH
+
+    def tangent(self) -> np.ndarray:
+        """``d q_free / d (theta1, S1) = -A^{-1} B`` at the last converged solution, shape (4, 2)."""
+        _, _, x, info = lapack.dgesv(self.AB[:, 2:], self.AB[:, :2])
+        return -x if info == 0 else np.full((4, 2), np.nan)
+
+    def crude_guess(self, theta: float, s1: float, side: float = 1.0) -> np.ndarray:
+        """A rough assembly: ``S4`` a rod length beyond the foot of the perpendicular from ``P2``, rod aimed there.
+
+        Uses Pinocchio's placement of the crank pin.  With ``side = +1`` the guess is on
+        the conventions' branch side (``(P3 - P2)·k4 = -a2 < 0``), at a distance
+        ``>= a2`` from ``P2``; ``side = -1`` mirrors it (tests use that to provoke a branch jump).
+        """
+        pm, model, data = self.pm, self.model, self.data
+        q = pin.neutral(model)
+        q[pm.q_crank] = (theta, s1)
+        pin.forwardKinematics(model, data, q)
+        p2 = data.oMi[pm.rod_joint].translation
+        s4 = -float(pm.k4 @ (p2 - pm.F)) + side * pm.a2
+        toward = (pm.F - s4 * pm.k4) - p2
+        local = data.oMi[pm.crank_joint].rotation.T @ (toward / np.linalg.norm(toward))
+        q[pm.q_rod] = pin.Quaternion.FromTwoVectors(np.array([1.0, 0.0, 0.0]), local).coeffs()
+        q[pm.q_slider] = s4
+        return q
+
+    def step(self, q: np.ndarray, tangent: np.ndarray, crank_to: np.ndarray) -> tuple[np.ndarray, int, int, float]:
+        """Predict along ``tangent`` from converged ``q`` to crank coordinates ``crank_to``, then Newton."""
+        delta = crank_to - q[:2]
+        dv = self.dv
+        dv[2:] = tangent @ delta
+        q = pin.integrate(self.model, q, dv)
+        q[:2] = crank_to
+        return self.close(q)
+
+
+def _s1_at(case: Case, theta: np.ndarray) -> np.ndarray:
+    """S1 at crank angles ``theta`` [rad] (for intermediate continuation steps)."""
+    return case.motion.state(case.geometry.crank_axial_shift, np.degrees(theta)).s
+
+
+def continue_to(closure: Closure, case: Case, q0: np.ndarray, tangent: np.ndarray,
+              crank_to: np.ndarray) -> tuple[np.ndarray, int, int, float]:
+    """Continue a converged ``q0`` to crank coordinates ``crank_to`` in steps of at most MAX_STEP_DEG.
+
+    A step that fails (Newton) or lands on the other branch is retried from ``q0``
+    with 4x more steps, at most ``STEP_REFINEMENTS`` times.
+    """
+    dtheta = crank_to[0] - q0[0]
+    base = max(1, math.ceil(abs(math.degrees(dtheta)) / MAX_STEP_DEG - 1e-12))
+    for refinement in range(STEP_REFINEMENTS + 1):
+        m = base * 4**refinement
+        if m == 1:
+            waypoints = crank_to[None, :]
+        else:
+            theta = q0[0] + dtheta * np.arange(1, m + 1) / m
+            waypoints = np.column_stack([theta, _s1_at(case, theta)])
+            waypoints[-1] = crank_to
+        q, t = q0, tangent
+        for w, target in enumerate(waypoints):
+            if w:
+                t = closure.tangent()
+            q, code, it, rnorm = closure.step(q, t, target)
+            if code != OK:
+                break
+        if code == OK:
+            return q, code, it, rnorm
+    return q, code, it, rnorm
+
+
+def length_scale(case: Case, state: CrankState) -> float:
+    g = case.geometry
+    return g.crank_length + g.rod_length + abs(g.slider_offset) + float(np.max(np.abs(state.s), initial=0.0))
+
+
+def close_positions(closure: Closure, case: Case, state: CrankState) -> dict[str, np.ndarray]:
+    """Pass 1 (sequential): close the loop at every tabulated position by continuation.
+
+    Each position continues from the previous closed one (:func:`continue_to`); the
+    first one, one after a failed position, or one the continuation could not reach
+    starts from :meth:`Closure.crude_guess`, so a status always describes its own
+    position.  Returns q (n, 7), the rate equations AB (n, 4, 6) and the tangent
+    K = -A^{-1} B (n, 4, 2) at each closed position (NaN elsewhere), status codes,
+    Newton iterations, closure residuals |r| and the closure condition |u·k4| (n,) (NaN where not closed).
+    """
+    n = len(state)
+    q_all = np.empty((n, closure.model.nq))
+    AB_all = np.full((n, 4, 6), np.nan)
+    K_all = np.full((n, 4, 2), np.nan)
+    status = np.empty(n, dtype=int)
+    iterations = np.empty(n, dtype=int)
+    residual = np.empty(n)
+    condition = np.full(n, np.nan)
+    crank = np.column_stack([state.theta, state.s])
+    q_prev, t_prev = None, None
+    for i in range(n):
+        code = None
+        if q_prev is not None:
+            q, code, it, rnorm = continue_to(closure, case, q_prev, t_prev, crank[i])
+        if code != OK:  # first position, after a failure, or continuation failed on the way: start afresh
+            q, code, it, rnorm = closure.close(closure.crude_guess(crank[i, 0], crank[i, 1]))
+        q_all[i], status[i], iterations[i], residual[i] = q, code, it, rnorm
+        if code == OK:
+            t_prev = closure.tangent()
+            AB_all[i], K_all[i], condition[i] = closure.AB, t_prev, closure.condition
+            q_prev = q
+        else:
+            q_prev, t_prev = None, None  # restart from a crude guess at the next position
+    return {"q": q_all, "AB": AB_all, "K": K_all, "status": status, "iterations": iterations,
+            "residual": residual, "condition": condition}

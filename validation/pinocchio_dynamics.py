@@ -1,0 +1,140 @@
+"""Pinocchio judge, passes 2-4: rates, ``rnea`` and the closed loop's inverse dynamics
+(thesis method, steps 2-4 of :mod:`~dualmech.validation.pinocchio_engine`).
+
+Rates solve :math:`[J_c; s^T] \\dot q = 0` and the same with the drift for :math:`\\ddot q`
+(:func:`rates_and_rnea`); ``rnea`` gives :math:`\\tau_0 = M\\ddot q + b`; and
+:math:`\\tau_0 = S^T\\tau + J_c^T\\lambda` is solved in the least-squares sense for the unknown
+efforts and the closure force :math:`\\lambda` (:func:`closed_loop_inverse_dynamics`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+from dualmech.core.motion import CrankState
+from dualmech.models.case import Case
+from dualmech.validation.pinocchio_closure import LWA, Closure
+from dualmech.validation.pinocchio_model import PinocchioSliderCrank
+
+
+def rates_and_rnea(closure: Closure, case: Case, pos: dict[str, np.ndarray], state: CrankState,
+              rows: np.ndarray) -> dict[str, np.ndarray]:
+    """Passes 2-3 at the closed positions ``rows``: rates, rnea, joint forces without the closure.
+
+    Velocities are ``K @ (theta1_dot, S1_dot)`` (batched).  Per position:
+    ``forwardKinematics(q, v, a0)`` with ``a0`` = crank accelerations only gives the
+    drift, ``a_free = -A^{-1} drift``, then ``rnea(q, v, a)`` gives ``tau0`` and
+    ``data.f`` (mapped to world axes with the ``data.oMi`` of that same
+    ``forwardKinematics``: ``rnea`` itself does not update ``data.oMi``).
+
+    Returns v, a (m, 6), tau0 (m, 6), f0 (m, 3, 6) (crank, rod, slider; world axes, moment
+    about O) and the placements p2, p3, u, crank_origin (m, 3).
+    """
+    model, data, pm = closure.model, closure.data, closure.pm
+    fe, fp, rod, crank, slider = pm.rod_end_frame, pm.slider_pin_frame, pm.rod_joint, pm.crank_joint, pm.slider_joint
+    oMi, forces, spatial_acc = data.oMi, data.f, data.a
+    classical = pin.getFrameClassicalAcceleration
+    m, nv = rows.size, model.nv
+    q = pos["q"][rows]
+    v = np.empty((m, nv))
+    a = np.zeros((m, nv))
+    v[:, :2] = np.column_stack([state.theta_dot, state.s_dot])[rows]
+    a[:, :2] = np.column_stack([state.theta_ddot, state.s_ddot])[rows]
+    v[:, 2:] = np.einsum("nij,nj->ni", pos["K"][rows], v[:, :2])
+    a_inv = np.linalg.inv(pos["AB"][rows, :, 2:])
+    tau0 = np.empty((m, nv))
+    f0 = np.empty((m, 3, 6))
+    geometry = np.empty((m, 4, 3))  # P2, P3, u, crank origin
+    drift = np.empty(4)
+    for k in range(m):
+        qk, vk, ak = q[k], v[k], a[k]
+        pin.forwardKinematics(model, data, qk, vk, ak)  # ak holds only the crank accelerations here
+        drift[:3] = classical(model, data, fe, LWA).linear - classical(model, data, fp, LWA).linear
+        drift[3] = spatial_acc[rod].angular[0]
+        ak[2:] = -(a_inv[k] @ drift)
+        tau0[k] = pin.rnea(model, data, qk, vk, ak)
+        for j, joint in enumerate((crank, rod, slider)):
+            world = oMi[joint].act(forces[joint])  # keep the Force alive while its vector is read
+            f0[k, j] = world.vector
+        rod_placement = oMi[rod]
+        geometry[k, 0] = rod_placement.translation
+        geometry[k, 1] = oMi[slider].translation
+        geometry[k, 2] = rod_placement.rotation[:, 0]
+        geometry[k, 3] = oMi[crank].translation
+    return {"v": v, "a": a, "tau0": tau0, "f0": f0, "p2": geometry[:, 0], "p3": geometry[:, 1],
+            "u": geometry[:, 2], "crank_origin": geometry[:, 3]}
+
+
+def _least_squares(lhs: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Batched least squares ``min |lhs x - rhs|`` by QR; lhs (m, 6, 5) of full column rank, rhs (m, 6)."""
+    if lhs.shape[0] == 0:
+        return np.empty((0, lhs.shape[2]))
+    Q, R = np.linalg.qr(lhs)
+    qtb = np.einsum("nji,nj->ni", Q, rhs)
+    try:
+        return np.linalg.solve(R, qtb[..., None])[..., 0]
+    except np.linalg.LinAlgError:  # an exactly singular row: solve one by one, NaN where singular
+        out = np.full(qtb.shape, np.nan)
+        for k in range(R.shape[0]):
+            try:
+                out[k] = np.linalg.solve(R[k], qtb[k])
+            except np.linalg.LinAlgError:
+                pass
+        return out
+
+
+def closed_loop_inverse_dynamics(case: Case, pm: PinocchioSliderCrank, tau0: np.ndarray,
+                                  jc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least-squares solution of ``tau0 = S^T tau + J_c^T lambda`` for the unknown efforts and lambda.
+
+    The rows of the angular coordinates (crank angle, rod rotations; F·L) are divided by
+    ``a2`` so that every row is a force: the least squares then weighs the equations the
+    same way in any length unit (a moment row and a force row are otherwise weighed by
+    the unit: at micrometre scale the moment rows all but vanish from the fit).
+
+    Parameters
+    ----------
+    tau0 : numpy.ndarray, shape (m, 6)
+        ``M qddot + b`` from ``rnea`` (gravity included).
+    jc : numpy.ndarray, shape (m, 3, 6)
+        Closure Jacobian (rod end minus slider pin, world axes).
+
+    Returns
+    -------
+    effort : (m, 6) all joint efforts; lam : (m, 3) force of the slider on the rod at P3, world axes;
+    ls_residual : (m,) ``|W (lhs x - rhs)| / |W rhs|`` with the row weights ``W``.
+    """
+    m, nv = tau0.shape
+    known, unknown = _effort_split(case, pm)
+    tau_known = np.zeros(nv)
+    for index, value in known.items():
+        tau_known[index] = value
+    E = np.zeros((nv, len(unknown)))
+    E[unknown, np.arange(len(unknown))] = 1.0
+    w = np.ones(nv)
+    w[[pm.v_crank.start, *range(pm.v_rod.start, pm.v_rod.stop)]] = 1.0 / pm.a2  # angular rows: F·L -> F
+    lhs = np.concatenate([np.broadcast_to(E, (m, *E.shape)), np.swapaxes(jc, 1, 2)], axis=2) * w[:, None]  # (m, 6, 5)
+    rhs = (tau0 - tau_known) * w
+    x = _least_squares(lhs, rhs)
+    ls_res = np.linalg.norm(np.einsum("nij,nj->ni", lhs, x) - rhs, axis=1) / np.maximum(
+        np.linalg.norm(rhs, axis=1), np.finfo(float).tiny)
+    effort = np.broadcast_to(tau_known, (m, nv)).copy()
+    effort[:, unknown] = x[:, : len(unknown)]
+    return effort, x[:, len(unknown):], ls_res
+
+
+def _effort_split(case: Case, pm: PinocchioSliderCrank) -> tuple[dict[int, float], list[int]]:
+    """Known efforts {v index: value} and the unknown effort indices, by load mode.
+
+    The rod's ball joint carries zero effort (known); the axial force is always unknown.
+    Torque mode: drive torque known, slider effort unknown; force mode the reverse.
+    The prismatic effort along ``-k4`` is ``-k4·f = -slider_load``.
+    """
+    theta_i, s_i = pm.v_crank.start, pm.v_crank.start + 1
+    s4_i = pm.v_slider.start
+    known = {j: 0.0 for j in range(pm.v_rod.start, pm.v_rod.stop)}
+    if case.loads.mode == "torque":
+        known[theta_i] = float(case.loads.drive_torque)
+        return known, [s_i, s4_i]
+    known[s4_i] = -float(case.loads.slider_force)
+    return known, [theta_i, s_i]
