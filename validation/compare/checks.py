@@ -1,267 +1,42 @@
-"""Judge against reference: per case, engine and quantity, how far apart and whether that is fine.
+"""Per case: the reference's own check, then each judge's statuses, quantities and stroke; then the run.
 
-The gate is strict: it passes only on what it has actually compared.
-
-**Statuses first.**  Every engine says one word of :mod:`dualmech.core.status` per
-crank position.  ``ok``, ``dead_centre``, ``assembly_limit`` and ``no_assembly`` are
-verdicts about the mechanism; ``branch_jump``, ``not_converged`` and ``not_finite``
-are failures of the engine, and so is any non-finite number where the word says the
-value is given (an ``ok`` row with NaN or inf).  Per row, the judge's word must equal
-the reference's, except where a stated rule (:data:`STATUS_RULES`) explains the
-difference: in drive-torque mode, ``ok`` against ``dead_centre`` where both engines'
-``|transmission|`` lie between half the in-house flag and the judge's ``dead_centre_band``
-(never at an exact dead centre, where every engine owes the flag), and ``ok`` against ``assembly_limit`` where its
-``closure_condition`` is within the judge's ``assembly_limit_band`` of the flag
-``ASSEMBLY_LIMIT_CONDITION`` (``validation/tolerances.py``), since each engine sets
-these flags from its own values.  Rows the two engines agree not to assemble
-are agreement, counted in ``n_excluded``.  The reference gets a ``status`` check of
-its own: engine failures, or no assembled position at all (unless the matrix case
-declares ``expect = "no_assembly"``, in which case every engine must say so at every
-position, and nothing else is compared).
-
-**Then the numbers.**  For one case, the reference's table ``R`` and a judge's
-table ``J`` are compared row by row on the rows where both give the quantity:
-
-.. math::
-
-    d_i = |J_i - R_i|, \\qquad
-    r_i = \\frac{d_i}{s_g\\, c_i}, \\qquad
-    \\text{pass} \\iff n_\\text{compared} > 0 \\text{ and } \\max_i r_i \\le \\text{tol}
-
-* ``c_i`` is the condition factor of the row (``docs/conventions.md``, "Dead
-  centres"): ``1/|t_i|`` for reactions in drive-torque mode, with ``t`` the
-  reference's ``transmission`` column, else 1.
-* ``s_g`` is the scale of the quantity's unit group (:data:`UNIT_GROUP`): the
-  largest ``|R_i| / c_i`` over the case's compared rows of every compared quantity
-  of that group, so every verdict is relative to the case's own scale and does not
-  depend on its unit system.
-* A quantity with no row compared fails: a gate that compared nothing says so.
-
-**Missing work.**  A case, or an engine of a case, absent from the results gives a
-failing ``engine`` check marked ``incomplete``; the run's :class:`Verdict` is then
-``INCOMPLETE`` (never ``PASS``), unless a comparison failed outright (``FAIL``).
+:func:`compare_run` is the gate of ``dualmech validate`` (rules in the package docstring of
+:mod:`~dualmech.validation.compare`).
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
-from enum import StrEnum
+from dataclasses import dataclass
 
 import numpy as np
-
-from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
-from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS, REACTION_COLUMNS, ResultTable
+from dualmech.core.status import ASSEMBLED, Status, is_status
+from dualmech.core.table import ResultTable
+from dualmech.validation.compare.differences import (
+    compared_rows,
+    engine_failures,
+    relative_differences,
+    rows_given,
+    stroke,
+    unit_scales,
+)
+from dualmech.validation.compare.results import (
+    ENGINE,
+    EXPECT_NO_ASSEMBLY,
+    POSE_COLUMNS,
+    STATUS,
+    STROKE,
+    STROKE_PROXY,
+    UNIT_GROUP,
+    Check,
+    Comparison,
+)
 from dualmech.validation.matrix import Matrix, ResolvedTolerance
-from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_LIMIT_POSE, DEAD_CENTRE_TRANSMISSION
+from dualmech.validation.tolerances import (
+    ASSEMBLY_LIMIT_CONDITION,
+    ASSEMBLY_LIMIT_POSE,
+    DEAD_CENTRE_TRANSMISSION,
+)
 
-#: Unit group of each comparable column: relative differences share one scale per group.
-UNIT_GROUP: dict[str, str] = {
-    "S1": "length", "S4": "length", "S4_dot": "velocity", "S4_ddot": "acceleration",
-    "transmission": "ratio",
-    **{c: "force" for c in FORCE_COLUMNS},
-    **{c: "moment" for c in MOMENT_COLUMNS},
-}
-#: Columns given under each status word (``docs/conventions.md``, "Status words").
-POSE_COLUMNS: tuple[str, ...] = ("S1", "S4")
-RATE_COLUMNS: tuple[str, ...] = ("S4_dot", "S4_ddot", "transmission")
-#: The column whose rows count as "assembled" (the stroke, and what a check reports as excluded).
-STROKE_PROXY = "S4"
-#: Status words that are verdicts about the mechanism (the others are engine failures).
-VERDICTS: frozenset[str] = frozenset({Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.NO_ASSEMBLY})
-#: Pseudo-quantities of :class:`Check` besides the table columns.
-STROKE, STATUS, ENGINE = "stroke", "status", "engine"
-#: The only declared expectation a matrix case may carry (``[[sweep]] expect = ...``).
-EXPECT_NO_ASSEMBLY = "no_assembly"
-
-
-class Verdict(StrEnum):
-    """Outcome of a whole run."""
-
-    PASS = "PASS"
-    FAIL = "FAIL"
-    INCOMPLETE = "INCOMPLETE"
-
-
-@dataclass(frozen=True)
-class Check:
-    """One verdict: a judge's ``quantity`` on one case against the reference.
-
-    Attributes
-    ----------
-    case, engine, quantity : str
-        Matrix case id, engine, and a column name, ``"stroke"``, ``"status"``
-        (status agreement; for the reference engine, its own failures) or
-        ``"engine"`` (the engine ran).
-    max_abs : float
-        Largest ``|judge - reference|`` over the compared rows, in the column's unit.
-    max_rel : float
-        Largest ``r_i`` (module docstring); ``nan`` when nothing was compared.
-    worst_theta_deg : float
-        Crank angle of ``max_rel`` (``nan`` if none).
-    tolerance : ResolvedTolerance
-        The tolerance ``max_rel`` is held to.
-    scale : float
-        ``s_g`` used for ``max_rel``.
-    n_compared, n_excluded, n_mismatch : int
-        Rows compared; rows not compared but accounted for (dead centres, positions
-        both engines agree do not assemble); rows that disagree or fail.
-    passed : bool
-    detail : str
-        One line for reports (why it failed, what was excluded).
-    incomplete : bool
-        The check failed because work is missing (not run), not because of a result.
-    """
-
-    case: str
-    engine: str
-    quantity: str
-    max_abs: float
-    max_rel: float
-    worst_theta_deg: float
-    tolerance: ResolvedTolerance
-    scale: float
-    n_compared: int
-    n_excluded: int
-    n_mismatch: int
-    passed: bool
-    detail: str = ""
-    incomplete: bool = False
-
-    @property
-    def ratio(self) -> float:
-        """``max_rel / tolerance`` (``inf`` for a failure without a number, 0 if nothing compared)."""
-        if not self.passed and not np.isfinite(self.max_rel):
-            return float("inf")
-        if not np.isfinite(self.max_rel):
-            return 0.0
-        return self.max_rel / self.tolerance.value if self.tolerance.value > 0 else (
-            0.0 if self.max_rel == 0 else float("inf"))
-
-    def to_dict(self) -> dict:
-        """JSON-ready form."""
-        d = asdict(self)
-        d["tolerance"] = asdict(self.tolerance)
-        return d
-
-
-@dataclass(frozen=True)
-class Comparison:
-    """Every check of a run, and the strokes and dead-centre counts per case and engine."""
-
-    checks: tuple[Check, ...]
-    strokes: dict[str, dict[str, float]] = field(default_factory=dict)  # case -> engine -> stroke
-    dead_centres: dict[str, dict[str, int]] = field(default_factory=dict)  # case -> engine -> rows
-    errors: dict[str, dict[str, str]] = field(default_factory=dict)  # case -> engine -> message
-
-    @property
-    def verdict(self) -> Verdict:
-        """``FAIL`` if any check failed on a result, else ``INCOMPLETE`` if work is missing, else ``PASS``."""
-        failed = [c for c in self.checks if not c.passed]
-        if any(not c.incomplete for c in failed):
-            return Verdict.FAIL
-        if failed or not self.checks:
-            return Verdict.INCOMPLETE
-        return Verdict.PASS
-
-    @property
-    def passed(self) -> bool:
-        return self.verdict is Verdict.PASS
-
-    @property
-    def missing(self) -> list[Check]:
-        """The checks that failed because work is missing."""
-        return [c for c in self.checks if c.incomplete]
-
-    def failures(self) -> list[Check]:
-        """Failing checks, worst first within each case."""
-        return [c for c in self.checks if not c.passed]
-
-    def for_engine(self, case: str, engine: str) -> list[Check]:
-        """The checks of one (case, engine)."""
-        return [c for c in self.checks if c.case == case and c.engine == engine]
-
-
-# ----------------------------------------------------------------------------- per row
-
-def condition_factor(reference: ResultTable, mode: str, quantity: str) -> np.ndarray:
-    """``c_i`` of the module docstring, shape ``(n,)``: ``1/|t|`` for reactions in torque mode, else 1."""
-    n = len(reference)
-    if mode != "torque" or quantity not in REACTION_COLUMNS:
-        return np.ones(n)
-    t = np.abs(reference["transmission"])
-    with np.errstate(divide="ignore"):
-        return np.where(t > 0, 1.0 / np.where(t > 0, t, 1.0), np.inf)
-
-
-def given_under(quantity: str) -> frozenset[str]:
-    """The status words under which an engine gives ``quantity``."""
-    if quantity in POSE_COLUMNS:
-        return ASSEMBLED
-    if quantity in RATE_COLUMNS:
-        return RATES_GIVEN
-    return frozenset({Status.OK})
-
-
-def rows_given(table: ResultTable, quantity: str) -> np.ndarray:
-    """Rows, shape ``(n,)`` bool, where ``table``'s status says ``quantity`` is given."""
-    return is_status(table.status, *given_under(quantity))
-
-
-def engine_failures(table: ResultTable, quantities: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """Rows where the engine failed, shape ``(n,)`` each: by its own word, and by a non-finite given value.
-
-    Returns ``(failed_status, non_finite)``.
-    """
-    failed = ~is_status(table.status, *VERDICTS)
-    non_finite = np.zeros(len(table), dtype=bool)
-    for q in (*POSE_COLUMNS, *quantities):
-        non_finite |= rows_given(table, q) & ~np.isfinite(table[q])
-    return failed, non_finite & ~failed
-
-
-def _compared_rows(reference: ResultTable, judge: ResultTable, quantity: str) -> np.ndarray:
-    return rows_given(reference, quantity) & rows_given(judge, quantity)
-
-
-def unit_scales(reference: ResultTable, judge: ResultTable, mode: str, quantities: tuple[str, ...]) -> dict[str, float]:
-    """``s_g`` per unit group: the largest ``|R|/c`` over the compared rows of the group's quantities.
-
-    A group whose reference values are all zero (or absent) gets scale 1, i.e. the
-    comparison becomes absolute in the column's unit.
-    """
-    scales: dict[str, float] = {}
-    for q in quantities:
-        rows = _compared_rows(reference, judge, q)
-        vals = np.abs(reference[q][rows]) / condition_factor(reference, mode, q)[rows]
-        vals = vals[np.isfinite(vals)]
-        g = UNIT_GROUP[q]
-        scales[g] = max(scales.get(g, 0.0), float(vals.max()) if vals.size else 0.0)
-    return {g: (s if s > 0 else 1.0) for g, s in scales.items()}
-
-
-def relative_differences(
-    reference: ResultTable, judge: ResultTable, mode: str, quantities: tuple[str, ...]
-) -> dict[str, np.ndarray]:
-    """``r_i`` per quantity, each shape ``(n,)``; NaN on rows not compared, ``inf`` where a value is not finite."""
-    scales = unit_scales(reference, judge, mode, quantities)
-    out = {}
-    for q in quantities:
-        rows = _compared_rows(reference, judge, q)
-        with np.errstate(invalid="ignore", over="ignore"):
-            rel = np.abs(judge[q] - reference[q]) / (scales[UNIT_GROUP[q]] * condition_factor(reference, mode, q))
-        rel = np.where(np.isfinite(rel), rel, np.inf)
-        out[q] = np.where(rows, rel, np.nan)
-    return out
-
-
-def stroke(table: ResultTable) -> float:
-    """``max S4 - min S4`` over the assembled rows (the case's sampled angles); NaN if none."""
-    s4 = table["S4"][is_status(table.status, *ASSEMBLED)]
-    s4 = s4[np.isfinite(s4)]
-    return float(s4.max() - s4.min()) if s4.size else float("nan")
-
-
-# ----------------------------------------------------------------------------- per case
 
 def _fail(case: str, engine: str, quantity: str, tol: ResolvedTolerance, detail: str,
           incomplete: bool = False) -> Check:
@@ -394,7 +169,7 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
     ``max_rel`` is then the row's difference scaled to ``tol`` (``r_i tol / tol_i``).
     """
     theta = reference["theta1_deg"]
-    rows = _compared_rows(reference, judge, quantity)
+    rows = compared_rows(reference, judge, quantity)
     if quantity in POSE_COLUMNS and tol.value > 0:
         limit = is_status(reference.status, Status.ASSEMBLY_LIMIT) | is_status(judge.status, Status.ASSEMBLY_LIMIT)
         rel = np.where(limit, rel * tol.value / max(tol.value, ASSEMBLY_LIMIT_POSE.value), rel)

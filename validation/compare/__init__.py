@@ -1,0 +1,86 @@
+"""Judge against reference: per case, engine and quantity, how far apart and whether that is fine.
+
+The gate is strict: it passes only on what it has actually compared.
+
+**Statuses first.**  Every engine says one word of :mod:`dualmech.core.status` per
+crank position.  ``ok``, ``dead_centre``, ``assembly_limit`` and ``no_assembly`` are
+verdicts about the mechanism; ``branch_jump``, ``not_converged`` and ``not_finite``
+are failures of the engine, and so is any non-finite number where the word says the
+value is given (an ``ok`` row with NaN or inf).  Per row, the judge's word must equal
+the reference's, except where a stated rule (:data:`STATUS_RULES`) explains the
+difference: in drive-torque mode, ``ok`` against ``dead_centre`` where both engines'
+``|transmission|`` lie between half the in-house flag and the judge's ``dead_centre_band``
+(never at an exact dead centre, where every engine owes the flag), and ``ok`` against ``assembly_limit`` where its
+``closure_condition`` is within the judge's ``assembly_limit_band`` of the flag
+``ASSEMBLY_LIMIT_CONDITION`` (``validation/tolerances.py``), since each engine sets
+these flags from its own values.  Rows the two engines agree not to assemble
+are agreement, counted in ``n_excluded``.  The reference gets a ``status`` check of
+its own: engine failures, or no assembled position at all (unless the matrix case
+declares ``expect = "no_assembly"``, in which case every engine must say so at every
+position, and nothing else is compared).
+
+**Then the numbers.**  For one case, the reference's table ``R`` and a judge's
+table ``J`` are compared row by row on the rows where both give the quantity:
+
+.. math::
+
+    d_i = |J_i - R_i|, \\qquad
+    r_i = \\frac{d_i}{s_g\\, c_i}, \\qquad
+    \\text{pass} \\iff n_\\text{compared} > 0 \\text{ and } \\max_i r_i \\le \\text{tol}
+
+* ``c_i`` is the condition factor of the row (``docs/conventions.md``, "Dead
+  centres"): ``1/|t_i|`` for reactions in drive-torque mode, with ``t`` the
+  reference's ``transmission`` column, else 1.
+* ``s_g`` is the scale of the quantity's unit group (:data:`UNIT_GROUP`): the
+  largest ``|R_i| / c_i`` over the case's compared rows of every compared quantity
+  of that group, so every verdict is relative to the case's own scale and does not
+  depend on its unit system.
+* A quantity with no row compared fails: a gate that compared nothing says so.
+
+**Missing work.**  A case, or an engine of a case, absent from the results gives a
+failing ``engine`` check marked ``incomplete``; the run's :class:`Verdict` is then
+``INCOMPLETE`` (never ``PASS``), unless a comparison failed outright (``FAIL``).
+"""
+
+from dualmech.validation.compare.checks import (
+    STATUS_RULES,
+    StatusRule,
+    compare_case,
+    compare_run,
+    first_line,
+    quantity_check,
+    reference_check,
+    status_check,
+    stroke_check,
+)
+from dualmech.validation.compare.differences import (
+    condition_factor,
+    engine_failures,
+    given_under,
+    relative_differences,
+    rows_given,
+    stroke,
+    unit_scales,
+)
+from dualmech.validation.compare.results import (
+    ENGINE,
+    EXPECT_NO_ASSEMBLY,
+    POSE_COLUMNS,
+    RATE_COLUMNS,
+    STATUS,
+    STROKE,
+    STROKE_PROXY,
+    UNIT_GROUP,
+    VERDICTS,
+    Check,
+    Comparison,
+    Verdict,
+)
+
+__all__ = [
+    "ENGINE", "EXPECT_NO_ASSEMBLY", "POSE_COLUMNS", "RATE_COLUMNS", "STATUS", "STATUS_RULES", "STROKE",
+    "STROKE_PROXY", "UNIT_GROUP", "VERDICTS", "Check", "Comparison", "StatusRule", "Verdict", "compare_case",
+    "compare_run", "condition_factor", "engine_failures", "first_line", "given_under", "quantity_check",
+    "reference_check", "relative_differences", "rows_given", "status_check", "stroke", "stroke_check",
+    "unit_scales",
+]

@@ -1,0 +1,94 @@
+"""Per row: which rows an engine gives a quantity on, and the relative differences ``r_i`` of a judge.
+
+``r_i = |J_i - R_i| / (s_g c_i)`` (package docstring of :mod:`~dualmech.validation.compare`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
+from dualmech.core.table import REACTION_COLUMNS, ResultTable
+from dualmech.validation.compare.results import (
+    POSE_COLUMNS,
+    RATE_COLUMNS,
+    UNIT_GROUP,
+    VERDICTS,
+)
+
+
+def condition_factor(reference: ResultTable, mode: str, quantity: str) -> np.ndarray:
+    """``c_i`` of the module docstring, shape ``(n,)``: ``1/|t|`` for reactions in torque mode, else 1."""
+    n = len(reference)
+    if mode != "torque" or quantity not in REACTION_COLUMNS:
+        return np.ones(n)
+    t = np.abs(reference["transmission"])
+    with np.errstate(divide="ignore"):
+        return np.where(t > 0, 1.0 / np.where(t > 0, t, 1.0), np.inf)
+
+
+def given_under(quantity: str) -> frozenset[str]:
+    """The status words under which an engine gives ``quantity``."""
+    if quantity in POSE_COLUMNS:
+        return ASSEMBLED
+    if quantity in RATE_COLUMNS:
+        return RATES_GIVEN
+    return frozenset({Status.OK})
+
+
+def rows_given(table: ResultTable, quantity: str) -> np.ndarray:
+    """Rows, shape ``(n,)`` bool, where ``table``'s status says ``quantity`` is given."""
+    return is_status(table.status, *given_under(quantity))
+
+
+def engine_failures(table: ResultTable, quantities: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Rows where the engine failed, shape ``(n,)`` each: by its own word, and by a non-finite given value.
+
+    Returns ``(failed_status, non_finite)``.
+    """
+    failed = ~is_status(table.status, *VERDICTS)
+    non_finite = np.zeros(len(table), dtype=bool)
+    for q in (*POSE_COLUMNS, *quantities):
+        non_finite |= rows_given(table, q) & ~np.isfinite(table[q])
+    return failed, non_finite & ~failed
+
+
+def compared_rows(reference: ResultTable, judge: ResultTable, quantity: str) -> np.ndarray:
+    return rows_given(reference, quantity) & rows_given(judge, quantity)
+
+
+def unit_scales(reference: ResultTable, judge: ResultTable, mode: str, quantities: tuple[str, ...]) -> dict[str, float]:
+    """``s_g`` per unit group: the largest ``|R|/c`` over the compared rows of the group's quantities.
+
+    A group whose reference values are all zero (or absent) gets scale 1, i.e. the
+    comparison becomes absolute in the column's unit.
+    """
+    scales: dict[str, float] = {}
+    for q in quantities:
+        rows = compared_rows(reference, judge, q)
+        vals = np.abs(reference[q][rows]) / condition_factor(reference, mode, q)[rows]
+        vals = vals[np.isfinite(vals)]
+        g = UNIT_GROUP[q]
+        scales[g] = max(scales.get(g, 0.0), float(vals.max()) if vals.size else 0.0)
+    return {g: (s if s > 0 else 1.0) for g, s in scales.items()}
+
+
+def relative_differences(
+    reference: ResultTable, judge: ResultTable, mode: str, quantities: tuple[str, ...]
+) -> dict[str, np.ndarray]:
+    """``r_i`` per quantity, each shape ``(n,)``; NaN on rows not compared, ``inf`` where a value is not finite."""
+    scales = unit_scales(reference, judge, mode, quantities)
+    out = {}
+    for q in quantities:
+        rows = compared_rows(reference, judge, q)
+        with np.errstate(invalid="ignore", over="ignore"):
+            rel = np.abs(judge[q] - reference[q]) / (scales[UNIT_GROUP[q]] * condition_factor(reference, mode, q))
+        rel = np.where(np.isfinite(rel), rel, np.inf)
+        out[q] = np.where(rows, rel, np.nan)
+    return out
+
+
+def stroke(table: ResultTable) -> float:
+    """``max S4 - min S4`` over the assembled rows (the case's sampled angles); NaN if none."""
+    s4 = table["S4"][is_status(table.status, *ASSEMBLED)]
+    s4 = s4[np.isfinite(s4)]
+    return float(s4.max() - s4.min()) if s4.size else float("nan")

@@ -1,0 +1,140 @@
+"""The outcome of a comparison: one :class:`Check` per (case, engine, quantity), and the run's :class:`Verdict`.
+
+The rules that produce them are in :mod:`~dualmech.validation.compare` (package docstring).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from enum import StrEnum
+
+import numpy as np
+from dualmech.core.status import Status
+from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS
+from dualmech.validation.matrix import ResolvedTolerance
+
+#: Unit group of each comparable column: relative differences share one scale per group.
+UNIT_GROUP: dict[str, str] = {
+    "S1": "length", "S4": "length", "S4_dot": "velocity", "S4_ddot": "acceleration",
+    "transmission": "ratio",
+    **{c: "force" for c in FORCE_COLUMNS},
+    **{c: "moment" for c in MOMENT_COLUMNS},
+}
+#: Columns given under each status word (``docs/conventions.md``, "Status words").
+POSE_COLUMNS: tuple[str, ...] = ("S1", "S4")
+RATE_COLUMNS: tuple[str, ...] = ("S4_dot", "S4_ddot", "transmission")
+#: The column whose rows count as "assembled" (the stroke, and what a check reports as excluded).
+STROKE_PROXY = "S4"
+#: Status words that are verdicts about the mechanism (the others are engine failures).
+VERDICTS: frozenset[str] = frozenset({Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.NO_ASSEMBLY})
+#: Pseudo-quantities of :class:`Check` besides the table columns.
+STROKE, STATUS, ENGINE = "stroke", "status", "engine"
+#: The only declared expectation a matrix case may carry (``[[sweep]] expect = ...``).
+EXPECT_NO_ASSEMBLY = "no_assembly"
+
+
+class Verdict(StrEnum):
+    """Outcome of a whole run."""
+
+    PASS = "PASS"
+    FAIL = "FAIL"
+    INCOMPLETE = "INCOMPLETE"
+
+
+@dataclass(frozen=True)
+class Check:
+    """One verdict: a judge's ``quantity`` on one case against the reference.
+
+    Attributes
+    ----------
+    case, engine, quantity : str
+        Matrix case id, engine, and a column name, ``"stroke"``, ``"status"``
+        (status agreement; for the reference engine, its own failures) or
+        ``"engine"`` (the engine ran).
+    max_abs : float
+        Largest ``|judge - reference|`` over the compared rows, in the column's unit.
+    max_rel : float
+        Largest ``r_i`` (module docstring); ``nan`` when nothing was compared.
+    worst_theta_deg : float
+        Crank angle of ``max_rel`` (``nan`` if none).
+    tolerance : ResolvedTolerance
+        The tolerance ``max_rel`` is held to.
+    scale : float
+        ``s_g`` used for ``max_rel``.
+    n_compared, n_excluded, n_mismatch : int
+        Rows compared; rows not compared but accounted for (dead centres, positions
+        both engines agree do not assemble); rows that disagree or fail.
+    passed : bool
+    detail : str
+        One line for reports (why it failed, what was excluded).
+    incomplete : bool
+        The check failed because work is missing (not run), not because of a result.
+    """
+
+    case: str
+    engine: str
+    quantity: str
+    max_abs: float
+    max_rel: float
+    worst_theta_deg: float
+    tolerance: ResolvedTolerance
+    scale: float
+    n_compared: int
+    n_excluded: int
+    n_mismatch: int
+    passed: bool
+    detail: str = ""
+    incomplete: bool = False
+
+    @property
+    def ratio(self) -> float:
+        """``max_rel / tolerance`` (``inf`` for a failure without a number, 0 if nothing compared)."""
+        if not self.passed and not np.isfinite(self.max_rel):
+            return float("inf")
+        if not np.isfinite(self.max_rel):
+            return 0.0
+        return self.max_rel / self.tolerance.value if self.tolerance.value > 0 else (
+            0.0 if self.max_rel == 0 else float("inf"))
+
+    def to_dict(self) -> dict:
+        """JSON-ready form."""
+        d = asdict(self)
+        d["tolerance"] = asdict(self.tolerance)
+        return d
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Every check of a run, and the strokes and dead-centre counts per case and engine."""
+
+    checks: tuple[Check, ...]
+    strokes: dict[str, dict[str, float]] = field(default_factory=dict)  # case -> engine -> stroke
+    dead_centres: dict[str, dict[str, int]] = field(default_factory=dict)  # case -> engine -> rows
+    errors: dict[str, dict[str, str]] = field(default_factory=dict)  # case -> engine -> message
+
+    @property
+    def verdict(self) -> Verdict:
+        """``FAIL`` if any check failed on a result, else ``INCOMPLETE`` if work is missing, else ``PASS``."""
+        failed = [c for c in self.checks if not c.passed]
+        if any(not c.incomplete for c in failed):
+            return Verdict.FAIL
+        if failed or not self.checks:
+            return Verdict.INCOMPLETE
+        return Verdict.PASS
+
+    @property
+    def passed(self) -> bool:
+        return self.verdict is Verdict.PASS
+
+    @property
+    def missing(self) -> list[Check]:
+        """The checks that failed because work is missing."""
+        return [c for c in self.checks if c.incomplete]
+
+    def failures(self) -> list[Check]:
+        """Failing checks, worst first within each case."""
+        return [c for c in self.checks if not c.passed]
+
+    def for_engine(self, case: str, engine: str) -> list[Check]:
+        """The checks of one (case, engine)."""
+        return [c for c in self.checks if c.case == case and c.engine == engine]
