@@ -89,15 +89,24 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-
 from dualmech.core.assembly import edge_status
 from dualmech.core.status import Status, is_status, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
-from dualmech.models.mjcf import (STEPS_PER_DEGREE, MjcfSettings, case_to_mjcf, default_settings,
-                                  default_timestep)
+from dualmech.models.mjcf import (
+    STEPS_PER_DEGREE,
+    MjcfSettings,
+    case_to_mjcf,
+    default_settings,
+    default_timestep,
+)
+from dualmech.validation import mujoco_closure, mujoco_dynamics
 from dualmech.validation import mujoco_engine as rigid
-from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, SIM_DEAD_CENTRE_TRANSMISSION
+from dualmech.validation.tolerances import (
+    ASSEMBLY_LIMIT_CONDITION,
+    ASSEMBLY_REACH,
+    SIM_DEAD_CENTRE_TRANSMISSION,
+)
 
 ENGINE = "mujoco-sim"
 
@@ -267,11 +276,11 @@ def read_state(lp: rigid.MjLoop, gains: np.ndarray) -> dict[str, float]:
     mujoco.mj_fullM(m, d, mass)
     d.qacc[:] = np.linalg.solve(mass + m.opt.timestep * gains, mass @ d.qacc)  # the integrated acceleration
     mujoco.mj_rnePostConstraint(m, d)
-    values = rigid.joint_wrenches(lp)
+    values = mujoco_dynamics.joint_wrenches(lp)
     values.update(
         S1=float(d.qpos[lp.qadr[1]]), S4=float(d.qpos[lp.qadr[3]]),
         S4_dot=float(d.qvel[lp.vadr[3]]), S4_ddot=float(d.qacc[lp.vadr[3]]),
-        transmission=rigid.transmission(lp), closure_condition=rigid.condition(lp),
+        transmission=mujoco_dynamics.transmission(lp), closure_condition=mujoco_closure.condition(lp),
         residual=float(np.linalg.norm(d.site_xpos[lp.site_pin] - d.site_xpos[lp.site_end])) / lp.a2,
         theta=float(d.qpos[lp.qadr[0]]),
     )

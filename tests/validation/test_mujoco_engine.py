@@ -21,7 +21,7 @@ from tests.validation.pinocchio_oracles import condition, group_scales, newton_e
 
 mujoco = pytest.importorskip("mujoco")
 
-from dualmech.validation import mujoco_engine  # noqa: E402
+from dualmech.validation import mujoco_closure, mujoco_engine  # noqa: E402
 from dualmech.validation.mujoco_engine import benchmark, solve_case  # noqa: E402
 
 KINEMATIC_GROUPS = {"length": ("S1", "S4"), "velocity": ("S4_dot",), "acceleration": ("S4_ddot",),
@@ -146,15 +146,15 @@ def test_no_assembly_is_the_geometric_reach():
 def test_newton_starts_from_a_crude_guess():
     """Independence: the first position starts far from the closed loop (never from an answer)."""
     case = load_case("thesis/a4-20-alpha-232")
-    lp = mujoco_engine.build(case)
+    lp = mujoco_closure.build(case)
     st = case.motion.state(case.geometry.crank_axial_shift)
-    mujoco_engine.set_crank(lp, float(st.theta[0]), float(st.s[0]))
+    mujoco_closure.set_crank(lp, float(st.theta[0]), float(st.s[0]))
     mujoco.mj_kinematics(lp.model, lp.data)
-    mujoco_engine.crude_guess(lp)
+    mujoco_closure.crude_guess(lp)
     mujoco.mj_kinematics(lp.model, lp.data)
     gap = np.linalg.norm(lp.data.site_xpos[lp.site_pin] - lp.data.site_xpos[lp.site_end]) / lp.a2
     assert gap > 1e-2
-    converged, iterations, final = mujoco_engine.close_loop(lp)
+    converged, iterations, final = mujoco_closure.close_loop(lp)
     assert converged and iterations >= 3 and final < 1e-15
 
 
@@ -180,7 +180,7 @@ def test_assembled_keyframe_closes_the_loop():
 
 def test_mujoco_facts_behind_the_rigid_path():
     case = load_case("thesis/a4-20-alpha-232")
-    lp = mujoco_engine.build(case)
+    lp = mujoco_closure.build(case)
     m, d = lp.model, lp.data
     st = case.motion.state(case.geometry.crank_axial_shift)
     crank = tuple(float(f[40]) for f in (st.theta, st.s, st.theta_dot, st.s_dot, st.theta_ddot, st.s_ddot))
