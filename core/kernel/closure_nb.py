@@ -9,7 +9,8 @@ stall and rounding tests; where Newton stalls, Davidon-Fletcher-Powell on
 at a non-zero stationary minimum.
 
 Every function works on one position and writes into the scratch arrays of a
-:class:`Work` (allocated once per block of positions by :func:`make_work`).
+:class:`Work` (allocated once per thread by :func:`make_work`, outside compiled code: the kernel
+runs without numba's runtime and allocates nothing, see :mod:`~dualmech.core.kernel.linalg_nb`).
 The tolerances arrive as a :class:`ClosureTols` argument, read from
 :mod:`dualmech.core.closure` at call time (their one home; constants frozen into
 cached machine code would outlive an edit of that module).
@@ -24,7 +25,8 @@ import numpy as np
 from numba import njit
 
 from dualmech.core import closure
-from dualmech.core.kernel.dual_nb import INLINE, JIT, tmul, trodrigues
+from dualmech.core.kernel.dual_nb import ALLOC, JIT, copy, tmul, trodrigues
+from dualmech.core.kernel.linalg_nb import least_squares
 from dualmech.core.kernel.loop_nb import (
     FlatLoop,
     closure_residual,
@@ -97,14 +99,15 @@ class Work(NamedTuple):
     cum: np.ndarray  # (M + 1, 2, 3): running sums of the screws' motions
     twists: np.ndarray  # (R, 2, 3): link twists
     accels: np.ndarray  # (R, 2, 3): link accelerations
+    svd: np.ndarray  # (3, K, K): the pseudo-inverse's scratch (:func:`~dualmech.core.kernel.linalg_nb.least_squares`)
 
 
 def make_work(fl: FlatLoop) -> Work:
-    """Allocate a :class:`Work` for ``fl`` (also callable from compiled code)."""
+    """Allocate a :class:`Work` for ``fl``."""
     return _make_work(fl, state_size(fl))
 
 
-@njit(**JIT)
+@njit(**ALLOC)
 def _make_work(fl: FlatLoop, s: int) -> Work:
     r, m, g, k = fl.table.shape[0], fl.screws.shape[0], fl.gauges.size, fl.n_step
     return Work(
@@ -135,6 +138,7 @@ def _make_work(fl: FlatLoop, s: int) -> Work:
         np.zeros((m + 1, 2, 3)),
         np.zeros((r, 2, 3)),
         np.zeros((r, 2, 3)),
+        np.zeros((3, k, k)),
     )
 
 
@@ -163,67 +167,6 @@ def retract(n_scalar: int, x: np.ndarray, step: np.ndarray, scale: float, out: n
 
 
 @njit(**JIT)
-def least_squares(a: np.ndarray, b: np.ndarray, out: np.ndarray, sq: np.ndarray, rhs: np.ndarray) -> None:
-    """``a x = b`` in the least-squares sense (thesis eq. 23a, :func:`dualmech.core.closure.least_squares`).
-
-    ``a`` ``(m, k)``, ``m >= k``: square systems directly, otherwise the normal equations;
-    LU with partial pivoting, the pseudo-inverse where a pivot is exactly zero.
-    """
-    m, k = a.shape
-    for i in range(k):
-        for j in range(k):
-            if m == k:
-                sq[i, j] = a[i, j]
-            else:
-                sq[i, j] = 0.0
-                for r in range(m):
-                    sq[i, j] += a[r, i] * a[r, j]
-        if m == k:
-            rhs[i] = b[i]
-        else:
-            rhs[i] = 0.0
-            for r in range(m):
-                rhs[i] += a[r, i] * b[r]
-    if not _lu_solve(sq, rhs, out):
-        out[:] = _pinv_solve(a, b, m == k)
-
-
-@njit(**JIT)
-def _pinv_solve(a: np.ndarray, b: np.ndarray, square: bool) -> np.ndarray:
-    sq = a.copy() if square else a.T @ a
-    rhs = b.copy() if square else a.T @ b
-    return np.linalg.pinv(sq) @ rhs
-
-
-@njit(**INLINE)
-def _lu_solve(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:
-    """Gaussian elimination with partial pivoting, in place on ``a`` and ``b``; False at a zero pivot."""
-    k = a.shape[0]
-    for c in range(k):
-        p = c
-        for r in range(c + 1, k):
-            if abs(a[r, c]) > abs(a[p, c]):
-                p = r
-        if a[p, c] == 0.0:
-            return False
-        if p != c:
-            for j in range(k):
-                a[c, j], a[p, j] = a[p, j], a[c, j]
-            b[c], b[p] = b[p], b[c]
-        for r in range(c + 1, k):
-            f = a[r, c] / a[c, c]
-            for j in range(c + 1, k):
-                a[r, j] -= f * a[c, j]
-            b[r] -= f * b[c]
-    for c in range(k - 1, -1, -1):
-        s = b[c]
-        for j in range(c + 1, k):
-            s -= a[c, j] * out[j]
-        out[c] = s / a[c, c]
-    return True
-
-
-@njit(**JIT)
 def newton_step(
     fl: FlatLoop,
     vals: np.ndarray,
@@ -235,6 +178,7 @@ def newton_step(
     err: np.ndarray,
     sq: np.ndarray,
     rhs: np.ndarray,
+    svd: np.ndarray,
     step: np.ndarray,
 ) -> None:
     """``step``: screws times step = minus the closure error, with the spin gauge (eq. 11, 23a).
@@ -257,7 +201,7 @@ def newton_step(
         )
     rows = 6 + fl.gauges.size
     err[6:rows] = 0.0
-    least_squares(mat, err[:rows], step, sq, rhs)
+    least_squares(mat, err[:rows], step, sq, rhs, svd)
 
 
 @njit(**JIT)
@@ -271,7 +215,7 @@ def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: 
     """
     base, step, frames, lines, k0 = w.base, w.step, w.frames, w.lines, fl.n_scalar
     mat, gauge, axes, err, sq, rhs = w.mat, w.gauge, w.axes, w.err, w.sq, w.rhs
-    base[:] = x
+    copy(x, base)
     step[:] = 0.0
     base_res, stalls, halvings, iters, residual, active = math.inf, 0, 0, 0, math.inf, True
     for _ in range(tols.max_newton + 1):
@@ -290,12 +234,12 @@ def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: 
         if (not improved and res <= tols.rounding) or stalls >= 3:
             active = False
             break
-        newton_step(fl, vals, frames, lines, mat, gauge, axes, err, sq, rhs, step)
-        base[:] = x
+        newton_step(fl, vals, frames, lines, mat, gauge, axes, err, sq, rhs, w.svd, step)
+        copy(x, base)
         base_res, halvings = res, 0
         retract(k0, x, step, 1.0, x)
         iters += 1
     if active and math.isfinite(base_res):
-        x[:] = base
+        copy(base, x)
         residual = base_res
     return iters, residual

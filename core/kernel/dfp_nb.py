@@ -25,7 +25,8 @@ from dualmech.core.kernel.closure_nb import (
     residual_at,
     retract,
 )
-from dualmech.core.kernel.dual_nb import JIT
+from dualmech.core.kernel.dual_nb import JIT, copy
+from dualmech.core.kernel.linalg_nb import pseudo_inverse
 from dualmech.core.kernel.loop_nb import FlatLoop, length_scale, screw_matrix
 
 
@@ -78,19 +79,26 @@ def objective(
 
 
 @njit(**JIT)
-def gauss_newton_inverse(jac: np.ndarray, out: np.ndarray) -> None:
+def gauss_newton_inverse(jac: np.ndarray, out: np.ndarray, svd: np.ndarray) -> None:
     """``out``: pseudo-inverse of the Gauss-Newton Hessian ``J^T J`` (plus 1e-12 of its trace)
-    (:func:`dualmech.core.closure._gauss_newton_inverse`)."""
-    gram = jac.T @ jac
-    tr = np.trace(gram)
-    for i in range(gram.shape[0]):
+    (:func:`dualmech.core.closure._gauss_newton_inverse`); ``svd`` ``(3, K, K)`` scratch.
+
+    The numpy solver sums ``v vᵀ / λ`` over the eigenpairs above ``1e-15 max|λ|``; for this
+    symmetric positive matrix the eigenvalues are its singular values, so the pseudo-inverse of
+    :func:`~dualmech.core.kernel.linalg_nb.pseudo_inverse` (same cutoff) is the same matrix.
+    """
+    gram = svd[0]
+    k = jac.shape[1]
+    tr = 0.0
+    for i in range(k):
+        for j in range(k):
+            gram[i, j] = 0.0
+            for r in range(jac.shape[0]):
+                gram[i, j] += jac[r, i] * jac[r, j]
+        tr += gram[i, i]
+    for i in range(k):
         gram[i, i] += 1e-12 * tr
-    eig, vec = np.linalg.eigh(gram)
-    cutoff = 1e-15 * np.abs(eig).max()
-    out[:] = 0.0
-    for e in range(eig.size):
-        if abs(eig[e]) > cutoff:
-            out += np.outer(vec[:, e], vec[:, e]) / eig[e]
+    pseudo_inverse(gram, out, svd[1], svd[2])
 
 
 @njit(**JIT)
@@ -120,7 +128,7 @@ def dfp(
     """DFP from ``x`` (updated in place); returns (iterations, residual, stationarity cosine)."""
     grad, g_t, p, y = w.grads[0], w.grads[1], w.grads[2], w.grads[3]
     f, cosine, res = objective(fl, vals, x, grad, w)
-    gauss_newton_inverse(w.jac, w.hess)
+    gauss_newton_inverse(w.jac, w.hess, w.svd)
     iters = 0
     active = res > tols.closure and cosine > tols.stationary
     for it in range(tols.max_dfp):
@@ -128,7 +136,7 @@ def dfp(
             break
         if it and it % tols.dfp_restart == 0:  # the tangent axes turn with the joints: refresh
             objective(fl, vals, x, g_t, w)
-            gauss_newton_inverse(w.jac, w.hess)
+            gauss_newton_inverse(w.jac, w.hess, w.svd)
         slope = 0.0
         for i in range(fl.n_step):
             p[i] = 0.0
@@ -140,12 +148,12 @@ def dfp(
             retract(fl.n_scalar, x, p, alpha, w.trial)
             f_t, c_t, r_t = objective(fl, vals, w.trial, g_t, w)
             if f_t <= f + 1e-4 * alpha * slope:
-                x[:] = w.trial
+                copy(w.trial, x)
                 for i in range(fl.n_step):
                     y[i] = g_t[i] - grad[i]
                     p[i] *= alpha
                 dfp_update(w.hess, p, y, w.rhs)
-                grad[:] = g_t
+                copy(g_t, grad)
                 f, cosine, res, pending = f_t, c_t, r_t, False
                 break
             alpha *= 0.5
@@ -171,25 +179,25 @@ def solve_closure(
     Newton polishing where DFP came near a root, and the verdict: ``NO_ASSEMBLY`` at a
     stationary non-zero minimum, else ``NOT_CONVERGED``.
     """
-    w.guess[:] = x
+    copy(x, w.guess)
     iters, residual = newton(fl, vals, x, tols, w)
     if not residual > tols.rounding:  # NaN too, as the batched solver
         return OK, iters, residual
     run_a, run_b, polish = w.runs[0], w.runs[1], w.runs[2]
-    run_a[:] = w.guess
-    run_b[:] = x
+    copy(w.guess, run_a)
+    copy(x, run_b)
     it_a, res_a, cos_a = dfp(fl, vals, run_a, tols, w)
     it_b, res_b, cos_b = dfp(fl, vals, run_b, tols, w)
     rank_a, rank_b = _rank(res_a, cos_a, tols), _rank(res_b, cos_b, tols)
     pick_b = rank_b < rank_a or (rank_b == rank_a and res_b < res_a)
-    x[:] = run_b if pick_b else run_a
+    copy(run_b if pick_b else run_a, x)
     res, cosine = (res_b, cos_b) if pick_b else (res_a, cos_a)
     iters += it_a + it_b
     if tols.rounding < res < tols.near_root:
-        polish[:] = x
+        copy(x, polish)
         it_n, res_n = newton(fl, vals, polish, tols, w)
         if res_n < res:
-            x[:] = polish
+            copy(polish, x)
             res = res_n
         iters += it_n
     if not res > tols.rounding:

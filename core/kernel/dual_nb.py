@@ -14,12 +14,25 @@ import math
 import numpy as np
 from numba import njit
 
-#: Compile options of every kernel function: cached on disk, no fastmath (NaN and inf must
-#: propagate as in numpy, so that ``not_finite`` rows are seen), the GIL released.
-JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
-#: Small helpers are inlined into their callers (numba IR), so that array views passed to them
-#: cost no reference counting: measured 114 -> 21 ns for a 3x3 product of views.
+#: Compile options of the functions that allocate (the per-thread scratch, made once, from Python):
+#: cached on disk, no fastmath (NaN and inf must propagate as in numpy, so that ``not_finite`` rows
+#: are seen), the GIL released.
+ALLOC = {"cache": True, "nogil": True, "error_model": "numpy"}
+#: Compile options of every other kernel function: as :data:`ALLOC`, without numba's reference-counted
+#: runtime.  Each array passed to a compiled call otherwise costs two atomic reference-count updates:
+#: 63 % of the kernel's time was in them (``perf``, 4·10⁵ positions, 6.6 µs a position without a
+#: single Newton step).  Without the runtime nothing can allocate: all scratch arrives from the caller.
+JIT = {**ALLOC, "_nrt": False}
+#: Small helpers are inlined into their callers (numba IR): no call at all.
 INLINE = {**JIT, "inline": "always"}
+
+
+@njit(**INLINE)
+def copy(src: np.ndarray, dst: np.ndarray) -> None:
+    """``dst[:] = src`` for 1-d arrays of one size, element by element (numba's slice assignment
+    would allocate a temporary in case the two overlap)."""
+    for i in range(dst.size):
+        dst[i] = src[i]
 
 
 @njit(**INLINE)

@@ -137,6 +137,13 @@ def _turn(
     return tmul(pre_re, f_re), tadd(tmul(pre_re, f_du), tmul(pre_du, f_re))
 
 
+@njit(**INLINE)
+def _entry(table: np.ndarray, const: np.ndarray, vals: np.ndarray, x: np.ndarray, i: int, f: int) -> float:
+    """Entry ``f`` (a column of :data:`FIELDS`) of table row ``i`` at this position."""
+    k = table[i, KIND + f]
+    return const[i, f] if k == CONST else (vals[table[i, REF + f]] if k == VALUE else x[table[i, REF + f]])
+
+
 @njit(**JIT)
 def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, lines: np.ndarray) -> None:
     """Frames ``(R, 2, 3, 3)`` (``frames[i] = T_1 ... T_i``, the last is the loop product B, eq. 18)
@@ -148,15 +155,14 @@ def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, 
     pre_re = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     pre_du = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     m, ball = 0, 0
-    v = np.empty(5)
     for i in range(table.shape[0]):
-        for f in range(5):  # the row's five entries at this position
-            k = table[i, KIND + f]
-            v[f] = (
-                const[i, f]
-                if k == CONST
-                else (vals[table[i, REF + f]] if k == VALUE else x[table[i, REF + f]])
-            )
+        v = (  # the row's five entries at this position
+            _entry(table, const, vals, x, i, 0),
+            _entry(table, const, vals, x, i, 1),
+            _entry(table, const, vals, x, i, 2),
+            _entry(table, const, vals, x, i, 3),
+            _entry(table, const, vals, x, i, 4),
+        )
         zero = (
             const[i, 0] == 0.0 and table[i, KIND] == CONST,
             const[i, 1] == 0.0 and table[i, KIND + 1] == CONST,

@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.closure_nb import Work, least_squares
+from dualmech.core.kernel.closure_nb import Work
+from dualmech.core.kernel.linalg_nb import least_squares
 from dualmech.core.kernel.dual_nb import JIT
 from dualmech.core.kernel.loop_nb import FlatLoop, screw_matrix
 
@@ -96,13 +97,13 @@ def solve_rates(fl: FlatLoop, vdot: np.ndarray, vddot: np.ndarray, w: Work) -> N
     rows = err[: 6 + gauges.size]
     screw_matrix(fl, w.frames, lines, 1.0, mat, gauge, axes)
     _rhs(screws, gauges, lines, gauge, axes, vdot, q_dot, rate, transport, False, err)
-    least_squares(mat, rows, q_dot, w.sq, w.rhs)
+    least_squares(mat, rows, q_dot, w.sq, w.rhs, w.svd)
     for j in range(screws.shape[0]):
         if screws[j, 2] >= 0:
             rate[j] = q_dot[screws[j, 2]]
     _transport(screws, lines, rate, w.cum, transport)
     _rhs(screws, gauges, lines, gauge, axes, vddot, q_ddot, acc, transport, True, err)
-    least_squares(mat, rows, q_ddot, w.sq, w.rhs)
+    least_squares(mat, rows, q_ddot, w.sq, w.rhs, w.svd)
     for j in range(screws.shape[0]):
         if screws[j, 2] >= 0:
             acc[j] = q_ddot[screws[j, 2]]

@@ -35,7 +35,13 @@ import numpy as np
 
 from dualmech.core.motion import CrankState
 from dualmech.models.case import Case, CaseError
-from dualmech.models.slider_crank_kernel import CHUNK_POSITIONS, OUT_COLUMNS, analyze_positions, case_arrays
+from dualmech.models.slider_crank_kernel import (
+    CHUNK_POSITIONS,
+    OUT_COLUMNS,
+    WARM_CHAIN,
+    analyze_positions,
+    case_arrays,
+)
 from dualmech.models.tolerance.outputs import DesignReduction, needed_columns
 from dualmech.models.tolerance.spec import Spec, design_case
 
@@ -152,8 +158,8 @@ def analyse_designs(designs: DesignArrays, mode: str,
     """
     m, p = len(designs), designs.angles_deg.size
     per_block = max(1, chunk_positions // max(p, 1))
-    step = min(p, chunk_positions)
-    buffer = np.empty((len(OUT_COLUMNS), min(per_block * p, max(step, 1))))
+    step = min(p, -(-chunk_positions // WARM_CHAIN) * WARM_CHAIN)  # a split begins a chain of warm starts
+    buffer = np.empty((min(per_block * p, max(step, 1)), len(OUT_COLUMNS)))
     reduction = DesignReduction(m, mode)
     names = needed_columns(mode)
     for d0 in range(0, m, per_block):
@@ -164,7 +170,8 @@ def analyse_designs(designs: DesignArrays, mode: str,
         for lo in range(0, p, step):
             hi = min(p, lo + step)
             case_of = np.repeat(np.arange(d, dtype=np.int64), hi - lo)
-            chunk = analyze_positions(designs.crank(rows, lo, hi), case_of, geo, bodies, buffer)
+            index = np.tile(np.arange(lo, hi), d)
+            chunk = analyze_positions(designs.crank(rows, lo, hi), case_of, geo, bodies, buffer, index)
             columns = {c: chunk.columns[c].reshape(d, hi - lo) for c in names}
             reduction.add(rows.start, columns, chunk.status.reshape(d, hi - lo))
     return reduction.result()
