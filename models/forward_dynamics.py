@@ -42,7 +42,6 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from dualmech.core import generalized_inertia as gi
 from dualmech.core.planar import PlanarSliderCrank
@@ -256,6 +255,8 @@ def _integrate(rhs: _EquationOfMotion, budget: _Budget, y0: np.ndarray, t_out: n
                rtol: float, atol: float):
     """``solve_ivp`` of ``rhs`` from ``y0`` over ``t_out`` within ``budget`` (``atol`` scaled per state);
     a one-line ValueError where it stops early."""
+    from scipy.integrate import solve_ivp  # here: scipy costs 0.33 s of every command's start-up
+
     def counted_rhs(t: float, y: np.ndarray) -> np.ndarray:
         budget.spend(t)
         dy = rhs(t, y)

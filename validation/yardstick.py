@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.dual_nb import JIT
+from dualmech.core.kernel.dual_nb import ALLOC, JIT
 from dualmech.core.kernel.dynamics_nb import required_wrench
 from dualmech.models.slider_crank_kernel import _reactions
 
@@ -105,7 +105,7 @@ def _position(
     _reactions(need, p2, p3, k4, torque, load, v[16:32], out[3:23])
 
 
-@njit(**JIT)
+@njit(**ALLOC)  # allocates its scratch once per range
 def closed_form_range(
     lo: int,
     hi: int,
