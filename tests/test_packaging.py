@@ -1,0 +1,21 @@
+"""The wheel holds every package of the tree: pyproject.toml lists packages by hand (the top-level folders
+are mapped onto ``dualmech.*``), so a new subpackage missing from the list would install nowhere but an
+editable checkout."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_every_package_of_the_tree_is_listed() -> None:
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    folders = {v: k for k, v in config["package-dir"].items()}
+    found = {
+        ".".join([folders[init.relative_to(ROOT).parts[0]], *init.relative_to(ROOT).parts[1:-1]])
+        for folder in folders
+        for init in (ROOT / folder).rglob("__init__.py")
+    }
+    assert found == set(config["packages"])
