@@ -295,8 +295,8 @@ def _position(
     rho, foot = reach_and_foot(g)
     beyond = rho > 1.0 + rules.reach_tol
     word, it, residual, closed = rules.codes[5], 0, max(rho - 1.0, 0.0), False
+    accepted = False
     if not beyond:
-        accepted = False
         if warm:
             speed = crank[2, i - 1]
             step = (crank[0, i] - crank[0, i - 1]) / speed if speed != 0.0 else 0.0
@@ -312,7 +312,7 @@ def _position(
     cond = math.sqrt(1.0 - min(rho, 1.0) ** 2)
     if closed:
         k4_t = slider_line(g)[1]
-        p2_t, p3_t = pins(fl, rules.vidx, g, sc.x[0], sc.vals, w.frames, w.lines)
+        p2_t, p3_t = pins(fl, rules.vidx, g, sc.x[0], sc.vals, w.frames, w.lines, accepted)
         for k in range(3):
             k4[k], p2[k], p3[k] = k4_t[k], p2_t[k], p3_t[k]
         rod = (p3[0] - p2[0], p3[1] - p2[1], p3[2] - p2[2])
@@ -361,7 +361,8 @@ def analyze_range(
     the case of each position; ``geo`` ``(cases, 4)``: a1, a2, a4, alpha4; ``bodies``: per
     case the masses ``(cases, 3)``, centres of mass ``(cases, 3, 3)``, inertias ``(cases, 3, 3, 3)``
     of crank, rod and slider, gravity ``(cases, 3)``, the given drive torque and slider load
-    ``(cases,)`` (NaN where not given); ``out`` ``(n, len(OUT_COLUMNS))`` (a row per position: written where it is computed), ``status``,
+    ``(cases,)`` (NaN where not given); ``out`` ``(n, len(OUT_COLUMNS))`` (a row per position:
+    written where it is computed), ``status``,
     ``iters``, ``dyn`` ``(n,)``; ``cold`` ``(n,)`` bool: the positions that start cold
     (:func:`chain_starts`; ``lo`` must be one); ``w``, ``sc``: this thread's scratch (:func:`_scratch`).
     """

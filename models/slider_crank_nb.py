@@ -197,7 +197,9 @@ def continuation(fl: FlatLoop, rules: Rules, g: tuple, x: np.ndarray, vals: np.n
 
 
 @njit(**JIT)
-def warm_start(fl: FlatLoop, rules: Rules, g: tuple, step: float, w: Work, sc: Scratch) -> tuple[bool, int, float]:
+def warm_start(
+    fl: FlatLoop, rules: Rules, g: tuple, step: float, w: Work, sc: Scratch
+) -> tuple[bool, int, float]:
     """Close from the previous position's state ``sc.x[0]`` (into ``sc.x[1]``), moved ``step`` times
     its rates ``w.q_dot`` (the crank's time step to here, 0 without a predictor): (accepted, iterations,
     residual).
@@ -214,7 +216,7 @@ def warm_start(fl: FlatLoop, rules: Rules, g: tuple, step: float, w: Work, sc: S
     if step != 0.0:
         retract(fl.n_scalar, x, w.q_dot, step, x)
     set_values(rules.vidx, g, sc.vals)
-    iters, residual = newton(fl, sc.vals, x, rules.tols, w)
+    iters, residual = newton(fl, sc.vals, x, rules.tols, w)  # stopped early: w.frames hold x
     accepted = iters <= WARM_ITERATIONS and not residual > rules.tols.rounding and on_branch(g, x[0])
     if accepted:
         copy(x, sc.x[0])
@@ -259,8 +261,11 @@ def pins(
     vals: np.ndarray,
     frames: np.ndarray,
     lines: np.ndarray,
+    fresh: bool,
 ) -> tuple:
-    """Evaluate the loop at ``x`` (into ``frames``, ``lines``) and give the ball centres ``P2``, ``P3``."""
-    set_values(vidx, g, vals)
-    evaluate(fl, vals, x, frames, lines)
+    """Evaluate the loop at ``x`` (into ``frames``, ``lines``; not if ``fresh``: they hold it already, as
+    after an accepted :func:`warm_start`) and give the ball centres ``P2``, ``P3``."""
+    if not fresh:
+        set_values(vidx, g, vals)
+        evaluate(fl, vals, x, frames, lines)
     return frame_origin(frames, 0), frame_origin(frames, 1)

@@ -108,13 +108,15 @@ def solve_rates(fl: FlatLoop, vdot: np.ndarray, vddot: np.ndarray, w: Work) -> N
         if screws[j, 2] >= 0:
             acc[j] = q_ddot[screws[j, 2]]
     twists, accels = w.twists, w.accels
-    twists[:] = 0.0
-    accels[:] = 0.0
+    j = 0  # the screws come in row order: each row's twist is the previous row's plus its own screws'
     for i in range(twists.shape[0]):
-        for j in range(screws.shape[0]):
-            if screws[j, 0] > i:
-                continue
+        for p in range(2):
+            for c in range(3):
+                twists[i, p, c] = twists[i - 1, p, c] if i else 0.0
+                accels[i, p, c] = accels[i - 1, p, c] if i else 0.0
+        while j < screws.shape[0] and screws[j, 0] <= i:
             for p in range(2):
                 for c in range(3):
                     twists[i, p, c] += lines[j, p, c] * rate[j]
                     accels[i, p, c] += lines[j, p, c] * acc[j] + transport[j, p, c]
+            j += 1
