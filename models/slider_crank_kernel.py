@@ -30,8 +30,8 @@ from dualmech.core.kernel import depends_on_kernel
 from dualmech.core.kernel.closure_nb import Work, make_work
 from dualmech.core.kernel.dual_nb import JIT, cross, dot
 from dualmech.core.kernel.dynamics_nb import required_wrench
-from dualmech.core.kernel.rates_nb import solve_rates
 from dualmech.core.kernel.loop_nb import FlatLoop, flatten
+from dualmech.core.kernel.rates_nb import solve_rates
 from dualmech.core.motion import CrankState
 from dualmech.core.status import STATUSES
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
@@ -430,8 +430,8 @@ def _setup() -> tuple[FlatLoop, Rules]:
     from dualmech.core.kernel.closure_nb import closure_tols
     from dualmech.core.kernel.loop_nb import value_names
     from dualmech.core.status import Status
-    from dualmech.models import slider_crank_loop as sc
     from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
+    from dualmech.models import slider_crank_loop as sc
 
     names = value_names(sc.LOOP)
     vidx = np.array([names.index(k) for k in ("theta1", "S1", "a1", "a2", "a4", "alpha4")], dtype=np.int64)

@@ -31,7 +31,7 @@ from typing import Callable
 import numpy as np
 
 from dualmech.models.case import Case, load_case
-from dualmech.models.slider_crank_kernel import case_arrays, _pool, solve_cases, threads
+from dualmech.models.slider_crank_kernel import _pool, case_arrays, solve_cases, threads
 from dualmech.validation.cli_solve import stream_solve
 
 #: Crank-state fields in the kernel's order.

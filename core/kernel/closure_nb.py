@@ -99,7 +99,7 @@ class Work(NamedTuple):
     cum: np.ndarray  # (M + 1, 2, 3): running sums of the screws' motions
     twists: np.ndarray  # (R, 2, 3): link twists
     accels: np.ndarray  # (R, 2, 3): link accelerations
-    svd: np.ndarray  # (3, K, K): the pseudo-inverse's scratch (:func:`~dualmech.core.kernel.linalg_nb.least_squares`)
+    svd: np.ndarray  # (3, K, K): the pseudo-inverse's scratch (linalg_nb.least_squares)
 
 
 def make_work(fl: FlatLoop) -> Work:

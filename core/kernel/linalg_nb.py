@@ -65,7 +65,8 @@ def _column_norm2(u: np.ndarray, j: int) -> float:
 
 @njit(**JIT)
 def _sweep(u: np.ndarray, v: np.ndarray) -> bool:
-    """One cyclic sweep of rotations over every column pair of ``u`` (carried into ``v``); whether any turned."""
+    """One cyclic sweep of rotations over every column pair of ``u`` (carried into ``v``);
+    whether any turned."""
     k = u.shape[1]
     turned = False
     for p in range(k - 1):

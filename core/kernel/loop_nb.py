@@ -37,10 +37,10 @@ class FlatLoop(NamedTuple):
     index in ``vals`` or ``x`` (5:10), whether it moves, i.e. is an input or an unknown
     with a screw (10:15), and whether the row is spherical (15); ``const`` ``(R, 5)``: the
     constants; ``screws`` ``(M, 4)`` int, in row order (the rates rely on it): per screw its
-    row, its carrier (screws before it whose motion carries it), its column in the tangent step (-1 for an input) and its
-    index in ``vals`` (-1 for an unknown); ``gauges`` ``(G,)`` the spin-gauged rows;
-    ``scale`` the index in ``vals`` of the length scale (-1: none, 1); ``n_scalar`` scalar
-    unknowns; ``n_step`` the tangent step's size.
+    row, its carrier (screws before it whose motion carries it), its column in the tangent
+    step (-1 for an input) and its index in ``vals`` (-1 for an unknown); ``gauges`` ``(G,)``
+    the spin-gauged rows; ``scale`` the index in ``vals`` of the length scale (-1: none, 1);
+    ``n_scalar`` scalar unknowns; ``n_step`` the tangent step's size.
     """
 
     table: np.ndarray

@@ -14,8 +14,8 @@ import numpy as np
 from numba import njit
 
 from dualmech.core.kernel.closure_nb import Work
-from dualmech.core.kernel.linalg_nb import least_squares
 from dualmech.core.kernel.dual_nb import JIT
+from dualmech.core.kernel.linalg_nb import least_squares
 from dualmech.core.kernel.loop_nb import FlatLoop, screw_matrix
 
 
