@@ -2,21 +2,24 @@
 
 The numpy modules of :mod:`dualmech.core` state the method batched over positions; this
 subpackage runs the same algorithm per position, compiled, with every 3x3 dual matrix in
-a small scratch array that stays in the CPU's first-level cache, and positions in
-parallel (``prange``) over all cores.  Its pieces mirror the numpy modules one for one:
+a small scratch array that stays in the CPU's first-level cache, and blocks of positions in
+parallel over all cores (a thread pool; the GIL released).  Its pieces mirror the numpy modules one for one:
 
 ========================  =====================================  ==============================
 kernel module             what                                   numpy twin
 ========================  =====================================  ==============================
 ``dual_nb``               3x3 dual-matrix arithmetic, rotations  :mod:`dualmech.core.dual`
 ``loop_nb``               the link-joint table as flat arrays    :mod:`dualmech.core.loop`
+``linalg_nb``             LU, least squares, pseudo-inverse      ``np.linalg`` (allocation-free)
 ``closure_nb``            Newton with the screws, DFP fallback   :mod:`dualmech.core.closure`
 ``rates_nb``              rates and accelerations from screws    :mod:`dualmech.core.rates`
 ``dynamics_nb``           dual momentum rate of a rigid body     :mod:`dualmech.core.reactions`
 ========================  =====================================  ==============================
 
-Everything here is generic: the table is data (:func:`~dualmech.core.kernel.loop_nb.flatten`),
-and mechanism-specific start estimates, branch rules and reaction eliminations live with
+Nothing here allocates or counts references (compiled without numba's runtime: see
+:data:`~dualmech.core.kernel.dual_nb.JIT`); the scratch arrays of a block of positions come from
+the caller.  Everything here is generic: the table is data
+(:func:`~dualmech.core.kernel.loop_nb.flatten`), and mechanism-specific start estimates, branch rules and reaction eliminations live with
 the mechanism in :mod:`dualmech.models`.
 """
 
