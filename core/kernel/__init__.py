@@ -19,8 +19,8 @@ kernel module             what                                   numpy twin
 Nothing here allocates or counts references (compiled without numba's runtime: see
 :data:`~dualmech.core.kernel.dual_nb.JIT`); the scratch arrays of a block of positions come from
 the caller.  Everything here is generic: the table is data
-(:func:`~dualmech.core.kernel.loop_nb.flatten`), and mechanism-specific start estimates, branch rules and reaction eliminations live with
-the mechanism in :mod:`dualmech.models`.
+(:func:`~dualmech.core.kernel.loop_nb.flatten`), and mechanism-specific start estimates, branch
+rules and reaction eliminations live with the mechanism in :mod:`dualmech.models`.
 """
 
 from __future__ import annotations
