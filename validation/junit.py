@@ -88,17 +88,7 @@ def junit_tree(
                 el.text = "\n".join([err, *regressed])
                 counts["errors"] += 1
                 continue
-            failed = [c for c in comparison.for_engine(mc.id, engine) if not c.passed]
-            lines = [describe(c) for c in failed] + regressed
-            if any(c.incomplete for c in failed):
-                _failure(tc, "Incomplete", describe(failed[0]), lines)
-            elif any(c.quantity == ENGINE for c in failed):
-                _failure(tc, "EngineError", describe(failed[0]), lines)
-            elif failed:
-                _failure(tc, "ToleranceExceeded",
-                         f"{mc.id} / {engine}: {', '.join(c.quantity for c in failed)} out of tolerance", lines)
-            elif regressed:
-                _failure(tc, "Regression", regressed[0], lines)
+            failed = _mark_failures(tc, mc.id, engine, comparison, regressed)
             counts["failures"] += bool(failed or regressed)
     for key, value in counts.items():
         suite.set(key, str(value))
@@ -108,6 +98,23 @@ def junit_tree(
     root.append(suite)
     ET.indent(root)
     return ET.ElementTree(root)
+
+
+def _mark_failures(tc: ET.Element, case_id: str, engine: str, comparison: Comparison,
+                   regressed: list[str]) -> list[Check]:
+    """Add the ``failure`` element of one test case (the worst kind first); its failed checks."""
+    failed = [c for c in comparison.for_engine(case_id, engine) if not c.passed]
+    lines = [describe(c) for c in failed] + regressed
+    if any(c.incomplete for c in failed):
+        _failure(tc, "Incomplete", describe(failed[0]), lines)
+    elif any(c.quantity == ENGINE for c in failed):
+        _failure(tc, "EngineError", describe(failed[0]), lines)
+    elif failed:
+        _failure(tc, "ToleranceExceeded",
+                 f"{case_id} / {engine}: {', '.join(c.quantity for c in failed)} out of tolerance", lines)
+    elif regressed:
+        _failure(tc, "Regression", regressed[0], lines)
+    return failed
 
 
 def write_junit(path: str | Path, matrix: Matrix, comparison: Comparison,

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
 from dualmech.models.case import Case
 from dualmech.models.mjcf import (
     MAX_TIMESTEP,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+
 from dualmech.validation.mujoco_closure import MjLoop, gap_jacobian, rod_axis
 
 

@@ -57,6 +57,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
 from dualmech.core.assembly import edge_status, foot_s4
 from dualmech.core.status import Status, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable

@@ -79,29 +79,33 @@ dead centres, which is where the stroke's extremes lie (``t = 0`` is
 comparison scales by ``1/|t|``): rows with
 ``|transmission| < SIM_DEAD_CENTRE_TRANSMISSION`` are flagged ``dead_centre``
 (reactions NaN, kinematics given).
+
+The plan of a simulation (rows, time grid, servo settings) is :mod:`~dualmech.validation.mujoco_sim_plan`.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
 from dualmech.core.assembly import edge_status
-from dualmech.core.status import Status, is_status, settle
+from dualmech.core.status import Status, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
-from dualmech.models.mjcf import (
-    STEPS_PER_DEGREE,
-    MjcfSettings,
-    case_to_mjcf,
-    default_settings,
-    default_timestep,
-)
+from dualmech.models.mjcf import STEPS_PER_DEGREE, MjcfSettings, case_to_mjcf
 from dualmech.validation import mujoco_closure, mujoco_dynamics
 from dualmech.validation import mujoco_engine as rigid
+from dualmech.validation.mujoco_sim_plan import (
+    Survey,
+    checked_settings,
+    prepare,
+    runin_steps,
+    schedule,
+    survey,
+)
 from dualmech.validation.tolerances import (
     ASSEMBLY_LIMIT_CONDITION,
     ASSEMBLY_REACH,
@@ -109,135 +113,6 @@ from dualmech.validation.tolerances import (
 )
 
 ENGINE = "mujoco-sim"
-
-#: Fewest steps simulated before the first row of a run; more if the servos' slow pole needs them.
-SIM_RUNIN_STEPS = 128
-#: Run-in length in time constants of the servos' slow pole kp/kv (transients decay to e^-12).
-SIM_RUNIN_TIME_CONSTANTS = 12.0
-#: Margin on the largest effective inertia the servos see along the case (their damping).
-SIM_INERTIA_MARGIN = 1.5
-
-
-@dataclass(frozen=True)
-class Schedule:
-    """How the rows of a case are simulated.
-
-    Attributes
-    ----------
-    timestep : float
-        Seconds.
-    runs : tuple[tuple[numpy.ndarray, numpy.ndarray], ...]
-        Per run: the row indices it serves, shape (k,), and the step at which
-        each is read, counted from the run's start, shape (k,), increasing.
-    anchors : tuple[int, ...]
-        Per run, the row whose snapshot the trajectory passes at time 0 (read at
-        step ``runin``).
-    runin : int
-        Steps simulated before the first row of each run.
-    """
-
-    timestep: float
-    runs: tuple[tuple[np.ndarray, np.ndarray], ...]
-    anchors: tuple[int, ...]
-    runin: int
-
-    @property
-    def steps(self) -> int:
-        """Simulated steps of one pass over every run."""
-        return sum(int(s[-1]) + 1 for _, s in self.runs)
-
-
-def schedule(case: Case, steps_per_degree: int = STEPS_PER_DEGREE, rows: np.ndarray | None = None,
-             runin: int = SIM_RUNIN_STEPS) -> Schedule:
-    """Split the rows of ``case`` into simulation runs on a common time grid (module docstring).
-
-    ``rows``: boolean mask, shape (n,), of the rows to simulate (default all).  One
-    continuous run needs every row (a trajectory cannot pass where the mechanism
-    does not assemble); otherwise each selected row gets its own run.  Each run
-    starts ``runin`` steps before its first row.
-    """
-    if isinstance(steps_per_degree, bool) or int(steps_per_degree) != steps_per_degree or steps_per_degree < 1:
-        raise ValueError(f"steps_per_degree: expected a positive integer, got {steps_per_degree!r}")
-    mo = case.motion
-    deg = mo.angles_deg
-    wanted = np.ones(deg.shape[0], dtype=bool) if rows is None else np.asarray(rows, dtype=bool)
-    speed = abs(mo.speed)
-    if mo.accel == 0.0 and speed > 0.0 and wanted.all():
-        spacing = float(np.min(np.diff(np.sort(deg)))) if deg.shape[0] > 1 else 1.0
-        gap = math.radians(spacing) / speed  # seconds between neighbouring rows
-        dt = gap / max(1, math.ceil(gap / default_timestep(case, steps_per_degree) - 1e-9))
-        t = np.radians(deg) / mo.speed  # row times on theta = speed * t
-        order = np.argsort(t, kind="stable")
-        elapsed = t[order] - t[order[0]]
-        steps = np.rint(elapsed / dt).astype(np.int64)
-        if np.max(np.abs(steps * dt - elapsed)) > 1e-6 * dt:
-            raise ValueError("motion.angles_deg: the rows do not fall on a common time grid")
-        return Schedule(dt, ((order, steps + runin),), (int(order[0]),), runin)
-    dt = default_timestep(case, steps_per_degree)
-    picked = np.flatnonzero(wanted)
-    runs = tuple((np.array([i]), np.array([runin])) for i in picked)
-    return Schedule(dt, runs, tuple(int(i) for i in picked), runin)
-
-
-@dataclass(frozen=True)
-class Survey:
-    """What the rigid path's closure finds at every row before anything is simulated.
-
-    ``status`` (n,) words of :func:`~dualmech.validation.mujoco_engine.assembled_state`; ``s4`` and
-    ``condition`` (n,) its pose's ``S4`` and ``|u·k4|``; ``inertia_high`` the largest effective inertias
-    of the crank angle (F·L·s²) and axial (F·s²/L) joints over the rows that assemble.
-    """
-
-    status: np.ndarray
-    s4: np.ndarray
-    condition: np.ndarray
-    inertia_high: tuple[float, float]
-
-    @property
-    def simulated(self) -> np.ndarray:
-        """Rows a simulation can pass, (n,) bool: not ``no_assembly``, not at the ``assembly_limit``."""
-        return ~is_status(self.status, Status.NO_ASSEMBLY, Status.ASSEMBLY_LIMIT)
-
-
-def survey(case: Case) -> Survey:
-    """Which rows assemble, and the largest effective inertias the two crank servos see there.
-
-    Uses the rigid path's own closure at every row (MuJoCo geometry, never the
-    in-house answer).  The effective inertia of a servo is :math:`v^T M v` with
-    ``v`` the mechanism's velocity for a unit rate of that servo's joint (the
-    other crank joint held, zero rod spin).
-    """
-    lp = rigid.build(case)
-    st = case.motion.state(case.geometry.crank_axial_shift)
-    n = len(st)
-    status = np.empty(n, dtype=object)
-    s4, condition = np.full(n, np.nan), np.full(n, np.nan)
-    high = [0.0, 0.0]
-    mass = np.empty((lp.model.nv, lp.model.nv))
-    warm = False
-    for i in range(n):
-        for k, rates in enumerate(((1.0, 0.0), (0.0, 1.0))):
-            word, _, _, c = rigid.assembled_state(lp, (float(st.theta[i]), float(st.s[i]), *rates), warm)
-            if k == 0:
-                status[i], s4[i], condition[i] = word, lp.data.qpos[lp.qadr[3]], c
-            if word != Status.OK:
-                break
-            mujoco.mj_fullM(lp.model, lp.data, mass)
-            v = lp.data.qvel
-            high[k] = max(high[k], float(v @ mass @ v))
-        warm = word == Status.OK
-    return Survey(status, s4, condition, (high[0], high[1]))
-
-
-def runin_steps(settings: MjcfSettings) -> int:
-    """Steps before the first row: ``SIM_RUNIN_TIME_CONSTANTS`` times ``kv/kp``, at least ``SIM_RUNIN_STEPS``."""
-    slow = max(kv / kp for kp, kv in zip(settings.servo_kp, settings.servo_kv))
-    return max(SIM_RUNIN_STEPS, math.ceil(SIM_RUNIN_TIME_CONSTANTS * slow / settings.timestep))
-
-
-def sim_settings(case: Case, timestep: float, inertia_high: tuple[float, float]) -> MjcfSettings:
-    """The simulation's MJCF settings: :func:`~dualmech.models.mjcf.default_settings` with measured inertias."""
-    return default_settings(case, timestep, inertia_high=tuple(SIM_INERTIA_MARGIN * h for h in inertia_high))
 
 
 def reference(case: Case, anchor: int, times: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -333,23 +208,6 @@ def simulate(case: Case, slider_load: float, settings: MjcfSettings, rows: np.nd
     return out
 
 
-def prepare(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> tuple[np.ndarray, MjcfSettings]:
-    """Rows to simulate (:attr:`Survey.simulated`) and the simulation settings for ``case``."""
-    sv = survey(case)
-    return sv.simulated, _settings(case, steps_per_degree, sv)
-
-
-def _settings(case: Case, steps_per_degree: int, sv: Survey) -> MjcfSettings:
-    """:func:`sim_settings` at the schedule's step; ``OverflowError`` if they leave the double range."""
-    dt = schedule(case, steps_per_degree, sv.simulated).timestep
-    if not (dt > 0.0 and math.isfinite(1.0 / dt)):
-        raise OverflowError(f"time step {dt!r} s")
-    s = sim_settings(case, dt, sv.inertia_high)
-    if not all(math.isfinite(v) for v in (*s.servo_kp, *s.servo_kv)):
-        raise OverflowError(f"servo gains {s.servo_kp!r}, {s.servo_kv!r} at the time step {dt!r} s")
-    return s
-
-
 def load_scale(case: Case) -> float:
     """``L_ref`` of the torque-mode combination: the pin force of the drive torque, else an inertial force."""
     torque = case.loads.drive_torque
@@ -375,7 +233,7 @@ def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTa
     sv = survey(case)
     reachable = sv.simulated
     try:
-        settings = _settings(case, steps_per_degree, sv)
+        settings = checked_settings(case, steps_per_degree, sv)
     except OverflowError:  # the step that resolves the motion needs servo gains beyond the double range
         return _overflowed(case, sv)
     meta: dict = {"mujoco": mujoco.__version__, "timestep": settings.timestep, "steps_per_degree": steps_per_degree,

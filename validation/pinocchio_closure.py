@@ -19,12 +19,13 @@ import math
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg import lapack
+
 from dualmech.core.motion import CrankState
 from dualmech.core.status import Status
 from dualmech.core.table import STATUSES
 from dualmech.models.case import Case
 from dualmech.validation.pinocchio_model import PinocchioSliderCrank
-from scipy.linalg import lapack
 
 #: Closure tolerance on |r|, relative to the mechanism's length scale a1 + a2 + |a4| + max|S1|:
 #: ~50 ulp of the largest coordinate, far below the 1e-10 agreement asked of S4; Newton's quadratic

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pinocchio as pin
+
 from dualmech.core.motion import CrankState
 from dualmech.models.case import Case
 from dualmech.validation.pinocchio_closure import LWA, Closure

@@ -70,6 +70,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
+
 from dualmech.core.assembly import edge_status, foot_s4, reach
 from dualmech.core.status import settle
 from dualmech.core.table import REACTION_COLUMNS, STATUSES, ResultTable

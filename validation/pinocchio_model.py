@@ -142,28 +142,17 @@ def build_model(case: Case) -> PinocchioSliderCrank:
     )
     constraint.name = "joint3_ball"
 
-    def _q(j: int) -> slice:
-        return slice(model.idx_qs[j], model.idx_qs[j] + model.nqs[j])
-
-    def _v(j: int) -> slice:
-        return slice(model.idx_vs[j], model.idx_vs[j] + model.nvs[j])
-
+    (q_crank, v_crank), (q_rod, v_rod), (q_slider, v_slider) = (
+        _coordinates(model, j) for j in (crank, rod, slider))
     return PinocchioSliderCrank(
-        model=model,
-        constraint=constraint,
-        crank_joint=crank,
-        rod_joint=rod,
-        slider_joint=slider,
-        rod_end_frame=rod_end_frame,
-        slider_pin_frame=slider_pin_frame,
-        q_crank=_q(crank),
-        q_rod=_q(rod),
-        q_slider=_q(slider),
-        v_crank=_v(crank),
-        v_rod=_v(rod),
-        v_slider=_v(slider),
-        a1=a1,
-        a2=a2,
-        k4=k4,
-        F=F,
+        model=model, constraint=constraint, crank_joint=crank, rod_joint=rod, slider_joint=slider,
+        rod_end_frame=rod_end_frame, slider_pin_frame=slider_pin_frame,
+        q_crank=q_crank, q_rod=q_rod, q_slider=q_slider, v_crank=v_crank, v_rod=v_rod, v_slider=v_slider,
+        a1=a1, a2=a2, k4=k4, F=F,
     )
+
+
+def _coordinates(model: pin.Model, joint: int) -> tuple[slice, slice]:
+    """The slices of joint ``joint``'s coordinates in ``q`` and in ``v``."""
+    q0, v0 = model.idx_qs[joint], model.idx_vs[joint]
+    return slice(q0, q0 + model.nqs[joint]), slice(v0, v0 + model.nvs[joint])

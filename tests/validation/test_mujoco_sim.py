@@ -23,8 +23,8 @@ from tests.validation.test_mujoco_engine import worst_differences
 
 mujoco = pytest.importorskip("mujoco")
 
-from dualmech.validation import mujoco_sim  # noqa: E402
-from dualmech.validation.mujoco_sim import benchmark, prepare, runin_steps, schedule, simulate, solve_case  # noqa: E402
+from dualmech.validation.mujoco_sim import benchmark, simulate, solve_case  # noqa: E402
+from dualmech.validation.mujoco_sim_plan import SIM_RUNIN_STEPS, prepare, runin_steps, schedule  # noqa: E402
 
 #: Group of worst_differences -> the tolerance it is held to (velocity: see _check_against_inhouse).
 LIMITS = {"length": SIM_STROKE, "acceleration": SIM_REACTIONS, "ratio": SIM_STROKE,
@@ -150,7 +150,7 @@ def test_cli_writes_the_inhouse_table(tmp_path):
 def test_schedule_runs_a_revolution_or_one_window_per_row():
     case = load_case("thesis/ideal")
     plan = schedule(case)
-    assert len(plan.runs) == 1 and plan.steps == mujoco_sim.SIM_RUNIN_STEPS + 359 * 128 + 1
+    assert len(plan.runs) == 1 and plan.steps == SIM_RUNIN_STEPS + 359 * 128 + 1
     assert plan.timestep * abs(case.motion.speed) == pytest.approx(np.radians(1.0) / 128, rel=1e-12)
     accel = schedule(case.with_values({"motion.crank_accel": 1.0}))
     assert len(accel.runs) == 360 and accel.anchors[5] == 5

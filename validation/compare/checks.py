@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from dualmech.core.status import ASSEMBLED, Status, is_status
 from dualmech.core.table import ResultTable
 from dualmech.validation.compare.differences import (

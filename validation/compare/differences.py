@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation.compare.results import (

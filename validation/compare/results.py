@@ -9,6 +9,7 @@ from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 
 import numpy as np
+
 from dualmech.core.status import Status
 from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS
 from dualmech.validation.matrix import ResolvedTolerance

@@ -11,6 +11,7 @@ import re
 import warnings
 
 import numpy as np
+
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation.compare import STROKE, Comparison, relative_differences
 from dualmech.validation.executors import process_pool

@@ -12,6 +12,7 @@ from importlib import import_module
 from pathlib import Path
 
 import numpy as np
+
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.models.design_summary import DesignSummary, design_summary

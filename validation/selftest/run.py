@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Callable
 
 import click
+
 from dualmech.validation.cli_errors import one_line_errors
 from dualmech.validation.selftest.catalogue import (
     CATALOGUE,
