@@ -123,7 +123,7 @@ def closed_form(cases: list[Case]) -> list[np.ndarray]:
 def agreement(cases: list[Case]) -> float:
     """Largest difference of the kernel from the yardstick over ``cases``, relative to each column's peak
     over the case's force (or moment, or kinematic) columns."""
-    from dualmech.models.slider_crank_kernel import OUT_COLUMNS
+    from dualmech.models.slider_crank_position_nb import OUT_COLUMNS
 
     worst = 0.0
     for case, ref, table in zip(cases, closed_form(cases), solve_cases(cases)):
