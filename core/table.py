@@ -11,7 +11,9 @@ from __future__ import annotations
 import csv
 import io
 from dataclasses import dataclass, field
+from importlib import import_module
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -78,9 +80,49 @@ class ResultTable:
     def __getitem__(self, name: str) -> np.ndarray:
         return self.status if name == "status" else self.columns[name]
 
+    def to_numpy(self) -> np.ndarray:
+        """The table as one numpy structured array, shape ``(n,)``, fields :data:`COLUMNS` in order.
+
+        The numeric fields are ``float64`` in the units of ``docs/conventions.md``; ``status`` is a
+        fixed-width unicode field.  ``arr["S4"]`` is a column, ``arr[i]`` a row.
+        """
+        data = self._column_dict()
+        out = np.empty(len(self), dtype=[(c, a.dtype) for c, a in data.items()])
+        for c, a in data.items():  # one assignment per column, not per row
+            out[c] = a
+        return out
+
+    def to_pandas(self) -> Any:
+        """A ``pandas.DataFrame`` of :data:`COLUMNS` (``n`` rows, float64 and ``status`` str).
+
+        pandas is optional (not a dependency): imported here only; if absent, a one-line ImportError.
+        """
+        return _optional("pandas", "to_pandas").DataFrame(self._column_dict())
+
+    def to_polars(self) -> Any:
+        """A ``polars.DataFrame`` of :data:`COLUMNS` (``n`` rows, Float64 and ``status`` Utf8).
+
+        polars is optional (not a dependency): imported here only; if absent, a one-line ImportError.
+        """
+        return _optional("polars", "to_polars").DataFrame(self._column_dict())
+
+    def _column_dict(self) -> dict[str, np.ndarray]:
+        """:data:`COLUMNS` -> ``(n,)`` arrays, float64 and ``status`` as str."""
+        data = {c: np.asarray(self.columns[c], dtype=np.float64) for c in NUMERIC_COLUMNS}
+        return data | {"status": np.asarray(self.status, dtype=str)}
+
     def to_csv(self, path: str | Path | None = None) -> str:
         """Write the table as CSV (all :data:`COLUMNS`, full precision); return the text."""
         return write_csv({c: self.columns[c] for c in NUMERIC_COLUMNS}, self.status, path)
+
+
+def _optional(package: str, method: str) -> Any:
+    """Import optional ``package`` for ``ResultTable.<method>``, or a one-line ImportError naming it."""
+    try:
+        return import_module(package)
+    except ImportError:
+        raise ImportError(f"ResultTable.{method}: needs {package}, which is not installed "
+                          f"(pip install {package})") from None
 
 
 def write_csv(columns: dict[str, np.ndarray], status: np.ndarray, path: str | Path | None = None) -> str:

@@ -133,26 +133,22 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     Exits 1 when any judge disagrees with the reference beyond tolerance, an engine
     fails, or (with --baseline) anything regressed.
     """
+    from dualmech.validation.api import open_run, run_and_compare
     from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline
-    from dualmech.validation.compare import compare_run
-    from dualmech.validation.junit import describe, write_junit
-    from dualmech.validation.matrix import load_matrix
     from dualmech.validation.executors import ClusterLost
+    from dualmech.validation.junit import describe, write_junit
     from dualmech.validation.report import write_report
     from dualmech.validation.rundir import check_output_folder
-    from dualmech.validation.runner import load_entries, rich_progress, run_matrix, timings
+    from dualmech.validation.runner import load_entries, rich_progress, timings
 
-    matrix = load_matrix(matrix_file)
-    if engines:
-        matrix = matrix.with_engines(_engine_list(engines))
+    matrix, outdir = open_run(matrix_file, outdir, _engine_list(engines))
     baseline = read_baseline(baseline_file) if baseline_file else None  # fail early on a bad file
-    outdir = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
     if report_dir:
         check_output_folder(report_dir)
     console = summary_console(sys.stdout.isatty())
     try:
         with rich_progress(f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines") as bar:
-            outcome = run_matrix(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)
+            run = run_and_compare(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)
     except KeyboardInterrupt:
         click.echo(f"dualmech: interrupted; finished cases are kept in {outdir}; "
                    "re-run with --resume to finish", err=True)
@@ -160,7 +156,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     except ClusterLost as err:
         click.echo(f"dualmech: error: {err}", err=True)
         sys.exit(EXIT_CLUSTER_LOST)
-    comparison = compare_run(matrix, outcome.results)
+    outcome, comparison = run.outcome, run.comparison
     summary = baseline_summary(matrix, comparison, outcome.results)
     regressions = compare_baseline(summary, baseline) if baseline is not None else []
     if junit_file:
