@@ -413,7 +413,8 @@ def test_keyboard_interrupt_and_usage_errors_keep_their_handling():
 
 
 def test_a_failure_of_the_arithmetic_is_internal_not_bad_input(tmp_path):
-    """numpy's LinAlgError subclasses ValueError; it is an engine failure (exit 70), never the user's input (2)."""
+    """numpy's LinAlgError subclasses ValueError; it is an engine failure (exit 70), never the user's input
+    (2)."""
     import numpy as np
 
     res = CliRunner().invoke(_command(np.linalg.LinAlgError("SVD did not converge")), ["-o", str(tmp_path)])

@@ -27,7 +27,9 @@ def test_newton_converges_quadratically_from_plane_geometry():
 
 def test_dfp_takes_over_when_newton_is_cut_short():
     """With a single Newton iteration allowed, DFP (then a Newton polish) must still close the loop."""
-    case = load_case("a4-30-s1-9").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 20.0}})
+    case = load_case("a4-30-s1-9").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 20.0}}
+    )
     batch = _batch(case)
     rng = np.random.default_rng(5)
     guess = state_from_slider(batch, planar_estimate(batch) + rng.uniform(-4, 4, len(batch)))
@@ -39,8 +41,13 @@ def test_dfp_takes_over_when_newton_is_cut_short():
 
 
 def test_unreachable_positions_are_no_assembly_not_failures():
-    case = load_case("a4-30-s1-3.5").with_values({"geometry.slider_offset": 45.0, "geometry.crank_axial_shift": 0.0,
-                                                   "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 10.0}})
+    case = load_case("a4-30-s1-3.5").with_values(
+        {
+            "geometry.slider_offset": 45.0,
+            "geometry.crank_axial_shift": 0.0,
+            "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 10.0},
+        }
+    )
     batch = _batch(case)
     res = solve_closure(LOOP, batch.inputs(), state_from_slider(batch, planar_estimate(batch)))
     cannot = assembly_margin(case, batch.crank.theta) < 0

@@ -56,7 +56,8 @@ def test_rotation_builders_are_dual_orthogonal():
 
 
 def test_thesis_matrix_1_and_4():
-    """M1 = Z(theta1 + eps S1) X(0 + eps a1) (eq. 1) and M4 = Z(eps S4) X(alpha4 + eps a4) (eq. 4), as printed."""
+    """M1 = Z(theta1 + eps S1) X(0 + eps a1) (eq. 1) and M4 = Z(eps S4) X(alpha4 + eps a4) (eq. 4), as
+    printed."""
     rng = np.random.default_rng(3)
     th, s1, a1, s4, al, a4 = rng.normal(size=6)
     m1 = rot_z(Dual.of(th, s1)) @ rot_x(Dual.of(0.0, a1))
@@ -66,7 +67,9 @@ def test_thesis_matrix_1_and_4():
     m4 = rot_z(Dual.of(0.0, s4)) @ rot_x(Dual.of(al, a4))
     ca, sa = np.cos(al), np.sin(al)
     assert_allclose(m4.re, [[1, 0, 0], [0, ca, -sa], [0, sa, ca]], **EXACT)
-    assert_allclose(m4.du, [[0, -s4 * ca, s4 * sa], [s4, -a4 * sa, -a4 * ca], [0, a4 * ca, -a4 * sa]], **EXACT)
+    assert_allclose(
+        m4.du, [[0, -s4 * ca, s4 * sa], [s4, -a4 * sa, -a4 * ca], [0, a4 * ca, -a4 * sa]], **EXACT
+    )
 
 
 def test_pose_round_trip_and_plucker_columns():

@@ -91,7 +91,9 @@ def test_gravity_force_is_minus_the_potential_gradient():
     _, com_p, _ = _system(theta + step)
     _, com_m, _ = _system(theta - step)
     _, _, coeffs = _system(theta)
-    dv = (gi.potential_energy(MASSES, GRAVITY, com_p) - gi.potential_energy(MASSES, GRAVITY, com_m)) / (2 * step)
+    dv = (gi.potential_energy(MASSES, GRAVITY, com_p) - gi.potential_energy(MASSES, GRAVITY, com_m)) / (
+        2 * step
+    )
     got = gi.gravity_force(MASSES, GRAVITY, coeffs)
     assert_allclose(got, -dv, rtol=0, atol=FINITE_DIFFERENCE * np.abs(got).max())
 

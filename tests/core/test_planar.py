@@ -76,7 +76,9 @@ def test_generalized_inertia_eq40_is_u_M_u():
     m = _model(rng)
     psi = _psi(rng)
     u = P.twist_shaping_vector(m, psi)
-    assert_allclose(P.generalized_inertia(m, psi), np.einsum("ni,ij,nj->n", u, P.inertia_dyad(m), u), rtol=PLANAR_IDENTITY)
+    assert_allclose(
+        P.generalized_inertia(m, psi), np.einsum("ni,ij,nj->n", u, P.inertia_dyad(m), u), rtol=PLANAR_IDENTITY
+    )
 
 
 def test_coriolis_eq41_corrected_is_minus_u_M_udot_and_the_printed_one_is_not():
@@ -133,11 +135,15 @@ def test_generalized_force_parts():
     m = _model(rng)
     psi = _psi(rng, 5)
     k = P.influence(P.pose(m, psi))
-    tau = P.generalized_force(m, psi, 2.0, drive_torque=5.0, crank_damping=0.3, slider_damping=0.7, slider_force=-4.0)
+    tau = P.generalized_force(
+        m, psi, 2.0, drive_torque=5.0, crank_damping=0.3, slider_damping=0.7, slider_force=-4.0
+    )
     expect = 5.0 + P.gravity_torque(m, psi) - (0.3 + 0.7 * k.r_s**2) * 2.0 - 4.0 * k.r_s
     assert_allclose(tau, expect, rtol=PLANAR_IDENTITY)
     acc = P.acceleration(m, psi, 2.0, tau)
-    assert_allclose(P.generalized_inertia(m, psi) * acc, P.coriolis(m, psi, 2.0) * 2.0 + tau, rtol=PLANAR_IDENTITY)
+    assert_allclose(
+        P.generalized_inertia(m, psi) * acc, P.coriolis(m, psi, 2.0) * 2.0 + tau, rtol=PLANAR_IDENTITY
+    )
 
 
 def test_balancing_point_derived_not_printed():

@@ -27,12 +27,18 @@ BASE = load_case("a4-30-s1-3.5")
 def _case(rng, mode):
     loads = {"gravity": [float(x) for x in rng.normal(0, 200, 3)]}
     loads["drive_torque" if mode == "torque" else "slider_force"] = float(rng.uniform(-200, 200))
-    return BASE.with_values({
-        "geometry.slider_offset": float(rng.uniform(0, 30)), "geometry.slider_twist_deg": float(rng.uniform(220, 320)),
-        "geometry.crank_axial_shift": float(rng.uniform(-5, 5)), "motion.axial_amplitude": float(rng.uniform(0, 2)),
-        "motion.axial_cycles": float(rng.integers(0, 3)), "motion.crank_accel": float(rng.uniform(-30, 30)),
-        "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 3.0}, "loads": loads,
-    })
+    return BASE.with_values(
+        {
+            "geometry.slider_offset": float(rng.uniform(0, 30)),
+            "geometry.slider_twist_deg": float(rng.uniform(220, 320)),
+            "geometry.crank_axial_shift": float(rng.uniform(-5, 5)),
+            "motion.axial_amplitude": float(rng.uniform(0, 2)),
+            "motion.axial_cycles": float(rng.integers(0, 3)),
+            "motion.crank_accel": float(rng.uniform(-30, 30)),
+            "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 3.0},
+            "loads": loads,
+        }
+    )
 
 
 def _bodies(case):
@@ -62,14 +68,17 @@ def _energy_along(case, an, h=1e-5):
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 2**31), mode=st.sampled_from(["torque", "force"]))
 def test_power_balance(seed, mode):
-    """Drive power + slider-load power + gravity power (+ axial reaction power) = dK/dt, dK/dt by differences."""
+    """Drive power + slider-load power + gravity power (+ axial reaction power) = dK/dt, dK/dt by
+    differences."""
     rng = np.random.default_rng(seed)
     case = _case(rng, mode).with_values({"motion.crank_accel": 0.0})  # constant speed: dK/dt = dK/dtheta * w
     an = analyze(case)
     ok = _ok(an)
     r = an.reactions
     twist = an.rates.link_twist
-    p_joint1 = np.einsum("ni,ni->n", r.j1_force, twist[0].du) + np.einsum("ni,ni->n", r.j1_moment, twist[0].re)
+    p_joint1 = np.einsum("ni,ni->n", r.j1_force, twist[0].du) + np.einsum(
+        "ni,ni->n", r.j1_moment, twist[0].re
+    )
     p_slider = r.slider_load * -an.rates.q_dot[:, 0]  # slider velocity is -S4_dot k4
     p_gravity = sum(b.mass * (m.com_vel @ case.loads.gravity) for b, m in zip(_bodies(case), an.motions))
     (k_minus, k_plus), dt = _energy_along(case, an)
@@ -90,9 +99,13 @@ def test_power_balance_with_crank_acceleration():
     power = (np.einsum("ni,ni->n", r.j1_force, twist[0].du) + np.einsum("ni,ni->n", r.j1_moment, twist[0].re)
              - r.slider_load * an.rates.q_dot[:, 0]
              + sum(b.mass * (m.com_vel @ case.loads.gravity) for b, m in zip(_bodies(case), an.motions)))
-    dk = sum(b.mass * np.einsum("ni,ni->n", m.com_acc, m.com_vel)
-             + np.einsum("ni,nij,nj->n", m.omega, m.rotation @ b.inertia @ np.swapaxes(m.rotation, 1, 2), m.omega_dot)
-             for b, m in zip(_bodies(case), an.motions))
+    dk = sum(
+        b.mass * np.einsum("ni,ni->n", m.com_acc, m.com_vel)
+        + np.einsum(
+            "ni,nij,nj->n", m.omega, m.rotation @ b.inertia @ np.swapaxes(m.rotation, 1, 2), m.omega_dot
+        )
+        for b, m in zip(_bodies(case), an.motions)
+    )
     assert_allclose(power[ok], dk[ok], rtol=0, atol=BALANCE * np.abs(dk[ok]).max())
 
 
@@ -109,7 +122,9 @@ def test_whole_mechanism_momentum_balance():
     h = 1e-5
     moms = []
     for sign in (-1, 1):
-        a = analyze(case, case.motion.state(case.geometry.crank_axial_shift, np.degrees(an.crank.theta + sign * h)))
+        a = analyze(
+            case, case.motion.state(case.geometry.crank_axial_shift, np.degrees(an.crank.theta + sign * h))
+        )
         moms.append(sum((momentum(b, m) for b, m in zip(_bodies(case), a.motions)),
                         start=momentum(_bodies(case)[0], a.motions[0]) * 0.0))
     dt = 2 * h / case.motion.speed
@@ -148,10 +163,13 @@ def test_reactions_rotate_with_the_frame():
     rot = [BodyMotion(q @ m.rotation, m.origin @ q.T, m.com @ q.T, m.com_vel @ q.T, m.com_acc @ q.T,
                       m.omega @ q.T, m.omega_dot @ q.T) for m in an.motions]
     k4 = case.geometry.k4
-    # in the rotated frame the drive axis is q z: express the torque as the force-mode equivalent to stay general
+    # in the rotated frame the drive axis is q z: express the torque as the force-mode equivalent to stay
+    # general
     given = an.reactions.slider_load
     r0 = solve_reactions(bodies, an.motions, an.p2, an.p3, k4, case.loads.gravity, np.nan, given)
-    r1 = solve_reactions(bodies, tuple(rot), an.p2 @ q.T, an.p3 @ q.T, q @ k4, q @ case.loads.gravity, np.nan, given)
+    r1 = solve_reactions(
+        bodies, tuple(rot), an.p2 @ q.T, an.p3 @ q.T, q @ k4, q @ case.loads.gravity, np.nan, given
+    )
     ok = _ok(an)
     for name in ("j2", "j3", "j4_force", "j4_moment"):
         a, b = getattr(r0, name)[ok] @ q.T, getattr(r1, name)[ok]

@@ -74,8 +74,9 @@ def test_axial_motion_leaves_an_axial_shaking_force():
 
 def test_shaking_is_the_momentum_rate_and_does_not_depend_on_the_load_mode():
     rng = np.random.default_rng(42)
-    case = load_case("a4-20-alpha-310").with_values({"loads.gravity": [float(x) for x in rng.normal(0, 200, 3)],
-                                                     "motion.crank_accel": 12.0})
+    case = load_case("a4-20-alpha-310").with_values(
+        {"loads.gravity": [float(x) for x in rng.normal(0, 200, 3)], "motion.crank_accel": 12.0}
+    )
     s = bl.shaking(case)
     an = analyze(case)
     bodies = (case.bodies.crank, case.bodies.rod, case.bodies.slider)
@@ -100,10 +101,14 @@ def test_balanced_case_with_given_mass_ratios():
     m3 = case.bodies.slider.mass
     b = bl.balanced_case(case, mu1=5.0, mu2=2.0)
     assert_allclose([b.bodies.crank.mass / m3, b.bodies.rod.mass / m3], [5.0, 2.0], rtol=1e-14)
-    assert_allclose(b.bodies.rod.inertia, case.bodies.rod.inertia * (2.0 * m3 / case.bodies.rod.mass), rtol=1e-14)
+    assert_allclose(
+        b.bodies.rod.inertia, case.bodies.rod.inertia * (2.0 * m3 / case.bodies.rod.mass), rtol=1e-14
+    )
     p = bl.design_point(b)
     assert_allclose([p.xi1, p.eta1, p.xi2, p.eta2], [-3.0 / 5.0, 0.0, -0.5, 0.0], rtol=1e-14, atol=0)
-    assert_allclose(_peak(bl.shaking(b).force), 0.0, atol=BALANCE_SHAKING_FORCE.value * _peak(bl.shaking(case).force))
+    assert_allclose(
+        _peak(bl.shaking(b).force), 0.0, atol=BALANCE_SHAKING_FORCE.value * _peak(bl.shaking(case).force)
+    )
 
 
 def test_polar_plot_is_written(tmp_path):

@@ -78,7 +78,11 @@ def test_bad_input_is_one_line_naming_key_and_value(edit, words):
 def test_explicit_body_overrides():
     data = _base()
     data["bodies"]["crank"] = {"com": [-3.0, 0.0, 0.0]}
-    data["bodies"]["slider"] = {"mass": 2.0, "com": [0.0, 0.0, 0.0], "inertia": [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]}
+    data["bodies"]["slider"] = {
+        "mass": 2.0,
+        "com": [0.0, 0.0, 0.0],
+        "inertia": [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]],
+    }
     case = case_from_dict(data)
     assert_allclose(case.bodies.crank.com, [-3.0, 0, 0])
     assert case.bodies.slider.mass == 2.0
@@ -159,7 +163,8 @@ def test_toml_skeleton_ignores_dots_and_brackets_inside_strings(tmp_path):
 
 @pytest.mark.parametrize("scale", [1e-6, 1.0, 1e3])
 def test_the_rod_axisymmetry_check_does_not_depend_on_the_unit_system(scale):
-    """A rod centre of mass 1e-9 of its length off the axis is refused at every length scale (was: absolute 1e-12)."""
+    """A rod centre of mass 1e-9 of its length off the axis is refused at every length scale (was: absolute
+    1e-12)."""
     from dualmech.core.inertia import BodyInertia
     from dualmech.models.bodies import check_rod_axisymmetric
 

@@ -97,8 +97,11 @@ def test_printed_arithmetic_matches_the_printed_formulas():
 def test_mass_properties_from_geometry_match_section_3_1():
     """``case_from_dict`` (the one function every engine's model is built from) against section 3.1."""
     bodies = case_from_dict(_thesis_dict()).bodies
-    for name, mass, com, inertia in (("crank", M1, CRANK_COM, CRANK_INERTIA), ("rod", M2, ROD_COM, ROD_INERTIA),
-                                     ("slider", M3, SLIDER_COM, SLIDER_INERTIA)):
+    for name, mass, com, inertia in (
+        ("crank", M1, CRANK_COM, CRANK_INERTIA),
+        ("rod", M2, ROD_COM, ROD_INERTIA),
+        ("slider", M3, SLIDER_COM, SLIDER_INERTIA),
+    ):
         body = getattr(bodies, name)
         assert_allclose(body.mass, mass, rtol=PRINTED_DIGITS, atol=0, err_msg=name)
         assert_allclose(body.com, com, rtol=0, atol=COMMON_MODE_INPUT * A2, err_msg=name)

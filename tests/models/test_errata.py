@@ -1,6 +1,6 @@
-"""Each numerically checkable erratum of docs/errata.md: the printed equation, evaluated, against an independent
-computation.  A test fails if our claim about the printed text were wrong (the printed form would then pass
-where we say it fails, or the correction would fail where we say it holds).
+"""Each numerically checkable erratum of docs/errata.md: the printed equation, evaluated, against an
+independent computation.  A test fails if our claim about the printed text were wrong (the printed form
+would then pass where we say it fails, or the correction would fail where we say it holds).
 
 Transcriptions of the printed equations and the independent oracles are in ``tests/models/thesis_oracles.py``.
 """
@@ -62,7 +62,8 @@ def test_e1_printed_matrices_are_the_dual_rotation_products():
     """(1)-(4) equal Z(th + eps S) Y(eta) X(alpha + eps a) built with the in-house dual algebra."""
     rng = np.random.default_rng(2)
     for _ in range(10):
-        t1, s1, a1, t2, e2, a2, t3, e3, s4, al4, a4 = rng.uniform(-3, 3, 11) * [1, 3, 5, 1, 1, 20, 1, 1, 20, 1, 10]
+        scale = [1, 3, 5, 1, 1, 20, 1, 1, 20, 1, 10]
+        t1, s1, a1, t2, e2, a2, t3, e3, s4, al4, a4 = rng.uniform(-3, 3, 11) * scale
 
         def dual(th_, s_=0.0):
             return Dual.of(np.array([th_]), np.array([s_]))
@@ -89,8 +90,16 @@ def test_e1_printed_derivatives_and_operators_are_right():
             val = f(1j * h)
             return val[0].imag / h, val[1].imag / h
         pairs = [
-            (th.dl2_dth2(t2, e2, a2), cs(lambda d: th.l2(t2 + d, e2, a2)), th.dmul(th.q_theta(), th.l2(t2, e2, a2))),
-            (th.dl2_det2(t2, e2, a2), cs(lambda d: th.l2(t2, e2 + d, a2)), th.dmul(th.q_eta(t2), th.l2(t2, e2, a2))),
+            (
+                th.dl2_dth2(t2, e2, a2),
+                cs(lambda d: th.l2(t2 + d, e2, a2)),
+                th.dmul(th.q_theta(), th.l2(t2, e2, a2)),
+            ),
+            (
+                th.dl2_det2(t2, e2, a2),
+                cs(lambda d: th.l2(t2, e2 + d, a2)),
+                th.dmul(th.q_eta(t2), th.l2(t2, e2, a2)),
+            ),
             (th.dl3_dth3(t3, e3), cs(lambda d: th.l3(t3 + d, e3)), th.dmul(th.q_theta(), th.l3(t3, e3))),
             (th.dl3_det3(t3, e3), cs(lambda d: th.l3(t3, e3 + d)), th.dmul(th.q_eta(t3), th.l3(t3, e3))),
             (th.dm4_ds4(al4), cs(lambda d: th.m4(s4 + d, al4, a4)), th.dmul(th.q_s(), th.m4(s4, al4, a4))),
@@ -101,7 +110,7 @@ def test_e1_printed_derivatives_and_operators_are_right():
                 assert_allclose(operator[part], exact[part], rtol=0, atol=COMPLEX_STEP * a2)
 
 
-# ============================================================================ E2 five Z-Y unknowns, E13 eq. (23a)
+# ======================================================================== E2 five Z-Y unknowns, E13 eq. (23a)
 
 
 def _min_closure(geom, starts):
@@ -131,11 +140,13 @@ def test_e2_printed_newton_stalls_off_the_mechanism_in_spatial_cases():
         x, hist = th.thesis_newton(x_exact, (th1,) + shape, 200)
         assert hist[-1] > 0.05 and abs(hist[-1] - hist[-50]) < 1e-9 * hist[-1]  # stalled, not closed
         assert abs(x[4] - x_exact[4]) > s4_err  # measured 0.259 and 3.27 in
-    x, hist = th.thesis_newton(th.thesis_angles(th1, *PLANAR)[0] + [0.2, 0.1, -0.2, 0.1, 2.0], (th1,) + PLANAR, 6)
+    x, hist = th.thesis_newton(
+        th.thesis_angles(th1, *PLANAR)[0] + [0.2, 0.1, -0.2, 0.1, 2.0], (th1,) + PLANAR, 6
+    )
     assert hist[4] < ERRATA_ROUND_OFF
 
 
-# ============================================================================ E3 the diagonal device of eq. (22)
+# ========================================================================= E3 the diagonal device of eq. (22)
 
 
 def test_e3_diagonal_terms_exclude_rotation_by_pi_roots():
@@ -143,11 +154,17 @@ def test_e3_diagonal_terms_exclude_rotation_by_pi_roots():
 
     def eqs_20_21(x):
         b = th.loop_product(x, *geom)
-        return np.array([b[0][1, 0], b[0][2, 0], b[0][2, 1], b[1][1, 0] / 50, b[1][2, 0] / 50, b[1][2, 1] / 50])
-    sol = scipy_least_squares(eqs_20_21, [1.77, 0.0, 0.67, math.pi, -38.76], xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        return np.array(
+            [b[0][1, 0], b[0][2, 0], b[0][2, 1], b[1][1, 0] / 50, b[1][2, 0] / 50, b[1][2, 1] / 50]
+        )
+
+    sol = scipy_least_squares(
+        eqs_20_21, [1.77, 0.0, 0.67, math.pi, -38.76], xtol=1e-15, ftol=1e-15, gtol=1e-15
+    )
     assert np.linalg.norm(sol.fun) < ERRATA_ROUND_OFF  # a root of (20)-(21) ...
     b = th.loop_product(sol.x, *geom)
-    assert_allclose(np.diag(b[0]), [1, -1, -1], rtol=0, atol=1e-9)  # ... that is a rotation by pi, not closure
+    # ... that is a rotation by pi, not closure
+    assert_allclose(np.diag(b[0]), [1, -1, -1], rtol=0, atol=1e-9)
     _, v22 = th.newton_system(sol.x, *geom, diagonal=True)
     assert np.linalg.norm(v22) > 1.0  # (22) does not vanish there (measured 4.9)
     _, v_true = th.newton_system(th.thesis_angles(geom[0], *PLANAR)[0], *geom, diagonal=True)
@@ -181,7 +198,9 @@ def test_e4_slider_rate_43_is_exact(shape):
 def test_e4_joint_rates_39_42_hold_only_in_the_planar_case():
     q, qd, _ = _rates(PLANAR)
     ok = _away_from_dead_centres(q)
-    assert_allclose(th.printed_rates(q, W1, 0.0, 12.0, 50.0)[ok, :4], qd[ok, :4], rtol=0, atol=HIGH_ORDER_DIFFERENCE * W1)
+    assert_allclose(
+        th.printed_rates(q, W1, 0.0, 12.0, 50.0)[ok, :4], qd[ok, :4], rtol=0, atol=HIGH_ORDER_DIFFERENCE * W1
+    )
     for shape, floors in ((SPATIAL_S1, [1e-3, 0.1, 1e-3, 0.1]), (SPATIAL_TWIST, [0.05, 1.0, 0.02, 1.0])):
         q, qd, _ = _rates(shape)
         ok = _away_from_dead_centres(q)
@@ -190,14 +209,19 @@ def test_e4_joint_rates_39_42_hold_only_in_the_planar_case():
 
 
 def test_e4_system_38_row_6_contradicts_37f():
-    """Printed (38) row 6 right side is -th1d a1 s(th2) - S1d c(eta2); (37f) says -th1d a1 s(th2) s(eta2) - ..."""
+    """Printed (38) row 6 right side is -th1d a1 s(th2) - S1d c(eta2).
+
+    (37f) says -th1d a1 s(th2) s(eta2) - ...
+    """
     q, qd, _ = _rates(PLANAR)
     a, b = th.system38(q, W1, 0.0, 12.0, 50.0)
     x = qd[:, [0, 2, 1, 3, 4]]
     r = np.einsum("nij,nj->ni", a, x) - b
     assert_allclose(r[:, :5], 0.0, rtol=0, atol=HIGH_ORDER_DIFFERENCE * 12 * W1)
     assert_allclose(r[:, 5], W1 * 12.0 * np.sin(q[:, 0]), rtol=0, atol=HIGH_ORDER_DIFFERENCE * 12 * W1)
-    assert_allclose(th.eq37_residuals(q, qd, W1, 0.0, 12.0, 50.0), 0.0, rtol=0, atol=HIGH_ORDER_DIFFERENCE * 50 * W1)
+    assert_allclose(
+        th.eq37_residuals(q, qd, W1, 0.0, 12.0, 50.0), 0.0, rtol=0, atol=HIGH_ORDER_DIFFERENCE * 50 * W1
+    )
     # the least-squares solution of the printed 6x5 system invents eta rates in a planar mechanism
     sol = np.linalg.lstsq(a[20], b[20], rcond=None)[0]
     assert abs(sol[2]) > 1.0  # measured -6.06 rad/s where eta2_dot = 0
@@ -209,7 +233,8 @@ def test_e4_equations_37_fail_in_spatial_cases(shape):
     r = np.abs(th.eq37_residuals(q, qd, W1, 0.0, 12.0, 50.0)).max(0)
     scale = np.array([W1, 12 * W1, W1, 12 * W1, W1, 12 * W1])
     assert r[1] < HIGH_ORDER_DIFFERENCE * scale[1]  # (37b): the rod's length rate, right
-    assert np.all(np.delete(r / scale, 1) > PRINTED_IS_WRONG)  # the rest: measured >= 2e-3 (S1 = 3.5), >= 0.16 (alpha4 = 232)
+    # the rest: measured >= 2e-3 (S1 = 3.5), >= 0.16 (alpha4 = 232)
+    assert np.all(np.delete(r / scale, 1) > PRINTED_IS_WRONG)
 
 
 # ============================================================================ E5 accelerations (38a)-(42a)
@@ -235,19 +260,25 @@ def test_e5_joint_accelerations_hold_only_in_the_planar_case():
 
 def test_e5_thesis_pipeline_gets_the_slider_acceleration_wrong_in_spatial_cases():
     """(42a) is exact given exact rates, but the thesis feeds it the rates of (39)-(42)."""
-    case = load_case("a4-20-alpha-232").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 2.0}})
+    case = load_case("a4-20-alpha-232").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 2.0}}
+    )
     an = analyze(case)
     kin = th.kinematics(case, an.crank.theta)
     assert_allclose(an.rates.q_ddot[:, 0], kin["S4dd"], rtol=0, atol=HIGH_ORDER_DIFFERENCE * 12 * W1**2)
     q = th.thesis_angles(an.crank.theta, *SPATIAL_TWIST)
-    pipeline = th.printed_accels(q, th.printed_rates(q, W1, 0.0, 12.0, 50.0), W1, 0.0, 0.0, 0.0, 12.0, 50.0)[:, 4]
+    pipeline = th.printed_accels(q, th.printed_rates(q, W1, 0.0, 12.0, 50.0), W1, 0.0, 0.0, 0.0, 12.0, 50.0)[
+        :, 4
+    ]
     ok = _away_from_dead_centres(q)
     assert np.abs(pipeline - an.rates.q_ddot[:, 0])[ok].max() > 0.1 * 12 * W1**2  # measured 0.24
     q = th.thesis_angles(an.crank.theta, *PLANAR)
     kin = th.kinematics(load_case("a4-20-alpha-232").with_values({
         "geometry.slider_offset": 30.0, "geometry.slider_twist_deg": 270.0,
         "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 2.0}}), an.crank.theta)
-    pipeline = th.printed_accels(q, th.printed_rates(q, W1, 0.0, 12.0, 50.0), W1, 0.0, 0.0, 0.0, 12.0, 50.0)[:, 4]
+    pipeline = th.printed_accels(q, th.printed_rates(q, W1, 0.0, 12.0, 50.0), W1, 0.0, 0.0, 0.0, 12.0, 50.0)[
+        :, 4
+    ]
     assert_allclose(pipeline, kin["S4dd"], rtol=0, atol=ERRATA_ROUND_OFF * 1e3 * 12 * W1**2)
 
 
@@ -269,7 +300,9 @@ def _ry(t):
 
 
 def _vee(m):
-    return 0.5 * np.stack([m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], -1)
+    return 0.5 * np.stack(
+        [m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], -1
+    )
 
 
 def _relative_angular_velocity(shape, joint):
@@ -296,7 +329,9 @@ def test_e6_printed_joint_rates_30_31_miss_the_turned_eta_axis():
 
 
 def test_e6_zy_rod_velocity_without_its_spin_is_the_in_house_rod_velocity():
-    case = load_case("a4-20-alpha-232").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 2.0}})
+    case = load_case("a4-20-alpha-232").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 2.0}}
+    )
     an = analyze(case)
     q, qd, _ = _rates(SPATIAL_TWIST)
     rel = np.stack([-qd[:, 1] * np.sin(q[:, 0]), qd[:, 1] * np.cos(q[:, 0]), qd[:, 0]], -1)
@@ -323,7 +358,12 @@ def test_e7_28a_prints_s1_for_the_amplitude():
                                              "motion.crank_accel": wd}).motion
     state = motion.state(0.0, np.degrees(th1))
     speed = motion.speed
-    assert_allclose(state.s_dot, alpha * amp * np.cos(alpha * th1) * speed, rtol=0, atol=COMPLEX_STEP * amp * alpha * speed)
+    assert_allclose(
+        state.s_dot,
+        alpha * amp * np.cos(alpha * th1) * speed,
+        rtol=0,
+        atol=COMPLEX_STEP * amp * alpha * speed,
+    )
     dd = amp * alpha * (np.cos(alpha * th1) * wd - alpha * np.sin(alpha * th1) * speed**2)  # (28b), right
     assert_allclose(state.s_ddot, dd, rtol=0, atol=COMPLEX_STEP * amp * alpha**2 * speed**2)
 
@@ -347,7 +387,8 @@ def test_e8_binor_structure_is_momentum_about_the_frame_origin():
         gvec = np.array([g, 0, 0])
         h = _binor(m, g, k2) @ np.concatenate([omega, v_o])
         assert_allclose(h[:3], m * (v_o + np.cross(omega, gvec)), rtol=1e-13, atol=1e-13)  # m v_G
-        assert_allclose(h[3:], m * k2 * omega + np.cross(gvec, m * v_o), rtol=1e-13, atol=1e-12)  # J_O w + G x m v_O
+        # J_O w + G x m v_O
+        assert_allclose(h[3:], m * k2 * omega + np.cross(gvec, m * v_o), rtol=1e-13, atol=1e-12)
 
 
 def test_e8_printed_g1_puts_the_crank_mass_centre_outside_the_crank():
@@ -374,7 +415,7 @@ def test_e8_backward_rod_momentum_52_has_g2_not_g3():
     assert_allclose(h, printed_52, rtol=1e-13, atol=1e-12)
 
 
-# ============================================================================ E9-E10 D'Alembert (62)-(64), 1F1k
+# ========================================================================== E9-E10 D'Alembert (62)-(64), 1F1k
 
 
 def _regular_rows(an):
@@ -394,11 +435,13 @@ def test_e9_literal_62_64_break_newtons_third_law():
     a_lit, b_lit = th.newton_euler_system(case, kin, literal=True)
     x_lit, r_lit = th.least_squares(a_lit, b_lit, {th.DRIVE_TORQUE_COLUMN: torque})
     assert np.abs(r_lit[rows]).max() < 1e-9 * scale  # the literal system is solvable ...
-    assert np.abs(x_lit[rows, 12:15] @ kin["k4"] - an.reactions.slider_load[rows]).max() > 5.0  # ... and wrong (15.6 lbf)
+    # ... and wrong (15.6 lbf)
+    assert np.abs(x_lit[rows, 12:15] @ kin["k4"] - an.reactions.slider_load[rows]).max() > 5.0
     # summed over the three bodies the joint forces do not cancel: ground forces = h2' - h1' - h3'
     (l1, _, _, _), (l2, _, _, _), (l3, _, _, _) = th.momentum_rates(case, kin)
     assert_allclose((x_lit[:, 0:3] + x_lit[:, 12:15])[rows], (l2 - l1 - l3)[rows], rtol=0, atol=1e-9 * scale)
-    assert_allclose((x[:, 0:3] + x[:, 12:15])[rows], (l1 + l2 + l3)[rows], rtol=0, atol=1e-9 * scale)  # physical
+    # physical
+    assert_allclose((x[:, 0:3] + x[:, 12:15])[rows], (l1 + l2 + l3)[rows], rtol=0, atol=1e-9 * scale)
     assert np.abs(l1 + l3).max() > 5.0  # so the two differ by 2 (h1' + h3'), not a round-off
 
 
@@ -439,14 +482,20 @@ def test_e11_expansions_match_except_62c():
         ti, tj, tk = t1v
         p, d = th.dvec(th.dtr(th.m1(t1, s1, a1)), (f1, t1v))
         ct, st = math.cos(t1), math.sin(t1)
-        printed_62 = [fi * ct + fj * st, ti * ct - fi * s1 * st + fj * s1 * ct + tj * st,
-                      -fj * st + fj * ct,  # (62c) as printed
-                      -ti * st - fi * s1 * ct + tj * ct - fj * s1 * st + a1 * fk, fk, fi * a1 * st - fj * a1 * ct + tk]
+        printed_62 = [
+            fi * ct + fj * st,
+            ti * ct - fi * s1 * st + fj * s1 * ct + tj * st,
+            -fj * st + fj * ct,  # (62c) as printed
+            -ti * st - fi * s1 * ct + tj * ct - fj * s1 * st + a1 * fk,
+            fk,
+            fi * a1 * st - fj * a1 * ct + tk,
+        ]
         exact_62 = [p[0], d[0], p[1], d[1], p[2], d[2]]
         for k in (0, 1, 3, 4, 5):
             assert_allclose(printed_62[k], exact_62[k], rtol=0, atol=ERRATA_ROUND_OFF * 100)
         assert abs(printed_62[2] - exact_62[2]) > 1e-3 or abs(fi - fj) < 1e-3
-        assert_allclose(-fi * st + fj * ct, exact_62[2], rtol=0, atol=ERRATA_ROUND_OFF * 100)  # corrected (62c)
+        # corrected (62c)
+        assert_allclose(-fi * st + fj * ct, exact_62[2], rtol=0, atol=ERRATA_ROUND_OFF * 100)
         p, d = th.dvec(th.dtr(th.l2(t2, e2, a2)), (f2, np.zeros(3)))
         c2, s2, ce, se = math.cos(t2), math.sin(t2), math.cos(e2), math.sin(e2)
         printed_63 = [f2[0] * c2 * ce + f2[1] * s2 * ce - f2[2] * se, 0.0, -f2[0] * s2 + f2[1] * c2,
@@ -455,8 +504,11 @@ def test_e11_expansions_match_except_62c():
         assert_allclose(printed_63, [p[0], d[0], p[1], d[1], p[2], d[2]], rtol=0, atol=ERRATA_ROUND_OFF * 100)
         p, d = th.dvec(th.dtr(th.l3(t3, e3)), (f3, np.zeros(3)))
         c3, s3, ce3, se3 = math.cos(t3), math.sin(t3), math.cos(e3), math.sin(e3)
-        printed_64 = [f3[0] * c3 * ce3 + f3[1] * s3 * ce3 - f3[2] * se3, f3[0] * c3 * se3 + f3[1] * s3 * se3 + f3[2] * ce3,
-                      f3[0] * s3 - f3[1] * c3]
+        printed_64 = [
+            f3[0] * c3 * ce3 + f3[1] * s3 * ce3 - f3[2] * se3,
+            f3[0] * c3 * se3 + f3[1] * s3 * se3 + f3[2] * ce3,
+            f3[0] * s3 - f3[1] * c3,
+        ]
         assert_allclose(printed_64, p, rtol=0, atol=ERRATA_ROUND_OFF * 10)
         assert_allclose(d, 0.0, rtol=0, atol=0)
 
@@ -465,14 +517,30 @@ def test_e11_expansions_match_except_62c():
 
 
 def _random_consistent_crank_rod(rng):
-    """Random joint forces and angles, with the inertia terms f chosen so that (62a-f, corrected c) and (63) hold."""
+    """Random joint forces and angles, with the inertia terms f chosen so that (62a-f, corrected c) and (63)
+    hold."""
     t1, s1, a1, t2, e2, a2 = rng.uniform(-3, 3, 6) * [1, 5, 5, 1, 1, 20] + [0, 0, 8, 0, 0, 30]
     f1, tq, f2, f3 = rng.normal(size=(4, 3))
     p, d = th.dvec(th.dtr(th.m1(t1, s1, a1)), (f1, tq))
     f1p, f1d = -(p + f2), -d  # (62): M^T F1 + F2 + f1 = 0 (F2 has no moment at its own origin)
     p2, d2 = th.dvec(th.dtr(th.l2(t2, e2, a2)), (f2, np.zeros(3)))
     f2p, f2d = -(p2 + f3), -d2  # (63)
-    return dict(t1=t1, s1=s1, a1=a1, t2=t2, e2=e2, a2=a2, F1=f1, T1=tq, F2=f2, F3=f3, f1p=f1p, f1d=f1d, f2p=f2p, f2d=f2d)
+    return dict(
+        t1=t1,
+        s1=s1,
+        a1=a1,
+        t2=t2,
+        e2=e2,
+        a2=a2,
+        F1=f1,
+        T1=tq,
+        F2=f2,
+        F3=f3,
+        f1p=f1p,
+        f1d=f1d,
+        f2p=f2p,
+        f2d=f2d,
+    )
 
 
 def test_e12_elimination_69_reproduces_a_consistent_solution():

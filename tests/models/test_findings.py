@@ -38,7 +38,9 @@ def oracle_reactions():
         an = analyze(case)
         kin = th.kinematics(case, an.crank.theta)
         a, b = th.newton_euler_system(case, kin)
-        x, _ = th.least_squares(a, b, {th.DRIVE_TORQUE_COLUMN: np.full(len(kin["theta"]), case.loads.drive_torque)})
+        x, _ = th.least_squares(
+            a, b, {th.DRIVE_TORQUE_COLUMN: np.full(len(kin["theta"]), case.loads.drive_torque)}
+        )
         rows = (an.status == "ok") & (np.abs(an.transmission) >= FINDING_REGULAR_TRANSMISSION.value)
         out.append((case, an, x, rows, kin))
     return out
@@ -56,8 +58,14 @@ def _rod_on_crank(x, kin):
     """2F2 in frame {2} from the oracle: minus the force of the crank on the rod."""
     th1 = kin["theta"]
     f = -x[:, 6:9]
-    return np.stack([f[:, 0] * np.cos(th1) + f[:, 1] * np.sin(th1), -f[:, 0] * np.sin(th1) + f[:, 1] * np.cos(th1),
-                     f[:, 2]], 1)
+    return np.stack(
+        [
+            f[:, 0] * np.cos(th1) + f[:, 1] * np.sin(th1),
+            -f[:, 0] * np.sin(th1) + f[:, 1] * np.cos(th1),
+            f[:, 2],
+        ],
+        1,
+    )
 
 
 def test_a_tangential_pin_force_is_minus_torque_over_crank(findings, oracle_reactions):
@@ -85,7 +93,9 @@ def test_c_joint4_moments_vanish(findings, oracle_reactions):
     assert findings["c"]["verdict"] == "confirmed"
     for case, an, x, rows, kin in oracle_reactions:
         m4_p3 = x[:, 15:18] - np.cross(kin["P3"], x[:, 12:15])  # about P3
-        assert np.abs(m4_p3[rows]).max() < FINDINGS_REACTIONS * np.abs(x[rows]).max() * case.geometry.rod_length
+        assert (
+            np.abs(m4_p3[rows]).max() < FINDINGS_REACTIONS * np.abs(x[rows]).max() * case.geometry.rod_length
+        )
 
 
 def test_d_crank_moments_need_the_axial_reaction(findings, oracle_reactions):
@@ -122,7 +132,9 @@ def test_e_spikes_sit_at_the_exact_dead_centres(findings):
             if t[k] == 0.0:
                 roots.append(math.degrees(grid[k]))
             elif t[k] * t[k + 1] < 0.0:
-                roots.append(math.degrees(brentq(lambda a: _transmission(case, a), grid[k], grid[k + 1], xtol=1e-15)))
+                roots.append(
+                    math.degrees(brentq(lambda a: _transmission(case, a), grid[k], grid[k + 1], xtol=1e-15))
+                )
         got = f["values"]["dead_centres_deg"][case.name]
         assert_allclose(got, roots, rtol=0, atol=1e-4 + FINDINGS_LOCATION)  # record keeps 4 decimals
         assert len(got) == 2 and 85 < got[0] < 125 and 265 < got[1] < 330
@@ -135,8 +147,11 @@ def _line_distance_max(a4, s1, twist):
     def neg(theta):
         d = np.array([12 * math.cos(theta) + a4, 12 * math.sin(theta), s1])
         return -math.sqrt(d @ d - (d @ k) ** 2)
-    best = min(minimize_scalar(neg, bounds=(lo, lo + math.pi / 2), method="bounded", options={"xatol": 1e-12}).fun
-               for lo in np.arange(0, 2 * math.pi, math.pi / 2))
+
+    best = min(
+        minimize_scalar(neg, bounds=(lo, lo + math.pi / 2), method="bounded", options={"xatol": 1e-12}).fun
+        for lo in np.arange(0, 2 * math.pi, math.pi / 2)
+    )
     return -best
 
 
@@ -170,10 +185,17 @@ def test_g_stroke_table_and_verdict(findings):
     rng = np.random.default_rng(7)
     for row in rng.choice(table, size=12, replace=False):
         assert row["assembles"]
-        assert_allclose(row["stroke"], _exact_stroke(row["a4"], row["alpha4_deg"], row["S1"]), rtol=0, atol=FINDINGS_LOCATION * 50)
+        assert_allclose(
+            row["stroke"],
+            _exact_stroke(row["a4"], row["alpha4_deg"], row["S1"]),
+            rtol=0,
+            atol=FINDINGS_LOCATION * 50,
+        )
     planar = {r["a4"]: r["stroke"] for r in table if r["alpha4_deg"] == 270.0 and r["S1"] == 0.0}
     for a4, stroke in planar.items():  # planar offset slider crank, closed form
-        assert_allclose(stroke, math.sqrt(62**2 - a4**2) - math.sqrt(38**2 - a4**2), rtol=0, atol=FINDINGS_LOCATION * 50)
+        assert_allclose(
+            stroke, math.sqrt(62**2 - a4**2) - math.sqrt(38**2 - a4**2), rtol=0, atol=FINDINGS_LOCATION * 50
+        )
     assert findings["g"]["verdict"] == "refuted" and findings["g"]["values"]["stroke_grows_with_a4"]
 
 

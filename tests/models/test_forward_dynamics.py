@@ -35,16 +35,34 @@ def _textbook_case(**loads):
     Planar, in line, slider along the textbook's +x: slider_twist_deg = 270 (module docstring of
     models/forward_dynamics.py), textbook gravity (0, -9.81) is world (9.81, 0, 0).
     """
-    return case_from_dict({
-        "name": "textbook-si", "units": "m-kg-s",
-        "geometry": {"crank_length": 0.2, "rod_length": 0.5, "slider_offset": 0.0, "slider_twist_deg": 270.0,
-                     "crank_axial_shift": 0.0},
-        "motion": {"crank_rpm": 0.0},
-        "bodies": {"crank": {"mass": 1.0, "com": [0.1, 0.0, 0.0], "inertia": [0.0, 1 * 0.2**2 / 12, 1 * 0.2**2 / 12]},
-                   "rod": {"mass": 3.0, "com": [0.25, 0.0, 0.0], "inertia": [0.0, 3 * 0.5**2 / 12, 3 * 0.5**2 / 12]},
-                   "slider": {"mass": 2.0, "com": [0.0, 0.0, 0.0], "inertia": [1e-3, 1e-3, 1e-3]}},
-        "loads": {"drive_torque": 0.0, "gravity": [9.81, 0.0, 0.0], **loads},
-    })
+    return case_from_dict(
+        {
+            "name": "textbook-si",
+            "units": "m-kg-s",
+            "geometry": {
+                "crank_length": 0.2,
+                "rod_length": 0.5,
+                "slider_offset": 0.0,
+                "slider_twist_deg": 270.0,
+                "crank_axial_shift": 0.0,
+            },
+            "motion": {"crank_rpm": 0.0},
+            "bodies": {
+                "crank": {
+                    "mass": 1.0,
+                    "com": [0.1, 0.0, 0.0],
+                    "inertia": [0.0, 1 * 0.2**2 / 12, 1 * 0.2**2 / 12],
+                },
+                "rod": {
+                    "mass": 3.0,
+                    "com": [0.25, 0.0, 0.0],
+                    "inertia": [0.0, 3 * 0.5**2 / 12, 3 * 0.5**2 / 12],
+                },
+                "slider": {"mass": 2.0, "com": [0.0, 0.0, 0.0], "inertia": [1e-3, 1e-3, 1e-3]},
+            },
+            "loads": {"drive_torque": 0.0, "gravity": [9.81, 0.0, 0.0], **loads},
+        }
+    )
 
 
 PLANAR_CASES = {
@@ -81,7 +99,8 @@ def test_planar_inertia_eq40_equals_twice_the_in_house_kinetic_energy(name):
 
 
 def test_inertia_derivative_is_the_derivative_of_the_tabulated_inertia():
-    """I' from the in-house accelerations = d/dpsi of the (spectrally exact) interpolant of I, spatial case."""
+    """I' from the in-house accelerations = d/dpsi of the (spectrally exact) interpolant of I, spatial
+    case."""
     case = load_case("a4-30-s1-3.5").with_values({"motion.axial_amplitude": 1.0, "motion.axial_cycles": 2.0})
     model = dc.coefficient_model(case)
     assert model.mode == "table" and model.error <= 1e-12
@@ -122,7 +141,9 @@ def test_work_energy_with_gravity_damping_slider_spring_and_axial_motion():
                                                   "loads.gravity": [0.0, 150.0, -386.4]})
     sim = fd.simulate(case, 1.5, torque="150*(1 - psidot/30)", psidot0=2.0, damping=0.4, slider_damping=0.02,
                       slider_load="0.5*(s4 - 45)", samples=151)
-    scale = max(np.abs(sim.kinetic).max(), np.abs(sim.potential - sim.potential[0]).max(), sim.work_drive.max())
+    scale = max(
+        np.abs(sim.kinetic).max(), np.abs(sim.potential - sim.potential[0]).max(), sim.work_drive.max()
+    )
     assert_allclose(sim.energy_residual(), 0.0, rtol=0, atol=DYN_WORK_ENERGY.value * scale)
     assert sim.dissipated[-1] > 1e-3 * scale and np.all(np.diff(sim.dissipated) >= 0)
 
@@ -136,7 +157,9 @@ def test_inverse_dynamics_along_the_trajectory_reproduces_the_loads():
     r = sim.reactions
     s1p = case.crank_state(sim.psi, 1.0, 0.0).s_dot  # dS1/dpsi
     expect = sim.torque - 0.3 * sim.psi_dot - r.j1_force[:, 2] * s1p
-    assert_allclose(r.drive_torque, expect, rtol=0, atol=DYN_INVERSE_CONSISTENCY.value * np.abs(sim.torque).max())
+    assert_allclose(
+        r.drive_torque, expect, rtol=0, atol=DYN_INVERSE_CONSISTENCY.value * np.abs(sim.torque).max()
+    )
     assert_allclose(r.slider_load, -2.0 + 0.01 * sim.s4_dot, rtol=1e-14)
     assert np.all(sim.status == "ok")
     assert r.residual.max() < 1e-10
@@ -147,8 +170,16 @@ def test_textbook_si_problem_against_the_papers_planar_model():
     1e3 N s/m, gravity: the spatial model (in-house coefficients) and the paper's planar model
     (core/planar.py integrated by itself) give the same motion."""
     case = _textbook_case()
-    sim = fd.simulate(case, 0.5, torque=500.0, psi0=np.radians(30.0 + 90.0), psidot0=0.0, slider_damping=1000.0,
-                      slider_load="10000*(s4 - 0.5)", samples=51)
+    sim = fd.simulate(
+        case,
+        0.5,
+        torque=500.0,
+        psi0=np.radians(30.0 + 90.0),
+        psidot0=0.0,
+        slider_damping=1000.0,
+        slider_load="10000*(s4 - 0.5)",
+        samples=51,
+    )
     model, phi = fd.planar_model(case)
     assert_allclose(model.gravity, [0.0, -9.81], atol=1e-15)
 
@@ -156,10 +187,14 @@ def test_textbook_si_problem_against_the_papers_planar_model():
         psi = np.array([y[0]])
         s = P.pose(model, psi).s
         force_i = -10000.0 * (s - 0.5)  # spring on the slider along i; the damper enters as slider_damping
-        tau = P.generalized_force(model, psi, y[1], drive_torque=500.0, slider_damping=1000.0, slider_force=force_i)
+        tau = P.generalized_force(
+            model, psi, y[1], drive_torque=500.0, slider_damping=1000.0, slider_force=force_i
+        )
         return [y[1], P.acceleration(model, psi, y[1], tau)[0]]
 
-    ref = solve_ivp(rhs, (0.0, 0.5), [np.radians(30.0), 0.0], method="DOP853", t_eval=sim.t, rtol=1e-12, atol=1e-12)
+    ref = solve_ivp(
+        rhs, (0.0, 0.5), [np.radians(30.0), 0.0], method="DOP853", t_eval=sim.t, rtol=1e-12, atol=1e-12
+    )
     # two integrations of the same ODE at rtol 1e-12: agreement ~1e-10 of the angle travelled
     assert_allclose(sim.psi - phi, ref.y[0], rtol=0, atol=1e-9 * np.ptp(ref.y[0]))
     assert_allclose(sim.s4, P.pose(model, ref.y[0]).s, rtol=0, atol=1e-9 * 0.5)
@@ -209,8 +244,23 @@ def test_cli_simulate(tmp_path):
     from dualmech.validation.cli import main
 
     out = tmp_path / "run.csv"
-    res = CliRunner().invoke(main, ["simulate", "ideal", "--duration", "0.5", "--torque", "100", "--psidot0", "0",
-                                    "--samples", "11", "-o", str(out)])
+    res = CliRunner().invoke(
+        main,
+        [
+            "simulate",
+            "ideal",
+            "--duration",
+            "0.5",
+            "--torque",
+            "100",
+            "--psidot0",
+            "0",
+            "--samples",
+            "11",
+            "-o",
+            str(out),
+        ],
+    )
     assert res.exit_code == 0, res.output
     header = out.read_text().splitlines()[0].split(",")
     assert header == [*SIMULATION_COLUMNS, "status"]

@@ -1,4 +1,5 @@
-"""The MJCF of a case: MuJoCo compiles it, Pinocchio imports it, and both read the case's bodies and frames."""
+"""The MJCF of a case: MuJoCo compiles it, Pinocchio imports it, and both read the case's bodies and
+frames."""
 
 from __future__ import annotations
 
@@ -28,7 +29,9 @@ POSE = 1e-12
 
 def _cases():
     rng = np.random.default_rng(20240)
-    return [load_case(n) for n in preset_names()] + [random_case(rng, m) for m in ("torque", "force", "torque")]
+    return [load_case(n) for n in preset_names()] + [
+        random_case(rng, m) for m in ("torque", "force", "torque")
+    ]
 
 
 def _central_inertia(model, body: int) -> np.ndarray:
@@ -72,7 +75,8 @@ def test_mujoco_compiles_the_case_bodies_joints_and_loop(case):
 
 @pytest.mark.parametrize("case", _cases()[-3:], ids=lambda c: c.name)
 def test_assembled_pose_reproduces_the_convention_frames(case):
-    """qpos = [theta1, S1, q_rod, S4] from the closed form puts every body frame where docs/conventions.md says."""
+    """qpos = [theta1, S1, q_rod, S4] from the closed form puts every body frame where docs/conventions.md
+    says."""
     m = mujoco.MjModel.from_xml_string(case_to_mjcf(case))
     d = mujoco.MjData(m)
     g = case.geometry
@@ -91,10 +95,14 @@ def test_assembled_pose_reproduces_the_convention_frames(case):
         assert_allclose(d.xpos[m.body("crank").id], [0, 0, s], rtol=0, atol=atol)
         assert_allclose(d.xmat[m.body("crank").id].reshape(3, 3), rz, rtol=0, atol=POSE)
         assert_allclose(d.xpos[m.body("rod").id], p2, rtol=0, atol=atol)
-        assert_allclose(d.xmat[m.body("rod").id].reshape(3, 3)[:, 0], (p3 - p2) / g.rod_length, rtol=0, atol=POSE)
+        assert_allclose(
+            d.xmat[m.body("rod").id].reshape(3, 3)[:, 0], (p3 - p2) / g.rod_length, rtol=0, atol=POSE
+        )
         assert_allclose(d.xpos[m.body("slider").id], p3, rtol=0, atol=atol)
         assert_allclose(d.xmat[m.body("slider").id], np.eye(3).ravel(), rtol=0, atol=0)
-        assert_allclose(d.site_xpos[m.site("rod_end").id], d.site_xpos[m.site("slider_pin").id], rtol=0, atol=atol)
+        assert_allclose(
+            d.site_xpos[m.site("rod_end").id], d.site_xpos[m.site("slider_pin").id], rtol=0, atol=atol
+        )
 
 
 def test_user_text_is_escaped():
@@ -190,6 +198,8 @@ def test_bad_settings_and_bodies_are_one_line_errors():
     case = load_case("thesis/ideal")
     with pytest.raises(ValueError, match="timestep"):
         default_settings(case, -1.0)
-    thin = case.with_values({"bodies.rod": {"mass": 0.1, "com": [25.0, 0.0, 0.0], "inertia": [0.0, 5.0, 5.0]}})
+    thin = case.with_values(
+        {"bodies.rod": {"mass": 0.1, "com": [25.0, 0.0, 0.0], "inertia": [0.0, 5.0, 5.0]}}
+    )
     with pytest.raises(ValueError, match="bodies.rod.inertia"):
         case_to_mjcf(thin)

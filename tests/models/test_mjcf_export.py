@@ -21,8 +21,11 @@ from numpy.testing import assert_allclose
 from dualmech.models.case import load_case
 from dualmech.models.mjcf import KEY_NAME, case_to_mjcf
 from dualmech.validation.cli import main
-from dualmech.validation.tolerances import (MJCF_EXPORT_ASSEMBLED, MJCF_EXPORT_CRANK_SPEED,
-                                           MJCF_EXPORT_LOOP_GAP)
+from dualmech.validation.tolerances import (
+    MJCF_EXPORT_ASSEMBLED,
+    MJCF_EXPORT_CRANK_SPEED,
+    MJCF_EXPORT_LOOP_GAP,
+)
 from tests.validation.test_design import SI_DESIGN
 
 mujoco = pytest.importorskip("mujoco")

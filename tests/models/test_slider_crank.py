@@ -41,7 +41,11 @@ def test_every_bundled_case_matches_closed_form(thesis_cases):
 @settings(max_examples=25, deadline=None)
 @given(
     a4=st.floats(-25.0, 30.0),
-    twist=st.one_of(st.floats(185.0, 355.0), st.floats(5.0, 175.0), st.sampled_from([181.0, 359.0, 1.0, 179.0, 0.0, 180.0])),
+    twist=st.one_of(
+        st.floats(185.0, 355.0),
+        st.floats(5.0, 175.0),
+        st.sampled_from([181.0, 359.0, 1.0, 179.0, 0.0, 180.0]),
+    ),
     s1=st.floats(-6.0, 6.0),
     amp=st.floats(0.0, 3.0),
     cycles=st.sampled_from([0.0, 1.0, 2.0, 3.0]),
@@ -67,16 +71,25 @@ def test_random_geometries_close_exactly(a4, twist, s1, amp, cycles, accel):
 
 def test_batched_equals_one_position_at_a_time():
     rng = np.random.default_rng(11)
-    cases = [BASE.with_values({"geometry.slider_offset": float(rng.uniform(0, 30)),
-                               "geometry.slider_twist_deg": float(rng.uniform(230, 310)),
-                               "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 30.0}}) for _ in range(3)]
+    cases = [
+        BASE.with_values(
+            {
+                "geometry.slider_offset": float(rng.uniform(0, 30)),
+                "geometry.slider_twist_deg": float(rng.uniform(230, 310)),
+                "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 30.0},
+            }
+        )
+        for _ in range(3)
+    ]
     batched = analyze_many(cases)
     for case, an in zip(cases, batched):
         for i in range(len(an.s4)):
             single = analyze(case, an.crank.take(slice(i, i + 1)))
             assert_allclose(single.s4, an.s4[i], rtol=BATCH_VS_SINGLE)
             assert_allclose(single.rates.q_ddot[:, 0], an.rates.q_ddot[i, 0], rtol=BATCH_VS_SINGLE, atol=1e-9)
-            assert_allclose(single.reactions.j1_force, an.reactions.j1_force[i:i + 1], rtol=BATCH_VS_SINGLE, atol=1e-9)
+            assert_allclose(
+                single.reactions.j1_force, an.reactions.j1_force[i : i + 1], rtol=BATCH_VS_SINGLE, atol=1e-9
+            )
 
 
 def test_no_assembly_reports_angle_ranges():
@@ -150,7 +163,9 @@ def test_other_branch_is_detected_and_refused(monkeypatch):
     assert scc.slider_on_branch(batch, right).all() and not scc.slider_on_branch(batch, other).any()
     # Newton alone happily closes the loop on the other branch ...
     alone = solve_closure(LOOP, batch.inputs(), scc.state_from_slider(batch, other))
-    assert (alone.status == ClosureStatus.OK).all() and not scc.slider_on_branch(batch, alone.state.scalars[:, 0]).any()
+    assert (alone.status == ClosureStatus.OK).all() and not scc.slider_on_branch(
+        batch, alone.state.scalars[:, 0]
+    ).any()
     # ... close_loop sees it and recovers the conventions' branch
     monkeypatch.setattr(scc, "planar_estimate", lambda b: other)
     state, status, _, _ = scc.close_loop(batch)

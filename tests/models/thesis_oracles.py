@@ -26,7 +26,9 @@ c, s = np.cos, np.sin
 def m1(th1: float, s1: float, a1: float) -> tuple[np.ndarray, np.ndarray]:
     """Eq. (1): primary and dual part of 1_2M."""
     p = np.array([[c(th1), -s(th1), 0], [s(th1), c(th1), 0], [0, 0, 1]])
-    d = np.array([[-s1 * s(th1), -s1 * c(th1), a1 * s(th1)], [s1 * c(th1), -s1 * s(th1), -a1 * c(th1)], [0, a1, 0]])
+    d = np.array(
+        [[-s1 * s(th1), -s1 * c(th1), a1 * s(th1)], [s1 * c(th1), -s1 * s(th1), -a1 * c(th1)], [0, a1, 0]]
+    )
     return p, d
 
 
@@ -34,7 +36,9 @@ def l2(th2: float, et2: float, a2: float) -> tuple[np.ndarray, np.ndarray]:
     """Eq. (2)."""
     p = np.array([[c(th2) * c(et2), -s(th2), c(th2) * s(et2)], [s(th2) * c(et2), c(th2), s(th2) * s(et2)],
                   [-s(et2), 0, c(et2)]])
-    d = np.array([[0, a2 * c(th2) * s(et2), a2 * s(th2)], [0, a2 * s(th2) * s(et2), -a2 * c(th2)], [0, a2 * c(et2), 0]])
+    d = np.array(
+        [[0, a2 * c(th2) * s(et2), a2 * s(th2)], [0, a2 * s(th2) * s(et2), -a2 * c(th2)], [0, a2 * c(et2), 0]]
+    )
     return p, d
 
 
@@ -48,19 +52,33 @@ def l3(th3: float, et3: float) -> tuple[np.ndarray, np.ndarray]:
 def m4(s4: float, al4: float, a4: float) -> tuple[np.ndarray, np.ndarray]:
     """Eq. (4)."""
     p = np.array([[1, 0, 0], [0, c(al4), -s(al4)], [0, s(al4), c(al4)]])
-    d = np.array([[0, -s4 * c(al4), s4 * s(al4)], [s4, -a4 * s(al4), -a4 * c(al4)], [0, a4 * c(al4), -a4 * s(al4)]])
+    d = np.array(
+        [[0, -s4 * c(al4), s4 * s(al4)], [s4, -a4 * s(al4), -a4 * c(al4)], [0, a4 * c(al4), -a4 * s(al4)]]
+    )
     return p, d
 
 
 def dl2_dth2(th2, et2, a2):
     """Printed derivative of (2) with respect to theta2 (section 2.5)."""
-    p = np.array([[-s(th2) * c(et2), -c(th2), -s(th2) * s(et2)], [c(th2) * c(et2), -s(th2), c(th2) * s(et2)], [0, 0, 0]])
+    p = np.array(
+        [
+            [-s(th2) * c(et2), -c(th2), -s(th2) * s(et2)],
+            [c(th2) * c(et2), -s(th2), c(th2) * s(et2)],
+            [0, 0, 0],
+        ]
+    )
     d = np.array([[0, -a2 * s(th2) * s(et2), a2 * c(th2)], [0, a2 * c(th2) * s(et2), a2 * s(th2)], [0, 0, 0]])
     return p, d
 
 
 def dl2_det2(th2, et2, a2):
-    p = np.array([[-c(th2) * s(et2), 0, c(th2) * c(et2)], [-s(th2) * s(et2), 0, s(th2) * c(et2)], [-c(et2), 0, -s(et2)]])
+    p = np.array(
+        [
+            [-c(th2) * s(et2), 0, c(th2) * c(et2)],
+            [-s(th2) * s(et2), 0, s(th2) * c(et2)],
+            [-c(et2), 0, -s(et2)],
+        ]
+    )
     d = np.array([[0, a2 * c(th2) * c(et2), 0], [0, a2 * s(th2) * c(et2), 0], [0, -a2 * s(et2), 0]])
     return p, d
 
@@ -109,7 +127,8 @@ def dvec(a, v):
 
 
 def frame_origin(a) -> np.ndarray:
-    """Origin ``p`` of the later frame in the earlier one, from :math:`\\hat M = R + \\varepsilon[p]_\\times R`."""
+    """Origin ``p`` of the later frame in the earlier one, from :math:`\\hat M = R + \\varepsilon[p]_\\times
+    R`."""
     m = a[1] @ a[0].T
     return 0.5 * np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
 
@@ -139,14 +158,19 @@ def newton_system(x, th1, s1, a1, a2, a4, al4, diagonal: bool = True):
     a = np.array([[h[part][i, j] for h in hs] for part in (0, 1) for (i, j) in idx])
     bp, bd = dmul(p3, m4(s4, al4, a4))
     if diagonal:
-        vp = [bp[1, 0] + bp[0, 0] + bp[1, 1] - 2, bp[2, 0] + bp[0, 0] + bp[2, 2] - 2, bp[2, 1] + bp[1, 1] + bp[2, 2] - 2]
+        vp = [
+            bp[1, 0] + bp[0, 0] + bp[1, 1] - 2,
+            bp[2, 0] + bp[0, 0] + bp[2, 2] - 2,
+            bp[2, 1] + bp[1, 1] + bp[2, 2] - 2,
+        ]
     else:
         vp = [bp[1, 0], bp[2, 0], bp[2, 1]]
     return a, np.array(vp + [bd[1, 0], bd[2, 0], bd[2, 1]])
 
 
 def thesis_newton(x, geom, iterations: int, diagonal: bool = True):
-    """The printed iteration: Delta = (A^T A)^-1 A^T V (eq. 23a), x += Delta. Returns x and |B - I| per step."""
+    """The printed iteration: Delta = (A^T A)^-1 A^T V (eq. 23a), x += Delta. Returns x and |B - I| per
+    step."""
     history = []
     for _ in range(iterations):
         a, v = newton_system(x, *geom, diagonal=diagonal)
@@ -155,7 +179,7 @@ def thesis_newton(x, geom, iterations: int, diagonal: bool = True):
     return x, np.array(history)
 
 
-# ============================================================================ thesis angles of a closed position
+# ========================================================================= thesis angles of a closed position
 
 
 def exact_s4(th1, s1, a1, a2, a4, al4):
@@ -210,7 +234,7 @@ def angle_derivatives(geom, th1: np.ndarray):
     return derivatives(lambda t: thesis_angles(t, *geom), th1, angles=slice(0, 4))
 
 
-# ============================================================================ printed velocity and acceleration formulas
+# ================================================================= printed velocity and acceleration formulas
 
 
 def printed_rates(q, w1, s1d, a1, a2) -> np.ndarray:
@@ -218,43 +242,106 @@ def printed_rates(q, w1, s1d, a1, a2) -> np.ndarray:
     th2, et2, th3, et3, _ = q.T
     th2d = (s1d * c(th3) * s(et2) * c(et2) - a1 * (w1 * s(th2) * c(th3) + w1 * c(th2) * s(th3) * c(et2))
             - a2 * w1 * s(th3)) / (a2 * s(th3))
-    th3d = (a1 * (w1 * c(th2) * s(th3) + w1 * s(th2) * c(th3) * c(et2)) - s1d * c(th3) * s(et2)) / (a2 * s(th3))
+    th3d = (a1 * (w1 * c(th2) * s(th3) + w1 * s(th2) * c(th3) * c(et2)) - s1d * c(th3) * s(et2)) / (
+        a2 * s(th3)
+    )
     et2d = -s(et2) * (a1 * (w1 * c(th2) * s(th3) + w1 * s(th2) * c(th3) * c(et2)) - s1d * s(et2) * c(th3)) / (
         a2 * s(th2) * s(th3))
-    et3d = c(th2) * s(et2) * (w1 * a1 * (s(th2) * c(th3) * c(et2) + c(th2) * s(th3)) - s1d * s(et2) * c(th3)) / (
-        a2 * s(th2) * s(th3))
+    et3d = (
+        c(th2)
+        * s(et2)
+        * (w1 * a1 * (s(th2) * c(th3) * c(et2) + c(th2) * s(th3)) - s1d * s(et2) * c(th3))
+        / (a2 * s(th2) * s(th3))
+    )
     s4d = (s1d * s(et2) - w1 * a1 * s(th2) * c(et2)) / s(th3)
     return np.stack([th2d, et2d, th3d, et3d, s4d], -1)
 
 
 def printed_accels(q, qd, w1, w1d, s1d, s1dd, a1, a2) -> np.ndarray:
-    """Eqs. (38a)-(42a): (theta2_ddot, eta2_ddot, theta3_ddot, eta3_ddot, S4_ddot) from angles ``q`` and rates ``qd``."""
+    """Eqs. (38a)-(42a): (theta2_ddot, eta2_ddot, theta3_ddot, eta3_ddot, S4_ddot) from angles ``q`` and rates
+    ``qd``."""
     th2, et2, th3, et3, _ = q.T
     th2d, et2d, th3d, et3d, _ = qd.T
     t1, t1d = w1, w1d
     s2, c2, s3, c3, se, ce = s(th2), c(th2), s(th3), c(th3), s(et2), c(et2)
-    th2dd = (a2 * s3 * (s1dd * c3 * se * ce - s1d * th3d * s3 * se * ce + s1d * et2d * c3 * ce**2 - s1d * et2d * c3 * se**2
-                        - a1 * (t1d * s2 * c3 + t1 * th2d * c2 * c3 - t1 * th3d * s2 * s3 + t1d * c2 * s3 * ce
-                                - t1 * th2d * s2 * s3 * ce + t1 * th3d * c2 * c3 * ce - t1 * et2d * c2 * s3 * se)
-                        - a2 * t1d * s3 - a2 * t1 * th3d * c3)
-             - a2 * th3d * c3 * (s1d * c3 * se * ce - a1 * (t1 * s2 * c3 + t1 * c2 * s3 * ce) - a2 * t1 * s3)) / (a2 * s3)**2
-    th3dd = (a2 * s3 * (a1 * (t1d * c2 * s3 - t1 * th2d * s2 * s3 + t1 * th3d * c2 * c3 + t1d * s2 * c3 * ce
-                              + t1 * th2d * c2 * c3 * ce - t1 * th3d * s2 * s3 * ce - t1 * et2d * s2 * c3 * se)
-                        - s1dd * c3 * se + s1d * th3d * s3 * se - s1d * et2d * c3 * ce)
-             - a2 * th3d * c3 * (a1 * (t1 * c2 * s3 + t1 * s2 * c3 * ce) - s1d * c3 * se)) / (a2 * s3)**2
+    th2dd = (
+        a2
+        * s3
+        * (
+            s1dd * c3 * se * ce
+            - s1d * th3d * s3 * se * ce
+            + s1d * et2d * c3 * ce**2
+            - s1d * et2d * c3 * se**2
+            - a1
+            * (
+                t1d * s2 * c3
+                + t1 * th2d * c2 * c3
+                - t1 * th3d * s2 * s3
+                + t1d * c2 * s3 * ce
+                - t1 * th2d * s2 * s3 * ce
+                + t1 * th3d * c2 * c3 * ce
+                - t1 * et2d * c2 * s3 * se
+            )
+            - a2 * t1d * s3
+            - a2 * t1 * th3d * c3
+        )
+        - a2 * th3d * c3 * (s1d * c3 * se * ce - a1 * (t1 * s2 * c3 + t1 * c2 * s3 * ce) - a2 * t1 * s3)
+    ) / (a2 * s3) ** 2
+    th3dd = (
+        a2
+        * s3
+        * (
+            a1
+            * (
+                t1d * c2 * s3
+                - t1 * th2d * s2 * s3
+                + t1 * th3d * c2 * c3
+                + t1d * s2 * c3 * ce
+                + t1 * th2d * c2 * c3 * ce
+                - t1 * th3d * s2 * s3 * ce
+                - t1 * et2d * s2 * c3 * se
+            )
+            - s1dd * c3 * se
+            + s1d * th3d * s3 * se
+            - s1d * et2d * c3 * ce
+        )
+        - a2 * th3d * c3 * (a1 * (t1 * c2 * s3 + t1 * s2 * c3 * ce) - s1d * c3 * se)
+    ) / (a2 * s3) ** 2
     x = a1 * (t1 * c2 * s3 + t1 * s2 * c3 * ce) - s1d * se * c3
-    xd = (a1 * (t1d * c2 * s3 - t1 * th2d * s2 * s3 + t1 * th3d * c2 * c3 + t1d * s2 * c3 * ce + t1 * th2d * c2 * c3 * ce
-                - t1 * th3d * s2 * s3 * ce - t1 * et2d * s2 * c3 * se) - s1dd * se * c3 - s1d * et2d * ce * c3
-          + s1d * th3d * se * s3)
-    et2dd = (a2 * s2 * s3 * (-et2d * ce * x - se * xd) + a2 * se * x * (th2d * c2 * s3 + th3d * s2 * c3)) / (a2 * s2 * s3)**2
+    xd = (
+        a1
+        * (
+            t1d * c2 * s3
+            - t1 * th2d * s2 * s3
+            + t1 * th3d * c2 * c3
+            + t1d * s2 * c3 * ce
+            + t1 * th2d * c2 * c3 * ce
+            - t1 * th3d * s2 * s3 * ce
+            - t1 * et2d * s2 * c3 * se
+        )
+        - s1dd * se * c3
+        - s1d * et2d * ce * c3
+        + s1d * th3d * se * s3
+    )
+    et2dd = (a2 * s2 * s3 * (-et2d * ce * x - se * xd) + a2 * se * x * (th2d * c2 * s3 + th3d * s2 * c3)) / (
+        a2 * s2 * s3
+    ) ** 2
     y = t1 * a1 * (s2 * c3 * ce + c2 * s3) - s1d * se * c3
-    yd = (t1d * a1 * (s2 * c3 * ce + c2 * s3)
-          + t1 * a1 * (th2d * c2 * c3 * ce - th3d * s2 * s3 * ce - et2d * s2 * c3 * se + th3d * c2 * c3 - th2d * s2 * s3)
-          - s1dd * se * c3 - s1d * et2d * ce * c3 + s1d * th3d * se * s3)
+    yd = (
+        t1d * a1 * (s2 * c3 * ce + c2 * s3)
+        + t1
+        * a1
+        * (th2d * c2 * c3 * ce - th3d * s2 * s3 * ce - et2d * s2 * c3 * se + th3d * c2 * c3 - th2d * s2 * s3)
+        - s1dd * se * c3
+        - s1d * et2d * ce * c3
+        + s1d * th3d * se * s3
+    )
     et3dd = (a2 * s2 * s3 * ((-th2d * s2 * se + et2d * c2 * ce) * y + c2 * se * yd)
              - a2 * c2 * se * y * (th2d * c2 * s3 + th3d * s2 * c3)) / (a2 * s2 * s3)**2
-    s4dd = (s3 * (s1dd * se + s1d * et2d * ce - a1 * (t1d * s2 * ce + t1 * th2d * c2 * ce - t1 * et2d * s2 * se))
-            - (s1d * se - t1 * a1 * s2 * ce) * th3d * c3) / s3**2
+    s4dd = (
+        s3 * (s1dd * se + s1d * et2d * ce - a1 * (t1d * s2 * ce + t1 * th2d * c2 * ce - t1 * et2d * s2 * se))
+        - (s1d * se - t1 * a1 * s2 * ce) * th3d * c3
+    ) / s3**2
     return np.stack([th2dd, et2dd, th3dd, et3dd, s4dd], -1)
 
 
@@ -282,16 +369,26 @@ def system38(q, w1, s1d, a1, a2):
         np.stack([a2 * c(et2), z, a2 * s(th2) * s(et2), z, -c(th3)], -1),
         np.stack([c(et2), o, s(th2) * s(et2), z, z], -1),
         np.stack([z, z, -a2 * c(th2), z, z], -1)], -2)
-    b = np.stack([w1 * s(et2), -w1 * a1 * s(th2) * c(et2) + s1d * s(et2), z, -w1 * (a1 * c(th2) + a2 * c(et2)),
-                  -w1 * c(et2), -w1 * a1 * s(th2) - s1d * c(et2)], -1)
+    b = np.stack(
+        [
+            w1 * s(et2),
+            -w1 * a1 * s(th2) * c(et2) + s1d * s(et2),
+            z,
+            -w1 * (a1 * c(th2) + a2 * c(et2)),
+            -w1 * c(et2),
+            -w1 * a1 * s(th2) - s1d * c(et2),
+        ],
+        -1,
+    )
     return a, b
 
 
-# ============================================================================ independent kinematics and dynamics
+# ======================================================================== independent kinematics and dynamics
 
 
 def kinematics(case, theta: np.ndarray) -> dict[str, np.ndarray]:
-    """Closed-form positions, velocities, accelerations of P2, P3, u and S4 at crank angles ``theta`` (rad)."""
+    """Closed-form positions, velocities, accelerations of P2, P3, u and S4 at crank angles ``theta``
+    (rad)."""
     g, m = case.geometry, case.motion
     a1, a2, a4, al = g.crank_length, g.rod_length, g.slider_offset, g.slider_twist
     w, wd, amp, cyc = m.speed, m.accel, m.axial_amplitude, m.axial_cycles
@@ -300,7 +397,9 @@ def kinematics(case, theta: np.ndarray) -> dict[str, np.ndarray]:
     s1dd = amp * cyc * (c(cyc * theta) * wd - cyc * s(cyc * theta) * w**2)
     p2 = np.stack([a1 * c(theta), a1 * s(theta), s1], 1)
     v2 = np.stack([-a1 * s(theta) * w, a1 * c(theta) * w, s1d], 1)
-    acc2 = np.stack([-a1 * c(theta) * w**2 - a1 * s(theta) * wd, -a1 * s(theta) * w**2 + a1 * c(theta) * wd, s1dd], 1)
+    acc2 = np.stack(
+        [-a1 * c(theta) * w**2 - a1 * s(theta) * wd, -a1 * s(theta) * w**2 + a1 * c(theta) * wd, s1dd], 1
+    )
     k = np.array([0.0, s(al), c(al)])
     d = p2 - np.array([-a4, 0.0, 0.0])
     kd, kv, ka = d @ k, v2 @ k, acc2 @ k
@@ -311,8 +410,27 @@ def kinematics(case, theta: np.ndarray) -> dict[str, np.ndarray]:
     s4, s4d, s4dd = -kd + r, -kv + qd / (2 * r), -ka + qdd / (2 * r) - qd**2 / (4 * r**3)
     p3 = np.array([-a4, 0.0, 0.0]) - s4[:, None] * k
     v3, acc3 = -s4d[:, None] * k, -s4dd[:, None] * k
-    return dict(theta=theta, w=w, wd=wd, S1=s1, S1d=s1d, S1dd=s1dd, P2=p2, V2=v2, A2=acc2, P3=p3, V3=v3, A3=acc3,
-                S4=s4, S4d=s4d, S4dd=s4dd, k4=k, u=(p3 - p2) / a2, ud=(v3 - v2) / a2, udd=(acc3 - acc2) / a2)
+    return dict(
+        theta=theta,
+        w=w,
+        wd=wd,
+        S1=s1,
+        S1d=s1d,
+        S1dd=s1dd,
+        P2=p2,
+        V2=v2,
+        A2=acc2,
+        P3=p3,
+        V3=v3,
+        A3=acc3,
+        S4=s4,
+        S4d=s4d,
+        S4dd=s4dd,
+        k4=k,
+        u=(p3 - p2) / a2,
+        ud=(v3 - v2) / a2,
+        udd=(acc3 - acc2) / a2,
+    )
 
 
 def _skew(v):
@@ -340,7 +458,9 @@ def momentum_rates(case, kin):
     bodies.append((om, omd, np.stack([0 * th, 0 * th, kin["S1"]], 1) + r, acc,
                    rz @ b.inertia @ np.swapaxes(rz, 1, 2), b.mass))
     b, u = case.bodies.rod, kin["u"]
-    inertia = b.inertia[1, 1] * np.eye(3) + (b.inertia[0, 0] - b.inertia[1, 1]) * np.einsum("ni,nj->nij", u, u)
+    inertia = b.inertia[1, 1] * np.eye(3) + (b.inertia[0, 0] - b.inertia[1, 1]) * np.einsum(
+        "ni,nj->nij", u, u
+    )
     bodies.append((np.cross(u, kin["ud"]), np.cross(u, kin["udd"]), kin["P2"] + b.com[0] * u,
                    kin["A2"] + b.com[0] * kin["udd"], inertia, b.mass))
     b = case.bodies.slider
@@ -362,11 +482,12 @@ F1, M1, J2, J3, F4, M4 = range(6)
 def newton_euler_system(case, kin, literal: bool = False):
     """The 18 Newton-Euler equations of crank, rod and slider as ``A x = b``, ``(n, 18, 18)`` and ``(n, 18)``.
 
-    Physical (``literal=False``): ``J2`` is the force of the crank on the rod, ``J3`` of the rod on the slider:
-    crank ``F1 - J2``, rod ``J2 - J3``, slider ``J3 + F4`` equal the momentum rates (minus gravity).
+    Physical (``literal=False``): ``J2`` is the force of the crank on the rod, ``J3`` of the rod on the
+    slider: crank ``F1 - J2``, rod ``J2 - J3``, slider ``J3 + F4`` equal the momentum rates (minus gravity).
     ``literal=True``: the printed pattern of eqs. (62)-(64) with f the momentum rate of eqs. (59)-(61),
-    :math:`F_1 + F_2 + f_1 = 0`, :math:`F_2 + F_3 + f_2 = 0`, :math:`F_3 + F_4 + f_3 = 0`, where each joint force
-    enters both bodies it connects with the same sign.  Moment rows are divided by a2 (all rows in force units).
+    :math:`F_1 + F_2 + f_1 = 0`, :math:`F_2 + F_3 + f_2 = 0`, :math:`F_3 + F_4 + f_3 = 0`, where each joint
+    force enters both bodies it connects with the same sign.  Moment rows are divided by a2 (all rows in force
+    units).
     """
     p2, p3 = kin["P2"], kin["P3"]
     n = p2.shape[0]
@@ -392,7 +513,8 @@ def newton_euler_system(case, kin, literal: bool = False):
 
 
 def least_squares(a, b, given: dict[int, np.ndarray]):
-    """Solve ``a x = b`` in the least-squares sense with columns ``given`` fixed; returns ``x`` and ``a x - b``."""
+    """Solve ``a x = b`` in the least-squares sense with columns ``given`` fixed; returns ``x`` and ``a x -
+    b``."""
     n, _, k = a.shape
     free = [j for j in range(k) if j not in given]
     rhs = b.copy()

@@ -104,7 +104,8 @@ def solve_case_raises(case: Case) -> ResultTable:
 
 
 def _marked(engine: str, solve: Callable[[Case], ResultTable]) -> Callable[[Case], ResultTable]:
-    """``solve`` slowed down, leaving a file ``<case>--<engine>`` in ``$MATRIX_FAKES_MARKS`` when it is done."""
+    """``solve`` slowed down, leaving a file ``<case>--<engine>`` in ``$MATRIX_FAKES_MARKS`` when it is
+    done."""
 
     def run(case: Case) -> ResultTable:
         time.sleep(float(os.environ.get("MATRIX_FAKES_DELAY", "0.4")))

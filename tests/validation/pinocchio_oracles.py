@@ -99,7 +99,15 @@ def body_motion(case: Case, mo: dict) -> dict[str, tuple]:
     rod = (b.mass, mo["p2"] + b.com[0] * u, mo["v2"] + b.com[0] * ud, mo["a2"] + b.com[0] * udd,
            b.inertia[0, 0] * uu + b.inertia[1, 1] * (np.eye(3) - uu), np.cross(u, ud), np.cross(u, udd))
     b = case.bodies.slider
-    slider = (b.mass, mo["p3"] + b.com, mo["v3"], mo["a3"], np.broadcast_to(b.inertia, (n, 3, 3)), zeros, zeros)
+    slider = (
+        b.mass,
+        mo["p3"] + b.com,
+        mo["v3"],
+        mo["a3"],
+        np.broadcast_to(b.inertia, (n, 3, 3)),
+        zeros,
+        zeros,
+    )
     return {"crank": crank, "rod": rod, "slider": slider}
 
 
@@ -149,16 +157,23 @@ def power_terms(case: Case, table: ResultTable) -> tuple[np.ndarray, np.ndarray]
     """
     mo = oracle_motion(case)
     st = mo["state"]
-    terms = [table["j1_fz"] * st.s_dot, table["j1_mz"] * st.theta_dot, (_vec(table, "j4_f") * mo["v3"]).sum(-1)]
+    terms = [
+        table["j1_fz"] * st.s_dot,
+        table["j1_mz"] * st.theta_dot,
+        (_vec(table, "j4_f") * mo["v3"]).sum(-1),
+    ]
     kinetic_rate = np.zeros(len(table))
     for m, _, vel, acc, inertia, om, omd in body_motion(case, mo).values():
         terms.append(m * (vel @ case.loads.gravity))
-        kinetic_rate = kinetic_rate + m * (vel * acc).sum(-1) + (om * np.einsum("nij,nj->ni", inertia, omd)).sum(-1)
+        kinetic_rate = (
+            kinetic_rate + m * (vel * acc).sum(-1) + (om * np.einsum("nij,nj->ni", inertia, omd)).sum(-1)
+        )
     return np.stack(terms, -1), kinetic_rate
 
 
 def condition(case: Case, table: ResultTable) -> np.ndarray:
-    """Condition factor per row: ``1/|transmission|`` in drive-torque mode, else 1 (conventions "Dead centres")."""
+    """Condition factor per row: ``1/|transmission|`` in drive-torque mode, else 1 (conventions "Dead
+    centres")."""
     if case.loads.mode == "torque":
         return 1.0 / np.abs(table["transmission"])
     return np.ones(len(table))

@@ -6,8 +6,8 @@ from click.testing import CliRunner
 from numpy.testing import assert_allclose
 
 from dualmech.core.table import COLUMNS, read_csv
-from dualmech.models.slider_crank import solve_case
 from dualmech.models.case import load_case
+from dualmech.models.slider_crank import solve_case
 from dualmech.validation.cli import main
 
 

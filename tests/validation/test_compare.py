@@ -8,7 +8,6 @@ one fault at a time, so a test fails for exactly one reason.
 from __future__ import annotations
 
 import json
-import xml.etree.ElementTree as ET
 from dataclasses import replace
 from pathlib import Path
 
@@ -27,23 +26,12 @@ from dualmech.validation.matrix import load_matrix
 from dualmech.validation.runner import case_file, load_results, run_matrix
 
 from . import matrix_fakes
-from .test_validate import FAKE_REGISTRY, FAKES, small  # noqa: F401  (small is a fixture)
+from .test_validate import FAKE_REGISTRY, FAKES
 
 
-@pytest.fixture()
-def matrix(small):  # noqa: F811
-    return load_matrix(small)
-
-
-@pytest.fixture()
-def results(matrix):
-    """Case id -> engine -> table of the stand-in engines (all agreeing)."""
-    return {mc.id: {"dualmech": matrix_fakes.solve_case(mc.case()),
-                    "pinocchio": matrix_fakes.solve_case_judge(mc.case()),
-                    "mujoco": matrix_fakes.solve_case_judge_b(mc.case())} for mc in matrix.cases}
-
-
-def _edited(table: ResultTable, rows: np.ndarray | slice, status: str | None = None, **values: float) -> ResultTable:
+def _edited(
+    table: ResultTable, rows: np.ndarray | slice, status: str | None = None, **values: float
+) -> ResultTable:
     """A copy of ``table`` with ``status`` and column values set on ``rows``."""
     cols = {k: v.copy() for k, v in table.columns.items()}
     words = np.asarray(table.status, dtype=object).copy()
@@ -135,9 +123,13 @@ def test_dead_centre_flags_may_differ_only_within_the_band(matrix, results):
     tols = matrix.tolerances["pinocchio"]
     assert all(c.passed for c in compare_case(mc.id, mc.mode, near, flagged, matrix.quantities, tols)
                if c.quantity == STATUS)
-    status = [c for c in compare_case(mc.id, mc.mode, far, flagged, matrix.quantities, tols) if c.quantity == STATUS]
+    status = [
+        c for c in compare_case(mc.id, mc.mode, far, flagged, matrix.quantities, tols) if c.quantity == STATUS
+    ]
     assert not status[0].passed and "reference ok, judge dead_centre" in status[0].detail
-    far_judge = _edited(flagged, slice(i, i + 1), transmission=0.5)  # the judge's own t says it is no dead centre
+    far_judge = _edited(
+        flagged, slice(i, i + 1), transmission=0.5
+    )  # the judge's own t says it is no dead centre
     status = [c for c in compare_case(mc.id, mc.mode, near, far_judge, matrix.quantities, tols)
               if c.quantity == STATUS]
     assert not status[0].passed
@@ -177,7 +169,7 @@ def test_nothing_compared_is_not_a_pass(matrix):
 # ----------------------------------------------------------------------------- runs, JUnit, resume
 
 
-def test_interrupted_run_reports_incomplete_and_exits_3(small, tmp_path):  # noqa: F811
+def test_interrupted_run_reports_incomplete_and_exits_3(small, tmp_path):
     """Why: a run interrupted after 7 of 18 cases wrote a report that said PASS and "passed": true."""
     matrix = load_matrix(small)
     out = tmp_path / "run"
@@ -210,7 +202,7 @@ def test_junit_shows_incomplete_work_and_baseline_regressions_as_failures(matrix
     assert props["pin"] == "4.1.0" and props["verdict"] == "INCOMPLETE"
 
 
-def test_resume_recomputes_results_of_other_code(small, tmp_path, monkeypatch):  # noqa: F811
+def test_resume_recomputes_results_of_other_code(small, tmp_path, monkeypatch):
     """Why: --resume reused results computed by older code, so the gate passed on stale numbers."""
     matrix = load_matrix(small)
     out = tmp_path / "run"
@@ -229,7 +221,7 @@ def test_engine_library_version_is_part_of_the_fingerprint(monkeypatch):
     assert provenance.result_fingerprint({"a": 1}, "pinocchio", "m:f") != before
 
 
-def test_crashed_engine_keeps_its_traceback_in_the_log(small, tmp_path):  # noqa: F811
+def test_crashed_engine_keeps_its_traceback_in_the_log(small, tmp_path):
     matrix = load_matrix(small)
     out = tmp_path / "run"
     registry = dict(FAKE_REGISTRY, mujoco=f"{FAKES}:solve_case_raises")
@@ -240,7 +232,7 @@ def test_crashed_engine_keeps_its_traceback_in_the_log(small, tmp_path):  # noqa
     assert "Traceback" in log and "solve_case_raises" in log
 
 
-def test_a_broken_report_section_fails_the_report(small, tmp_path, monkeypatch):  # noqa: F811
+def test_a_broken_report_section_fails_the_report(small, tmp_path, monkeypatch):
     """Why: the findings section caught every exception and printed "not available"."""
     matrix = load_matrix(small)
     out = tmp_path / "run"
@@ -305,7 +297,8 @@ def test_assembly_limit_flags_may_differ_only_near_the_flag(matrix, results):
 
 
 def test_the_pose_at_the_assembly_limit_is_held_to_its_own_tolerance(matrix, results):
-    """S4 where the rod is nearly normal to the slider line: ASSEMBLY_LIMIT_POSE, not the kinematics tolerance."""
+    """S4 where the rod is nearly normal to the slider line: ASSEMBLY_LIMIT_POSE, not the kinematics
+    tolerance."""
     from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_LIMIT_POSE
 
     mc = matrix.cases[0]

@@ -104,6 +104,7 @@ def test_validate_bounds_the_positions_of_one_case(design, tmp_path):
     from dualmech.validation.matrix import MAX_VALIDATE_POSITIONS
 
     big = tmp_path / "big.toml"
-    big.write_text(design.read_text().replace("step = 10.0", f"step = {360.0 / (MAX_VALIDATE_POSITIONS + 10):.12g}"))
+    big.write_text(design.read_text().replace("step = 10.0", "step = "
+                                                             f"{360.0 / (MAX_VALIDATE_POSITIONS + 10):.12g}"))
     result = CliRunner().invoke(main, ["validate", str(big), "-o", str(tmp_path / "run")])
     assert result.exit_code == 2 and "dualmech solve" in result.output and "\n" not in result.output.strip()

@@ -32,7 +32,8 @@ RUNUP_TIMESTEP = 1e-4
 
 
 def _closed_form(case, theta, s1):
-    """S4, P2, P3 on the branch (P3 - P2).k4 < 0 at one crank angle: the tests' closed form (tests/oracles.py)."""
+    """S4, P2, P3 on the branch (P3 - P2).k4 < 0 at one crank angle: the tests' closed form
+    (tests/oracles.py)."""
     g = case.geometry
     foot, k4 = oracles.slider_line(g.slider_offset, g.slider_twist)
     p2 = np.array([g.crank_length * math.cos(theta), g.crank_length * math.sin(theta), s1])
@@ -145,14 +146,21 @@ def test_generalized_inertia_matches_projected_mass_matrix(key):
     g_scale = max(np.abs(gravity).max(), 1e-300)
     assert_allclose(ours.gravity_force, gravity, rtol=0, atol=DYN_MUJOCO_INERTIA.value * g_scale)
     h = 1e-5
-    d_inertia = (_projected(model, data, case, theta + h)[0] - _projected(model, data, case, theta - h)[0]) / (2 * h)
+    d_inertia = (
+        _projected(model, data, case, theta + h)[0] - _projected(model, data, case, theta - h)[0]
+    ) / (2 * h)
     assert_allclose(ours.inertia_derivative, d_inertia, rtol=0,
                     atol=DYN_MUJOCO_INERTIA_DERIVATIVE.value * inertia.max())
 
 
 RUNUPS = {
     "ideal": ("ideal", {}, 100.0, (0.0, 0.0)),
-    "spatial-gravity-damping": ("a4-20-alpha-232", {"loads.gravity": [1.0, -2.0, -386.4]}, 300.0, (0.5, 0.02)),
+    "spatial-gravity-damping": (
+        "a4-20-alpha-232",
+        {"loads.gravity": [1.0, -2.0, -386.4]},
+        300.0,
+        (0.5, 0.02),
+    ),
 }
 
 
@@ -163,7 +171,9 @@ def test_run_up_matches_mujoco_forward_simulation(key):
     name, updates, tau, (c1, c4) = RUNUPS[key]
     case = load_case(name).with_values(updates) if updates else load_case(name)
     duration, psi0 = 1.5, 0.25
-    sim = fd.simulate(case, duration, torque=tau, psi0=psi0, psidot0=0.0, damping=c1, slider_damping=c4, samples=16)
+    sim = fd.simulate(
+        case, duration, torque=tau, psi0=psi0, psidot0=0.0, damping=c1, slider_damping=c4, samples=16
+    )
     model, data = _build(case, hold_axial=True, damping=(c1, c4))
     _configure(model, data, case, psi0, case.geometry.crank_axial_shift)
     crank, slider = _joint(model, "crank_angle"), _joint(model, "slider_stroke")

@@ -96,8 +96,8 @@ PLANAR_EDGES = {
     "near": (A2 - A1, 0.0, {"start": -20.0, "stop": 21.0, "step": 10.0}),
     "far": (A1 + A2, 180.0, {"start": 160.0, "stop": 201.0, "step": 10.0}),
 }
-#: Offsets of a4 from the edge, relative to a2 (< 0 moves P2 toward the slider line: inside).  "slack": outside
-#: by 1e-13 a2, within ASSEMBLY_REACH (1e-12): still the limit in every engine, whatever its rounding.
+#: Offsets of a4 from the edge, relative to a2 (< 0 moves P2 toward the slider line: inside).  "slack":
+#: outside by 1e-13 a2, within ASSEMBLY_REACH (1e-12): still the limit in every engine, whatever its rounding.
 SIDES = {"edge": 0.0, "inside": -1e-9, "outside": 1e-9, "slack": 1e-13}
 
 

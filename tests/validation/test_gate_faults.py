@@ -19,8 +19,7 @@ from dualmech.validation.baseline import baseline_summary, compare_baseline
 from dualmech.validation.compare import compare_case, compare_run
 from dualmech.validation.matrix import GROUPS, load_matrix
 
-from .test_compare import _edited, matrix, results  # noqa: F401  (matrix, results are fixtures)
-from .test_validate import small  # noqa: F401  (a fixture)
+from .test_compare import _edited
 
 #: A tolerance no measured difference of the default matrix comes within this fraction of is a blind spot:
 #: the worst measured ratio (difference / tolerance) per judge and group is 7e-5 .. 8e-2
@@ -84,16 +83,16 @@ def test_no_tolerance_is_a_blind_spot():
     """
     root = Path(__file__).resolve().parents[2]
     baseline = json.loads((root / "reports" / "baseline.json").read_text())
-    matrix = load_matrix(None)
+    default = load_matrix(None)
     worst: dict[tuple[str, str], float] = {}
     for case in baseline["cases"].values():
         for engine, checks in case["checks"].items():
             for q, v in checks.items():
                 group = next((g for g in ("kinematics", "reactions", "stroke") if q in GROUPS[g]), None)
-                if engine not in matrix.judges or group is None or v.get("max_rel") is None:
+                if engine not in default.judges or group is None or v.get("max_rel") is None:
                     continue
                 key = (engine, group)
-                worst[key] = max(worst.get(key, 0.0), v["max_rel"] / matrix.tolerances[engine][q].value)
-    assert {e for e, _ in worst} == set(matrix.judges)
+                worst[key] = max(worst.get(key, 0.0), v["max_rel"] / default.tolerances[engine][q].value)
+    assert {e for e, _ in worst} == set(default.judges)
     blind = {k: v for k, v in worst.items() if v < BLIND_TOLERANCE_RATIO}
     assert not blind, f"no measured difference comes near these (ratio < {BLIND_TOLERANCE_RATIO:g}): {blind}"

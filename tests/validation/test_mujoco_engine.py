@@ -17,7 +17,13 @@ from dualmech.models.case import load_case, preset_names, with_loads
 from dualmech.validation.cli import main
 from dualmech.validation.tolerances import MUJOCO_RIGID_KINEMATICS, MUJOCO_RIGID_REACTIONS
 from tests.oracles import assembly_margin, exact_slider_motion
-from tests.validation.pinocchio_oracles import condition, group_scales, newton_euler_residuals, power_terms, random_case
+from tests.validation.pinocchio_oracles import (
+    condition,
+    group_scales,
+    newton_euler_residuals,
+    power_terms,
+    random_case,
+)
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -45,7 +51,9 @@ def _random():
 
 def worst_differences(case, reference, judge) -> dict[str, float]:
     """Largest relative difference per unit group (module docstring), over rows both assemble / both ok."""
-    assembled = np.isin(reference.status, ["ok", "dead_centre"]) & np.isin(judge.status, ["ok", "dead_centre"])
+    assembled = np.isin(reference.status, ["ok", "dead_centre"]) & np.isin(
+        judge.status, ["ok", "dead_centre"]
+    )
     ok = (reference.status == "ok") & (judge.status == "ok")
     t = np.abs(reference["transmission"])
     out = {}
@@ -53,7 +61,9 @@ def worst_differences(case, reference, judge) -> dict[str, float]:
         c = 1.0 / t if (react and case.loads.mode == "torque") else np.ones(len(reference))
         for group, cols in groups.items():
             scale = max(np.max(np.abs(reference[q][rows]) / c[rows]) for q in cols) or 1.0
-            out[group] = max(np.max(np.abs(judge[q][rows] - reference[q][rows]) / (scale * c[rows])) for q in cols)
+            out[group] = max(
+                np.max(np.abs(judge[q][rows] - reference[q][rows]) / (scale * c[rows])) for q in cols
+            )
     return out
 
 
@@ -101,10 +111,19 @@ def test_torque_and_force_modes_are_inverse():
     case = random_case(rng, "torque", step=40.0)
     torque = solve_case(case)
     for i in np.flatnonzero(torque.status == "ok")[:4]:
-        single = case.with_values({"motion.angles_deg": {"start": float(torque["theta1_deg"][i]),
-                                                         "stop": float(torque["theta1_deg"][i]) + 0.5, "step": 1.0}})
+        single = case.with_values(
+            {
+                "motion.angles_deg": {
+                    "start": float(torque["theta1_deg"][i]),
+                    "stop": float(torque["theta1_deg"][i]) + 0.5,
+                    "step": 1.0,
+                }
+            }
+        )
         back = solve_case(_force_mode(single, float(torque["slider_load"][i])))
-        assert_allclose(back["drive_torque"], case.loads.drive_torque, rtol=MUJOCO_RIGID_REACTIONS.value, atol=0)
+        assert_allclose(
+            back["drive_torque"], case.loads.drive_torque, rtol=MUJOCO_RIGID_REACTIONS.value, atol=0
+        )
         for c in FORCE_COLUMNS:
             assert_allclose(back[c], torque[c][i], rtol=0,
                             atol=MUJOCO_RIGID_REACTIONS.value * abs(torque["slider_load"][i]))
@@ -125,7 +144,8 @@ def test_given_loads_come_back_in_their_columns():
 def test_dead_centres_keep_kinematics_and_drop_reactions():
     table = solve_case(load_case("thesis/ideal"))
     dead = table.status == "dead_centre"
-    assert_allclose(table["theta1_deg"][dead], [90.0, 270.0], rtol=0, atol=0)  # crank pin on the slider line (y)
+    # crank pin on the slider line (y)
+    assert_allclose(table["theta1_deg"][dead], [90.0, 270.0], rtol=0, atol=0)
     assert np.all(np.isfinite(table["S4"][dead])) and np.all(np.isnan(table["j2_fx"][dead]))
     force = solve_case(_force_mode(load_case("thesis/ideal")))
     assert np.all(force.status == "ok")
@@ -176,7 +196,7 @@ def test_assembled_keyframe_closes_the_loop():
         MjcfStart(np.zeros(3), np.zeros(6), 0.0)
 
 
-# ----------------------------------------------------------------------------- MuJoCo facts the path relies on
+# ---------------------------------------------------------------------------- MuJoCo facts the path relies on
 
 def test_mujoco_facts_behind_the_rigid_path():
     case = load_case("thesis/a4-20-alpha-232")
@@ -239,7 +259,9 @@ def test_cli_writes_the_inhouse_table(tmp_path):
 
 
 def test_benchmark_reports_cost_per_position():
-    case = load_case("thesis/ideal").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 30.0}})
+    case = load_case("thesis/ideal").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 30.0}}
+    )
     report = benchmark(case, repeats=1)
     assert report["engine"] == "mujoco" and report["positions"] == 12
     assert report["us_per_position"] > 0

@@ -16,8 +16,13 @@ from click.testing import CliRunner
 from dualmech.core.table import NUMERIC_COLUMNS, read_csv
 from dualmech.models.case import load_case, preset_names, with_loads
 from dualmech.validation.cli import main
-from dualmech.validation.tolerances import (DEAD_CENTRE_TRANSMISSION, SIM_DEAD_CENTRE_TRANSMISSION, SIM_REACTIONS,
-                                            SIM_STROKE, SIM_VELOCITY)
+from dualmech.validation.tolerances import (
+    DEAD_CENTRE_TRANSMISSION,
+    SIM_DEAD_CENTRE_TRANSMISSION,
+    SIM_REACTIONS,
+    SIM_STROKE,
+    SIM_VELOCITY,
+)
 from tests.validation.pinocchio_oracles import random_case
 from tests.validation.test_mujoco_engine import worst_differences
 
@@ -51,8 +56,10 @@ def _cases():
     bundled = [load_case(n) for n in preset_names()]
     forced = [with_loads(c, drive_torque=None, slider_force=-500.0) for c in bundled[::3]]
     rng = np.random.default_rng(909)
-    randoms = [_random(rng, mode, accel) for mode, accel in (("torque", 0.0), ("force", 0.0), ("torque", 10.0),
-                                                             ("force", 10.0))]
+    randoms = [
+        _random(rng, mode, accel)
+        for mode, accel in (("torque", 0.0), ("force", 0.0), ("torque", 10.0), ("force", 10.0))
+    ]
     return bundled + forced + randoms
 
 
@@ -66,7 +73,8 @@ def _check_against_inhouse(case, reference, judge) -> dict[str, float]:
     for group, limit in LIMITS.items():
         assert worst[group] <= limit.value, (group, worst)
     rows = np.isin(reference.status, ["ok", "dead_centre"])
-    dt = judge.meta["timestep"] if "timestep" in judge.meta else prepare(case)[1].timestep  # a CSV has no meta
+    # a CSV has no meta
+    dt = judge.meta["timestep"] if "timestep" in judge.meta else prepare(case)[1].timestep
     lag = 0.5 * dt * np.max(np.abs(reference["S4_ddot"][rows]))
     assert np.max(np.abs(judge["S4_dot"][rows] - reference["S4_dot"][rows])) <= SIM_VELOCITY.value * lag
     return worst
@@ -89,19 +97,28 @@ def test_halving_the_time_step_reduces_the_error():
 
 def test_default_solref_leaves_the_loop_open():
     """MuJoCo's default connect softness opens the loop ~1e-3 a2; the chosen solref/solimp ~1e-7 a2."""
-    case = with_loads(load_case("thesis/a4-20-alpha-232").with_values(
-        {"motion.angles_deg": {"start": 0.0, "stop": 90.0, "step": 15.0}}), drive_torque=None, slider_force=-100.0)
+    case = with_loads(
+        load_case("thesis/a4-20-alpha-232").with_values(
+            {"motion.angles_deg": {"start": 0.0, "stop": 90.0, "step": 15.0}}
+        ),
+        drive_torque=None,
+        slider_force=-100.0,
+    )
     _, chosen = prepare(case)
     default = replace(chosen, closure_solref=(0.02, 1.0), closure_solimp=(0.9, 0.95, 0.001, 0.5, 2.0))
     reference = _inhouse().solve_case(case)
     loose, tight = (simulate(case, -100.0, s) for s in (default, chosen))
     assert np.max(loose["residual"]) > 1e-4 and np.max(tight["residual"]) < 1e-6
-    s4_error = [np.max(np.abs(run["S4"] - reference["S4"])) / np.max(np.abs(reference["S4"])) for run in (loose, tight)]
+    s4_error = [
+        np.max(np.abs(run["S4"] - reference["S4"])) / np.max(np.abs(reference["S4"]))
+        for run in (loose, tight)
+    ]
     assert s4_error[0] > 1e-4 and s4_error[1] < SIM_STROKE.value
 
 
 def test_torque_mode_flags_a_wider_dead_centre_band():
-    """In drive-torque mode rows with |t| < SIM_DEAD_CENTRE_TRANSMISSION carry no reactions, kinematics kept."""
+    """In drive-torque mode rows with |t| < SIM_DEAD_CENTRE_TRANSMISSION carry no reactions, kinematics
+    kept."""
     case = load_case("thesis/a4-30-s1-3.5").with_values(
         {"motion.angles_deg": {"start": 114.0, "stop": 125.0, "step": 1.0}})
     reference = _inhouse().solve_case(case)
@@ -115,7 +132,8 @@ def test_torque_mode_flags_a_wider_dead_centre_band():
 
 
 def test_implicit_step_acceleration_is_read_back():
-    """implicitfast integrates (M + dt K)^-1 M qacc: raw qacc would bias the drive torque by dt kv theta_ddot."""
+    """implicitfast integrates (M + dt K)^-1 M qacc: raw qacc would bias the drive torque by dt kv
+    theta_ddot."""
     case = with_loads(load_case("thesis/a4-20-alpha-232").with_values(
         {"motion.crank_accel": 30.0, "motion.angles_deg": {"start": 40.0, "stop": 41.0, "step": 1.0}}),
         drive_torque=None, slider_force=-100.0)  # force mode: the drive torque is the simulation's
@@ -140,7 +158,9 @@ def test_cli_writes_the_inhouse_table(tmp_path):
     path.write_text(text)
     runner = CliRunner()
     for engine in ("dualmech", "mujoco-sim"):
-        result = runner.invoke(main, ["solve", str(path), "--engine", engine, "-o", str(tmp_path / f"{engine}.csv")])
+        result = runner.invoke(
+            main, ["solve", str(path), "--engine", engine, "-o", str(tmp_path / f"{engine}.csv")]
+        )
         assert result.exit_code == 0, result.output
     ref, judge = (read_csv(tmp_path / f"{e}.csv") for e in ("dualmech", "mujoco-sim"))
     assert set(judge.columns) == set(NUMERIC_COLUMNS)
@@ -159,7 +179,9 @@ def test_schedule_runs_a_revolution_or_one_window_per_row():
 
 
 def test_benchmark_reports_cost_per_position():
-    case = load_case("thesis/ideal").with_values({"motion.angles_deg": {"start": 0.0, "stop": 60.0, "step": 10.0}})
+    case = load_case("thesis/ideal").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 60.0, "step": 10.0}}
+    )
     report = benchmark(case)
     _, settings = prepare(case)
     assert report["engine"] == "mujoco-sim" and report["positions"] == 6

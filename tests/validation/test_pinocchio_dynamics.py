@@ -71,11 +71,15 @@ def test_every_body_is_in_newton_euler_balance(case):
         given, column, scale = case.loads.drive_torque, "drive_torque", moment_scale
     else:
         given, column, scale = case.loads.slider_force, "slider_load", force_scale
-    assert_allclose((table[column][rows] - given) / (cond[rows] * scale), 0.0, rtol=0, atol=PINOCCHIO_BALANCE.value)
+    assert_allclose(
+        (table[column][rows] - given) / (cond[rows] * scale), 0.0, rtol=0, atol=PINOCCHIO_BALANCE.value
+    )
     assert_allclose(table["drive_torque"], table["j1_mz"], rtol=0, atol=0)
 
 
-@pytest.mark.parametrize("case", CASES[::3], ids=[f"{i}-{c.name}-{c.loads.mode}" for i, c in enumerate(CASES[::3])])
+@pytest.mark.parametrize(
+    "case", CASES[::3], ids=[f"{i}-{c.name}-{c.loads.mode}" for i, c in enumerate(CASES[::3])]
+)
 def test_power_balance(case):
     """Drive + axial + slider-load + gravity power = dK/dt at every position."""
     table = pe.solve_case(case)
@@ -83,26 +87,33 @@ def test_power_balance(case):
     terms, kinetic_rate = power_terms(case, table)
     cond = condition(case, table)
     scale = max(np.abs(terms[rows] / cond[rows, None]).max(), np.abs(kinetic_rate[rows] / cond[rows]).max())
-    assert np.all(np.abs(terms[rows].sum(1) - kinetic_rate[rows]) <= PINOCCHIO_BALANCE.value * scale * cond[rows])
+    assert np.all(
+        np.abs(terms[rows].sum(1) - kinetic_rate[rows]) <= PINOCCHIO_BALANCE.value * scale * cond[rows]
+    )
 
 
 def test_torque_and_force_modes_round_trip():
     """Torque mode gives a slider load; feeding it back in force mode gives the same torque and reactions."""
     torque_case = with_loads(load_case("a4-20-alpha-310"), gravity=GRAVITY)
     for theta in (7.0, 95.0, 181.0, 300.0):
-        one = torque_case.with_values({"motion.angles_deg": {"start": theta, "stop": theta + 1.0, "step": 1.0}})
+        one = torque_case.with_values(
+            {"motion.angles_deg": {"start": theta, "stop": theta + 1.0, "step": 1.0}}
+        )
         t_torque = pe.solve_case(one)
         forced = with_loads(one, drive_torque=None, slider_force=float(t_torque["slider_load"][0]))
         t_force = pe.solve_case(forced)
         scale = max(np.abs(t_torque[c]).max() for c in REACTION_COLUMNS)
         for col in REACTION_COLUMNS:
-            assert_allclose(t_force[col], t_torque[col], rtol=0, atol=PINOCCHIO_BALANCE.value * scale, err_msg=col)
+            assert_allclose(
+                t_force[col], t_torque[col], rtol=0, atol=PINOCCHIO_BALANCE.value * scale, err_msg=col
+            )
 
 
 @pytest.mark.parametrize("case", [CASES[5], CASES[-1], CASES[-2]],
                          ids=["thesis-gravity", "random-force", "random-torque"])
 def test_forward_constraint_dynamics_reproduces_the_motion(case):
-    """pin.constraintDynamics(q, v, efforts) returns the prescribed accelerations and the same closure force."""
+    """pin.constraintDynamics(q, v, efforts) returns the prescribed accelerations and the same closure
+    force."""
     pm = pe.build_model(case)
     sol, _ = pe.solve(case, pm)
     data = pm.model.createData()
@@ -142,7 +153,8 @@ def test_rnea_with_the_closure_force_gives_the_joint_wrenches():
         end = np.array([pm.a2, 0.0, 0.0])
         local = rod.rotation.T @ lam
         fext[pm.rod_joint] = pin.Force(local, np.cross(end, local))
-        fext[pm.slider_joint] = pin.Force(-lam, np.zeros(3))  # slider axes = world axes, applied at its origin P3
+        # slider axes = world axes, applied at its origin P3
+        fext[pm.slider_joint] = pin.Force(-lam, np.zeros(3))
         tau = pin.rnea(model, data, q, v, a, fext)
         scale = np.abs(sol.effort[i]).max()
         assert_allclose(tau, sol.effort[i], rtol=0, atol=tol * scale)
@@ -185,7 +197,9 @@ def test_cli_solve_with_the_pinocchio_engine(tmp_path):
 
 
 def test_benchmark_reports_per_position_cost():
-    case = load_case("a4-30-s1-3.5").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 10.0}})
+    case = load_case("a4-30-s1-3.5").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 10.0}}
+    )
     report = pe.benchmark(case, repeats=2)
     assert report["engine"] == "pinocchio" and report["positions"] == 36 and report["repeats"] == 2
     assert report["us_per_position"] > 0 and report["positions_us"] > 0 and report["dynamics_us"] > 0

@@ -1,4 +1,5 @@
-"""Pinocchio judge, kinematics: closure against the closed form, rates, zero spin, continuation and statuses."""
+"""Pinocchio judge, kinematics: closure against the closed form, rates, zero spin, continuation and
+statuses."""
 
 import numpy as np
 import pytest
@@ -11,7 +12,8 @@ from tests.oracles import assembly_margin, exact_slider_motion
 from tests.validation.pinocchio_oracles import random_case
 
 pin = pytest.importorskip("pinocchio")
-from dualmech.validation import pinocchio_closure as pc, pinocchio_engine as pe  # noqa: E402
+from dualmech.validation import pinocchio_closure as pc  # noqa: E402
+from dualmech.validation import pinocchio_engine as pe  # noqa: E402
 
 TOL = PINOCCHIO_VS_CLOSED_FORM.value
 
@@ -78,7 +80,9 @@ def test_rod_has_zero_spin_and_stays_on_the_branch():
 
 def test_coarse_tabulation_gives_the_fine_answer():
     """60 deg between tabulated angles (continued in 5 deg substeps) = the same angles at 1 deg."""
-    fine = load_case("a4-20-alpha-232").with_values({"motion.axial_amplitude": 2.0, "motion.axial_cycles": 2.0})
+    fine = load_case("a4-20-alpha-232").with_values(
+        {"motion.axial_amplitude": 2.0, "motion.axial_cycles": 2.0}
+    )
     coarse = fine.with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 60.0}})
     t_fine, t_coarse = pe.solve_case(fine), pe.solve_case(coarse)
     force_scale = max(np.abs(t_fine[c]).max() for c in FORCE_COLUMNS)
@@ -127,7 +131,9 @@ def test_other_branch_is_refused(monkeypatch):
         return original(self, theta, s1, side=-1.0)  # (P3 - P2)·k4 = +a2 > 0
 
     monkeypatch.setattr(pc.Closure, "crude_guess", wrong_side)
-    case = load_case("a4-30-s1-6").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 30.0}})
+    case = load_case("a4-30-s1-6").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 30.0}}
+    )
     table = pe.solve_case(case)
     assert (table.status == "branch_jump").all()
     for col in ("S4", "S4_dot", "S4_ddot", *REACTION_COLUMNS):
@@ -139,7 +145,9 @@ def test_other_branch_is_refused(monkeypatch):
 def test_newton_without_iterations_reports_not_converged(monkeypatch):
     monkeypatch.setattr(pc, "MAX_NEWTON_ITERATIONS", 0)
     monkeypatch.setattr(pc, "LM_ITERATIONS", 0)
-    case = load_case("a4-30-s1-6").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 45.0}})
+    case = load_case("a4-30-s1-6").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 45.0}}
+    )
     table = pe.solve_case(case)
     assert (table.status == "not_converged").all()
     for col in KINEMATIC_COLUMNS:

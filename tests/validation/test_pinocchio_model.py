@@ -36,7 +36,8 @@ def test_mass_properties_are_the_case_bodies(case):
 
 @pytest.mark.parametrize("case", _cases(), ids=["thesis", "random-torque", "random-force"])
 def test_joint_frames_are_the_conventions_body_frames(case):
-    """At any q: crank frame (0,0,S1) and Rz(theta1); rod frame at P2; slider frame at F - S4 k4, world axes."""
+    """At any q: crank frame (0,0,S1) and Rz(theta1); rod frame at P2; slider frame at F - S4 k4, world
+    axes."""
     rng = np.random.default_rng(5)
     pm = build_model(case)
     g = case.geometry

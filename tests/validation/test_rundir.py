@@ -1,4 +1,5 @@
-"""The run folder under attack: foreign folders, planted files, concurrent runs, interrupts, lost clusters (issue 11)."""
+"""The run folder under attack: foreign folders, planted files, concurrent runs, interrupts, lost clusters
+(issue 11)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,6 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -22,7 +22,7 @@ from dualmech.validation.report import write_report
 from dualmech.validation.rundir import RunDirError, created_files, locked
 from dualmech.validation.runner import load_entries, run_matrix
 
-from .test_validate import FAKE_REGISTRY, FAKES, ROOT, small  # noqa: F401  (small is a fixture)
+from .test_validate import FAKE_REGISTRY, FAKES, ROOT
 
 
 def _one_line_error(result) -> str:
@@ -31,7 +31,7 @@ def _one_line_error(result) -> str:
     return lines[0]
 
 
-def test_a_foreign_non_empty_folder_is_refused(small, tmp_path):  # noqa: F811
+def test_a_foreign_non_empty_folder_is_refused(small, tmp_path):
     foreign = tmp_path / "photos"
     foreign.mkdir()
     (foreign / "holiday.jpg").write_bytes(b"\xff\xd8")
@@ -41,7 +41,7 @@ def test_a_foreign_non_empty_folder_is_refused(small, tmp_path):  # noqa: F811
     assert sorted(p.name for p in foreign.iterdir()) == ["holiday.jpg"]
 
 
-def test_a_report_deletes_only_what_dualmech_wrote(small, tmp_path):  # noqa: F811
+def test_a_report_deletes_only_what_dualmech_wrote(small, tmp_path):
     """Why: a planted figures/photo.png in the output folder was deleted."""
     matrix = load_matrix(small)
     out = tmp_path / "run"
@@ -60,7 +60,7 @@ def test_a_report_deletes_only_what_dualmech_wrote(small, tmp_path):  # noqa: F8
     assert "figures/photo.png" not in created_files(out) and "report.html" in created_files(out)
 
 
-def test_a_second_concurrent_run_is_refused(small, tmp_path):  # noqa: F811
+def test_a_second_concurrent_run_is_refused(small, tmp_path):
     out = tmp_path / "run"
     with locked(out):
         with pytest.raises(RunDirError, match="in use by another dualmech run"):
@@ -68,20 +68,24 @@ def test_a_second_concurrent_run_is_refused(small, tmp_path):  # noqa: F811
     run_matrix(load_matrix(small), out, jobs=1, registry=FAKE_REGISTRY)  # free again once the holder is gone
 
 
-@pytest.mark.parametrize("address", ["", " ", "tcp://", "localhost", "tcp://127.0.0.1:99999", "http://x:1", "a b:1"])
+@pytest.mark.parametrize(
+    "address", ["", " ", "tcp://", "localhost", "tcp://127.0.0.1:99999", "http://x:1", "a b:1"]
+)
 def test_a_malformed_scheduler_address_is_refused(address):
     with pytest.raises(ValueError, match="scheduler: expected an address"):
         check_address(address)
 
 
-def test_sigint_keeps_every_finished_result(small, tmp_path):  # noqa: F811
+def test_sigint_keeps_every_finished_result(small, tmp_path):
     """Why: SIGINT lost a few finished tasks.  Every task that finished before the interrupt is stored."""
     out, marks = tmp_path / "run", tmp_path / "marks"
     marks.mkdir()
     slow = {e: f"{FAKES}:solve_case_marked_{e}" for e in FAKE_REGISTRY}
-    script = (  # SIGINT handled as at a terminal, even when this test runs as a background job (SIG_IGN inherited)
+    # SIGINT handled as at a terminal, even when this test runs as a background job (SIG_IGN inherited)
+    script = (
         "import signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
-        "from dualmech.validation.matrix import load_matrix; from dualmech.validation.runner import run_matrix; "
+        "from dualmech.validation.matrix import load_matrix; from dualmech.validation.runner import "
+        "run_matrix; "
         f"run_matrix(load_matrix({str(small)!r}), {str(out)!r}, jobs=2, registry={slow!r})"
     )
     env = dict(os.environ, MATRIX_FAKES_DELAY="0.25", MATRIX_FAKES_MARKS=str(marks), PYTHONPATH=str(ROOT))
@@ -98,7 +102,7 @@ def test_sigint_keeps_every_finished_result(small, tmp_path):  # noqa: F811
 
 
 @pytest.mark.parametrize("what", ["scheduler", "workers"])
-def test_a_lost_cluster_ends_the_run_with_one_line_and_keeps_results(small, tmp_path, monkeypatch, what):  # noqa: F811
+def test_a_lost_cluster_ends_the_run_with_one_line_and_keeps_results(small, tmp_path, monkeypatch, what):
     """Why: a killed Dask scheduler gave a 39-line traceback; losing every worker hung with no message."""
     distributed = pytest.importorskip("distributed")
     monkeypatch.setattr(executors, "DASK_POLL_S", 0.2)

@@ -14,7 +14,7 @@ import pytest
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.runner import run_matrix
 
-from .test_validate import FAKE_REGISTRY, FAKES, ROOT, small  # noqa: F401  (small is a fixture)
+from .test_validate import FAKE_REGISTRY, FAKES, ROOT
 
 
 def _children(pid: int) -> set[int]:
@@ -48,12 +48,13 @@ def _alive(pid: int) -> bool:
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG and /proc are Linux-only")
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
-def test_workers_die_with_a_killed_run(small, tmp_path, sig):  # noqa: F811
+def test_workers_die_with_a_killed_run(small, tmp_path, sig):
     """Kill the run halfway: its pool workers must not linger, waiting on their queue forever."""
     slow = dict(FAKE_REGISTRY, dualmech=f"{FAKES}:solve_case_slow")
     out = tmp_path / "run"
     script = (
-        "from dualmech.validation.matrix import load_matrix; from dualmech.validation.runner import run_matrix; "
+        "from dualmech.validation.matrix import load_matrix; from dualmech.validation.runner import "
+        "run_matrix; "
         f"run_matrix(load_matrix({str(small)!r}), {str(out)!r}, jobs=2, registry={slow!r})"
     )
     env = dict(os.environ, MATRIX_FAKES_DELAY="0.3", PYTHONPATH=str(ROOT))
@@ -76,6 +77,6 @@ def test_workers_die_with_a_killed_run(small, tmp_path, sig):  # noqa: F811
     assert not lingering
 
 
-def test_empty_scheduler_address_is_refused(small, tmp_path):  # noqa: F811
+def test_empty_scheduler_address_is_refused(small, tmp_path):
     with pytest.raises(ValueError, match="scheduler"):
         run_matrix(load_matrix(small), tmp_path / "run", scheduler=" ", registry=FAKE_REGISTRY)

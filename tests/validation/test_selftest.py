@@ -13,9 +13,21 @@ from pathlib import Path
 
 import pytest
 
-from dualmech.validation.selftest import (BOOT, CATALOGUE, CLASSES, WRONG_IMPORT, Catalogue, Mutant,
-                                          SelftestError, format_report, load_catalogue, parse_catalogue,
-                                          run_selftest, source_root, stale_reason)
+from dualmech.validation.selftest import (
+    BOOT,
+    CATALOGUE,
+    CLASSES,
+    WRONG_IMPORT,
+    Catalogue,
+    Mutant,
+    SelftestError,
+    format_report,
+    load_catalogue,
+    parse_catalogue,
+    run_selftest,
+    source_root,
+    stale_reason,
+)
 
 ROOT = source_root()
 FULL = load_catalogue(ROOT / CATALOGUE)

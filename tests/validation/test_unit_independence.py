@@ -1,4 +1,5 @@
-"""Unit-independent verdicts: the same cases written in other length units give the same verdict on every check.
+"""Unit-independent verdicts: the same cases written in other length units give the same verdict on every
+check.
 
 Two cases of the thesis matrix (a4 = 30 in, S1 = 3.5 in; drive-torque and slider-load mode) are rewritten with
 the length unit divided by ``s`` for ``s`` in 1e-6, 1e-3, 1, 1e3 (:func:`scaled_case`), solved by all four

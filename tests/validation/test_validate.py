@@ -31,32 +31,6 @@ FAKES = "tests.validation.matrix_fakes"
 FAKE_REGISTRY = {"dualmech": f"{FAKES}:solve_case", "pinocchio": f"{FAKES}:solve_case_judge",
                  "mujoco": f"{FAKES}:solve_case_judge_b"}
 
-SMALL = """
-name = "small"
-description = "two sweeps of the thesis example, <b>coarse</b> & quick"
-base = "thesis/ideal"
-engines = ["dualmech", "pinocchio", "mujoco"]
-reference = "dualmech"
-set = { "motion.angles_deg" = { start = 0.0, stop = 360.0, step = 30.0 } }
-
-[load_modes]
-torque = { "loads.drive_torque" = 100.0 }
-force = { "loads.slider_force" = -100.0 }
-
-[[sweep]]
-name = "a4"
-fixed = { "geometry.crank_axial_shift" = 3.5 }
-grid = { "geometry.slider_offset" = [10.0, 30.0] }
-"""
-
-
-@pytest.fixture()
-def small(tmp_path) -> Path:
-    path = tmp_path / "small.toml"
-    path.write_text(SMALL)
-    return path
-
-
 def perturbed_inhouse(case):
     """A judge that is the in-house engine with one reaction perturbed by 1e-6 of its value."""
     from dualmech.models.slider_crank import solve_case
@@ -86,10 +60,14 @@ def test_default_matrix_is_the_thesis_study():
     assert len(m.cases) == 18 and set(m.modes) == {"torque", "force"}
     values = {tuple(sorted(c.values.items())) for c in m.cases if c.mode == "torque"}
     assert (("geometry.crank_axial_shift", 3.5), ("geometry.slider_offset", 10.0)) in values
-    assert (("geometry.slider_offset", 20.0), ("geometry.slider_twist_deg", 232.0)) in values  # S1 = 0 as the base
-    # the issues' tolerances: rigid judges 1e-10 kinematics / 1e-9 reactions, the simulation 1e-5 stroke / 1e-3
+    # S1 = 0 as the base
+    assert (("geometry.slider_offset", 20.0), ("geometry.slider_twist_deg", 232.0)) in values
+    # the issues' tolerances: rigid judges 1e-10 kinematics / 1e-9 reactions, the simulation 1e-5 stroke /
+    # 1e-3
     assert m.tolerance("pinocchio", "S4").value == 1e-10 and m.tolerance("mujoco", "j2_fx").value == 1e-9
-    assert m.tolerance("mujoco-sim", "stroke").value == 1e-5 and m.tolerance("mujoco-sim", "j2_fx").value == 1e-3
+    assert (
+        m.tolerance("mujoco-sim", "stroke").value == 1e-5 and m.tolerance("mujoco-sim", "j2_fx").value == 1e-3
+    )
     assert m.tolerance("pinocchio", "j1_mz").reason
 
 
@@ -99,10 +77,10 @@ def test_default_matrix_is_the_thesis_study():
     (lambda d: d["sweep"][0]["grid"].update({"geometry.rod_lenght": [1.0]}), ["rod_lenght"]),
     (lambda d: d.update(tolerances={"j1_fx": "NO_SUCH_TOLERANCE"}), ["NO_SUCH_TOLERANCE"]),
 ])
-def test_bad_matrix_is_one_line(edit, words):
+def test_bad_matrix_is_one_line(small, edit, words):
     import tomllib
 
-    data = tomllib.loads(SMALL)
+    data = tomllib.loads(small.read_text())
     edit(data)
     with pytest.raises((MatrixError, ValueError)) as err:
         parse_matrix(data)
@@ -146,7 +124,8 @@ def test_broken_judge_fails_names_case_and_quantity(small, tmp_path, monkeypatch
 
 
 def test_interrupted_run_resumes_to_identical_results(small, tmp_path):
-    """Kill a run halfway (SIGKILL, no clean-up), re-run with resume: the same results as an uninterrupted run."""
+    """Kill a run halfway (SIGKILL, no clean-up), re-run with resume: the same results as an uninterrupted
+    run."""
     matrix = load_matrix(small)
     slow = dict(FAKE_REGISTRY, dualmech=f"{FAKES}:solve_case_slow")
     killed = tmp_path / "killed"
@@ -208,7 +187,8 @@ def _chromium() -> str | None:
 
 
 def test_report_loads_in_headless_chromium(small, tmp_path):
-    """Every figure of the generated page decodes, and the summary table is there (checked inside Chromium)."""
+    """Every figure of the generated page decodes, and the summary table is there (checked inside
+    Chromium)."""
     browser = _chromium()
     if browser is None:
         if os.environ.get("CI"):
@@ -231,7 +211,9 @@ window.addEventListener('load', () => {
 </script></body>"""
     # the report forbids scripts (Content-Security-Policy); the instrumented copy lifts that for the probe
     checked = out / "checked.html"
-    checked.write_text(re.sub(r'<meta http-equiv="Content-Security-Policy"[^>]*>', "", html).replace("</body>", probe))
+    checked.write_text(
+        re.sub(r'<meta http-equiv="Content-Security-Policy"[^>]*>', "", html).replace("</body>", probe)
+    )
     assert "script-src 'none'" in html
     profile = tmp_path / "profile"
     dom = subprocess.run(
