@@ -101,7 +101,9 @@ class MjcfSettings:
 
 
 def default_timestep(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> float:
-    """Seconds per step: one degree of the fastest prescribed phase / ``steps_per_degree``, <= :data:`MAX_TIMESTEP`.
+    """Seconds per step: one degree of the fastest prescribed phase / ``steps_per_degree``.
+
+    At most :data:`MAX_TIMESTEP`.
 
     The phases are the crank angle (speed :math:`|\\dot\\theta_1|`, or the time to
     turn one degree from rest under :math:`\\ddot\\theta_1`) and the axial motion
@@ -377,10 +379,11 @@ def _document(case: Case, s: MjcfSettings, start: MjcfStart | None) -> ET.Elemen
     ground = ET.SubElement(world, "body", name="ground", pos="0 0 0")
     # massless, fixed; Pinocchio's parser wants an inertia on every body (inertiafromgeom is off)
     ET.SubElement(ground, "inertial", pos="0 0 0", mass="0", diaginertia="0 0 0")
-    ET.SubElement(ground, "geom", name="crank_axis", type="cylinder", size=f"{_num(0.3 * r_crank)} {_num(0.5 * a1)}",
-                  rgba="0.5 0.5 0.5 0.4")
+    ET.SubElement(ground, "geom", name="crank_axis", type="cylinder",
+                  size=f"{_num(0.3 * r_crank)} {_num(0.5 * a1)}", rgba="0.5 0.5 0.5 0.4")
     ET.SubElement(ground, "geom", name="slider_line", type="capsule", size=_num(0.2 * r_rod),
-                  fromto=_vec(np.concatenate([foot + 0.6 * a2 * k4, foot - 1.6 * a2 * k4])), rgba="0.5 0.5 0.5 0.4")
+                  fromto=_vec(np.concatenate([foot + 0.6 * a2 * k4, foot - 1.6 * a2 * k4])),
+                  rgba="0.5 0.5 0.5 0.4")
 
     crank = ET.SubElement(ground, "body", name="crank", **crank_at)
     ET.SubElement(crank, "joint", name="crank_angle", type="hinge", pos="0 0 0", axis="0 0 1", **crank_ref[0])

@@ -39,8 +39,14 @@ from dualmech.core.inertia import solid_cube, solid_cylinder_x
 from dualmech.core.table import ResultTable
 from dualmech.models.case import Case
 from dualmech.models.slider_crank import solve_case
-from dualmech.models.tolerance.outputs import (FORCES, MOMENTS, SOLVED_LOAD, design_outputs, output_names,
-                                              peak_positions)
+from dualmech.models.tolerance.outputs import (
+    FORCES,
+    MOMENTS,
+    SOLVED_LOAD,
+    design_outputs,
+    output_names,
+    peak_positions,
+)
 from dualmech.models.tolerance.spec import Spec, nominal_values
 
 #: Imaginary step ``h``: h^2 = 1e-200 is below double precision against 1, and products of two
