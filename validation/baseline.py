@@ -66,7 +66,9 @@ def reference_values(table: ResultTable, mode: str, quantities: tuple[str, ...])
     }
 
 
-def baseline_summary(matrix: Matrix, comparison: Comparison, results: dict[str, dict[str, ResultTable | str]]) -> dict:
+def baseline_summary(
+    matrix: Matrix, comparison: Comparison, results: dict[str, dict[str, ResultTable | str]]
+) -> dict:
     """The baseline of a run (JSON-ready)."""
     cases = {}
     for mc in matrix.cases:
@@ -108,7 +110,8 @@ def read_baseline(path: str | Path) -> dict:
     except ValueError as err:
         raise ValueError(f"baseline: {path} is not valid JSON ({err})") from None
     if not isinstance(data, dict) or data.get("format") != BASELINE_FORMAT:
-        raise ValueError(f"baseline: {path} is not a {BASELINE_FORMAT} file (write one with --write-baseline)")
+        raise ValueError(f"baseline: {path} is not a {BASELINE_FORMAT} file (write one with "
+                         "--write-baseline)")
     return data
 
 
@@ -137,13 +140,15 @@ def compare_baseline(current: dict, baseline: dict) -> list[Regression]:
             else:
                 if _moved(nref["stroke"], bref["stroke"], bref.get("length", 0.0), rtol):
                     out.append(Regression(cid, ref_name, "stroke",
-                                          f"in-house stroke {nref['stroke']!r} against baseline {bref['stroke']!r}"))
+                                          f"in-house stroke {nref['stroke']!r} against baseline "
+                                          f"{bref['stroke']!r}"))
                 for q, then in bref["peaks"].items():
                     if q not in nref["peaks"]:
                         out.append(Regression(cid, ref_name, q, "quantity no longer compared"))
                     elif _moved(nref["peaks"][q], then, bref["scales"].get(q, 0.0), rtol):
                         out.append(Regression(cid, ref_name, q,
-                                              f"in-house scale {nref['peaks'][q]:.12g} against baseline {then:.12g}"))
+                                              f"in-house scale {nref['peaks'][q]:.12g} against baseline "
+                                              f"{then:.12g}"))
         for engine, checks in base["checks"].items():
             now_checks = now["checks"].get(engine, {})
             for q, b in checks.items():
@@ -157,5 +162,6 @@ def compare_baseline(current: dict, baseline: dict) -> list[Regression]:
                         b["max_rel"] is None or n["max_rel"] > factor * b["max_rel"]):
                     then = "none" if b["max_rel"] is None else f"{b['max_rel']:.3g}"
                     out.append(Regression(cid, engine, q,
-                                          f"max rel {n['max_rel']:.3g} against baseline {then} (> x{factor:g})"))
+                                          f"max rel {n['max_rel']:.3g} against baseline {then} (> "
+                                          f"x{factor:g})"))
     return out

@@ -39,7 +39,8 @@ def cases() -> None:
 
 
 def summarize(table: ResultTable, units: str = "consistent") -> str:
-    """What a designer reads first (:mod:`dualmech.models.design_summary`), the worst residual, the engine's notes."""
+    """What a designer reads first (:mod:`dualmech.models.design_summary`), the worst residual, the engine's
+    notes."""
     from dualmech.models.design_summary import design_summary
 
     lines = design_summary(table, units).lines()
@@ -61,7 +62,8 @@ def summarize(table: ResultTable, units: str = "consistent") -> str:
 def solve(case: str, output: str | None, engine: str, frames: str) -> None:
     """Solve CASE (a TOML file or a preset name) and write one row per crank position."""
     if frames == "joint" and not output:
-        raise ValueError("--frames joint: the joint-frame table goes beside the -o file (OUT.joint.csv); give -o OUT.csv")
+        raise ValueError("--frames joint: the joint-frame table goes beside the -o file (OUT.joint.csv); "
+                         "give -o OUT.csv")
     c = load_case(case)
     if output and output_format(output) and engine == "dualmech" and frames == "world" \
             and len(c.motion.angles_deg) > STREAM_POSITIONS:  # long: streamed, chunk by chunk, into the file
@@ -110,14 +112,17 @@ def mjcf(case: str, output: str) -> None:
 
 
 @main.command()
-@click.option("--cases", default=1000, show_default=True, help="Random cases of 360 positions for the in-house solver.")
-@click.option("--judge-cases", default=5, show_default=True, help="How many of them the judges solve (they are slower).")
+@click.option("--cases", default=1000, show_default=True, help="Random cases of 360 positions for the "
+                                                               "in-house solver.")
+@click.option("--judge-cases", default=5, show_default=True, help="How many of them the judges solve (they "
+                                                                  "are slower).")
 @click.option("--big", default=2_000_000, show_default=True,
               help="Positions of one case solved into Parquet, streamed (0: skip).")
 @click.option("--repeats", default=3, show_default=True, help="Runs per figure (the median is quoted).")
 @one_line_errors
 def benchmark(cases: int, judge_cases: int, big: int, repeats: int) -> None:
-    """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, in one run (Markdown)."""
+    """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, in one run
+    (Markdown)."""
     from dualmech.validation.benchmark import run_benchmark
 
     click.echo(run_benchmark(cases, judge_cases, big, repeats))

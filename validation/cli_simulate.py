@@ -14,8 +14,8 @@ import click
 import numpy as np
 
 from dualmech.models.case import load_case
-from dualmech.models.inputs import ANGLE_DEG, Range, show
 from dualmech.models.forward_dynamics import MAX_EVALUATIONS, TIME_LIMIT
+from dualmech.models.inputs import ANGLE_DEG, Range, show
 from dualmech.validation.cli_errors import one_line_errors
 
 #: Longest integer option text: beyond this many digits it is out of every range anyway.
@@ -51,8 +51,10 @@ def summarize_simulation(sim) -> str:
         f"({(sim.psi[-1] - sim.psi[0]) / (2 * np.pi):.4g} rev), "
         f"speed {sim.psi_dot[0]:.6g} -> {sim.psi_dot[-1]:.6g} rad/s",
         f"slider S4: {np.nanmin(sim.s4):.6g} .. {np.nanmax(sim.s4):.6g}",
-        f"work-energy residual: {np.abs(sim.energy_residual()).max() / e_scale:.3g} (relative to the energy scale)",
-        f"integrator {info['method']} rtol={info['rtol']:g} atol={info['atol']:g}, {info['nfev']} evaluations; "
+        f"work-energy residual: {np.abs(sim.energy_residual()).max() / e_scale:.3g} (relative to the energy "
+        "scale)",
+        f"integrator {info['method']} rtol={info['rtol']:g} atol={info['atol']:g}, {info['nfev']} "
+        "evaluations; "
         f"coefficients: {info['coefficients']}"
         + (f" ({info['table_size']} samples, interpolation error {info['interpolation_error']:.2g})"
            if info["coefficients"] == "table" else ""),
@@ -64,11 +66,13 @@ def summarize_simulation(sim) -> str:
 @click.argument("case")
 @click.option("--duration", required=True, help="Simulated time, seconds.")
 @click.option("--torque", default=None,
-              help="Motor torque on the crank about +z: a number or an expression in t, psi, psidot, s4, s4dot "
+              help="Motor torque on the crank about +z: a number or an expression in t, psi, psidot, s4, "
+                   "s4dot "
                    "(default: the case's drive_torque in torque mode, else 0).")
 @click.option("--slider-load", default=None,
               help="k4 . (force of the ground on the slider), number or expression as --torque "
-                   "(default: the case's slider_force in force mode, else 0). A spring k, free length L0: 'k*(s4-L0)'.")
+                   "(default: the case's slider_force in force mode, else 0). A spring k, free length L0: "
+                   "'k*(s4-L0)'.")
 @click.option("--psi0", default=None,
               help="Initial crank angle theta1, degrees (default: the case's first angle).")
 @click.option("--psidot0", default=None, help="Initial crank speed, rad/s (default: the case's crank_rpm).")

@@ -106,14 +106,17 @@ def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
             if f not in handed and f.done() and not f.cancelled() and f.exception() is None]
 
 
-def _on_pool(task: Callable[..., dict], calls: list[tuple], jobs: int, leftovers: list[dict]) -> Iterator[dict]:
+def _on_pool(
+    task: Callable[..., dict], calls: list[tuple], jobs: int, leftovers: list[dict]
+) -> Iterator[dict]:
     pool = process_pool(jobs)
     futures = [pool.submit(task, *call) for call in calls]
     handed: set[Any] = set()
     try:
         for fut in cf.as_completed(futures):
             yield fut.result()
-            handed.add(fut)  # only once the caller has come back for more: an entry is stored twice, never lost
+            # only once the caller has come back for more: an entry is stored twice, never lost
+            handed.add(fut)
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
         cf.wait([f for f in futures if not f.cancelled()], timeout=INTERRUPT_GRACE_S)
@@ -127,7 +130,8 @@ def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,
     try:
         from distributed import Client, wait
     except ImportError:
-        raise ValueError("scheduler: Dask distributed is not installed (pip install 'dask[distributed]')") from None
+        raise ValueError("scheduler: Dask distributed is not installed (pip install "
+                         "'dask[distributed]')") from None
     address = check_address(scheduler)
     try:
         client = Client(address, timeout=f"{DASK_CONNECT_S:g}s")

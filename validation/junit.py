@@ -79,12 +79,15 @@ def junit_tree(
         for engine in matrix.engines:
             t = seconds.get(mc.id, {}).get(engine, 0.0)
             total_time += t
-            tc = ET.SubElement(suite, "testcase", classname=f"{matrix.name}.{mc.id}", name=engine, time=f"{t:.3f}")
+            tc = ET.SubElement(
+                suite, "testcase", classname=f"{matrix.name}.{mc.id}", name=engine, time=f"{t:.3f}"
+            )
             counts["tests"] += 1
             err = errors_full.get(mc.id, {}).get(engine)
             regressed = by_test.get((mc.id, engine), [])
             if err is not None:
-                el = ET.SubElement(tc, "error", message=f"{mc.id} / {engine}: {first_line(err)}", type="EngineError")
+                el = ET.SubElement(tc, "error", message=f"{mc.id} / {engine}: "
+                                                        f"{first_line(err)}", type="EngineError")
                 el.text = "\n".join([err, *regressed])
                 counts["errors"] += 1
                 continue

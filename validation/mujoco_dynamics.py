@@ -31,7 +31,8 @@ def solve_rates(lp: MjLoop, rows: np.ndarray, known: np.ndarray, rhs: np.ndarray
 
 
 def drift(lp: MjLoop) -> np.ndarray:
-    """:math:`[\\dot J_c \\dot q;\\ u^T \\dot J_\\omega \\dot q]`, shape (4,), at the current ``qvel`` (mj_jacDot)."""
+    """:math:`[\\dot J_c \\dot q;\\ u^T \\dot J_\\omega \\dot q]`, shape (4,), at the current ``qvel``
+    (mj_jacDot)."""
     m, d = lp.model, lp.data
     nv = m.nv
     jp, je, jr = np.empty((3, nv)), np.empty((3, nv)), np.empty((3, nv))
@@ -46,8 +47,9 @@ def efforts(lp: MjLoop, mode: str, given: float) -> tuple[np.ndarray, float, flo
     """Connect force and joint efforts by least squares on :math:`M\\ddot q + c = \\tau + J_c^T\\lambda`.
 
     The rows of the angular dofs (crank angle, rod ball; F·L) are divided by ``a2``, so that
-    every row is a force and the fit weighs them alike in any length unit.  Returns ``(lam (3,), drive_torque, axial_force, slider_load)``; uses ``qacc``/``qvel``
-    of ``data`` (``mj_rne`` reads ``qacc``: nothing may overwrite it in between).
+    every row is a force and the fit weighs them alike in any length unit.  Returns ``(lam (3,), drive_torque,
+    axial_force, slider_load)``; uses ``qacc``/``qvel`` of ``data`` (``mj_rne`` reads ``qacc``: nothing may
+    overwrite it in between).
     """
     m, d = lp.model, lp.data
     nv = m.nv

@@ -217,7 +217,8 @@ def assembled_qpos(case: Case, row: int = 0) -> np.ndarray:
         raise ValueError(f"row: expected 0 <= row < {len(st)}, got {row!r}")
     status, _, _, _ = assembled_state(lp, (float(st.theta[row]), float(st.s[row]), 0.0, 0.0), warm=False)
     if status != Status.OK:
-        raise ValueError(f"case: the loop does not close at theta1 = {st.theta[row] * 180 / math.pi:g} deg ({status})")
+        raise ValueError(f"case: the loop does not close at theta1 = {st.theta[row] * 180 / math.pi:g} deg "
+                         f"({status})")
     return lp.data.qpos.copy()
 
 

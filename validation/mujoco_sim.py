@@ -175,7 +175,8 @@ def simulate(case: Case, slider_load: float, settings: MjcfSettings, rows: np.nd
     """
     plan = schedule(case, steps_per_degree, rows, runin_steps(settings))
     if settings.timestep != plan.timestep:
-        raise ValueError(f"settings.timestep: expected the schedule's {plan.timestep!r} s, got {settings.timestep!r}")
+        raise ValueError(f"settings.timestep: expected the schedule's {plan.timestep!r} s, got "
+                         f"{settings.timestep!r}")
     lp = rigid.build(case, case_to_mjcf(case, settings))
     m, d = lp.model, lp.data
     kp = m.actuator_gainprm[:2, 0].copy()
@@ -236,8 +237,14 @@ def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTa
         settings = checked_settings(case, steps_per_degree, sv)
     except OverflowError:  # the step that resolves the motion needs servo gains beyond the double range
         return _overflowed(case, sv)
-    meta: dict = {"mujoco": mujoco.__version__, "timestep": settings.timestep, "steps_per_degree": steps_per_degree,
-                  "runin_steps": runin_steps(settings), "servo_kp": settings.servo_kp, "servo_kv": settings.servo_kv}
+    meta: dict = {
+        "mujoco": mujoco.__version__,
+        "timestep": settings.timestep,
+        "steps_per_degree": steps_per_degree,
+        "runin_steps": runin_steps(settings),
+        "servo_kp": settings.servo_kp,
+        "servo_kv": settings.servo_kv,
+    }
     if case.loads.mode == "force":
         raw = simulate(case, float(case.loads.slider_force), settings, reachable, steps_per_degree)
         dead = np.zeros(n, dtype=bool)
@@ -245,8 +252,7 @@ def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTa
         l_ref = load_scale(case)
         zero = simulate(case, 0.0, settings, reachable, steps_per_degree)
         loaded = simulate(case, l_ref, settings, reachable, steps_per_degree)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            w = (case.loads.drive_torque - zero["drive_torque"]) / (loaded["drive_torque"] - zero["drive_torque"])
+        w = _load_weight(case, zero, loaded)
         raw = dict(zero)
         for c in REACTION_COLUMNS:
             raw[c] = zero[c] + w * (loaded[c] - zero[c])
@@ -266,7 +272,8 @@ def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTa
 
 
 def _edges(status: np.ndarray, cols: dict[str, np.ndarray], sv: Survey) -> np.ndarray:
-    """Status words with the edges of assembly: simulated rows by their own ``|u·k4|``, the others by the survey.
+    """Status words with the edges of assembly: simulated rows by their own ``|u·k4|``, the others by the
+    survey.
 
     Rows the survey put at the ``assembly_limit`` or beyond reach are not simulated: their
     words, ``S4`` and condition are the survey's (the rigid path's pose).  ``cols`` is updated in place.
@@ -283,8 +290,20 @@ def _edges(status: np.ndarray, cols: dict[str, np.ndarray], sv: Survey) -> np.nd
     return status
 
 
+def _load_weight(case: Case, zero: dict[str, np.ndarray], loaded: dict[str, np.ndarray]) -> np.ndarray:
+    """Per row, ``w`` with zero + w (loaded - zero) = the case's drive torque (case units).
+
+    ``zero`` and ``loaded`` are :func:`simulate` runs at slider load 0 and ``L_ref``;
+    rows where the load does not move the drive torque give inf or NaN.  Shape (n,).
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = (case.loads.drive_torque - zero["drive_torque"]) / (loaded["drive_torque"] - zero["drive_torque"])
+    return w
+
+
 def _overflowed(case: Case, sv: Survey) -> ResultTable:
-    """The table of a case whose simulation cannot be set up in double precision: every assembling row ``not_finite``."""
+    """The table of a case whose simulation cannot be set up in double precision: every assembling row
+    ``not_finite``."""
     n = sv.status.shape[0]
     cols = {c: np.full(n, np.nan) for c in NUMERIC_COLUMNS}
     cols["theta1_deg"] = case.motion.angles_deg.astype(float).copy()

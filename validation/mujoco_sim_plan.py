@@ -69,7 +69,11 @@ def schedule(case: Case, steps_per_degree: int = STEPS_PER_DEGREE, rows: np.ndar
     does not assemble); otherwise each selected row gets its own run.  Each run
     starts ``runin`` steps before its first row.
     """
-    if isinstance(steps_per_degree, bool) or int(steps_per_degree) != steps_per_degree or steps_per_degree < 1:
+    if (
+        isinstance(steps_per_degree, bool)
+        or int(steps_per_degree) != steps_per_degree
+        or steps_per_degree < 1
+    ):
         raise ValueError(f"steps_per_degree: expected a positive integer, got {steps_per_degree!r}")
     mo = case.motion
     deg = mo.angles_deg
@@ -143,13 +147,15 @@ def survey(case: Case) -> Survey:
 
 
 def runin_steps(settings: MjcfSettings) -> int:
-    """Steps before the first row: ``SIM_RUNIN_TIME_CONSTANTS`` times ``kv/kp``, at least ``SIM_RUNIN_STEPS``."""
+    """Steps before the first row: ``SIM_RUNIN_TIME_CONSTANTS`` times ``kv/kp``, at least
+    ``SIM_RUNIN_STEPS``."""
     slow = max(kv / kp for kp, kv in zip(settings.servo_kp, settings.servo_kv))
     return max(SIM_RUNIN_STEPS, math.ceil(SIM_RUNIN_TIME_CONSTANTS * slow / settings.timestep))
 
 
 def sim_settings(case: Case, timestep: float, inertia_high: tuple[float, float]) -> MjcfSettings:
-    """The simulation's MJCF settings: :func:`~dualmech.models.mjcf.default_settings` with measured inertias."""
+    """The simulation's MJCF settings: :func:`~dualmech.models.mjcf.default_settings` with measured
+    inertias."""
     return default_settings(case, timestep, inertia_high=tuple(SIM_INERTIA_MARGIN * h for h in inertia_high))
 
 

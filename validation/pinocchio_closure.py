@@ -50,9 +50,19 @@ _LOCAL = pin.ReferenceFrame.LOCAL
 
 # internal status codes: indices into STATUSES (core/table.py)
 STATUS_WORDS = np.array(STATUSES, dtype=object)
-OK, DEAD, LIMIT, BRANCH, NOT_CONVERGED, NO_ASSEMBLY = (STATUSES.index(w) for w in (
-    Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.BRANCH_JUMP, Status.NOT_CONVERGED, Status.NO_ASSEMBLY))
-# coordinate layout of build_model (checked in Closure): q = (theta1, S1, quat(4), S4), v = (theta1, S1, w(3), S4)
+OK, DEAD, LIMIT, BRANCH, NOT_CONVERGED, NO_ASSEMBLY = (
+    STATUSES.index(w)
+    for w in (
+        Status.OK,
+        Status.DEAD_CENTRE,
+        Status.ASSEMBLY_LIMIT,
+        Status.BRANCH_JUMP,
+        Status.NOT_CONVERGED,
+        Status.NO_ASSEMBLY,
+    )
+)
+# coordinate layout of build_model (checked in Closure): q = (theta1, S1, quat(4), S4), v = (theta1, S1, w(3),
+# S4)
 Q_S4, V_S4 = 6, 5
 
 
@@ -63,14 +73,14 @@ def _min_norm_step(jc: np.ndarray, r: tuple[float, float, float], mu: float) -> 
     The 3x3 solve is written out (adjugate of the symmetric ``G = J J^T + mu I``)
     because the per-call overhead of ``numpy.linalg.solve`` dominates a 3x3 problem.
     """
-    (_, _, a, b, c, d), (_, _, e, f, g, h), (_, _, i, j, k, l) = jc.tolist()
+    (_, _, a, b, c, d), (_, _, e, f, g, h), (_, _, i, j, k, m) = jc.tolist()
     r0, r1, r2 = r
     s00 = a * a + b * b + c * c + d * d + mu
     s01 = a * e + b * f + c * g + d * h
-    s02 = a * i + b * j + c * k + d * l
+    s02 = a * i + b * j + c * k + d * m
     s11 = e * e + f * f + g * g + h * h + mu
-    s12 = e * i + f * j + g * k + h * l
-    s22 = i * i + j * j + k * k + l * l + mu
+    s12 = e * i + f * j + g * k + h * m
+    s22 = i * i + j * j + k * k + m * m + mu
     c00 = s11 * s22 - s12 * s12
     c01 = s02 * s12 - s01 * s22
     c02 = s01 * s12 - s02 * s11
@@ -83,7 +93,12 @@ def _min_norm_step(jc: np.ndarray, r: tuple[float, float, float], mu: float) -> 
     y0 = (c00 * r0 + c01 * r1 + c02 * r2) / det
     y1 = (c01 * r0 + c11 * r1 + c12 * r2) / det
     y2 = (c02 * r0 + c12 * r1 + c22 * r2) / det
-    return [a * y0 + e * y1 + i * y2, b * y0 + f * y1 + j * y2, c * y0 + g * y1 + k * y2, d * y0 + h * y1 + l * y2]
+    return [
+        a * y0 + e * y1 + i * y2,
+        b * y0 + f * y1 + j * y2,
+        c * y0 + g * y1 + k * y2,
+        d * y0 + h * y1 + m * y2,
+    ]
 
 
 class Closure:
@@ -182,7 +197,8 @@ class Closure:
         model, data, pm = self.model, self.data, self.pm
         AB = self.AB
         AB[:3] = jc
-        AB[3] = pin.getJointJacobian(model, data, pm.rod_joint, _LOCAL)[3]  # rod angular velocity along its x = u
+        # rod angular velocity along its x = u
+        AB[3] = pin.getJointJacobian(model, data, pm.rod_joint, _LOCAL)[3]
         along = float(data.oMi[pm.rod_joint].rotation[:, 0] @ pm.k4)  # u·k4, u = the rod frame's x axis
         self.condition = abs(along)
         return OK if along < 0.0 else BRANCH
@@ -193,7 +209,8 @@ class Closure:
         return -x if info == 0 else np.full((4, 2), np.nan)
 
     def crude_guess(self, theta: float, s1: float, side: float = 1.0) -> np.ndarray:
-        """A rough assembly: ``S4`` a rod length beyond the foot of the perpendicular from ``P2``, rod aimed there.
+        """A rough assembly: ``S4`` a rod length beyond the foot of the perpendicular from ``P2``, rod aimed
+        there.
 
         Uses Pinocchio's placement of the crank pin.  With ``side = +1`` the guess is on
         the conventions' branch side (``(P3 - P2)·k4 = -a2 < 0``), at a distance
@@ -211,7 +228,9 @@ class Closure:
         q[pm.q_slider] = s4
         return q
 
-    def step(self, q: np.ndarray, tangent: np.ndarray, crank_to: np.ndarray) -> tuple[np.ndarray, int, int, float]:
+    def step(
+        self, q: np.ndarray, tangent: np.ndarray, crank_to: np.ndarray
+    ) -> tuple[np.ndarray, int, int, float]:
         """Predict along ``tangent`` from converged ``q`` to crank coordinates ``crank_to``, then Newton."""
         delta = crank_to - q[:2]
         dv = self.dv

@@ -32,7 +32,13 @@ def rates_and_rnea(closure: Closure, case: Case, pos: dict[str, np.ndarray], sta
     about O) and the placements p2, p3, u, crank_origin (m, 3).
     """
     model, data, pm = closure.model, closure.data, closure.pm
-    fe, fp, rod, crank, slider = pm.rod_end_frame, pm.slider_pin_frame, pm.rod_joint, pm.crank_joint, pm.slider_joint
+    fe, fp, rod, crank, slider = (
+        pm.rod_end_frame,
+        pm.slider_pin_frame,
+        pm.rod_joint,
+        pm.crank_joint,
+        pm.slider_joint,
+    )
     oMi, forces, spatial_acc = data.oMi, data.f, data.a
     classical = pin.getFrameClassicalAcceleration
     m, nv = rows.size, model.nv
@@ -114,7 +120,8 @@ def closed_loop_inverse_dynamics(case: Case, pm: PinocchioSliderCrank, tau0: np.
     E[unknown, np.arange(len(unknown))] = 1.0
     w = np.ones(nv)
     w[[pm.v_crank.start, *range(pm.v_rod.start, pm.v_rod.stop)]] = 1.0 / pm.a2  # angular rows: F·L -> F
-    lhs = np.concatenate([np.broadcast_to(E, (m, *E.shape)), np.swapaxes(jc, 1, 2)], axis=2) * w[:, None]  # (m, 6, 5)
+    # (m, 6, 5)
+    lhs = np.concatenate([np.broadcast_to(E, (m, *E.shape)), np.swapaxes(jc, 1, 2)], axis=2) * w[:, None]
     rhs = (tau0 - tau_known) * w
     x = _least_squares(lhs, rhs)
     ls_res = np.linalg.norm(np.einsum("nij,nj->ni", lhs, x) - rhs, axis=1) / np.maximum(

@@ -30,7 +30,8 @@ Method, per crank position (``docs/conventions.md`` for every symbol):
    .. math::
        \\begin{bmatrix} J_c \\\\ s^T \\end{bmatrix} \\dot q = 0, \\qquad
        \\begin{bmatrix} J_c \\\\ s^T \\end{bmatrix} \\ddot q
-         + \\begin{bmatrix} a^{cl}_{end} - a^{cl}_{pin} \\\\ \\dot\\omega_{rod,x} \\end{bmatrix}_{\\ddot q_{free}=0} = 0,
+         + \\begin{bmatrix} a^{cl}_{end} - a^{cl}_{pin} \\\\ \\dot\\omega_{rod,x} \\end{bmatrix}_{\\ddot
+         q_{free}=0} = 0,
 
    solved for the free rates with the crank rates prescribed; the drift is the
    *classical* acceleration of the two points (``getFrameClassicalAcceleration``)
@@ -301,7 +302,8 @@ def to_table(case: Case, sol: PinocchioSolution, meta: dict | None = None) -> Re
         "j1_fx": w1[:, 0], "j1_fy": w1[:, 1], "j1_fz": w1[:, 2],
         "j1_mx": w1[:, 3], "j1_my": w1[:, 4], "j1_mz": w1[:, 5],
         "j2_fx": w2[:, 0], "j2_fy": w2[:, 1], "j2_fz": w2[:, 2],
-        "j3_fx": -sol.closure_force[:, 0], "j3_fy": -sol.closure_force[:, 1], "j3_fz": -sol.closure_force[:, 2],
+        "j3_fx": -sol.closure_force[:, 0], "j3_fy": -sol.closure_force[:, 1],
+        "j3_fz": -sol.closure_force[:, 2],
         "j4_fx": w4[:, 0], "j4_fy": w4[:, 1], "j4_fz": w4[:, 2],
         "j4_mx": j4_moment_p3[:, 0], "j4_my": j4_moment_p3[:, 1], "j4_mz": j4_moment_p3[:, 2],
         "slider_load": w4[:, :3] @ slider_axis(case)[0],
@@ -323,10 +325,13 @@ def to_table(case: Case, sol: PinocchioSolution, meta: dict | None = None) -> Re
         if code == NO_ASSEMBLY:
             gap = np.max(sol.residual[at]) / case.geometry.rod_length
             messages[-1] += f" (the rod misses the slider line by up to {gap:.3g} a2)"
-    info = {"pinocchio_version": pin.__version__, "messages": messages,
-            "newton_iterations_max": int(sol.iterations[status == OK].max(initial=0)),
-            "newton_iterations_mean": float(sol.iterations[status == OK].mean()) if np.any(status == OK) else 0.0,
-            "ls_residual_max": float(np.nanmax(sol.ls_residual, initial=0.0))}
+    info = {
+        "pinocchio_version": pin.__version__,
+        "messages": messages,
+        "newton_iterations_max": int(sol.iterations[status == OK].max(initial=0)),
+        "newton_iterations_mean": float(sol.iterations[status == OK].mean()) if np.any(status == OK) else 0.0,
+        "ls_residual_max": float(np.nanmax(sol.ls_residual, initial=0.0)),
+    }
     info.update(meta or {})
     return ResultTable(ENGINE, case.name, cols, words, info)
 

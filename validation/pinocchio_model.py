@@ -1,9 +1,11 @@
-"""The generalized slider crank as a Pinocchio model, built in code from a :class:`~dualmech.models.case.Case`.
+"""The generalized slider crank as a Pinocchio model, built in code from a
+:class:`~dualmech.models.case.Case`.
 
 Pinocchio is imported only under ``validation/``.  The tree is cut at joint 3
 (the rod–slider ball joint), which becomes a loop-closure constraint::
 
-    universe ──[joint 1: RZ∘PZ composite, q = (theta1, S1)]──> crank   (frame: origin (0,0,S1), axes Rz(theta1))
+    universe ──[joint 1: RZ∘PZ composite, q = (theta1, S1)]──> crank   (frame: origin (0,0,S1), axes
+    Rz(theta1))
         │                                                        │
         │                              [joint 2: spherical, at (a1,0,0) of the crank frame]
         │                                                        ▼
@@ -94,7 +96,8 @@ def slider_axis(case: Case) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _inertia(body) -> pin.Inertia:
-    """``case.bodies.*`` (mass, com in the body frame, inertia about the com in body axes) as a pin.Inertia."""
+    """``case.bodies.*`` (mass, com in the body frame, inertia about the com in body axes) as a
+    pin.Inertia."""
     return pin.Inertia(float(body.mass), np.asarray(body.com, float), np.asarray(body.inertia, float))
 
 

@@ -21,7 +21,8 @@ from typing import Any
 
 #: Distributions whose versions a run records (engines and the libraries the report uses).
 LIBRARIES: tuple[str, ...] = (
-    "dualmech", "numpy", "scipy", "pin", "mujoco", "matplotlib", "jinja2", "rich", "click", "dask", "distributed",
+    "dualmech", "numpy", "scipy", "pin", "mujoco", "matplotlib", "jinja2", "rich", "click", "dask",
+    "distributed",
 )
 #: The versions every result names (the issue's minimum: the suite and the judges' libraries).
 KEY_LIBRARIES: tuple[str, ...] = ("dualmech", "pin", "mujoco", "numpy")
@@ -73,7 +74,8 @@ def _source_root() -> Path:
 
 @functools.lru_cache(maxsize=1)
 def code_fingerprint() -> str:
-    """SHA-256 (16 hex digits) of every ``.py`` and ``.toml`` file of the dualmech packages, path and content."""
+    """SHA-256 (16 hex digits) of every ``.py`` and ``.toml`` file of the dualmech packages, path and
+    content."""
     root = _source_root()
     digest = hashlib.sha256()
     for package in SOURCE_PACKAGES:

@@ -46,10 +46,12 @@ def is_dualmech_folder(path: Path) -> bool:
 
 
 def check_output_folder(path: str | Path) -> Path:
-    """``path`` as a :class:`Path` if dualmech may write there (module docstring), else :class:`RunDirError`."""
+    """``path`` as a :class:`Path` if dualmech may write there (module docstring), else
+    :class:`RunDirError`."""
     path = Path(path)
     if path.exists() and not path.is_dir():
-        raise RunDirError(f"output folder: {path} is a file; expected a folder (new, empty, or a dualmech run)")
+        raise RunDirError(f"output folder: {path} is a file; expected a folder (new, empty, or a dualmech "
+                          "run)")
     if path.is_dir() and any(p.name != LOCK_FILE for p in path.iterdir()) and not is_dualmech_folder(path):
         raise RunDirError(f"output folder: {path} is not empty and not a dualmech run; "
                           "choose a new or empty folder with -o")
@@ -58,7 +60,8 @@ def check_output_folder(path: str | Path) -> Path:
 
 @contextlib.contextmanager
 def locked(path: str | Path) -> Iterator[Path]:
-    """Hold the folder's lock for the ``with`` block (created if needed); refuse if another process holds it."""
+    """Hold the folder's lock for the ``with`` block (created if needed); refuse if another process holds
+    it."""
     import fcntl
 
     path = check_output_folder(path)

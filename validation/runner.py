@@ -41,7 +41,13 @@ from dualmech.models.case import case_from_dict
 from dualmech.validation.engines import ENGINES
 from dualmech.validation.executors import check_address, execute
 from dualmech.validation.matrix import Matrix, matrix_from_dict
-from dualmech.validation.provenance import KEY_LIBRARIES, case_fingerprint, machine, result_fingerprint, versions
+from dualmech.validation.provenance import (
+    KEY_LIBRARIES,
+    case_fingerprint,
+    machine,
+    result_fingerprint,
+    versions,
+)
 from dualmech.validation.rundir import locked, record_files
 
 CASES_DIR = "cases"
@@ -164,7 +170,9 @@ def load_entries(outdir: Path, matrix: Matrix) -> dict[str, dict[str, dict]]:
 
 def load_results(outdir: Path, matrix: Matrix) -> dict[str, dict[str, ResultTable | str]]:
     """Every stored result of ``matrix`` in ``outdir``: case id -> engine -> table or error text."""
-    return {cid: {e: entry_result(v) for e, v in per.items()} for cid, per in load_entries(outdir, matrix).items()}
+    return {
+        cid: {e: entry_result(v) for e, v in per.items()} for cid, per in load_entries(outdir, matrix).items()
+    }
 
 
 def timings(entries: dict[str, dict[str, dict]]) -> dict[str, dict[str, float]]:
@@ -179,7 +187,8 @@ def load_run(outdir: Path) -> tuple[Matrix, dict]:
         with path.open() as fh:
             run = json.load(fh)
     except OSError:
-        raise ValueError(f"run directory: {outdir} has no {RUN_FILE} (run `dualmech validate -o {outdir}` first)") from None
+        raise ValueError(f"run directory: {outdir} has no {RUN_FILE} (run `dualmech validate -o {outdir}` "
+                         "first)") from None
     except ValueError as err:
         raise ValueError(f"run directory: {path} is not valid JSON ({err})") from None
     return matrix_from_dict(run["matrix"]), run
@@ -325,10 +334,16 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
         if entry.get("error"):
             _log_failure(outdir, entry)
         path = case_file(outdir, cid)
-        write_json_atomic(path, {
-            "format": CASE_FORMAT, "id": cid, "fingerprint": case_fingerprint(raws[cid]),
-            "raw": raws[cid], "engines": {k: done_entries[cid][k] for k in matrix.engines if k in done_entries[cid]},
-        })
+        write_json_atomic(
+            path,
+            {
+                "format": CASE_FORMAT,
+                "id": cid,
+                "fingerprint": case_fingerprint(raws[cid]),
+                "raw": raws[cid],
+                "engines": {k: done_entries[cid][k] for k in matrix.engines if k in done_entries[cid]},
+            },
+        )
         record_files(outdir, [path])
 
     leftovers: list[dict] = []
@@ -346,7 +361,11 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
     seconds = time.perf_counter() - start
     info.update(seconds=seconds, ran=len(calls), skipped=sum(len(v) for v in kept.values()))
     write_json_atomic(outdir / RUN_FILE, info)
-    results = {cid: {e: entry_result(v) for e, v in entries.items()} for cid, entries in done_entries.items() if entries}
+    results = {
+        cid: {e: entry_result(v) for e, v in entries.items()}
+        for cid, entries in done_entries.items()
+        if entries
+    }
     return RunOutcome(results, len(calls), info["skipped"], seconds)
 
 

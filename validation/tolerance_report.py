@@ -15,7 +15,9 @@ from pathlib import Path
 import numpy as np
 
 from dualmech.models.tolerance.outputs import DesignStatus
-from dualmech.validation.report import Figure, environment as _environment, fig_to_png as _fig_to_png
+from dualmech.validation.report import Figure
+from dualmech.validation.report import environment as _environment
+from dualmech.validation.report import fig_to_png as _fig_to_png
 
 TEMPLATES = Path(__file__).parent / "templates"
 #: Histogram bins (at most; fewer for small studies).

@@ -15,7 +15,6 @@ from dualmech.core.thresholds import (  # noqa: F401  (re-exported: matrix files
     Tolerance,
 )
 
-
 # ----------------------------------------------------------------------------- validation matrix
 # Judge vs in-house, per crank position (validation/compare.py):
 #   |judge - dualmech| <= value * scale * c,
@@ -23,86 +22,147 @@ from dualmech.core.thresholds import (  # noqa: F401  (re-exported: matrix files
 # (lengths, S4_dot, S4_ddot, transmission, forces, moments), and c = 1/|transmission| for reactions
 # in drive-torque mode (their condition factor, docs/conventions.md "Dead centres"), else 1.
 #: Kinematics (S1, S4, S4_dot, S4_ddot, transmission) and the stroke of the rigid-body judges.
-MATRIX_KINEMATICS = Tolerance(1e-9, "closure solved to ~1e-13 of a2 by every rigid engine; rates differ by differentiation path, 1e-9 leaves 1e3 headroom")
+MATRIX_KINEMATICS = Tolerance(1e-9, "closure solved to ~1e-13 of a2 by every rigid engine; rates differ by "
+                                    "differentiation path, 1e-9 leaves 1e3 headroom")
 #: Joint reactions of the rigid-body judges (Pinocchio, MuJoCo inverse dynamics).
-MATRIX_REACTIONS = Tolerance(1e-8, "reactions are linear solves on the kinematics; 1e-8 of the case's force/moment scale allows their ~1e-10 round-off times conditioning")
+MATRIX_REACTIONS = Tolerance(1e-8, "reactions are linear solves on the kinematics; 1e-8 of the case's "
+                                   "force/moment scale allows their ~1e-10 round-off times conditioning")
 #: Kinematics of the MuJoCo simulation (integrated, soft-constrained motion).
-MATRIX_SIM_KINEMATICS = Tolerance(1e-3, "the simulation integrates the motion and holds the loop by soft constraints; 1e-3 of a2 is its drift budget")
+MATRIX_SIM_KINEMATICS = Tolerance(1e-3, "the simulation integrates the motion and holds the loop by soft "
+                                        "constraints; 1e-3 of a2 is its drift budget")
 #: Regression gate (validation/baseline.py): a judge's worst relative difference may grow by this factor.
-BASELINE_AGREEMENT_FACTOR = Tolerance(10.0, "differences near round-off move with BLAS, compiler and library versions; an order of magnitude absorbs that")
+BASELINE_AGREEMENT_FACTOR = Tolerance(10.0, "differences near round-off move with BLAS, compiler and library "
+                                            "versions; an order of magnitude absorbs that")
 #: Regression gate: relative differences below this never count as a regression.
-BASELINE_AGREEMENT_FLOOR = Tolerance(1e-12, "below 1e-12 a difference is round-off of the case's scale, whatever the baseline says")
+BASELINE_AGREEMENT_FLOOR = Tolerance(1e-12, "below 1e-12 a difference is round-off of the case's scale, "
+                                            "whatever the baseline says")
 #: Regression gate: the in-house stroke and quantity scales may move by this much (relative).
-BASELINE_VALUE_RTOL = Tolerance(1e-9, "the in-house answers are deterministic to round-off; a 1e-9 change means the model or solver changed")
+BASELINE_VALUE_RTOL = Tolerance(1e-9, "the in-house answers are deterministic to round-off; a 1e-9 change "
+                                      "means the model or solver changed")
 
-#: Status agreement (validation/compare.py): a rigid judge may say ``dead_centre`` where the reference says ``ok``
-#: (or the reverse) only where the reference's |transmission| is below this band.
-DEAD_CENTRE_STATUS_BAND = Tolerance(1e-8, "rigid engines flag |t| < 1e-9 (DEAD_CENTRE_TRANSMISSION) of their own t, which agree to ~1e-12; 10x the flag is a generous margin")
-#: Status agreement: ``ok`` against ``assembly_limit`` only where the reference's closure_condition is this close
-#: to the flag ASSEMBLY_LIMIT_CONDITION (each engine flags from its own pose).
-ASSEMBLY_LIMIT_STATUS_BAND = Tolerance(1e-8, "rigid engines' closure_condition agree to ~1e-12 (their poses agree to ~1e-13 of a2); 1e-8 is a generous margin around the flag")
+#: Status agreement (validation/compare.py): a rigid judge may say ``dead_centre`` where the reference says
+#: ``ok`` (or the reverse) only where the reference's |transmission| is below this band.
+DEAD_CENTRE_STATUS_BAND = Tolerance(1e-8, "rigid engines flag |t| < 1e-9 (DEAD_CENTRE_TRANSMISSION) of their "
+                                          "own t, which agree to ~1e-12; 10x the flag is a generous margin")
+#: Status agreement: ``ok`` against ``assembly_limit`` only where the reference's closure_condition is this
+#: close to the flag ASSEMBLY_LIMIT_CONDITION (each engine flags from its own pose).
+ASSEMBLY_LIMIT_STATUS_BAND = Tolerance(1e-8, "rigid engines' closure_condition agree to ~1e-12 (their poses "
+                                             "agree to ~1e-13 of a2); 1e-8 is a generous margin around the "
+                                             "flag")
 #: Pose (S1, S4) of rows at the assembly limit, judge vs reference, relative to the case's length scale.
-ASSEMBLY_LIMIT_POSE = Tolerance(1e-6, "S4 carries the closure error / closure_condition (-> its square root at the exact edge); rigid engines measured up to 1.6e-7 of a2 apart at the exact edge")
+ASSEMBLY_LIMIT_POSE = Tolerance(1e-6, "S4 carries the closure error / closure_condition (-> its square root "
+                                      "at the exact edge); rigid engines measured up to 1.6e-7 of a2 apart "
+                                      "at the exact edge")
 #: Status agreement for the MuJoCo simulation's assembly-limit flag.
-SIM_ASSEMBLY_LIMIT_STATUS_BAND = Tolerance(1e-4, "the simulated pose differs from the rigid one by <= 1e-5 of a2 (SIM_STROKE), and so does its closure_condition; 10x that")
+SIM_ASSEMBLY_LIMIT_STATUS_BAND = Tolerance(1e-4, "the simulated pose differs from the rigid one by <= 1e-5 "
+                                                 "of a2 (SIM_STROKE), and so does its closure_condition; 10x "
+                                                 "that")
 #: Status agreement for the MuJoCo simulation, which flags dead centres in a wider band.
-SIM_DEAD_CENTRE_STATUS_BAND = Tolerance(2e-3, "the simulation flags |t| < 1e-3 (SIM_DEAD_CENTRE_TRANSMISSION) of its own t, which differs from the reference's by <= 1e-5 near dead centres; 2x the flag")
+SIM_DEAD_CENTRE_STATUS_BAND = Tolerance(2e-3, "the simulation flags |t| < 1e-3 "
+                                              "(SIM_DEAD_CENTRE_TRANSMISSION) of its own t, which differs "
+                                              "from the reference's by <= 1e-5 near dead centres; 2x the "
+                                              "flag")
 
 # ----------------------------------------------------------------------------- MuJoCo judge (issue 5)
 # Relative differences as in the validation matrix above (unit-group scale s_g, condition factor c_i).
 #: Rigid MuJoCo path vs in-house: S1, S4, S4_dot, S4_ddot, transmission.
-MUJOCO_RIGID_KINEMATICS = Tolerance(1e-10, "both close the loop to ~1e-15 a2 and solve the same linear rate equations; measured <= 2e-14, 1e-11 within a few degrees of the edge of assembly")
+MUJOCO_RIGID_KINEMATICS = Tolerance(1e-10, "both close the loop to ~1e-15 a2 and solve the same linear rate "
+                                           "equations; measured <= 2e-14, 1e-11 within a few degrees of the "
+                                           "edge of assembly")
 #: Rigid MuJoCo path vs in-house: joint reactions, slider load, drive torque.
-MUJOCO_RIGID_REACTIONS = Tolerance(1e-9, "a least-squares solve on MuJoCo's RNE vs the in-house Newton-Euler solve; measured <= 2e-12 (bundled), 3e-11 near the edge of assembly")
-#: MuJoCo simulation vs in-house, at the documented step (128 per degree): the stroke, S1 and S4, relative to the length scale.
-SIM_STROKE = Tolerance(1e-5, "servo lag tau/kp ~ dt^2 and the connect's gap ~ dt^2; measured <= 2e-7 (stroke) and 3.3e-6 (S4 per row, 500 lbf slider load) on the bundled cases")
-#: MuJoCo simulation vs in-house: S4_dot error as a multiple of the semi-implicit Euler lag dt/2 * max|S4_ddot|.
-SIM_VELOCITY = Tolerance(2.0, "the velocity error is -dt/2 * S4_ddot (measured to 0.5 %); a factor 2 covers the O(dt^2) remainder")
-#: MuJoCo simulation vs in-house: S4_ddot, reactions, slider load, drive torque (condition-scaled in torque mode).
-SIM_REACTIONS = Tolerance(1e-3, "O(dt) velocity lag and O(dt^2) pose error enter the forces; measured <= 3e-5 of the case peak on the bundled cases")
-#: MuJoCo simulation, drive-torque mode: rows closer to a dead centre are flagged dead_centre (a wider band than DEAD_CENTRE_TRANSMISSION).
-SIM_DEAD_CENTRE_TRANSMISSION = Tolerance(1e-3, "the slider load ~ 1/t strains the soft loop and servos: condition-scaled error ~ 1e-8/|t| measured, 1e-5 at |t| = 1e-3")
+MUJOCO_RIGID_REACTIONS = Tolerance(1e-9, "a least-squares solve on MuJoCo's RNE vs the in-house Newton-Euler "
+                                         "solve; measured <= 2e-12 (bundled), 3e-11 near the edge of "
+                                         "assembly")
+#: MuJoCo simulation vs in-house, at the documented step (128 per degree): the stroke, S1 and S4, relative to
+#: the length scale.
+SIM_STROKE = Tolerance(1e-5, "servo lag tau/kp ~ dt^2 and the connect's gap ~ dt^2; measured <= 2e-7 "
+                             "(stroke) and 3.3e-6 (S4 per row, 500 lbf slider load) on the bundled cases")
+#: MuJoCo simulation vs in-house: S4_dot error as a multiple of the semi-implicit Euler lag dt/2 *
+#: max|S4_ddot|.
+SIM_VELOCITY = Tolerance(2.0, "the velocity error is -dt/2 * S4_ddot (measured to 0.5 %); a factor 2 covers "
+                              "the O(dt^2) remainder")
+#: MuJoCo simulation vs in-house: S4_ddot, reactions, slider load, drive torque (condition-scaled in torque
+#: mode).
+SIM_REACTIONS = Tolerance(1e-3, "O(dt) velocity lag and O(dt^2) pose error enter the forces; measured <= "
+                                "3e-5 of the case peak on the bundled cases")
+#: MuJoCo simulation, drive-torque mode: rows closer to a dead centre are flagged dead_centre (a wider band
+#: than DEAD_CENTRE_TRANSMISSION).
+SIM_DEAD_CENTRE_TRANSMISSION = Tolerance(1e-3, "the slider load ~ 1/t strains the soft loop and servos: "
+                                               "condition-scaled error ~ 1e-8/|t| measured, 1e-5 at |t| = "
+                                               "1e-3")
 
 # ----------------------------------------------------------------------------- Pinocchio judge (issue 4)
 # Relative differences as in the validation matrix above: kinematics against the case's largest |value|
 # of the column; reactions against the case's largest force (moment) divided by the condition factor
 # c_i = 1/|transmission| in drive-torque mode (else 1), the tolerance multiplied by c_i row by row.
 #: Pinocchio vs in-house: S4, S4_dot, S4_ddot (and transmission).
-PINOCCHIO_KINEMATICS = Tolerance(1e-10, "both close the loop to ~1e-14 of the length scale and solve the same linear rate equations; measured <= 5e-13 (test cases), <= 1.4e-11 over 150 random cases with near-edge rows")
-#: Pinocchio vs in-house: every reaction component, slider load and drive torque (condition-scaled in torque mode).
-PINOCCHIO_REACTIONS = Tolerance(1e-9, "one least-squares solve on Pinocchio's RNEA vs the in-house Newton-Euler solve; measured <= 1.6e-12 (test cases), <= 1.4e-11 over 150 random cases, of the case peak x condition factor")
-#: Pinocchio vs the closed-form oracle: S4 relative to a2, S4_dot and S4_ddot relative to the case's peak, each times
-#: the edge-of-assembly condition a2/sqrt(a2^2 - dist(P2, slider line)^2) = 1/|u·k4| (the closure residual's gain on S4).
-PINOCCHIO_VS_CLOSED_FORM = Tolerance(1e-11, "closure stops at |r| <= 1e-14 of the length scale; measured <= 4e-14 (S4), 1e-12 (S4_dot), 3.1e-12 (S4_ddot) x condition over 300 random cases with near-edge rows")
+PINOCCHIO_KINEMATICS = Tolerance(1e-10, "both close the loop to ~1e-14 of the length scale and solve the "
+                                        "same linear rate equations; measured <= 5e-13 (test cases), <= "
+                                        "1.4e-11 over 150 random cases with near-edge rows")
+#: Pinocchio vs in-house: every reaction component, slider load and drive torque (condition-scaled in torque
+#: mode).
+PINOCCHIO_REACTIONS = Tolerance(1e-9, "one least-squares solve on Pinocchio's RNEA vs the in-house "
+                                      "Newton-Euler solve; measured <= 1.6e-12 (test cases), <= 1.4e-11 over "
+                                      "150 random cases, of the case peak x condition factor")
+#: Pinocchio vs the closed-form oracle: S4 relative to a2, S4_dot and S4_ddot relative to the case's peak,
+#: each times the edge-of-assembly condition a2/sqrt(a2^2 - dist(P2, slider line)^2) = 1/|u·k4| (the closure
+#: residual's gain on S4).
+PINOCCHIO_VS_CLOSED_FORM = Tolerance(1e-11, "closure stops at |r| <= 1e-14 of the length scale; measured <= "
+                                            "4e-14 (S4), 1e-12 (S4_dot), 3.1e-12 (S4_ddot) x condition over "
+                                            "300 random cases with near-edge rows")
 #: Pinocchio's reactions against per-body Newton-Euler and power balance with oracle kinematics.
-PINOCCHIO_BALANCE = Tolerance(1e-11, "identities hold to round-off of the case's force/moment scale x condition factor; measured <= 6e-14 (balances), <= 1.4e-14 (the given load), on every OpenBLAS code path")
+PINOCCHIO_BALANCE = Tolerance(1e-11, "identities hold to round-off of the case's force/moment scale x "
+                                     "condition factor; measured <= 6e-14 (balances), <= 1.4e-14 (the given "
+                                     "load), on every OpenBLAS code path")
 #: Pinocchio's forward constraintDynamics driven by the efforts found must reproduce the accelerations.
-PINOCCHIO_FORWARD_DYNAMICS = Tolerance(1e-10, "the same model's KKT forward solve, exact up to round-off amplified by the closure conditioning; measured <= 7e-14 of max|qddot|")
-#: Joint wrenches by superposition vs rnea with the closure force as an external force (same math, other order).
-PINOCCHIO_SUPERPOSITION = Tolerance(1e-12, "two evaluation orders of the same linear recursion; round-off only")
+PINOCCHIO_FORWARD_DYNAMICS = Tolerance(1e-10, "the same model's KKT forward solve, exact up to round-off "
+                                              "amplified by the closure conditioning; measured <= 7e-14 of "
+                                              "max|qddot|")
+#: Joint wrenches by superposition vs rnea with the closure force as an external force (same math, other
+#: order).
+PINOCCHIO_SUPERPOSITION = Tolerance(1e-12, "two evaluation orders of the same linear recursion; round-off "
+                                           "only")
 
-# ----------------------------------------------------------------------------- dynamics and balancing (issue 7)
+# --------------------------------------------------------------------------- dynamics and balancing (issue 7)
 #: Sinatra-Angeles eq. (40) (planar, closed form) vs 2T/psidot^2 of the in-house velocity analysis.
-DYN_PLANAR_INERTIA = Tolerance(1e-12, "closed-form influence coefficients vs the in-house screw rates on the same closed loop; measured <= 7e-16 of max I")
-#: In-house generalized inertia (and gravity force) vs MuJoCo's mass matrix projected on the constraint null space.
-DYN_MUJOCO_INERTIA = Tolerance(1e-11, "two rigid-body algorithms on the same mass data, configuration from the closed-form oracle; measured <= 3e-15")
+DYN_PLANAR_INERTIA = Tolerance(1e-12, "closed-form influence coefficients vs the in-house screw rates on the "
+                                      "same closed loop; measured <= 7e-16 of max I")
+#: In-house generalized inertia (and gravity force) vs MuJoCo's mass matrix projected on the constraint null
+#: space.
+DYN_MUJOCO_INERTIA = Tolerance(1e-11, "two rigid-body algorithms on the same mass data, configuration from "
+                                      "the closed-form oracle; measured <= 3e-15")
 #: In-house dI/dpsi vs a central difference (h = 1e-5 rad) of MuJoCo's projected inertia.
-DYN_MUJOCO_INERTIA_DERIVATIVE = Tolerance(1e-8, "central-difference truncation h^2 I'''/6 ~ 1e-10 and round-off eps*I/h ~ 1e-11 of max I")
+DYN_MUJOCO_INERTIA_DERIVATIVE = Tolerance(1e-8, "central-difference truncation h^2 I'''/6 ~ 1e-10 and "
+                                                "round-off eps*I/h ~ 1e-11 of max I")
 #: Free motion: (T + V) drift over 10 revolutions, relative to the initial kinetic energy.
-DYN_ENERGY_CONSERVATION = Tolerance(1e-8, "DOP853 at rtol = atol = 1e-12 with ODE coefficients interpolated to ~1e-13; measured <= 6e-11")
+DYN_ENERGY_CONSERVATION = Tolerance(1e-8, "DOP853 at rtol = atol = 1e-12 with ODE coefficients interpolated "
+                                          "to ~1e-13; measured <= 6e-11")
 #: Work-energy balance Delta(T+V) - (W_drive + W_slider - D), relative to the largest energy of the run.
-DYN_WORK_ENERGY = Tolerance(1e-9, "work integrated with the ODE, energies recomputed by the in-house solver; measured <= 4e-12")
+DYN_WORK_ENERGY = Tolerance(1e-9, "work integrated with the ODE, energies recomputed by the in-house solver; "
+                                  "measured <= 4e-12")
 #: In-house inverse dynamics along the simulated trajectory reproduces the applied torque and slider load.
-DYN_INVERSE_CONSISTENCY = Tolerance(1e-9, "psi_ddot from the interpolated ODE (~1e-13) into the in-house Newton-Euler solve; measured <= 3e-12 of the torque scale")
+DYN_INVERSE_CONSISTENCY = Tolerance(1e-9, "psi_ddot from the interpolated ODE (~1e-13) into the in-house "
+                                          "Newton-Euler solve; measured <= 3e-12 of the torque scale")
 #: Run-up vs a MuJoCo forward simulation (RK4, dt = 1e-4 s): psi and S4 relative to their range over the run.
-DYN_MUJOCO_RUNUP = Tolerance(1e-6, "MuJoCo's soft connect (time constant 2 dt, impedance 0.9999) errs ~ dt^2 v^2; measured <= 1.2e-8 at dt = 1e-4 s up to 27 rad/s (3e-9 at 5e-5 s); the issue asks 1e-4")
+DYN_MUJOCO_RUNUP = Tolerance(1e-6, "MuJoCo's soft connect (time constant 2 dt, impedance 0.9999) errs ~ dt^2 "
+                                   "v^2; measured <= 1.2e-8 at dt = 1e-4 s up to 27 rad/s (3e-9 at 5e-5 s); "
+                                   "the issue asks 1e-4")
 #: Force-balanced design: shaking force relative to the unbalanced design's peak.
-BALANCE_SHAKING_FORCE = Tolerance(1e-9, "the mass centre is stationary exactly; what is left is round-off of the joint forces (~1e-16 of the peak measured)")
+BALANCE_SHAKING_FORCE = Tolerance(1e-9, "the mass centre is stationary exactly; what is left is round-off of "
+                                        "the joint forces (~1e-16 of the peak measured)")
 
-# ----------------------------------------------------------------------------- the exported MuJoCo model (issue 14)
-#: `dualmech mjcf`: loop gap |rod_end - slider_pin| / a2 of the default pose and keyframe (closed by MuJoCo's Newton).
-MJCF_EXPORT_ASSEMBLED = Tolerance(1e-9, "the issue's bound; the rigid path's Newton closes to 1e-15 of a2, the pose written with repr(): measured <= 1.8e-16 (presets, SI design)")
+# ----------------------------------------------------------------------- the exported MuJoCo model (issue 14)
+#: `dualmech mjcf`: loop gap |rod_end - slider_pin| / a2 of the default pose and keyframe (closed by MuJoCo's
+#: Newton).
+MJCF_EXPORT_ASSEMBLED = Tolerance(1e-9, "the issue's bound; the rigid path's Newton closes to 1e-15 of a2, "
+                                        "the pose written with repr(): measured <= 1.8e-16 (presets, SI "
+                                        "design)")
 #: `dualmech mjcf`: the time step is chosen so that the loop gap / a2 stays below this while the crank turns.
-MJCF_EXPORT_LOOP_GAP = Tolerance(1e-5, "SIM_STROKE, what the simulation judge may differ from the rigid pose; the soft connect opens ~16 dt^2 |Jdot qdot|, so dt is measured to keep half of it: 4.0e-6 to 4.2e-6 over a revolution (presets, SI design)")
+MJCF_EXPORT_LOOP_GAP = Tolerance(1e-5, "SIM_STROKE, what the simulation judge may differ from the rigid "
+                                       "pose; the soft connect opens ~16 dt^2 |Jdot qdot|, so dt is measured "
+                                       "to keep half of it: 4.0e-6 to 4.2e-6 over a revolution (presets, SI "
+                                       "design)")
 #: `dualmech mjcf`: |theta1_dot / case speed - 1| while the crank turns under the exported speed servo.
-MJCF_EXPORT_CRANK_SPEED = Tolerance(1e-4, "speed servo of time constant SPEED_SERVO_STEPS (1e-2) steps, lag ~ torque / kv ~ dt: measured 2.3e-6 to 6.2e-6 at the gap's dt (presets, SI design)")
+MJCF_EXPORT_CRANK_SPEED = Tolerance(1e-4, "speed servo of time constant SPEED_SERVO_STEPS (1e-2) steps, lag "
+                                          "~ torque / kv ~ dt: measured 2.3e-6 to 6.2e-6 at the gap's dt "
+                                          "(presets, SI design)")

@@ -10,14 +10,13 @@ value is given (an ``ok`` row with NaN or inf).  Per row, the judge's word must 
 the reference's, except where a stated rule (:data:`STATUS_RULES`) explains the
 difference: in drive-torque mode, ``ok`` against ``dead_centre`` where both engines'
 ``|transmission|`` lie between half the in-house flag and the judge's ``dead_centre_band``
-(never at an exact dead centre, where every engine owes the flag), and ``ok`` against ``assembly_limit`` where its
-``closure_condition`` is within the judge's ``assembly_limit_band`` of the flag
-``ASSEMBLY_LIMIT_CONDITION`` (``validation/tolerances.py``), since each engine sets
-these flags from its own values.  Rows the two engines agree not to assemble
-are agreement, counted in ``n_excluded``.  The reference gets a ``status`` check of
-its own: engine failures, or no assembled position at all (unless the matrix case
-declares ``expect = "no_assembly"``, in which case every engine must say so at every
-position, and nothing else is compared).
+(never at an exact dead centre, where every engine owes the flag), and ``ok`` against ``assembly_limit`` where
+its ``closure_condition`` is within the judge's ``assembly_limit_band`` of the flag
+``ASSEMBLY_LIMIT_CONDITION`` (``validation/tolerances.py``), since each engine sets these flags from its own
+values.  Rows the two engines agree not to assemble are agreement, counted in ``n_excluded``.  The reference
+gets a ``status`` check of its own: engine failures, or no assembled position at all (unless the matrix case
+declares ``expect = "no_assembly"``, in which case every engine must say so at every position, and nothing
+else is compared).
 
 **Then the numbers.**  For one case, the reference's table ``R`` and a judge's
 table ``J`` are compared row by row on the rows where both give the quantity:

@@ -51,7 +51,8 @@ def _angles(rows: np.ndarray, theta: np.ndarray, limit: int = 4) -> str:
     return shown + (f", ... ({idx.size} rows)" if idx.size > limit else "")
 
 
-_EXACT = ResolvedTolerance("exact", 0.0, "statuses must agree row by row, except where a stated band explains it")
+_EXACT = ResolvedTolerance("exact", 0.0, "statuses must agree row by row, except where a stated band "
+                                         "explains it")
 
 
 @dataclass(frozen=True)
@@ -75,9 +76,17 @@ class StatusRule:
 
 #: The only status differences the gate accepts, each at its engine-set threshold.
 STATUS_RULES: tuple[StatusRule, ...] = (
-    StatusRule(Status.DEAD_CENTRE, "transmission", 0.0, "dead_centre_band",
-               floor=0.5 * DEAD_CENTRE_TRANSMISSION.value, modes=("torque",)),
-    StatusRule(Status.ASSEMBLY_LIMIT, "closure_condition", ASSEMBLY_LIMIT_CONDITION.value, "assembly_limit_band"),
+    StatusRule(
+        Status.DEAD_CENTRE,
+        "transmission",
+        0.0,
+        "dead_centre_band",
+        floor=0.5 * DEAD_CENTRE_TRANSMISSION.value,
+        modes=("torque",),
+    ),
+    StatusRule(
+        Status.ASSEMBLY_LIMIT, "closure_condition", ASSEMBLY_LIMIT_CONDITION.value, "assembly_limit_band"
+    ),
 )
 
 
@@ -95,7 +104,8 @@ def _failure_notes(who: str, table: ResultTable, failed: np.ndarray, non_finite:
 
 def reference_check(case_id: str, reference: ResultTable, quantities: tuple[str, ...],
                     expect: str | None) -> Check:
-    """The reference engine's own ``status`` check: no engine failure, and assembled somewhere (or as expected)."""
+    """The reference engine's own ``status`` check: no engine failure, and assembled somewhere (or as
+    expected)."""
     failed, non_finite = engine_failures(reference, quantities)
     bad = failed | non_finite
     notes = _failure_notes("the reference", reference, failed, non_finite)
@@ -116,7 +126,8 @@ def reference_check(case_id: str, reference: ResultTable, quantities: tuple[str,
 
 
 def _in_band(values: np.ndarray, rule: StatusRule, band: ResolvedTolerance) -> np.ndarray:
-    """Rows, shape ``(n,)``, whose ``|values|`` lie within ``band`` of ``rule.at`` and at or above ``rule.floor``."""
+    """Rows, shape ``(n,)``, whose ``|values|`` lie within ``band`` of ``rule.at`` and at or above
+    ``rule.floor``."""
     size = np.abs(values)
     with np.errstate(invalid="ignore"):  # a value an engine does not give is never in the band
         return (np.abs(size - rule.at) <= band.value) & (size >= rule.floor)
@@ -172,7 +183,9 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
     theta = reference["theta1_deg"]
     rows = compared_rows(reference, judge, quantity)
     if quantity in POSE_COLUMNS and tol.value > 0:
-        limit = is_status(reference.status, Status.ASSEMBLY_LIMIT) | is_status(judge.status, Status.ASSEMBLY_LIMIT)
+        limit = is_status(reference.status, Status.ASSEMBLY_LIMIT) | is_status(
+            judge.status, Status.ASSEMBLY_LIMIT
+        )
         rel = np.where(limit, rel * tol.value / max(tol.value, ASSEMBLY_LIMIT_POSE.value), rel)
     infinite = rows & np.isinf(rel)
     finite = rows & np.isfinite(rel)
@@ -190,8 +203,21 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
     if n_dead:
         notes.append(f"{n_dead} assembled rows without it (dead centres, assembly limits) excluded")
     passed = bool(rows.any()) and not infinite.any() and max_rel <= tol.value
-    return Check(case_id, judge.engine, quantity, float(diff.max()) if diff.size else float("nan"), max_rel, worst,
-                 tol, scale, int(finite.sum()), n_dead, int(infinite.sum()), passed, "; ".join(notes))
+    return Check(
+        case_id,
+        judge.engine,
+        quantity,
+        float(diff.max()) if diff.size else float("nan"),
+        max_rel,
+        worst,
+        tol,
+        scale,
+        int(finite.sum()),
+        n_dead,
+        int(infinite.sum()),
+        passed,
+        "; ".join(notes),
+    )
 
 
 def stroke_check(case_id: str, mode: str, reference: ResultTable, judge: ResultTable,
@@ -201,8 +227,21 @@ def stroke_check(case_id: str, mode: str, reference: ResultTable, judge: ResultT
     length = unit_scales(reference, judge, mode, (STROKE_PROXY,))["length"]
     d = abs(judge_stroke - ref_stroke)
     ok = bool(np.isfinite(d) and d / length <= tol.value)
-    return Check(case_id, judge.engine, STROKE, d, d / length, float("nan"), tol, length, int(np.isfinite(d)), 0,
-                 int(not np.isfinite(d)), ok, "" if ok else f"stroke {judge_stroke:.12g} against {ref_stroke:.12g}")
+    return Check(
+        case_id,
+        judge.engine,
+        STROKE,
+        d,
+        d / length,
+        float("nan"),
+        tol,
+        length,
+        int(np.isfinite(d)),
+        0,
+        int(not np.isfinite(d)),
+        ok,
+        "" if ok else f"stroke {judge_stroke:.12g} against {ref_stroke:.12g}",
+    )
 
 
 def compare_case(
@@ -239,8 +278,10 @@ def compare_case(
         return checks
     rel = relative_differences(reference, judge, mode, quantities)
     scales = unit_scales(reference, judge, mode, quantities)
-    checks += [quantity_check(case_id, mode, reference, judge, q, rel[q], scales[UNIT_GROUP[q]], tolerances[q])
-               for q in quantities]
+    checks += [
+        quantity_check(case_id, mode, reference, judge, q, rel[q], scales[UNIT_GROUP[q]], tolerances[q])
+        for q in quantities
+    ]
     checks.append(stroke_check(case_id, mode, reference, judge, tolerances[STROKE]))
     return checks
 
@@ -269,7 +310,8 @@ def compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]
         dead[mc.id] = {e: int(np.sum(is_status(t.status, Status.DEAD_CENTRE))) for e, t in tables.items()}
         for e in matrix.engines:
             if e not in per_engine:
-                checks.append(_fail(mc.id, e, ENGINE, engine_tol, "not run (the run is unfinished)", incomplete=True))
+                checks.append(_fail(mc.id, e, ENGINE, engine_tol, "not run (the run is "
+                                                                  "unfinished)", incomplete=True))
             elif e in errors[mc.id]:
                 checks.append(_fail(mc.id, e, ENGINE, engine_tol, first_line(errors[mc.id][e])))
         ref = tables.get(matrix.reference)
@@ -281,8 +323,9 @@ def compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]
         checks.append(reference_check(mc.id, ref, matrix.quantities, mc.expect))
         for e in matrix.judges:
             if e in tables:
-                checks += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities, matrix.tolerances[e],
-                                       mc.expect)
+                checks += compare_case(
+                    mc.id, mc.mode, ref, tables[e], matrix.quantities, matrix.tolerances[e], mc.expect
+                )
     return Comparison(tuple(checks), strokes, dead, errors)
 
 

@@ -57,7 +57,9 @@ def compared_rows(reference: ResultTable, judge: ResultTable, quantity: str) -> 
     return rows_given(reference, quantity) & rows_given(judge, quantity)
 
 
-def unit_scales(reference: ResultTable, judge: ResultTable, mode: str, quantities: tuple[str, ...]) -> dict[str, float]:
+def unit_scales(
+    reference: ResultTable, judge: ResultTable, mode: str, quantities: tuple[str, ...]
+) -> dict[str, float]:
     """``s_g`` per unit group: the largest ``|R|/c`` over the compared rows of the group's quantities.
 
     A group whose reference values are all zero (or absent) gets scale 1, i.e. the
@@ -76,13 +78,16 @@ def unit_scales(reference: ResultTable, judge: ResultTable, mode: str, quantitie
 def relative_differences(
     reference: ResultTable, judge: ResultTable, mode: str, quantities: tuple[str, ...]
 ) -> dict[str, np.ndarray]:
-    """``r_i`` per quantity, each shape ``(n,)``; NaN on rows not compared, ``inf`` where a value is not finite."""
+    """``r_i`` per quantity, each shape ``(n,)``; NaN on rows not compared, ``inf`` where a value is not
+    finite."""
     scales = unit_scales(reference, judge, mode, quantities)
     out = {}
     for q in quantities:
         rows = compared_rows(reference, judge, q)
         with np.errstate(invalid="ignore", over="ignore"):
-            rel = np.abs(judge[q] - reference[q]) / (scales[UNIT_GROUP[q]] * condition_factor(reference, mode, q))
+            rel = np.abs(judge[q] - reference[q]) / (
+                scales[UNIT_GROUP[q]] * condition_factor(reference, mode, q)
+            )
         rel = np.where(np.isfinite(rel), rel, np.inf)
         out[q] = np.where(rows, rel, np.nan)
     return out

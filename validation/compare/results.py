@@ -1,4 +1,5 @@
-"""The outcome of a comparison: one :class:`Check` per (case, engine, quantity), and the run's :class:`Verdict`.
+"""The outcome of a comparison: one :class:`Check` per (case, engine, quantity), and the run's
+:class:`Verdict`.
 
 The rules that produce them are in :mod:`~dualmech.validation.compare` (package docstring).
 """
@@ -27,7 +28,9 @@ RATE_COLUMNS: tuple[str, ...] = ("S4_dot", "S4_ddot", "transmission")
 #: The column whose rows count as "assembled" (the stroke, and what a check reports as excluded).
 STROKE_PROXY = "S4"
 #: Status words that are verdicts about the mechanism (the others are engine failures).
-VERDICTS: frozenset[str] = frozenset({Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.NO_ASSEMBLY})
+VERDICTS: frozenset[str] = frozenset(
+    {Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.NO_ASSEMBLY}
+)
 #: Pseudo-quantities of :class:`Check` besides the table columns.
 STROKE, STATUS, ENGINE = "stroke", "status", "engine"
 #: The only declared expectation a matrix case may carry (``[[sweep]] expect = ...``).
