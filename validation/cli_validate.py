@@ -25,7 +25,8 @@ if TYPE_CHECKING:
 #: How many failing checks / regressions ``validate`` lists under its table.
 SHOWN_FAILURES = 12
 #: Exit codes of ``validate`` and ``report`` (also in the README).
-EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_INCOMPLETE, EXIT_CLUSTER_LOST, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
+EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_INCOMPLETE = 0, 1, 2, 3
+EXIT_CLUSTER_LOST, EXIT_INTERRUPTED = 4, 130
 EXIT_CODES: dict[int, str] = {
     EXIT_PASS: "PASS: every check of a complete run passed, no regression",
     EXIT_FAIL: "FAIL: a check failed, an engine failed, or (with --baseline) something regressed",
@@ -81,10 +82,12 @@ def summary_table(matrix, comparison, title: str):
         table.add_column(e, no_wrap=True)
     for row in summary_rows(matrix, comparison):
         if not row["run"]:
-            table.add_row(row["case"], "[yellow]not run[/]", "", *["[yellow]? missing[/]"] * len(matrix.judges))
+            table.add_row(row["case"], "[yellow]not run[/]", "",
+                          *["[yellow]? missing[/]"] * len(matrix.judges))
             continue
         if row["reference_error"]:
-            table.add_row(row["case"], "[red]✗ reference[/]", "", *["[red]✗ no reference[/]"] * len(matrix.judges))
+            table.add_row(row["case"], "[red]✗ reference[/]", "",
+                          *["[red]✗ no reference[/]"] * len(matrix.judges))
             continue
         cells = []
         for e in matrix.judges:
@@ -111,12 +114,14 @@ def _length_unit(matrix: Matrix) -> str:
 @click.command()
 @click.argument("matrix_file", required=False, metavar="[MATRIX.toml]")
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False),
-              help="Run directory: one result file per case, run.json, the report [default: runs/<matrix name>].")
+              help="Run directory: one result file per case, run.json, the report "
+                   "[default: runs/<matrix name>].")
 @click.option("--jobs", type=click.IntRange(min=1), default=None,
               help="Worker processes [default: all cores].")
 @click.option("--resume", is_flag=True, help="Keep finished cases stored in the run directory; run the rest.")
 @click.option("--scheduler", metavar="ADDRESS", help="Run the cases on a Dask distributed scheduler (tcp://host:port).")
-@click.option("--junit", "junit_file", type=click.Path(dir_okay=False), help="Write JUnit XML (one test per case x engine).")
+@click.option("--junit", "junit_file", type=click.Path(dir_okay=False),
+              help="Write JUnit XML (one test per case x engine).")
 @click.option("--baseline", "baseline_file", type=click.Path(dir_okay=False),
               help="Fail on any regression against this baseline summary.")
 @click.option("--write-baseline", "write_baseline_file", type=click.Path(dir_okay=False),
@@ -124,7 +129,8 @@ def _length_unit(matrix: Matrix) -> str:
 @click.option("--engines", "engines", multiple=True, metavar="NAMES",
               help=f"Run only these engines (comma-separated or repeated; the reference must be one). "
                    f"Known: {', '.join(ENGINES)}.")
-@click.option("--report-dir", type=click.Path(file_okay=False), help="Write the report here [default: the run directory].")
+@click.option("--report-dir", type=click.Path(file_okay=False),
+              help="Write the report here [default: the run directory].")
 @one_line_errors
 def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_file, write_baseline_file,
              engines, report_dir) -> None:
@@ -147,7 +153,8 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
         check_output_folder(report_dir)
     console = summary_console(sys.stdout.isatty())
     try:
-        with rich_progress(f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines") as bar:
+        progress_title = f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines"
+        with rich_progress(progress_title) as bar:
             run = run_and_compare(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)
     except KeyboardInterrupt:
         click.echo(f"dualmech: interrupted; finished cases are kept in {outdir}; "
@@ -160,8 +167,8 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     summary = baseline_summary(matrix, comparison, outcome.results)
     regressions = compare_baseline(summary, baseline) if baseline is not None else []
     if junit_file:
-        write_junit(junit_file, matrix, comparison, timings(load_entries(outdir, matrix)), regressions=regressions,
-                    versions=run_versions(outdir))
+        write_junit(junit_file, matrix, comparison, timings(load_entries(outdir, matrix)),
+                    regressions=regressions, versions=run_versions(outdir))
     if write_baseline_file:
         write_baseline(write_baseline_file, summary)
     with rich_progress(f"report of {matrix.name}: figures") as bar:
@@ -175,8 +182,9 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     n_ok = len(comparison.checks) - len(failures)
     colour = {"PASS": "green", "FAIL": "red", "INCOMPLETE": "yellow"}[str(comparison.verdict)]
     missing = f"; {len(comparison.missing)} not run" if comparison.missing else ""
-    console.print(f"[{colour}]{comparison.verdict}[/]: {n_ok} of {len(comparison.checks)} checks passed{missing} "
-                  f"(ratio = worst relative difference / tolerance; dead c. = dead-centre rows excluded, counted)")
+    console.print(f"[{colour}]{comparison.verdict}[/]: {n_ok} of {len(comparison.checks)} checks passed"
+                  f"{missing} (ratio = worst relative difference / tolerance; "
+                  "dead c. = dead-centre rows excluded, counted)")
     for c in failures[:SHOWN_FAILURES]:
         console.print(f"  [red]✗[/] {describe(c)}", markup=True, highlight=False)
     if len(failures) > SHOWN_FAILURES:
@@ -214,7 +222,8 @@ def _cores() -> int:
 @click.argument("rundir", type=click.Path(file_okay=False, exists=True))
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False),
               help="Write the report here [default: RUNDIR].")
-@click.option("--jobs", type=click.IntRange(min=1), default=None, help="Processes for the figures [default: all cores].")
+@click.option("--jobs", type=click.IntRange(min=1), default=None,
+              help="Processes for the figures [default: all cores].")
 @one_line_errors
 def report(rundir, outdir, jobs) -> None:
     """Write the report (HTML, Markdown, figures, summary.json) of the run stored in RUNDIR."""
