@@ -40,14 +40,8 @@ def _position(
     rot: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    th, s1, thd, s1d, thdd, s1dd = (
-        crank[0, i],
-        crank[1, i],
-        crank[2, i],
-        crank[3, i],
-        crank[4, i],
-        crank[5, i],
-    )
+    th, s1, thd = crank[0, i], crank[1, i], crank[2, i]
+    s1d, thdd, s1dd = crank[3, i], crank[4, i], crank[5, i]
     a1, a2, a4, al4 = geo[0], geo[1], geo[2], geo[3]
     c, s = math.cos(th), math.sin(th)
     k4 = v[0]
@@ -85,6 +79,19 @@ def _position(
         ac[1, 1, k] = p2dd[k] - (wd[k1] * p2[k2] - wd[k2] * p2[k1]) - (w[k1] * p2d[k2] - w[k2] * p2d[k1])
         tw[2, 1, k], ac[2, 1, k] = -s4d * k4[k], -s4dd * k4[k]
     hub, need = v[5], m[2]
+    _frames(c, s, s1, u, hub, rot)
+    origins = (hub, p2, p3)
+    for b in range(3):
+        required_wrench(
+            mass[b], com[b], inertia[b], rot[b], origins[b], tw[b], ac[b], gravity, v[8:16], need[b]
+        )
+    _reactions(need, p2, p3, k4, torque, load, v[16:32], out[3:23])
+
+
+@njit(**JIT)
+def _frames(c: float, s: float, s1: float, u: tuple, hub: np.ndarray, rot: np.ndarray) -> None:
+    """Crank, rod (x along ``u``, zero spin) and slider axes into ``rot`` ``(3, 3, 3)``; the hub
+    into ``hub``."""
     rot[0] = 0.0
     rot[0, 0, 0], rot[0, 0, 1], rot[0, 1, 0], rot[0, 1, 1], rot[0, 2, 2] = c, -s, s, c, 1.0
     hub[0], hub[1], hub[2] = 0.0, 0.0, s1
@@ -97,12 +104,6 @@ def _position(
     for k in range(3):
         rot[1, k, 0], rot[1, k, 1], rot[1, k, 2] = u[k], y[k], z[k]
         rot[2, k, k] = 1.0
-    origins = (hub, p2, p3)
-    for b in range(3):
-        required_wrench(
-            mass[b], com[b], inertia[b], rot[b], origins[b], tw[b], ac[b], gravity, v[8:16], need[b]
-        )
-    _reactions(need, p2, p3, k4, torque, load, v[16:32], out[3:23])
 
 
 @njit(**ALLOC)  # allocates its scratch once per range

@@ -144,6 +144,12 @@ def _entry(table: np.ndarray, const: np.ndarray, vals: np.ndarray, x: np.ndarray
     return const[i, f] if k == CONST else (vals[table[i, REF + f]] if k == VALUE else x[table[i, REF + f]])
 
 
+@njit(**INLINE)
+def _zero(table: np.ndarray, const: np.ndarray, i: int, f: int) -> bool:
+    """Whether entry ``f`` of row ``i`` is the constant 0 (its turn or slide can be skipped)."""
+    return const[i, f] == 0.0 and table[i, KIND + f] == CONST
+
+
 @njit(**JIT)
 def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, lines: np.ndarray) -> None:
     """Frames ``(R, 2, 3, 3)`` (``frames[i] = T_1 ... T_i``, the last is the loop product B, eq. 18)
@@ -162,13 +168,6 @@ def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, 
             _entry(table, const, vals, x, i, 2),
             _entry(table, const, vals, x, i, 3),
             _entry(table, const, vals, x, i, 4),
-        )
-        zero = (
-            const[i, 0] == 0.0 and table[i, KIND] == CONST,
-            const[i, 1] == 0.0 and table[i, KIND + 1] == CONST,
-            const[i, 2] == 0.0 and table[i, KIND + 2] == CONST,
-            const[i, 3] == 0.0 and table[i, KIND + 3] == CONST,
-            const[i, 4] == 0.0 and table[i, KIND + 4] == CONST,
         )
         for stage in range(3):  # Z(theta + eps S), Y(eta), X(alpha + eps a); a ball replaces the first two
             if stage < 2 and table[i, SPHERICAL]:
@@ -201,7 +200,13 @@ def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, 
                         lines[m, 1, r] = pre_re[3 * r + axis] if slide else pre_du[3 * r + axis]
                     m += 1
             pre_re, pre_du = _turn(
-                axis, v[fa], 0.0 if fs < 0 else v[fs], zero[fa], fs < 0 or zero[fs], pre_re, pre_du
+                axis,
+                v[fa],
+                0.0 if fs < 0 else v[fs],
+                _zero(table, const, i, fa),
+                fs < 0 or _zero(table, const, i, fs),
+                pre_re,
+                pre_du,
             )
         for r in range(9):
             frames[i, 0, r // 3, r % 3] = pre_re[r]
