@@ -44,9 +44,8 @@ def _position(
     s1d, thdd, s1dd = crank[3, i], crank[4, i], crank[5, i]
     a1, a2, a4, al4 = geo[0], geo[1], geo[2], geo[3]
     c, s = math.cos(th), math.sin(th)
-    k4 = v[0]
+    k4, p2, p2d, p2dd, p3 = v[0], v[1], v[2], v[3], v[4]
     k4[0], k4[1], k4[2] = 0.0, math.sin(al4), math.cos(al4)
-    p2, p2d, p2dd, p3 = v[1], v[2], v[3], v[4]
     p2[0], p2[1], p2[2] = a1 * c, a1 * s, s1
     p2d[0], p2d[1], p2d[2] = -a1 * s * thd, a1 * c * thd, s1d
     p2dd[0], p2dd[1], p2dd[2] = -a1 * c * thd**2 - a1 * s * thdd, -a1 * s * thd**2 + a1 * c * thdd, s1dd
