@@ -142,7 +142,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     from dualmech.validation.api import open_run, run_and_compare
     from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline
     from dualmech.validation.executors import ClusterLost
-    from dualmech.validation.junit import describe, write_junit
+    from dualmech.validation.junit import write_junit
     from dualmech.validation.report import write_report
     from dualmech.validation.rundir import check_output_folder
     from dualmech.validation.runner import load_entries, rich_progress, timings
@@ -178,6 +178,16 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     title = (f"{matrix.name}: {len(matrix.cases)} cases, engines {', '.join(matrix.engines)} — "
              f"solved in {outcome.seconds:.1f} s ({how}; {outcome.ran} run, {outcome.skipped} resumed)")
     console.print(summary_table(matrix, comparison, title))
+    _print_verdict(console, comparison, files, regressions, baseline_file, write_baseline_file, junit_file)
+    console.print(f"report: {files.html} and {files.markdown} ({files.seconds:.1f} s)")
+    sys.exit(exit_code(comparison.verdict, regressions))
+
+
+def _print_verdict(console, comparison, files, regressions: list, baseline_file: str | None,
+                   write_baseline_file: str | None, junit_file: str | None) -> None:
+    """The verdict line, the first failures, the baseline's regressions and the files written."""
+    from dualmech.validation.junit import describe
+
     failures = comparison.failures()
     n_ok = len(comparison.checks) - len(failures)
     colour = {"PASS": "green", "FAIL": "red", "INCOMPLETE": "yellow"}[str(comparison.verdict)]
@@ -189,7 +199,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
         console.print(f"  [red]✗[/] {describe(c)}", markup=True, highlight=False)
     if len(failures) > SHOWN_FAILURES:
         console.print(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {files.markdown})")
-    if baseline is not None:
+    if baseline_file:
         if regressions:
             console.print(f"[red]REGRESSION[/] against {baseline_file}: {len(regressions)}")
             for r in regressions[:SHOWN_FAILURES]:
@@ -200,8 +210,6 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
         console.print(f"baseline written: {write_baseline_file}")
     if junit_file:
         console.print(f"JUnit: {junit_file}")
-    console.print(f"report: {files.html} and {files.markdown} ({files.seconds:.1f} s)")
-    sys.exit(exit_code(comparison.verdict, regressions))
 
 
 def run_versions(outdir: Path) -> dict[str, str]:

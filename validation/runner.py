@@ -304,13 +304,10 @@ def run_matrix(
         return _run_locked(matrix, outdir, jobs, resume, scheduler, progress, registry, start)
 
 
-def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler: str | None,
-                progress: ProgressCallback | None, registry: dict[str, str], start: float) -> RunOutcome:
-    """:func:`run_matrix` in its locked output folder."""
-    (outdir / CASES_DIR).mkdir(parents=True, exist_ok=True)
-    tasks, kept = _plan(matrix, outdir, resume, registry)
-    raws = {mc.id: mc.raw for mc in matrix.cases}
-    info = {
+def _run_info(matrix: Matrix, jobs: int, resume: bool, scheduler: str | None,
+              registry: dict[str, str]) -> dict:
+    """What ``run.json`` says of a run when it starts (its end adds seconds, ran and skipped)."""
+    return {
         "format": "dualmech-run/1",
         "matrix": matrix.to_dict(),
         "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -321,6 +318,15 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
         "registry": {e: registry[e] for e in matrix.engines},
         "resumed": resume,
     }
+
+
+def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler: str | None,
+                progress: ProgressCallback | None, registry: dict[str, str], start: float) -> RunOutcome:
+    """:func:`run_matrix` in its locked output folder."""
+    (outdir / CASES_DIR).mkdir(parents=True, exist_ok=True)
+    tasks, kept = _plan(matrix, outdir, resume, registry)
+    raws = {mc.id: mc.raw for mc in matrix.cases}
+    info = _run_info(matrix, jobs, resume, scheduler, registry)
     write_json_atomic(outdir / RUN_FILE, info)
     record_files(outdir, [RUN_FILE])
 
