@@ -69,6 +69,12 @@ def _scratch(fl: FlatLoop, rules: Rules) -> tuple[Work, Scratch]:
     return w, make_scratch(rules.vidx.size, w.base.size)
 
 
+def chain_aligned(chunk_positions: int) -> int:
+    """``chunk_positions`` rounded up to a multiple of :data:`WARM_CHAIN`: chunks of a case that begin
+    where a chain of warm starts begins give the same bits as the case in one piece."""
+    return -(-chunk_positions // WARM_CHAIN) * WARM_CHAIN
+
+
 def chain_starts(case_of: np.ndarray, index: np.ndarray | None = None) -> np.ndarray:
     """``(n,)`` bool: the positions that start cold: the first of each run of one case in ``case_of``, and
     every :data:`WARM_CHAIN` of a case's positions (``index``: their indices in the case; default:
@@ -242,7 +248,7 @@ def iter_chunks(case: Case, chunk_positions: int) -> Iterator[Chunk]:
     Memory stays bounded by the chunk, however many positions the case has.
     """
     angles = np.asarray(case.motion.angles_deg, dtype=float)
-    chunk_positions = -(-chunk_positions // WARM_CHAIN) * WARM_CHAIN
+    chunk_positions = chain_aligned(chunk_positions)
     buffer = np.empty((min(chunk_positions, max(1, angles.size)), len(OUT_COLUMNS)))
     for lo in range(0, angles.size, chunk_positions):
         crank = case.motion.state(case.geometry.crank_axial_shift, angles[lo : lo + chunk_positions])

@@ -38,9 +38,9 @@ from dualmech.models.case import Case, CaseError
 from dualmech.models.slider_crank_kernel import (
     CHUNK_POSITIONS,
     OUT_COLUMNS,
-    WARM_CHAIN,
     analyze_positions,
     case_arrays,
+    chain_aligned,
 )
 from dualmech.models.tolerance.outputs import DesignReduction, needed_columns
 from dualmech.models.tolerance.spec import Spec, design_case
@@ -158,7 +158,7 @@ def analyse_designs(designs: DesignArrays, mode: str,
     """
     m, p = len(designs), designs.angles_deg.size
     per_block = max(1, chunk_positions // max(p, 1))
-    step = min(p, -(-chunk_positions // WARM_CHAIN) * WARM_CHAIN)  # a split begins a chain of warm starts
+    step = min(p, chain_aligned(chunk_positions))  # a split begins a chain of warm starts
     buffer = np.empty((min(per_block * p, max(step, 1)), len(OUT_COLUMNS)))
     reduction = DesignReduction(m, mode)
     names = needed_columns(mode)
