@@ -21,7 +21,6 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from dualmech.core.kernel import depends_on_kernel
 from dualmech.core.kernel.closure_nb import Work, make_work
 from dualmech.core.kernel.loop_nb import FlatLoop, flatten
 from dualmech.core.motion import CrankState
@@ -34,8 +33,6 @@ from dualmech.models.slider_crank_nb import (
     make_scratch,
 )
 from dualmech.models.slider_crank_position_nb import OUT_COLUMNS, analyze_range
-
-depends_on_kernel(__file__)
 
 #: Positions analysed together at most (about 250 bytes each with the crank states).
 CHUNK_POSITIONS = 100_000
