@@ -116,16 +116,17 @@ class Reactions:
     """Joint reactions at ``n`` positions, world axes (``docs/conventions.md``).
 
     ``j1_force``, ``j1_moment`` (about O): ground on crank; ``j2``: crank on rod at P2;
-    ``j3``: rod on slider at P3; ``j4_force``, ``j4_moment`` (about P3): ground on
-    slider; ``slider_load`` and ``drive_torque`` ``(n,)``; ``residual`` ``(n,)`` the
-    largest violation of the 18 Newton-Euler equations, forces over the force
-    scale and moments over the moment scale of the position.
+    ``j3``: rod on slider at P3, ``j3_moment`` its moment (a universal joint's; zero for a ball);
+    ``j4_force``, ``j4_moment`` (about P3): ground on slider; ``slider_load`` and ``drive_torque``
+    ``(n,)``; ``residual`` ``(n,)`` the largest violation of the 18 Newton-Euler equations, forces
+    over the force scale and moments over the moment scale of the position.
     """
 
     j1_force: np.ndarray
     j1_moment: np.ndarray
     j2: np.ndarray
     j3: np.ndarray
+    j3_moment: np.ndarray
     j4_force: np.ndarray
     j4_moment: np.ndarray
     slider_load: np.ndarray
@@ -134,11 +135,12 @@ class Reactions:
 
     def columns(self) -> dict[str, np.ndarray]:
         """The reaction columns of a result table (``docs/conventions.md``), each ``(n,)``, in the order
-        of :data:`~dualmech.core.table.REACTION_COLUMNS`: ``j1_fx`` ... ``j4_mz``, ``slider_load``,
-        ``drive_torque``."""
+        of :data:`~dualmech.core.table.REACTION_COLUMNS`: ``j1_fx`` ... ``j3_mz`` ... ``j4_mz``,
+        ``slider_load``, ``drive_torque``."""
         cols = {}
         for name, arr in (("j1_f", self.j1_force), ("j1_m", self.j1_moment), ("j2_f", self.j2),
-                          ("j3_f", self.j3), ("j4_f", self.j4_force), ("j4_m", self.j4_moment)):
+                          ("j3_f", self.j3), ("j3_m", self.j3_moment), ("j4_f", self.j4_force),
+                          ("j4_m", self.j4_moment)):
             for k, axis in enumerate("xyz"):
                 cols[f"{name}{axis}"] = arr[:, k]
         return {**cols, "slider_load": self.slider_load, "drive_torque": self.drive_torque}
@@ -146,8 +148,9 @@ class Reactions:
 
 def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, BodyMotion, BodyMotion],
                     p2: np.ndarray, p3: np.ndarray, k4: np.ndarray, gravity: np.ndarray,
-                    drive_torque: np.ndarray, slider_load: np.ndarray) -> Reactions:
-    """Solve the 17 unknown reaction components for crank, rod and slider.
+                    drive_torque: np.ndarray, slider_load: np.ndarray,
+                    moment_axis: np.ndarray | None = None) -> Reactions:
+    """Solve the 17 unknown reaction components for crank, rod and slider (18 with a universal joint).
 
     Parameters
     ----------
@@ -157,6 +160,12 @@ def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, 
     gravity : ``(3,)`` or ``(n, 3)`` gravitational acceleration
     drive_torque, slider_load : float or ``(n,)``
         At each position exactly one is finite (given); the other is NaN and solved.
+    moment_axis : ``(n, 3)``, optional
+        Where joint 3 is a universal joint, its moment axis ``n``
+        (:func:`dualmech.core.universal.joint_axes`); zero rows (and ``None``) are ball joints.
+        The joint's moment :math:`\\mu n` on the slider
+        is the 18th unknown; the rod's spin equation gives it,
+        :math:`\\mu = -u\\cdot K_2 / (n\\cdot u)`, and :math:`K_2 + \\mu n` replaces :math:`K_2` above.
 
     Notes
     -----
@@ -179,6 +188,8 @@ def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, 
     u = d / a2
     # rod moments about P2: -(P3 - P2) x j3 = K2, hence the part of j3 across the rod
     k2 = need[1].du - np.cross(p2, need[1].re)
+    j3_moment = _universal_moment(k2, u, moment_axis)
+    k2 = k2 + j3_moment
     j3_perp = np.cross(u, k2) / a2
     # the axial rod force lambda, from the given load
     j2_perp = need[1].re + j3_perp
@@ -191,18 +202,31 @@ def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, 
     j1_force = need[0].re + j2
     j1_moment = need[0].du + np.cross(p2, j2)
     j4_force = need[2].re - j3
-    j4_moment_o = need[2].du - np.cross(p3, j3)
+    j4_moment_o = need[2].du - np.cross(p3, j3) - j3_moment
     j4_moment = j4_moment_o - np.cross(p3, j4_force)
-    residual = _newton_euler_residual(need, p2, p3, j1_force, j1_moment, j2, j3, j4_force, j4_moment_o)
-    return Reactions(j1_force, j1_moment, j2, j3, j4_force, j4_moment,
+    residual = _newton_euler_residual(need, p2, p3, j1_force, j1_moment, j2, (j3, j3_moment), j4_force,
+                                      j4_moment_o)
+    return Reactions(j1_force, j1_moment, j2, j3, j3_moment, j4_force, j4_moment,
                      np.einsum("ni,ni->n", j4_force, k4), j1_moment[:, 2], residual)
 
 
+def _universal_moment(k2: np.ndarray, u: np.ndarray, axis: np.ndarray | None) -> np.ndarray:
+    """The universal joint's moment on the slider, :math:`\\mu n` with :math:`\\mu = -u\\cdot K_2/(n\\cdot u)`
+    ``(n, 3)``; zero where ``axis`` is zero (a ball joint)."""
+    if axis is None:
+        return np.zeros_like(k2)
+    n_u = np.einsum("ni,ni->n", axis, u)
+    mu = np.divide(-np.einsum("ni,ni->n", u, k2), n_u, out=np.zeros_like(n_u), where=n_u != 0.0)
+    return mu[:, None] * axis
+
+
 def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, f4, m4_o) -> np.ndarray:
-    """Largest violation of the 18 equations of all three bodies, relative to the force / moment scale."""
+    """Largest violation of the 18 equations of all three bodies, relative to the force / moment scale;
+    ``j3`` is joint 3's force and moment."""
+    j3, j3_moment = j3
     crank = Dual(f1, m1) - force_at(p2, j2) - need[0]
-    rod = force_at(p2, j2) - force_at(p3, j3) - need[1]
-    slider = force_at(p3, j3) + Dual(f4, m4_o) - need[2]
+    rod = force_at(p2, j2) - force_at(p3, j3) - Dual(np.zeros_like(j3), j3_moment) - need[1]
+    slider = force_at(p3, j3) + Dual(f4, m4_o + j3_moment) - need[2]
     forces = np.stack([f1, j2, j3, f4], axis=1)
     f_scale = np.maximum(np.abs(forces).max(axis=(1, 2)), 1e-300)
     lengths = np.maximum(np.linalg.norm(p2, axis=1), np.linalg.norm(p3, axis=1))

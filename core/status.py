@@ -80,7 +80,8 @@ POSE_COLUMNS: tuple[str, ...] = ("S4", "closure_condition")
 RATE_COLUMNS: tuple[str, ...] = ("S4_dot", "S4_ddot", "transmission")
 
 
-def settle(columns: dict[str, np.ndarray], status: np.ndarray, reactions: tuple[str, ...]) -> np.ndarray:
+def settle(columns: dict[str, np.ndarray], status: np.ndarray, reactions: tuple[str, ...],
+           pose: tuple[str, ...] = POSE_COLUMNS, rates: tuple[str, ...] = RATE_COLUMNS) -> np.ndarray:
     """An engine's last step: final status words, and ``columns`` blanked (NaN) to match them, in place.
 
     Rows claiming a non-finite value they should give become ``not_finite``
@@ -89,10 +90,11 @@ def settle(columns: dict[str, np.ndarray], status: np.ndarray, reactions: tuple[
     :data:`POSE_COLUMNS`); then every column a row's word does not give is set to
     NaN (``reactions`` outside ``ok``, rates outside :data:`RATES_GIVEN`, the pose
     outside :data:`ASSEMBLED`).  Returns the status words, object array, shape ``(n,)``.
+    Another mechanism's table names its own ``pose`` and ``rates`` columns (e.g. the RSSR's).
     """
-    status = demote_non_finite(columns, status, POSE_COLUMNS + RATE_COLUMNS + tuple(reactions), {
-        Status.DEAD_CENTRE.value: POSE_COLUMNS + RATE_COLUMNS, Status.ASSEMBLY_LIMIT.value: POSE_COLUMNS})
-    for names, given in ((reactions, (Status.OK,)), (RATE_COLUMNS, RATES_GIVEN), (POSE_COLUMNS, ASSEMBLED)):
+    status = demote_non_finite(columns, status, pose + rates + tuple(reactions), {
+        Status.DEAD_CENTRE.value: pose + rates, Status.ASSEMBLY_LIMIT.value: pose})
+    for names, given in ((reactions, (Status.OK,)), (rates, RATES_GIVEN), (pose, ASSEMBLED)):
         off = ~is_status(status, *given)
         for name in names:
             columns[name][off] = np.nan

@@ -23,7 +23,7 @@ KINEMATIC_COLUMNS: tuple[str, ...] = ("theta1_deg", "S1", "S4", "S4_dot", "S4_dd
 REACTION_COLUMNS: tuple[str, ...] = (
     "j1_fx", "j1_fy", "j1_fz", "j1_mx", "j1_my", "j1_mz",
     "j2_fx", "j2_fy", "j2_fz",
-    "j3_fx", "j3_fy", "j3_fz",
+    "j3_fx", "j3_fy", "j3_fz", "j3_mx", "j3_my", "j3_mz",
     "j4_fx", "j4_fy", "j4_fz", "j4_mx", "j4_my", "j4_mz",
     "slider_load", "drive_torque",
 )

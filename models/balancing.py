@@ -178,19 +178,30 @@ def shaking_force_polar(case_before: Case, case_after: Case, path: str | Path) -
     and acceleration; the legend gives each design's peak :math:`|f|` (all three
     components).  Returns the path written.
     """
+    forces = tuple(assembled_force(shaking(c)) for c in (case_before, case_after))
+    return draw_shaking_force_polar(forces, case_before.name, case_before.units, path)
+
+
+def assembled_force(s: Shaking) -> np.ndarray:
+    """The shaking force ``(m, 3)`` at the ``m`` positions of ``s`` whose status is ``ok``."""
+    return s.force[s.status == Status.OK]
+
+
+def draw_shaking_force_polar(forces: tuple[np.ndarray, np.ndarray], name: str, units: str,
+                             path: str | Path) -> Path:
+    """Draw :func:`shaking_force_polar` from given shaking forces ``(m, 3)``: original, then balanced.
+
+    ``name`` and ``units``: the case's, for the title.  Returns the path written.
+    """
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(6.0, 6.0))
     ax = fig.add_subplot(projection="polar")
-    for case, label, style in ((case_before, "original", "-"), (case_after, "balanced", "--")):
-        s = shaking(case)
-        ok = s.status == "ok"
-        f = s.force[ok]
+    for f, label, style in zip(forces, ("original", "balanced"), ("-", "--")):
         peak = float(np.linalg.norm(f, axis=1).max())
         ang = np.arctan2(f[:, 1], f[:, 0])
         ax.plot(ang, np.hypot(f[:, 0], f[:, 1]), style, lw=1.5, label=f"{label}: peak |f| = {peak:.3g}")
-    ax.set_title(f"shaking force on the frame, {case_before.name}\n({case_before.units}, x-y components)",
-                 fontsize=10)
+    ax.set_title(f"shaking force on the frame, {name}\n({units}, x-y components)", fontsize=10)
     ax.legend(loc="lower left", bbox_to_anchor=(0.0, -0.15), fontsize=9)
     path = Path(path)
     fig.savefig(path, dpi=120, bbox_inches="tight")

@@ -46,7 +46,7 @@ from dualmech.models.inputs import (
     key_text,
     show,
 )
-from dualmech.models.mechanism import Bodies, Geometry, Loads
+from dualmech.models.mechanism import JOINT_TYPES, Bodies, Geometry, Joints, Loads
 from dualmech.models.toml_input import read_toml
 from dualmech.models.units import UNIT_SYSTEMS
 
@@ -69,6 +69,7 @@ class Case:
     bodies: Bodies
     loads: Loads
     raw: dict  # the parsed TOML, after defaults; used to derive swept cases
+    joints: Joints = Joints()
 
     def crank_state(self, theta: np.ndarray, theta_dot: np.ndarray | float,
                     theta_ddot: np.ndarray | float) -> CrankState:
@@ -128,6 +129,7 @@ _SCHEMA: dict[str, dict[str, tuple[type | tuple, bool]]] = {
         "rod": (dict, False),
         "slider": (dict, False),
     },
+    "joints": {name: (str, False) for name in JOINT_TYPES},
     "loads": {
         "drive_torque": ((int, float), False),
         "slider_force": ((int, float), False),
@@ -239,6 +241,18 @@ def _loads(ld: dict) -> Loads:
     )
 
 
+def _joints(j: dict, motion: CrankMotion) -> Joints:
+    for key, value in j.items():
+        if value not in JOINT_TYPES[key]:
+            raise CaseError(f"joints.{key}: {show(value)} is not a joint type here "
+                            f"(valid: {', '.join(JOINT_TYPES[key])})")
+    joints = Joints(**j)
+    if joints.crank == "revolute" and motion.axial_amplitude != 0.0:
+        raise CaseError(f"motion.axial_amplitude: {motion.axial_amplitude!r} moves the crank along its axis, "
+                        "which a revolute crank (joints.crank) cannot; use 0 or crank = \"cylindrical\"")
+    return joints
+
+
 def _check_proportions(g: Geometry, m: CrankMotion) -> None:
     size = max(g.crank_length, g.rod_length, abs(g.slider_offset), abs(g.crank_axial_shift),
                abs(m.axial_amplitude))
@@ -265,12 +279,13 @@ def case_from_dict(data: dict) -> Case:
     motion, bodies = _motion(data["motion"]), bodies_from_table(data.get("bodies", {}), geom)
     _check_proportions(geom, motion)
     loads = _loads(data.get("loads", {}))
+    joints = _joints(data.get("joints", {}), motion)
     units = data.get("units", "consistent")
     if units not in KNOWN_UNITS:
         raise CaseError(f"units: {show(units)} is not a known unit label (valid: {', '.join(KNOWN_UNITS)})")
     name = check_text("name", data["name"], MAX_CASE_NAME)  # last: a derived name shows the values above
     return Case(name=name, units=units, geometry=geom, motion=motion, bodies=bodies, loads=loads,
-                raw=_deep_copy(data))
+                raw=_deep_copy(data), joints=joints)
 
 
 def preset_names() -> list[str]:

@@ -23,7 +23,7 @@ NEAR_DEAD_CENTRE_TRANSMISSION = 0.05
 JOINTS: tuple[tuple[str, tuple[str, ...], tuple[str, ...]], ...] = (
     ("joint 1 (crank bearing)", ("j1_fx", "j1_fy", "j1_fz"), ("j1_mx", "j1_my", "j1_mz")),
     ("joint 2 (crank pin ball)", ("j2_fx", "j2_fy", "j2_fz"), ()),
-    ("joint 3 (slider ball)", ("j3_fx", "j3_fy", "j3_fz"), ()),
+    ("joint 3 (slider pin)", ("j3_fx", "j3_fy", "j3_fz"), ("j3_mx", "j3_my", "j3_mz")),  # moment: universal
     ("joint 4 (slider guide)", ("j4_fx", "j4_fy", "j4_fz"), ("j4_mx", "j4_my", "j4_mz")),
 )
 

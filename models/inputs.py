@@ -13,7 +13,7 @@ import math
 import reprlib
 import unicodedata
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Collection, Mapping
 
 import numpy as np
 
@@ -131,6 +131,22 @@ def key_text(key: Any) -> str:
     if isinstance(key, str) and len(key) <= 60 and all(c.isalnum() or c in "._-+=" for c in key):
         return key
     return show(key)
+
+
+def check_keys(section: str, table: Mapping[Any, Any], valid: Collection[str],
+               error: type[ValueError] = CaseError) -> None:
+    """Refuse the first key of ``table`` not in ``valid``: one line naming it and every valid key, sorted.
+
+    ``section`` is the dotted path of ``table`` (``"bodies.crank"``): the message reads
+    ``<section>.<key>: unknown key (valid: a, b)``; for the top level of a file (``section = ""``)
+    ``<key>: unknown key (valid top-level keys: a, b)``.  ``error``: the :class:`ValueError` subclass
+    raised (the caller's own, e.g. a matrix or SPEC error).
+    """
+    for key in table:
+        if key not in valid:
+            where = f"{section}.{key_text(key)}" if section else key_text(key)
+            kind = "valid" if section else "valid top-level keys"
+            raise error(f"{where}: unknown key ({kind}: {', '.join(sorted(valid))})")
 
 
 def check_number(key: str, value: Any, limits: Range) -> float:

@@ -62,6 +62,38 @@ class Geometry:
         return slider_line(self.slider_offset, self.slider_twist)[1]
 
 
+#: The joint types a case may choose (``[joints]``; ``docs/conventions.md``, "Joints"), first = default.
+JOINT_TYPES: dict[str, tuple[str, ...]] = {
+    "crank": ("cylindrical", "revolute"),
+    "rod_crank": ("ball",),
+    "rod_slider": ("ball", "universal"),
+}
+
+
+@dataclass(frozen=True)
+class Joints:
+    """The joint types of the slider crank (``[joints]``; defaults: today's mechanism).
+
+    ``crank``: ``"cylindrical"`` (``S1`` prescribed, may vary) or ``"revolute"`` (``S1`` fixed);
+    ``rod_crank``: ``"ball"``; ``rod_slider``: ``"ball"`` or ``"universal"`` (slider-side axis ``k4``,
+    rod-side axis along ``u x k4``: the rod's spin is then determined, not a gauge).
+    """
+
+    crank: str = "cylindrical"
+    rod_crank: str = "ball"
+    rod_slider: str = "ball"
+
+    @property
+    def universal(self) -> bool:
+        """The rod meets the slider in a universal joint."""
+        return self.rod_slider == "universal"
+
+    @property
+    def is_default(self) -> bool:
+        """Today's mechanism: cylindrical crank, ball-ball rod."""
+        return self == Joints()
+
+
 @dataclass(frozen=True)
 class Bodies:
     """Mass properties of the three moving bodies, each in its own body frame."""

@@ -17,7 +17,7 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from dualmech.core.assembly import closure_condition, edge_status
-from dualmech.core.dual import origin
+from dualmech.core.dual import Dual, origin
 from dualmech.core.inertia import MassArrays
 from dualmech.core.loop import evaluate
 from dualmech.core.motion import CrankState
@@ -26,6 +26,7 @@ from dualmech.core.reactions import BodyMotion, Reactions, body_motion, solve_re
 from dualmech.core.status import Status, is_status, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
+from dualmech.core.universal import joint_axes, link_frame, universal_motion
 from dualmech.models.case import Case
 from dualmech.models.slider_crank_closure import close_loop
 from dualmech.models.slider_crank_loop import DEAD_CENTRE, LOOP, Batch
@@ -72,6 +73,22 @@ def _take(obj, index: slice):
     return obj
 
 
+def _rod_motion(rotation: np.ndarray, twist: Dual, accel: Dual, p2: np.ndarray, u: np.ndarray,
+                k4: np.ndarray, universal: np.ndarray) -> tuple[np.ndarray, Dual, Dual]:
+    """The rod's axes, twist and its rate: the table's zero-spin gauge, or where ``universal`` the spin
+    the universal joint at ``P3`` determines (:mod:`dualmech.core.universal`)."""
+    if not universal.any():
+        return rotation, twist, accel
+    at = np.flatnonzero(universal)
+    spun = universal_motion(_take(twist, at), _take(accel, at), p2[at], u[at], k4[at])
+    rotation, twist, accel = rotation.copy(), Dual(twist.re.copy(), twist.du.copy()), \
+        Dual(accel.re.copy(), accel.du.copy())
+    rotation[at] = link_frame(u[at], k4[at])
+    for whole, part in ((twist, spun[0]), (accel, spun[1])):
+        whole.re[at], whole.du[at] = part.re, part.du
+    return rotation, twist, accel
+
+
 def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[Analysis]:
     batch = Batch.of(cases, cranks)
     counts = [len(c) for c in cranks]
@@ -84,13 +101,15 @@ def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[
     u = (p3 - p2) / batch.a2[:, None]
     hub = np.stack([np.zeros_like(c.s), np.zeros_like(c.s), c.s], 1)
     transmission = np.cross(p2 - hub, u)[:, 2] / batch.a1
-    frames = ((chain.frames[0].re, hub), (chain.frames[1].re, p2),
-              (np.broadcast_to(np.eye(3), chain.frames[0].re.shape), p3))
+    _, k4 = batch.slider_line()
+    universal = np.repeat([k.joints.universal for k in cases], counts)
+    rod = _rod_motion(chain.frames[1].re, rates.link_twist[1], rates.link_accel[1], p2, u, k4, universal)
+    frames = ((chain.frames[0].re, hub, rates.link_twist[0], rates.link_accel[0]), (*rod[:1], p2, *rod[1:]),
+              (np.broadcast_to(np.eye(3), chain.frames[0].re.shape), p3, rates.link_twist[2],
+               rates.link_accel[2]))
     bodies = tuple(MassArrays.repeat([getattr(k.bodies, name) for k in cases], counts)
                    for name in ("crank", "rod", "slider"))
-    motions = tuple(body_motion(b, r, o, rates.link_twist[i], rates.link_accel[i])
-                    for i, (b, (r, o)) in enumerate(zip(bodies, frames)))
-    _, k4 = batch.slider_line()
+    motions = tuple(body_motion(b, *f) for b, f in zip(bodies, frames))
     closed = is_status(status, Status.OK)
     status, condition = edge_status(status, closed, batch.reach(), closure_condition(p2, p3, k4),
                                     ASSEMBLY_REACH.value, ASSEMBLY_LIMIT_CONDITION.value)
@@ -100,7 +119,8 @@ def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[
     gravity = np.repeat([k.loads.gravity for k in cases], counts, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         reactions = solve_reactions(bodies, motions, p2, p3, k4, gravity,
-                                    np.repeat(given[:, 0], counts), np.repeat(given[:, 1], counts))
+                                    np.repeat(given[:, 0], counts), np.repeat(given[:, 1], counts),
+                                    np.where(universal[:, None], joint_axes(u, k4)[1], 0.0))
     torque_mode = np.repeat(np.isfinite(given[:, 0]), counts)
     dead = is_status(status, Status.OK) & torque_mode & (np.abs(transmission) < DEAD_CENTRE)
     status[dead] = Status.DEAD_CENTRE.value

@@ -145,7 +145,7 @@ WORDS = np.array(STATUSES, dtype=object)
 class Chunk:
     """The kernel's answer for consecutive positions of one or more cases (arrays ``(n,)``).
 
-    ``columns`` maps every name of :data:`OUT_COLUMNS` to a column (a strided view) of one ``(n, 28)`` array;
+    ``columns`` maps every name of :data:`OUT_COLUMNS` to a column (a strided view) of one ``(n, 31)`` array;
     ``status`` holds codes into :data:`WORDS`; ``iterations`` closure iterations;
     ``dynamics_residual`` the Newton-Euler residual (NaN where the reactions are not given).
     """
@@ -161,7 +161,8 @@ class Chunk:
 
 
 def case_arrays(cases: Sequence[Case]) -> tuple[np.ndarray, tuple]:
-    """Geometry ``(cases, 4)`` and the per-case body and load arrays of :func:`analyze_positions`."""
+    """Geometry ``(cases, 5)`` (a1, a2, a4, alpha4, 1 for a universal joint 3) and the per-case body and
+    load arrays of :func:`analyze_positions`."""
     geo = np.array(
         [
             [
@@ -169,6 +170,7 @@ def case_arrays(cases: Sequence[Case]) -> tuple[np.ndarray, tuple]:
                 c.geometry.rod_length,
                 c.geometry.slider_offset,
                 c.geometry.slider_twist,
+                float(c.joints.universal),
             ]
             for c in cases
         ],

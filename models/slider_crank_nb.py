@@ -59,9 +59,9 @@ class Scratch(NamedTuple):
     rates: np.ndarray  # (2, V): input rates and accelerations
     x: np.ndarray  # (3, S): the state, a second attempt, the continuation
     vec: np.ndarray  # (16, 3)
-    mats: np.ndarray  # (4, 3, 3)
+    mats: np.ndarray  # (5, 3, 3)
     need: np.ndarray  # (3, 2, 3): what the joints supply to crank, rod, slider
-    wide: np.ndarray  # (24, 3): vectors of the reaction elimination
+    wide: np.ndarray  # (32, 3): vectors of the reaction elimination and of the universal joint
 
 
 @njit(**ALLOC)
@@ -71,9 +71,9 @@ def make_scratch(n_vals: int, n_state: int) -> Scratch:
         np.zeros((2, n_vals)),
         np.zeros((3, n_state)),
         np.zeros((16, 3)),
-        np.zeros((4, 3, 3)),
+        np.zeros((5, 3, 3)),
         np.zeros((3, 2, 3)),
-        np.zeros((24, 3)),
+        np.zeros((32, 3)),
     )
 
 

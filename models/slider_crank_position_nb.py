@@ -55,6 +55,9 @@ OUT_COLUMNS: tuple[str, ...] = (
     "j3_fx",
     "j3_fy",
     "j3_fz",
+    "j3_mx",
+    "j3_my",
+    "j3_mz",
     "j4_fx",
     "j4_fy",
     "j4_fz",
@@ -67,7 +70,9 @@ OUT_COLUMNS: tuple[str, ...] = (
     "residual",
     "closure_condition",
 )
-_THETA, _S1, _S4, _S4_DOT, _S4_DDOT, _REACT, _TRANS, _RESID, _COND = 0, 1, 2, 3, 4, 5, 25, 26, 27
+_THETA, _S1, _S4, _S4_DOT, _S4_DDOT, _REACT, _TRANS, _RESID, _COND = 0, 1, 2, 3, 4, 5, 28, 29, 30
+#: Reaction columns (``_REACT`` onward).
+N_REACT = 23
 #: Largest crank-angle step [rad] across which a position starts from its predecessor (2 degrees:
 #: the thesis's grids are 1 degree; a coarser grid starts every position cold, as the numpy solver).
 WARM_SPAN = math.radians(2.0)
@@ -81,12 +86,14 @@ def _rod_force(
     k4: np.ndarray,
     torque: float,
     load: float,
+    axis: np.ndarray,
     v: np.ndarray,
 ) -> float:
-    """The ball-3 force's part ``j3'`` normal to the rod into ``v[3]``, the rod's unit vector ``u`` into
-    ``v[1]``; returns the multiplier ``lambda`` of ``u`` that the given torque (or slider load) fixes
+    """The joint-3 force's part ``j3'`` normal to the rod into ``v[3]``, the rod's unit vector ``u`` into
+    ``v[1]``, the universal joint's moment (zero for a ball, ``axis`` zero) into ``v[14]``; returns the
+    multiplier ``lambda`` of ``u`` that the given torque (or slider load) fixes
     (:func:`dualmech.core.reactions.solve_reactions`, steps 1-2)."""
-    d, u, k2, j3p, j2p, t = v[0], v[1], v[2], v[3], v[4], v[5]
+    d, u, k2, j3p, j2p, t, j3m = v[0], v[1], v[2], v[3], v[4], v[5], v[14]
     for i in range(3):
         d[i] = p3[i] - p2[i]
     a2 = math.sqrt(dot(d, d))
@@ -95,6 +102,11 @@ def _rod_force(
     cross(p2, need[1, 0], t)
     for i in range(3):
         k2[i] = need[1, 1, i] - t[i]
+    n_u = dot(axis, u)
+    mu = -dot(u, k2) / n_u if n_u != 0.0 else 0.0
+    for i in range(3):
+        j3m[i] = mu * axis[i]
+        k2[i] += j3m[i]
     cross(u, k2, j3p)
     for i in range(3):
         j3p[i] /= a2
@@ -117,16 +129,19 @@ def _reactions(
     k4: np.ndarray,
     torque: float,
     load: float,
+    axis: np.ndarray,
     v: np.ndarray,
     out: np.ndarray,
 ) -> float:
-    """The 20 reaction columns into ``out`` (order of :data:`OUT_COLUMNS`); returns the Newton-Euler residual.
+    """The 23 reaction columns into ``out`` (order of :data:`OUT_COLUMNS`); returns the Newton-Euler residual.
 
     :func:`dualmech.core.reactions.solve_reactions` for one position: ``need`` ``(3, 2, 3)``
-    what the joints must supply to crank, rod and slider; ``v`` ``(16, 3)`` scratch.
+    what the joints must supply to crank, rod and slider; ``axis`` the universal joint's moment
+    axis ``n`` (zero: a ball joint); ``v`` ``(16, 3)`` scratch.
     """
-    lam = _rod_force(need, p2, p3, k4, torque, load, v)
+    lam = _rod_force(need, p2, p3, k4, torque, load, axis, v)
     u, j3p, t, j3, j2 = v[1], v[3], v[5], v[6], v[7]
+    j3m = v[14]
     j1f, j1m, j4f, j4mo, j4m = v[8], v[9], v[10], v[11], v[12]
     for i in range(3):
         j3[i] = j3p[i] + lam * u[i]
@@ -138,18 +153,18 @@ def _reactions(
         j1m[i] = need[0, 1, i] + t[i]
     cross(p3, j3, t)
     for i in range(3):
-        j4mo[i] = need[2, 1, i] - t[i]
+        j4mo[i] = need[2, 1, i] - t[i] - j3m[i]
     cross(p3, j4f, t)
     for i in range(3):
         j4m[i] = j4mo[i] - t[i]
         out[i], out[3 + i], out[6 + i] = j1f[i], j1m[i], j2[i]
-        out[9 + i], out[12 + i], out[15 + i] = j3[i], j4f[i], j4m[i]
-    out[18], out[19] = dot(j4f, k4), j1m[2]
-    return _newton_euler_residual(need, p2, p3, j1f, j1m, j2, j3, j4f, j4mo, v[13:16])
+        out[9 + i], out[12 + i], out[15 + i], out[18 + i] = j3[i], j3m[i], j4f[i], j4m[i]
+    out[21], out[22] = dot(j4f, k4), j1m[2]
+    return _newton_euler_residual(need, p2, p3, j1f, j1m, j2, j3, j3m, j4f, j4mo, v[13:16])
 
 
 @njit(**JIT)
-def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, f4, m4o, v) -> float:
+def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, j3m, f4, m4o, v) -> float:
     """Largest violation of the 18 equations (:func:`dualmech.core.reactions._newton_euler_residual`)."""
     t2, t3 = v[0], v[1]
     cross(p2, j2, t2)
@@ -165,8 +180,8 @@ def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, f4, m4o, v) -> float:
         m_err = max(
             m_err,
             abs(m1[i] - t2[i] - need[0, 1, i]),
-            abs(t2[i] - t3[i] - need[1, 1, i]),
-            abs(t3[i] + m4o[i] - need[2, 1, i]),
+            abs(t2[i] - t3[i] - j3m[i] - need[1, 1, i]),
+            abs(t3[i] + m4o[i] + j3m[i] - need[2, 1, i]),
         )
         f_scale = max(f_scale, abs(f1[i]), abs(j2[i]), abs(j3[i]), abs(f4[i]))
         m_big = max(m_big, abs(m1[i]), abs(m4o[i]))
@@ -176,9 +191,61 @@ def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, f4, m4o, v) -> float:
 
 
 @njit(**JIT)
+def _universal(
+    twist: np.ndarray,
+    accel: np.ndarray,
+    p2: np.ndarray,
+    p3: np.ndarray,
+    k4: np.ndarray,
+    rot: np.ndarray,
+    axis: np.ndarray,
+    v: np.ndarray,
+) -> None:
+    """The rod's twist ``(2, 3)`` and its rate, in place, with the spin of a universal joint at ``P3``
+    (:func:`dualmech.core.universal.universal_motion`); the rod's axes ``(u, a, u x a)`` into ``rot``,
+    the moment axis ``n`` into ``axis``; ``v`` ``(7, 3)`` scratch."""
+    u, a, vp, ud, om, t, nd = v[0], v[1], v[2], v[3], v[4], v[5], v[6]
+    a2 = math.sqrt((p3[0] - p2[0]) ** 2 + (p3[1] - p2[1]) ** 2 + (p3[2] - p2[2]) ** 2)
+    for i in range(3):
+        u[i] = (p3[i] - p2[i]) / a2
+    cross(u, k4, a)
+    size = math.sqrt(dot(a, a))
+    for i in range(3):
+        a[i] /= size
+    cross(a, k4, axis)
+    cross(twist[0], p2, t)
+    for i in range(3):
+        vp[i] = twist[1, i] + t[i]
+    cross(twist[0], u, ud)
+    n_u = dot(axis, u)
+    s = -dot(axis, twist[0]) / n_u
+    for i in range(3):
+        om[i] = twist[0, i] + s * u[i]
+    cross(om, a, t)
+    cross(t, k4, nd)
+    sd = -(dot(nd, om) + dot(axis, accel[0]) + s * dot(axis, ud)) / n_u
+    cross(p2, u, t)  # the rod's line: u + eps p2 x u
+    for i in range(3):
+        twist[0, i] = om[i]
+        twist[1, i] += s * t[i]
+        accel[0, i] += sd * u[i] + s * ud[i]
+        accel[1, i] += sd * t[i]
+    cross(vp, u, t)  # the line's rate: ud + eps (vp x u + p2 x ud)
+    for i in range(3):
+        accel[1, i] += s * t[i]
+    cross(p2, ud, t)
+    for i in range(3):
+        accel[1, i] += s * t[i]
+    cross(u, a, t)
+    for i in range(3):
+        rot[i, 0], rot[i, 1], rot[i, 2] = u[i], a[i], t[i]
+
+
+@njit(**JIT)
 def _dynamics(
     rules: Rules,
     g: tuple,
+    universal: bool,
     crank: np.ndarray,
     i: int,
     body: tuple,
@@ -189,8 +256,8 @@ def _dynamics(
     k4: np.ndarray,
     col: np.ndarray,
 ) -> float:
-    """Rates, transmission and reactions of a closed position into ``col``; returns the
-    Newton-Euler residual."""
+    """Rates, transmission and reactions of a closed position into ``col`` (the rod's spin by the
+    universal joint at ``P3`` where ``universal``); returns the Newton-Euler residual."""
     fl, mass, com, inertia, gravity, torque, load = body
     sc.rates[:] = 0.0
     sc.rates[0, rules.vidx[0]], sc.rates[0, rules.vidx[1]] = crank[2, i], crank[3, i]
@@ -203,7 +270,13 @@ def _dynamics(
     rot[:] = 0.0
     for k in range(3):
         rot[k, k] = 1.0
-    frames = (w.frames[0, 0], w.frames[1, 0], rot)
+    axis = sc.wide[31]
+    axis[:] = 0.0
+    rod_frame = w.frames[1, 0]
+    if universal:
+        rod_frame = sc.mats[4]
+        _universal(w.twists[1], w.accels[1], p2, p3, k4, rod_frame, axis, sc.wide[24:31])
+    frames = (w.frames[0, 0], rod_frame, rot)
     origins = (hub, p2, p3)
     for b in range(3):
         required_wrench(
@@ -218,7 +291,7 @@ def _dynamics(
             sc.wide[16:24],
             need[b],
         )
-    return _reactions(need, p2, p3, k4, torque, load, sc.wide[:16], col[_REACT : _REACT + 20])
+    return _reactions(need, p2, p3, k4, torque, load, axis, sc.wide[:16], col[_REACT : _REACT + N_REACT])
 
 
 @njit(**JIT)
@@ -226,14 +299,14 @@ def _settle(rules: Rules, status: int, col: np.ndarray) -> int:
     """``not_finite`` where a given column is not finite, then NaN where the word does not give it
     (:func:`dualmech.core.status.settle`)."""
     ok, dead, limit, not_finite = rules.codes[0], rules.codes[1], rules.codes[2], rules.codes[6]
-    n_check = 25 if status == ok else (5 if status == dead else (2 if status == limit else 0))
+    n_check = 5 + N_REACT if status == ok else (5 if status == dead else (2 if status == limit else 0))
     checks = (_S4, _COND, _S4_DOT, _S4_DDOT, _TRANS)
     for k in range(n_check):
         c = checks[k] if k < 5 else _REACT + k - 5
         if not math.isfinite(col[c]):
             status = not_finite
     if status != ok:
-        col[_REACT : _REACT + 20] = np.nan
+        col[_REACT : _REACT + N_REACT] = np.nan
     if status != ok and status != dead:
         col[_S4_DOT], col[_S4_DDOT], col[_TRANS] = np.nan, np.nan, np.nan
     if status != ok and status != dead and status != limit:
@@ -313,7 +386,7 @@ def _position(
     if word == rules.codes[0]:
         torque, load = bodies[4][c], bodies[5][c]
         body = (fl, bodies[0][c], bodies[1][c], bodies[2][c], bodies[3][c], torque, load)
-        dyn[i] = _dynamics(rules, g, crank, i, body, w, sc, p2, p3, k4, col)
+        dyn[i] = _dynamics(rules, g, geo[c, 4] != 0.0, crank, i, body, w, sc, p2, p3, k4, col)
         if math.isfinite(torque) and abs(col[_TRANS]) < rules.dead_centre:
             word = rules.codes[1]
     status[i] = _settle(rules, word, col)
@@ -342,7 +415,8 @@ def analyze_range(
     """Analyse positions ``lo..hi-1`` into the preallocated outputs (one thread; the GIL released).
 
     ``crank`` ``(6, n)``: theta, S1 and their first and second rates; ``case_of`` ``(n,)``
-    the case of each position; ``geo`` ``(cases, 4)``: a1, a2, a4, alpha4; ``bodies``: per
+    the case of each position; ``geo`` ``(cases, 5)``: a1, a2, a4, alpha4 and 1 where joint 3 is
+    universal (0: ball); ``bodies``: per
     case the masses ``(cases, 3)``, centres of mass ``(cases, 3, 3)``, inertias ``(cases, 3, 3, 3)``
     of crank, rod and slider, gravity ``(cases, 3)``, the given drive torque and slider load
     ``(cases,)`` (NaN where not given); ``out`` ``(n, len(OUT_COLUMNS))`` (a row per position:

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS
+
 
 @dataclass(frozen=True)
 class UnitSystem:
@@ -51,9 +53,8 @@ UNIT_SYSTEMS: dict[str, UnitSystem] = {
 DIMENSIONS: dict[str, str] = {
     "theta1_deg": "angle", "S1": "length", "S4": "length", "S4_dot": "velocity", "S4_ddot": "acceleration",
     "transmission": "ratio", "closure_condition": "ratio", "residual": "length",
-    "slider_load": "force", "drive_torque": "moment",
-    **{f"j{j}_f{a}": "force" for j in (1, 2, 3, 4) for a in "xyz"},
-    **{f"j{j}_m{a}": "moment" for j in (1, 4) for a in "xyz"},
+    **{c: "force" for c in FORCE_COLUMNS},
+    **{c: "moment" for c in MOMENT_COLUMNS},
 }
 
 

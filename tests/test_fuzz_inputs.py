@@ -214,7 +214,7 @@ def test_the_fuzz_property_catches_a_non_finite_ok_row(monkeypatch):
 
 
 def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "dualmech.validation", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "dualmech.cli", *args], capture_output=True,
                           text=True, cwd=cwd, timeout=60)
 
 
@@ -347,13 +347,34 @@ def test_a_matrix_is_bounded_before_it_is_expanded():
         parse_matrix(data)
 
 
+def test_an_unknown_key_is_named_with_every_valid_key_sorted():
+    """One helper writes every "unknown key" line (models.inputs.check_keys): the key (quoted when odd) and
+    the valid keys, sorted; a sweep's and a SPEC's keys go through it."""
+    from dualmech.models.inputs import check_keys
+    from dualmech.models.tolerance.spec import SpecError, spec_from_dict
+
+    with pytest.raises(ValueError) as err:
+        check_keys("bodies.crank", {"mass": 1.0, "colour": "red"}, {"mass", "inertia", "com"})
+    assert str(err.value) == "bodies.crank.colour: unknown key (valid: com, inertia, mass)"
+    with pytest.raises(SpecError) as err:
+        spec_from_dict({"tolerances": {}, "a b": 1})
+    assert str(err.value) == "'a b': unknown key (valid top-level keys: description, tolerances)"
+    data = tomllib.loads(MATRIX.format(name="keys"))
+    data["sweep"][0]["grids"] = {}
+    with pytest.raises(ValueError) as err:
+        parse_matrix(data)
+    assert str(err.value) == ("sweep[0].grids: unknown key "
+                              "(valid: cases, expect, fixed, grid, include_base, label, name)")
+    check_keys("", {"name": "x"}, ("name",))  # every key valid: no error
+
+
 def test_report_of_a_crank_at_rest_has_no_balancing_ratio():
     """crank_rpm = 0 (quasi-static, a meaningful case) divided by a zero shaking force in the report."""
-    from dualmech.validation.report.sections import balancing
+    from dualmech.validation.derived import balancing
 
     data = tomllib.loads(MATRIX.format(name="rest"))
     data["set"]["motion.crank_rpm"] = 0.0
-    _, rows = balancing(parse_matrix(data))
+    rows = balancing(parse_matrix(data)).rows
     assert rows and all(r["force_before"] == 0.0 and r["ratio"] is None for r in rows)
 
 
@@ -362,7 +383,7 @@ def test_report_of_a_crank_at_rest_has_no_balancing_ratio():
 def _command(exc: BaseException):
     import click
 
-    from dualmech.validation.cli_errors import one_line_errors
+    from dualmech.cli.errors import one_line_errors
 
     @click.command()
     @click.option("-o", "--output", "outdir", default=None)

@@ -1,4 +1,4 @@
-"""Cross-validation: the judges' drivers, the matrix, comparison, baseline, JUnit, report and command line.
+"""Cross-validation: the judges' drivers, the matrix, comparison, baseline, JUnit and report.
 
 Public names (resolved at first access, so importing this package imports no engine):
 

@@ -8,7 +8,7 @@ seeded random cases (the thesis example with random offset, twist and axial shif
 
 * **dualmech** -- the compiled kernel (:mod:`dualmech.models.slider_crank_kernel`),
   in-process, all cores; and ``dualmech solve`` of one long case streamed into Parquet
-  (:func:`dualmech.validation.cli_solve.stream_solve`, start-up excluded).
+  (:func:`dualmech.validation.solve_output.stream_solve`, start-up excluded).
 * **closed-form yardstick** -- :mod:`dualmech.validation.yardstick`, the same outputs in
   closed form, compiled, on the same cores: the machine's limit for this mechanism.
 * **Pinocchio, MuJoCo** -- best-effort drivers: the model built once per case outside the
@@ -32,7 +32,7 @@ import numpy as np
 
 from dualmech.models.case import Case, load_case
 from dualmech.models.slider_crank_kernel import _pool, case_arrays, solve_cases, threads
-from dualmech.validation.cli_solve import stream_solve
+from dualmech.validation.solve_output import stream_solve
 
 #: Crank-state fields in the kernel's order.
 CRANK_FIELDS = ("theta", "s", "theta_dot", "s_dot", "theta_ddot", "s_ddot")
@@ -104,14 +104,14 @@ def _positions(cases: list[Case]) -> int:
 
 
 def closed_form(cases: list[Case]) -> list[np.ndarray]:
-    """The yardstick's outputs ``(23, n)`` per case, the cases spread over the kernel's threads."""
+    """The yardstick's outputs ``(26, n)`` per case, the cases spread over the kernel's threads."""
     from dualmech.validation.yardstick import closed_form_range
 
     def one(case: Case) -> np.ndarray:
         state = case.motion.state(case.geometry.crank_axial_shift)
         crank = np.stack([getattr(state, f) for f in CRANK_FIELDS])
         geo, (mass, com, inertia, gravity, torque, load) = case_arrays([case])
-        out = np.empty((23, crank.shape[1]))
+        out = np.empty((26, crank.shape[1]))
         closed_form_range(
             0, crank.shape[1], crank, geo[0], mass[0], com[0], inertia[0], gravity[0], torque[0], load[0], out
         )
@@ -123,12 +123,12 @@ def closed_form(cases: list[Case]) -> list[np.ndarray]:
 def agreement(cases: list[Case]) -> float:
     """Largest difference of the kernel from the yardstick over ``cases``, relative to each column's peak
     over the case's force (or moment, or kinematic) columns."""
-    from dualmech.models.slider_crank_position_nb import OUT_COLUMNS
+    from dualmech.validation.yardstick import YARDSTICK_COLUMNS
 
     worst = 0.0
     for case, ref, table in zip(cases, closed_form(cases), solve_cases(cases)):
-        got = np.stack([table[c] for c in OUT_COLUMNS[2:25]])
-        for rows in ((0,), (1,), (2,), tuple(range(3, 23))):
+        got = np.stack([table[c] for c in YARDSTICK_COLUMNS])
+        for rows in ((0,), (1,), (2,), tuple(range(3, 26))):
             peak = np.nanmax(np.abs(ref[list(rows)]))
             worst = max(worst, float(np.nanmax(np.abs(got[list(rows)] - ref[list(rows)])) / peak))
     return worst

@@ -1,10 +1,12 @@
 """The rigid MuJoCo judge's model and loop closure (step 1 of :mod:`~dualmech.validation.mujoco_engine`).
 
-:func:`build` compiles the MJCF of a case into an :class:`MjLoop`; with ``theta1, S1`` set, the rod
-quaternion and ``S4`` are found by Newton on the site gap
-:math:`r(q) = x_\\mathrm{slider\\_pin} - x_\\mathrm{rod\\_end}` (3 equations, 4 unknowns: the
-minimum-norm step of ``mj_jacSite``'s Jacobian, applied with ``mj_integratePos``), from a crude guess
-made of geometry alone (:func:`crude_guess`) or from the previous position.
+:func:`build` compiles the MJCF of a case into an :class:`MjLoop`; with ``theta1`` (and ``S1``) set, the
+rod's joint coordinates and ``S4`` are found by Newton on the gap of the connect's two sites
+:math:`r(q) = x_\\mathrm{site1} - x_\\mathrm{site2}`: with the default joints ``slider_pin - rod_end`` at
+P3 (3 equations, 4 unknowns: rod quaternion and ``S4``), with a universal joint ``rod_start - crank_pin``
+at P2 (3 equations, 3 unknowns: ``S4`` and the two hinges).  The step is the minimum-norm step of
+``mj_jacSite``'s Jacobian, applied with ``mj_integratePos``, from a crude guess made of geometry alone
+(:func:`crude_guess`) or from the previous position.
 """
 
 from __future__ import annotations
@@ -18,9 +20,13 @@ import numpy as np
 from dualmech.models.case import Case
 from dualmech.models.mjcf import (
     MAX_TIMESTEP,
+    UNIVERSAL_JOINT_NAMES,
+    UNIVERSAL_SITE_NAMES,
     case_to_mjcf,
     default_settings,
+    joint_names,
     slider_axis,
+    universal_start_axes,
 )
 
 #: Newton on the site gap: stop below this gap (relative to a2) ...
@@ -41,11 +47,16 @@ class MjLoop:
     rod: int  # body ids
     crank: int
     slider: int
-    site_pin: int  # slider_pin (site1 of the connect)
-    site_end: int  # rod_end (site2)
-    qadr: np.ndarray  # qpos address of crank_angle, crank_axial, rod_ball (4), slider_stroke
-    vadr: np.ndarray  # dof address of the same (rod_ball: 3 dofs)
-    free: np.ndarray  # the 4 dofs Newton moves: rod_ball (3), slider_stroke
+    site_pin: int  # slider_pin: P3 on the slider
+    site_end: int  # rod_end: P3 on the rod
+    site1: int  # the connect's sites: slider_pin, rod_end (ball at P3) or rod_start, crank_pin (universal)
+    site2: int
+    qadr: np.ndarray  # qpos address of crank_angle, crank_axial (-1: revolute), the rod's first joint, slider
+    vadr: np.ndarray  # dof address of the same
+    crank_dofs: np.ndarray  # the prescribed dofs: crank_angle (, crank_axial)
+    rod_dofs: np.ndarray  # the rod's rotational dofs: rod_ball (3) or the universal joint's hinges (2)
+    free: np.ndarray  # the dofs Newton moves: the rod's and slider_stroke
+    universal: bool  # the rod meets the slider in a universal joint (the loop is then cut at P2)
 
 
 def build(case: Case, xml: str | None = None) -> MjLoop:
@@ -59,18 +70,23 @@ def build(case: Case, xml: str | None = None) -> MjLoop:
     if xml is None:
         xml = case_to_mjcf(case, default_settings(case, MAX_TIMESTEP))
     model = mujoco.MjModel.from_xml_string(xml)
-    data = mujoco.MjData(model)
-    names = ("crank_angle", "crank_axial", "rod_ball", "slider_stroke")
-    jid = [model.joint(n).id for n in names]
-    qadr = np.array([model.jnt_qposadr[j] for j in jid])
-    vadr = np.array([model.jnt_dofadr[j] for j in jid])
-    free = np.array([vadr[2], vadr[2] + 1, vadr[2] + 2, vadr[3]])
+    universal = case.joints.universal
+    names = joint_names(case.joints)
+    rod_joint = UNIVERSAL_JOINT_NAMES[0] if universal else "rod_ball"
+    jid = [model.joint(n).id if n in names else -1
+           for n in ("crank_angle", "crank_axial", rod_joint, "slider_stroke")]
+    qadr = np.array([model.jnt_qposadr[j] if j >= 0 else -1 for j in jid])
+    vadr = np.array([model.jnt_dofadr[j] if j >= 0 else -1 for j in jid])
+    rod_dofs = vadr[2] + np.arange(2 if universal else 3)
+    sites = UNIVERSAL_SITE_NAMES if universal else ("slider_pin", "rod_end")
     return MjLoop(
-        model=model, data=data,
+        model=model, data=mujoco.MjData(model),
         a1=case.geometry.crank_length, a2=case.geometry.rod_length, k4=slider_axis(case),
         rod=model.body("rod").id, crank=model.body("crank").id, slider=model.body("slider").id,
         site_pin=model.site("slider_pin").id, site_end=model.site("rod_end").id,
-        qadr=qadr, vadr=vadr, free=free,
+        site1=model.site(sites[0]).id, site2=model.site(sites[1]).id,
+        qadr=qadr, vadr=vadr, crank_dofs=vadr[:2][vadr[:2] >= 0], rod_dofs=rod_dofs,
+        free=np.append(rod_dofs, vadr[3]), universal=universal,
     )
 
 
@@ -81,17 +97,24 @@ def _positions(lp: MjLoop) -> None:
 
 
 def gap_jacobian(lp: MjLoop) -> np.ndarray:
-    """:math:`J_c = J_\\mathrm{slider\\_pin} - J_\\mathrm{rod\\_end}`, shape (3, nv)."""
+    """:math:`J_c = J_\\mathrm{site1} - J_\\mathrm{site2}` (default joints: ``slider_pin - rod_end``),
+    shape (3, nv)."""
     jp = np.empty((3, lp.model.nv))
     je = np.empty((3, lp.model.nv))
-    mujoco.mj_jacSite(lp.model, lp.data, jp, None, lp.site_pin)
-    mujoco.mj_jacSite(lp.model, lp.data, je, None, lp.site_end)
+    mujoco.mj_jacSite(lp.model, lp.data, jp, None, lp.site1)
+    mujoco.mj_jacSite(lp.model, lp.data, je, None, lp.site2)
     return jp - je
 
 
 def _gap(lp: MjLoop) -> np.ndarray:
     d = lp.data
-    return d.site_xpos[lp.site_pin] - d.site_xpos[lp.site_end]
+    return d.site_xpos[lp.site1] - d.site_xpos[lp.site2]
+
+
+def crank_pin(lp: MjLoop) -> np.ndarray:
+    """P2, the crank pin, at the current pose (world, (3,)): the rod's origin when the rod hangs from the
+    crank, the site ``crank_pin`` when it hangs from the slider (universal joint)."""
+    return lp.data.site_xpos[lp.site2] if lp.universal else lp.data.xpos[lp.rod]
 
 
 def slider_line(lp: MjLoop) -> tuple[np.ndarray, np.ndarray]:
@@ -106,7 +129,7 @@ def slider_line(lp: MjLoop) -> tuple[np.ndarray, np.ndarray]:
 def reach(lp: MjLoop) -> float:
     """Distance from the crank pin to the slider line minus ``a2`` (> 0: no assembly), current ``qpos``."""
     foot, axis = slider_line(lp)
-    d = lp.data.xpos[lp.rod] - foot
+    d = crank_pin(lp) - foot
     dist2 = max(float(d @ d - (d @ axis) ** 2), 0.0)
     return math.sqrt(dist2) - lp.a2
 
@@ -120,16 +143,35 @@ def crude_guess(lp: MjLoop) -> None:
     closure solution.
     """
     d, qa = lp.data, lp.qadr
-    d.qpos[qa[2]:qa[2] + 4] = (1.0, 0.0, 0.0, 0.0)
+    d.qpos[qa[2]:qa[2] + lp.rod_dofs.size + (0 if lp.universal else 1)] = (
+        (0.0, 0.0) if lp.universal else (1.0, 0.0, 0.0, 0.0))
     d.qpos[qa[3]] = 0.0
     mujoco.mj_kinematics(lp.model, lp.data)
     foot, axis = slider_line(lp)
-    p2 = d.xpos[lp.rod].copy()
+    p2 = crank_pin(lp).copy()
     s4 = float((p2 - foot) @ axis) + lp.a2
     target = foot + s4 * axis
-    direction = d.xmat[lp.crank].reshape(3, 3).T @ (target - p2)  # crank-frame axes
-    d.qpos[qa[2]:qa[2] + 4] = _quat_x_to(direction)
+    if lp.universal:
+        d.qpos[qa[2]:qa[2] + 2] = _universal_angles(lp.k4, (target - p2) / np.linalg.norm(target - p2))
+    else:
+        direction = d.xmat[lp.crank].reshape(3, 3).T @ (target - p2)  # crank-frame axes
+        d.qpos[qa[2]:qa[2] + 4] = _quat_x_to(direction)
     d.qpos[qa[3]] = s4
+
+
+def _universal_angles(k4: np.ndarray, u: np.ndarray) -> tuple[float, float]:
+    """Hinge angles ``(q_k4, q_cross)`` that turn the rod's start direction ``u0`` onto the unit ``u``.
+
+    The rod's axis is ``R(k4, q_k4) R(a_r0, q_cross) u0`` (``models/mjcf.py``: the hinges compose in
+    order); turning about ``a_r0 = x x k4`` by ``q`` takes the angle ``psi`` of the rod from ``k4``
+    (toward ``x``) to ``psi - q``, so ``q_cross = psi0 - arccos(u·k4)`` with ``psi0 = 3 pi/4`` of ``u0``;
+    ``q_k4`` turns ``x`` onto ``u``'s part normal to ``k4`` about ``k4``.
+    """
+    x, (u0, _) = np.array([1.0, 0.0, 0.0]), universal_start_axes(k4)
+    psi0 = math.atan2(float(u0 @ x), float(u0 @ k4))
+    normal = u - (u @ k4) * k4
+    q_k4 = math.atan2(float(k4 @ np.cross(x, normal)), float(x @ normal))
+    return q_k4, psi0 - math.acos(max(-1.0, min(1.0, float(u @ k4))))
 
 
 def _quat_x_to(v: np.ndarray) -> np.ndarray:
@@ -173,18 +215,20 @@ def close_loop(lp: MjLoop) -> tuple[bool, int, float]:
 
 
 def set_crank(lp: MjLoop, theta: float, s: float) -> None:
+    """Set the crank's coordinates (``s`` is ignored for a revolute crank, whose ``S1`` is the model's)."""
     lp.data.qpos[lp.qadr[0]] = theta
-    lp.data.qpos[lp.qadr[1]] = s
+    if lp.qadr[1] >= 0:
+        lp.data.qpos[lp.qadr[1]] = s
 
 
 def on_branch(lp: MjLoop) -> bool:
     """``(P3 - P2)·k4 < 0`` at the current pose: the assembly branch of ``docs/conventions.md``."""
-    return bool((lp.data.site_xpos[lp.site_pin] - lp.data.xpos[lp.rod]) @ lp.k4 < 0.0)
+    return bool((lp.data.site_xpos[lp.site_pin] - crank_pin(lp)) @ lp.k4 < 0.0)
 
 
 def rod_axis(lp: MjLoop) -> np.ndarray:
     """u = (P3 - P2)/|P3 - P2|, world, shape (3,)."""
-    u = lp.data.site_xpos[lp.site_pin] - lp.data.xpos[lp.rod]
+    u = lp.data.site_xpos[lp.site_pin] - crank_pin(lp)
     return u / np.linalg.norm(u)
 
 

@@ -1,8 +1,9 @@
 """The rigid MuJoCo judge's rates, efforts and joint wrenches (steps 2-4 of
 :mod:`~dualmech.validation.mujoco_engine`).
 
-Rates from the closure and the rod's zero-spin gauge (drift from ``mj_jacDot``); efforts by least
-squares on :math:`M\\ddot q + c = \\tau + J_c^T \\lambda` (``mj_rne``); joint wrenches from
+Rates from the closure and, with a ball at P3, the rod's zero-spin gauge (drift from ``mj_jacDot``; a
+universal joint's hinges determine the spin: no gauge); efforts by least squares on
+:math:`M\\ddot q + c = \\tau + J_c^T \\lambda` (``mj_rne``); joint wrenches from
 ``mj_rnePostConstraint`` with :math:`\\lambda` in ``efc_force``.
 """
 
@@ -15,9 +16,12 @@ from dualmech.validation.mujoco_closure import MjLoop, gap_jacobian, rod_axis
 
 
 def rate_rows(lp: MjLoop) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of the closure and spin-gauge equations: (4, nv) matrix for rates, and the rod's ``J_omega``."""
+    """Rows of the rate equations, (4, nv) (closure, spin gauge) or (3, nv) (universal joint: closure),
+    and the rod's ``J_omega`` (3, nv)."""
     jr = np.empty((3, lp.model.nv))
     mujoco.mj_jacBody(lp.model, lp.data, None, jr, lp.rod)
+    if lp.universal:
+        return gap_jacobian(lp), jr
     rows = np.vstack([gap_jacobian(lp), rod_axis(lp) @ jr])
     return rows, jr
 
@@ -25,30 +29,34 @@ def rate_rows(lp: MjLoop) -> tuple[np.ndarray, np.ndarray]:
 def solve_rates(lp: MjLoop, rows: np.ndarray, known: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """Rates ``x`` (nv,) with ``x[crank dofs] = known`` and ``rows @ x = rhs``."""
     x = np.zeros(lp.model.nv)
-    x[lp.vadr[:2]] = known
+    x[lp.crank_dofs] = known
     x[lp.free] = np.linalg.solve(rows[:, lp.free], rhs - rows @ x)
     return x
 
 
 def drift(lp: MjLoop) -> np.ndarray:
     """:math:`[\\dot J_c \\dot q;\\ u^T \\dot J_\\omega \\dot q]`, shape (4,), at the current ``qvel``
-    (mj_jacDot)."""
+    (mj_jacDot); :math:`\\dot J_c \\dot q` (3,) alone with a universal joint."""
     m, d = lp.model, lp.data
     nv = m.nv
     jp, je, jr = np.empty((3, nv)), np.empty((3, nv)), np.empty((3, nv))
-    mujoco.mj_jacDot(m, d, jp, None, d.site_xpos[lp.site_pin], lp.slider)
-    mujoco.mj_jacDot(m, d, je, None, d.site_xpos[lp.site_end], lp.rod)
-    mujoco.mj_jacDot(m, d, None, jr, d.xpos[lp.rod], lp.rod)
+    mujoco.mj_jacDot(m, d, jp, None, d.site_xpos[lp.site1], m.site_bodyid[lp.site1])
+    mujoco.mj_jacDot(m, d, je, None, d.site_xpos[lp.site2], m.site_bodyid[lp.site2])
     v = d.qvel
+    if lp.universal:
+        return (jp - je) @ v
+    mujoco.mj_jacDot(m, d, None, jr, d.xpos[lp.rod], lp.rod)
     return np.concatenate([(jp - je) @ v, [rod_axis(lp) @ (jr @ v)]])
 
 
-def efforts(lp: MjLoop, mode: str, given: float) -> tuple[np.ndarray, float, float, float]:
-    """Connect force and joint efforts by least squares on :math:`M\\ddot q + c = \\tau + J_c^T\\lambda`.
+def efforts(lp: MjLoop, mode: str, given: float) -> np.ndarray:
+    """Connect force by least squares on :math:`M\\ddot q + c = \\tau + J_c^T\\lambda`.
 
-    The rows of the angular dofs (crank angle, rod ball; F·L) are divided by ``a2``, so that
-    every row is a force and the fit weighs them alike in any length unit.  Returns ``(lam (3,), drive_torque,
-    axial_force, slider_load)``; uses ``qacc``/``qvel`` of ``data`` (``mj_rne`` reads ``qacc``: nothing may
+    Unknown besides :math:`\\lambda`: the crank's axial force (cylindrical crank) and the slider effort
+    (torque mode) or the drive torque (force mode); the rod's joints carry no effort.  The rows of the
+    angular dofs (crank angle, the rod's ball or hinges; F·L) are divided by ``a2``, so that every row is a
+    force and the fit weighs them alike in any length unit.  Returns ``lam`` (3,), the force on the connect's
+    site1 body (world axes); uses ``qacc``/``qvel`` of ``data`` (``mj_rne`` reads ``qacc``: nothing may
     overwrite it in between).
     """
     m, d = lp.model, lp.data
@@ -57,19 +65,15 @@ def efforts(lp: MjLoop, mode: str, given: float) -> tuple[np.ndarray, float, flo
     mujoco.mj_rne(m, d, 1, lhs)
     jc = gap_jacobian(lp)
     va = lp.vadr
-    e_angle, e_axial, e_stroke = np.zeros(nv), np.zeros(nv), np.zeros(nv)
-    e_angle[va[0]], e_axial[va[1]], e_stroke[va[3]] = 1.0, 1.0, -1.0  # slide axis is -k4
+    e_angle, e_stroke = np.zeros(nv), np.zeros(nv)
+    e_angle[va[0]], e_stroke[va[3]] = 1.0, -1.0  # slide axis is -k4
+    axial = [np.eye(nv)[va[1]]] if va[1] >= 0 else []  # an effort of the cylindrical crank only
     w = np.ones(nv)
-    w[[va[0], va[2], va[2] + 1, va[2] + 2]] = 1.0 / lp.a2  # angular rows: F·L -> F
-    if mode == "torque":
-        a = np.column_stack([jc.T, e_axial, e_stroke])
-        b = lhs - given * e_angle
-        x = np.linalg.lstsq(a * w[:, None], b * w, rcond=None)[0]
-        return x[:3], given, x[3], x[4]
-    a = np.column_stack([jc.T, e_angle, e_axial])
-    b = lhs - given * e_stroke
-    x = np.linalg.lstsq(a * w[:, None], b * w, rcond=None)[0]
-    return x[:3], x[3], x[4], given
+    w[[va[0], *lp.rod_dofs]] = 1.0 / lp.a2  # angular rows: F·L -> F
+    unknown, known = ([*axial, e_stroke], e_angle) if mode == "torque" else ([e_angle, *axial], e_stroke)
+    a = np.column_stack([jc.T, *unknown])
+    x = np.linalg.lstsq(a * w[:, None], (lhs - given * known) * w, rcond=None)[0]
+    return x[:3]
 
 
 def joint_wrenches(lp: MjLoop) -> dict[str, float]:
@@ -78,9 +82,12 @@ def joint_wrenches(lp: MjLoop) -> dict[str, float]:
     Call after ``mj_rnePostConstraint``.  ``cfrc_int[b]`` is [torque; force] exerted on
     body ``b`` by its parent, world axes, moment about ``subtree_com[body_rootid[b]]``
     (here the ``ground`` body's subtree: the mechanism's centre of mass); moments are
-    moved to O (joint 1) and P3 (joint 4) with :math:`m_P = m_c + (c - P)\\times f`.
-    Joint 3 is the connect: ``efc_force`` of its 3 rows is the force on site1's body
-    (the slider), i.e. the force of the rod on the slider.
+    moved to O (joint 1) and P3 (joints 3 and 4) with :math:`m_P = m_c + (c - P)\\times f`.
+    ``efc_force`` of the connect's 3 rows is the force on site1's body.  Ball at P3: the connect is
+    joint 3 (site1 = the slider's pin: the force of the rod on the slider), the rod's parent the crank
+    (joint 2), ``j3_m = 0``.  Universal joint: the connect is joint 2 (site1 = the rod's start: the force
+    of the crank on the rod), the rod's parent the slider, so joint 3 (force and the hinges' constraint
+    moment about P3) is minus the rod's ``cfrc_int``.
     """
     m, d = lp.model, lp.data
     ref = d.subtree_com[m.body_rootid[lp.crank]]
@@ -91,11 +98,17 @@ def joint_wrenches(lp: MjLoop) -> dict[str, float]:
         return force.copy(), torque + _cross(ref - point, force)
 
     f1, m1 = moved(lp.crank, np.zeros(3))
-    f2 = d.cfrc_int[lp.rod, 3:].copy()
-    f3 = d.efc_force[:3].copy()  # the connect's rows are the only constraint rows
+    if lp.universal:
+        on_rod, at_p3 = moved(lp.rod, p3)  # the slider's action on the rod through the two hinges
+        f2, f3, m3 = d.efc_force[:3].copy(), -on_rod, -at_p3
+    else:
+        f2 = d.cfrc_int[lp.rod, 3:].copy()
+        f3 = d.efc_force[:3].copy()  # the connect's rows are the only constraint rows
+        m3 = np.zeros(3)
     f4, m4 = moved(lp.slider, p3)
     out = {}
-    for name, vec in (("j1_f", f1), ("j1_m", m1), ("j2_f", f2), ("j3_f", f3), ("j4_f", f4), ("j4_m", m4)):
+    for name, vec in (("j1_f", f1), ("j1_m", m1), ("j2_f", f2), ("j3_f", f3), ("j3_m", m3), ("j4_f", f4),
+                      ("j4_m", m4)):
         for axis, value in zip("xyz", vec):
             out[name + axis] = float(value)
     out["slider_load"] = float(lp.k4 @ f4)

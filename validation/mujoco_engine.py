@@ -67,6 +67,7 @@ from dualmech.validation.mujoco_closure import (
     build,
     close_loop,
     condition,
+    crank_pin,
     crude_guess,
     on_branch,
     reach,
@@ -129,13 +130,14 @@ def assembled_state(lp: MjLoop, crank: tuple[float, ...], warm: bool) -> tuple[s
     status, c = str(words[0]), float(conditions[0])
     if status == Status.ASSEMBLY_LIMIT and not closed:  # the limit pose: the foot of the perpendicular
         foot, axis = slider_line(lp)
-        lp.data.qpos[lp.qadr[3]] = float(foot_s4(lp.data.xpos[lp.rod], foot, -axis)[0])
+        lp.data.qpos[lp.qadr[3]] = float(foot_s4(crank_pin(lp), foot, -axis)[0])
         mujoco.mj_kinematics(lp.model, lp.data)
     if status != Status.OK:
         return status, iters, gap, c
     mujoco.mj_fwdPosition(lp.model, lp.data)  # efc rows of the connect, cinert, ...
     rows, _ = rate_rows(lp)
-    lp.data.qvel[:] = solve_rates(lp, rows, np.array([theta_dot, s_dot]), np.zeros(4))
+    known = np.array([theta_dot, s_dot][:lp.crank_dofs.size])
+    lp.data.qvel[:] = solve_rates(lp, rows, known, np.zeros(rows.shape[0]))
     mujoco.mj_fwdVelocity(lp.model, lp.data)  # cvel, cdof_dot for jacDot and RNE
     return status, iters, gap, c
 
@@ -154,7 +156,7 @@ def solve_position(lp: MjLoop, crank: tuple[float, ...], mode: str, given: float
         return Position(status, iters, values)
     d = lp.data
     rows, _ = rate_rows(lp)
-    qacc = solve_rates(lp, rows, np.array(crank[4:6]), -drift(lp))
+    qacc = solve_rates(lp, rows, np.array(crank[4:4 + lp.crank_dofs.size]), -drift(lp))
     d.qacc[:] = qacc
     t = transmission(lp)
     values.update(
@@ -163,8 +165,7 @@ def solve_position(lp: MjLoop, crank: tuple[float, ...], mode: str, given: float
     )
     if mode == "torque" and abs(t) < DEAD_CENTRE_TRANSMISSION.value:
         return Position(Status.DEAD_CENTRE.value, iters, values)
-    lam, _, _, _ = efforts(lp, mode, given)
-    values.update(wrenches(lp, lam))
+    values.update(wrenches(lp, efforts(lp, mode, given)))
     return Position(Status.OK.value, iters, values)
 
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from dualmech.core.status import Status
 from dualmech.models.case import Case
-from dualmech.models.mjcf import KEY_NAME, MjcfStart, runnable_mjcf
+from dualmech.models.mjcf import KEY_NAME, MjcfStart, check_exportable, runnable_mjcf
 from dualmech.validation.mujoco_engine import assembled_state, build
 from dualmech.validation.tolerances import MJCF_EXPORT_CRANK_SPEED, MJCF_EXPORT_LOOP_GAP
 
@@ -80,8 +80,10 @@ def start_state(case: Case) -> MjcfStart:
     Raises
     ------
     ValueError
-        The mechanism does not assemble (or sits at an edge of assembly) there.
+        The mechanism does not assemble (or sits at an edge of assembly) there, or its joints are not the
+        default ones (:func:`~dualmech.models.mjcf.check_exportable`).
     """
+    check_exportable(case)
     lp = build(case)
     st = case.motion.state(case.geometry.crank_axial_shift)
     theta, s1 = float(st.theta[0]), float(st.s[0])

@@ -153,10 +153,11 @@ def read_state(lp: rigid.MjLoop, gains: np.ndarray) -> dict[str, float]:
     mujoco.mj_rnePostConstraint(m, d)
     values = mujoco_dynamics.joint_wrenches(lp)
     values.update(
-        S1=float(d.qpos[lp.qadr[1]]), S4=float(d.qpos[lp.qadr[3]]),
+        S1=float(d.qpos[lp.qadr[1]] if lp.qadr[1] >= 0 else d.xpos[lp.crank][2]),  # revolute: the crank's S1
+        S4=float(d.qpos[lp.qadr[3]]),
         S4_dot=float(d.qvel[lp.vadr[3]]), S4_ddot=float(d.qacc[lp.vadr[3]]),
         transmission=mujoco_dynamics.transmission(lp), closure_condition=mujoco_closure.condition(lp),
-        residual=float(np.linalg.norm(d.site_xpos[lp.site_pin] - d.site_xpos[lp.site_end])) / lp.a2,
+        residual=float(np.linalg.norm(d.site_xpos[lp.site1] - d.site_xpos[lp.site2])) / lp.a2,
         theta=float(d.qpos[lp.qadr[0]]),
     )
     return values
@@ -179,8 +180,9 @@ def simulate(case: Case, slider_load: float, settings: MjcfSettings, rows: np.nd
                          f"{settings.timestep!r}")
     lp = rigid.build(case, case_to_mjcf(case, settings))
     m, d = lp.model, lp.data
-    kp = m.actuator_gainprm[:2, 0].copy()
-    kv = -m.actuator_biasprm[:2, 2].copy()
+    servos = lp.crank_dofs.size  # the crank-angle (and crank-axial) servos come first
+    kp = m.actuator_gainprm[:servos, 0].copy()
+    kv = -m.actuator_biasprm[:servos, 2].copy()
     gains = velocity_gains(m)
     n = case.motion.angles_deg.shape[0]
     out = {k: np.full(n, np.nan) for k in (*(c for c in NUMERIC_COLUMNS if c != "theta1_deg"), "theta_lag")}
@@ -191,8 +193,8 @@ def simulate(case: Case, slider_load: float, settings: MjcfSettings, rows: np.nd
         status, _, _, _ = rigid.assembled_state(lp, (theta[0], s[0], theta_dot[0], s_dot[0]), warm=False)
         if status != Status.OK:
             continue
-        ctrl = np.stack([theta + kv[0] / kp[0] * theta_dot, s + kv[1] / kp[1] * s_dot,
-                         np.full(times.shape, slider_load)], -1)
+        ctrl = np.stack([theta + kv[0] / kp[0] * theta_dot, s + kv[-1] / kp[-1] * s_dot,
+                         np.full(times.shape, slider_load)], -1)[:, [*range(servos), 2]]
         read = dict(zip(steps.tolist(), run_rows.tolist()))
         for k in range(times.shape[0]):
             d.ctrl[:] = ctrl[k]

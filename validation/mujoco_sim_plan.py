@@ -122,7 +122,7 @@ def survey(case: Case) -> Survey:
     Uses the rigid path's own closure at every row (MuJoCo geometry, never the
     in-house answer).  The effective inertia of a servo is :math:`v^T M v` with
     ``v`` the mechanism's velocity for a unit rate of that servo's joint (the
-    other crank joint held, zero rod spin).
+    other crank joint held, zero rod spin with a ball at P3); a revolute crank has no axial servo (0).
     """
     lp = rigid.build(case)
     st = case.motion.state(case.geometry.crank_axial_shift)
@@ -133,7 +133,7 @@ def survey(case: Case) -> Survey:
     mass = np.empty((lp.model.nv, lp.model.nv))
     warm = False
     for i in range(n):
-        for k, rates in enumerate(((1.0, 0.0), (0.0, 1.0))):
+        for k, rates in enumerate(((1.0, 0.0), (0.0, 1.0))[:lp.crank_dofs.size]):
             word, _, _, c = rigid.assembled_state(lp, (float(st.theta[i]), float(st.s[i]), *rates), warm)
             if k == 0:
                 status[i], s4[i], condition[i] = word, lp.data.qpos[lp.qadr[3]], c

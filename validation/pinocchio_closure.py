@@ -61,19 +61,16 @@ OK, DEAD, LIMIT, BRANCH, NOT_CONVERGED, NO_ASSEMBLY = (
         Status.NO_ASSEMBLY,
     )
 )
-# coordinate layout of build_model (checked in Closure): q = (theta1, S1, quat(4), S4), v = (theta1, S1, w(3),
-# S4)
-Q_S4, V_S4 = 6, 5
 
 
-def _min_norm_step(jc: np.ndarray, r: tuple[float, float, float], mu: float) -> list[float]:
-    """Damped minimum-norm Newton step ``x = -J^T (J J^T + mu I)^{-1} r`` on the free columns of ``jc``.
+def _min_norm_step(jf: np.ndarray, r: tuple[float, float, float], mu: float) -> list[float]:
+    """Damped minimum-norm Newton step ``x = -J^T (J J^T + mu I)^{-1} r`` on the free columns ``jf``.
 
-    ``jc`` is the 3x6 closure Jacobian; ``J`` its free columns 2..5 (rod, S4).
+    ``jf`` (3x4) are the free columns (rod, S4) of the closure Jacobian.
     The 3x3 solve is written out (adjugate of the symmetric ``G = J J^T + mu I``)
     because the per-call overhead of ``numpy.linalg.solve`` dominates a 3x3 problem.
     """
-    (_, _, a, b, c, d), (_, _, e, f, g, h), (_, _, i, j, k, m) = jc.tolist()
+    (a, b, c, d), (e, f, g, h), (i, j, k, m) = jf.tolist()
     r0, r1, r2 = r
     s00 = a * a + b * b + c * c + d * d + mu
     s01 = a * e + b * f + c * g + d * h
@@ -104,9 +101,11 @@ def _min_norm_step(jc: np.ndarray, r: tuple[float, float, float], mu: float) -> 
 class Closure:
     """Gauss–Newton loop closure on one model/data pair, reused for every position of a case.
 
-    After a converged :meth:`close`, ``self.AB`` (4x6) holds the rate equations
-    ``AB qdot = 0`` at the solution (rows: J_c, zero spin); its columns 2..5 are
-    ``A`` (free coordinates) and 0..1 are ``B`` (crank coordinates).
+    After a converged :meth:`close`, ``self.AB`` (4 x nv) holds the rate equations
+    ``AB qdot = 0`` at the solution (rows: J_c, then zero spin with a ball at P3 or the universal
+    joint's ``omega_rod·n = 0``); its last 4 columns are ``A`` (free coordinates: rod, S4) and the first
+    ``nc`` are ``B`` (crank coordinates).  With a universal joint every converged pose is turned about
+    the rod axis so that the rod's y axis is ``a_r = u x k4 / |u x k4|`` (:meth:`_align_spin`).
     """
 
     def __init__(self, pm: PinocchioSliderCrank, length_scale: float) -> None:
@@ -117,10 +116,12 @@ class Closure:
         self.tol2 = (CLOSURE_TOLERANCE * length_scale) ** 2
         self.mu = STEP_DAMPING * pm.a2**2
         self.dv = np.zeros(pm.model.nv)
-        self.AB = np.empty((4, 6))
+        self.AB = np.empty((4, pm.model.nv))
         self.condition = math.nan  # |u·k4| at the last converged solution
+        nc = self.nc = pm.nc
         layout = (pm.q_crank, pm.q_rod, pm.q_slider, pm.v_crank, pm.v_rod, pm.v_slider)
-        if layout != (slice(0, 2), slice(2, 6), slice(6, 7), slice(0, 2), slice(2, 5), slice(5, 6)):
+        if layout != (slice(0, nc), slice(nc, nc + 4), slice(nc + 4, nc + 5), slice(0, nc), slice(nc, nc + 3),
+                      slice(nc + 3, nc + 4)):
             raise ValueError(f"pinocchio model: unexpected coordinate layout {layout}")
 
     def _evaluate(self, q: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float], float]:
@@ -140,17 +141,17 @@ class Closure:
         :meth:`_minimize` continues from the best iterate and decides between a
         least-squares minimum with a gap (``no_assembly``) and plain failure (``not_converged``).
         """
-        model, dv, tol2, mu = self.model, self.dv, self.tol2, self.mu
+        model, dv, tol2, mu, nc = self.model, self.dv, self.tol2, self.mu, self.nc
         best_q, best_rr = q, math.inf
         for it in range(MAX_NEWTON_ITERATIONS + 1):
             jc, r, rr = self._evaluate(q)
             if rr <= tol2:
-                return q, self._converged(jc), it, math.sqrt(rr)
+                return self._converged(q, jc, it, rr)
             if rr < best_rr:
                 best_q, best_rr = q, rr
             if it == MAX_NEWTON_ITERATIONS or not rr <= 1e4 * best_rr:  # also catches NaN
                 break
-            dv[2:] = _min_norm_step(jc, r, mu)
+            dv[nc:] = _min_norm_step(jc[:, nc:], r, mu)
             q = pin.integrate(model, q, dv)
         return self._minimize(best_q, it)
 
@@ -165,15 +166,15 @@ class Closure:
         column (``|J_i·r| <= STATIONARY_GRADIENT |J_i| |r|``) means the rod cannot reach
         the slider line: ``no_assembly``.
         """
-        model, dv, tol2 = self.model, self.dv, self.tol2
+        model, dv, tol2, nc = self.model, self.dv, self.tol2, self.nc
         jc, r, rr = self._evaluate(q)
         lm = 1e-3
         for extra in range(LM_ITERATIONS + 1):
             if not math.isfinite(rr):
                 break
             if rr <= tol2:
-                return q, self._converged(jc), it + extra, math.sqrt(rr)
-            jf = jc[:, 2:]
+                return self._converged(q, jc, it + extra, rr)
+            jf = jc[:, nc:]
             gram = jf.T @ jf
             col2 = np.diag(gram) + 1e-20 * np.max(np.diag(gram))  # floor: the rod's spin column is ~0
             gradient = jf.T @ np.asarray(r)
@@ -182,7 +183,7 @@ class Closure:
             if extra == LM_ITERATIONS:
                 break
             damping = lm * (col2 + 1e-12 * col2.max())
-            dv[2:] = -np.linalg.solve(gram + np.diag(damping), gradient)
+            dv[nc:] = -np.linalg.solve(gram + np.diag(damping), gradient)
             trial = pin.integrate(model, q, dv)
             jc_t, r_t, rr_t = self._evaluate(trial)
             if rr_t < rr:
@@ -192,21 +193,48 @@ class Closure:
                 self._evaluate(q)  # restore data to the current iterate
         return q, NOT_CONVERGED, it + extra, math.sqrt(rr)
 
-    def _converged(self, jc: np.ndarray) -> int:
-        """Store the rate equations at the solution; classify the branch."""
+    def _converged(self, q: np.ndarray, jc: np.ndarray, it: int,
+                   rr: float) -> tuple[np.ndarray, int, int, float]:
+        """Store the rate equations at the solution ``q`` (data evaluated there); classify the branch.
+
+        Returns what :meth:`close` returns.  With a universal joint the pose is first turned about ``u``
+        (:meth:`_align_spin`), and the fourth row is the joint's ``n^T J_omega`` (rod axes), else the
+        zero-spin gauge ``u^T J_omega``.
+        """
         model, data, pm = self.model, self.data, self.pm
+        if pm.universal:
+            q = self._align_spin(q)
+            jc, _, rr = self._evaluate(q)
         AB = self.AB
         AB[:3] = jc
-        # rod angular velocity along its x = u
-        AB[3] = pin.getJointJacobian(model, data, pm.rod_joint, _LOCAL)[3]
-        along = float(data.oMi[pm.rod_joint].rotation[:, 0] @ pm.k4)  # u·k4, u = the rod frame's x axis
+        rotation = data.oMi[pm.rod_joint].rotation
+        if pm.universal:  # omega_rod·n, n = a_r x k4 (rod axes: a_r = y)
+            AB[3] = np.cross([0.0, 1.0, 0.0], rotation.T @ pm.k4) @ pin.getJointJacobian(
+                model, data, pm.rod_joint, _LOCAL)[3:]
+        else:  # rod angular velocity along its x = u
+            AB[3] = pin.getJointJacobian(model, data, pm.rod_joint, _LOCAL)[3]
+        along = float(rotation[:, 0] @ pm.k4)  # u·k4, u = the rod frame's x axis
         self.condition = abs(along)
-        return OK if along < 0.0 else BRANCH
+        return q, OK if along < 0.0 else BRANCH, it, math.sqrt(rr)
+
+    def _align_spin(self, q: np.ndarray) -> np.ndarray:
+        """``q`` with the rod turned about its axis ``u`` so that its y axis is ``a_r = u x k4 / |u x k4|``.
+
+        The universal joint's condition ``e·k4 = 0`` on the rod-side axis ``e`` (the rod's y); a turn about
+        ``u`` moves neither ``P2`` nor the rod end, so the closure is kept.  ``data`` must be at ``q``.
+        """
+        rotation = self.data.oMi[self.pm.rod_joint].rotation
+        u, e = rotation[:, 0], rotation[:, 1]
+        a_r = np.cross(u, self.pm.k4)
+        a_r /= np.linalg.norm(a_r)
+        dv = np.zeros(self.model.nv)
+        dv[self.pm.v_rod.start] = math.atan2(float(u @ np.cross(e, a_r)), float(e @ a_r))  # about local x = u
+        return pin.integrate(self.model, q, dv)
 
     def tangent(self) -> np.ndarray:
-        """``d q_free / d (theta1, S1) = -A^{-1} B`` at the last converged solution, shape (4, 2)."""
-        _, _, x, info = lapack.dgesv(self.AB[:, 2:], self.AB[:, :2])
-        return -x if info == 0 else np.full((4, 2), np.nan)
+        """``d q_free / d (crank coordinates) = -A^{-1} B`` at the last converged solution, shape (4, nc)."""
+        _, _, x, info = lapack.dgesv(self.AB[:, self.nc:], self.AB[:, :self.nc])
+        return -x if info == 0 else np.full((4, self.nc), np.nan)
 
     def crude_guess(self, theta: float, s1: float, side: float = 1.0) -> np.ndarray:
         """A rough assembly: ``S4`` a rod length beyond the foot of the perpendicular from ``P2``, rod aimed
@@ -218,7 +246,7 @@ class Closure:
         """
         pm, model, data = self.pm, self.model, self.data
         q = pin.neutral(model)
-        q[pm.q_crank] = (theta, s1)
+        q[pm.q_crank] = (theta, s1)[:self.nc]
         pin.forwardKinematics(model, data, q)
         p2 = data.oMi[pm.rod_joint].translation
         s4 = -float(pm.k4 @ (p2 - pm.F)) + side * pm.a2
@@ -232,11 +260,12 @@ class Closure:
         self, q: np.ndarray, tangent: np.ndarray, crank_to: np.ndarray
     ) -> tuple[np.ndarray, int, int, float]:
         """Predict along ``tangent`` from converged ``q`` to crank coordinates ``crank_to``, then Newton."""
-        delta = crank_to - q[:2]
+        nc = self.nc
+        delta = crank_to - q[:nc]
         dv = self.dv
-        dv[2:] = tangent @ delta
+        dv[nc:] = tangent @ delta
         q = pin.integrate(self.model, q, dv)
-        q[:2] = crank_to
+        q[:nc] = crank_to
         return self.close(q)
 
 
@@ -260,7 +289,7 @@ def continue_to(closure: Closure, case: Case, q0: np.ndarray, tangent: np.ndarra
             waypoints = crank_to[None, :]
         else:
             theta = q0[0] + dtheta * np.arange(1, m + 1) / m
-            waypoints = np.column_stack([theta, _s1_at(case, theta)])
+            waypoints = np.column_stack([theta, _s1_at(case, theta)])[:, :closure.nc]
             waypoints[-1] = crank_to
         q, t = q0, tangent
         for w, target in enumerate(waypoints):
@@ -285,26 +314,26 @@ def close_positions(closure: Closure, case: Case, state: CrankState) -> dict[str
     Each position continues from the previous closed one (:func:`continue_to`); the
     first one, one after a failed position, or one the continuation could not reach
     starts from :meth:`Closure.crude_guess`, so a status always describes its own
-    position.  Returns q (n, 7), the rate equations AB (n, 4, 6) and the tangent
-    K = -A^{-1} B (n, 4, 2) at each closed position (NaN elsewhere), status codes,
+    position.  Returns q (n, nq), the rate equations AB (n, 4, nv) and the tangent
+    K = -A^{-1} B (n, 4, nc) at each closed position (NaN elsewhere), status codes,
     Newton iterations, closure residuals |r| and the closure condition |u·k4| (n,) (NaN where not closed).
     """
     n = len(state)
     q_all = np.empty((n, closure.model.nq))
-    AB_all = np.full((n, 4, 6), np.nan)
-    K_all = np.full((n, 4, 2), np.nan)
+    AB_all = np.full((n, 4, closure.model.nv), np.nan)
+    K_all = np.full((n, 4, closure.nc), np.nan)
     status = np.empty(n, dtype=int)
     iterations = np.empty(n, dtype=int)
     residual = np.empty(n)
     condition = np.full(n, np.nan)
-    crank = np.column_stack([state.theta, state.s])
+    crank = np.column_stack([state.theta, state.s])[:, :closure.nc]
     q_prev, t_prev = None, None
     for i in range(n):
         code = None
         if q_prev is not None:
             q, code, it, rnorm = continue_to(closure, case, q_prev, t_prev, crank[i])
         if code != OK:  # first position, after a failure, or continuation failed on the way: start afresh
-            q, code, it, rnorm = closure.close(closure.crude_guess(crank[i, 0], crank[i, 1]))
+            q, code, it, rnorm = closure.close(closure.crude_guess(crank[i, 0], state.s[i]))
         q_all[i], status[i], iterations[i], residual[i] = q, code, it, rnorm
         if code == OK:
             t_prev = closure.tangent()

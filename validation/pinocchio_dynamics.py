@@ -5,6 +5,13 @@ Rates solve :math:`[J_c; s^T] \\dot q = 0` and the same with the drift for :math
 (:func:`rates_and_rnea`); ``rnea`` gives :math:`\\tau_0 = M\\ddot q + b`; and
 :math:`\\tau_0 = S^T\\tau + J_c^T\\lambda` is solved in the least-squares sense for the unknown
 efforts and the closure force :math:`\\lambda` (:func:`closed_loop_inverse_dynamics`).
+
+With a universal joint at P3, :math:`s^T` is the joint's row :math:`n^T J_\\omega` (``n = a_r x k4``,
+the rate form of ``e·k4 = 0``, :mod:`~dualmech.validation.pinocchio_model`), its drift
+:math:`\\dot\\omega\\cdot n + \\omega\\cdot((\\omega\\times e)\\times k_4)` (the second derivative of
+``e·k4``), and the inverse dynamics gains its multiplier :math:`\\mu`:
+:math:`\\tau_0 = S^T\\tau + J_c^T\\lambda + (n^T J_\\omega)^T\\mu`, the moment :math:`\\mu n` of the slider
+on the rod.
 """
 
 from __future__ import annotations
@@ -28,8 +35,9 @@ def rates_and_rnea(closure: Closure, case: Case, pos: dict[str, np.ndarray], sta
     ``data.f`` (mapped to world axes with the ``data.oMi`` of that same
     ``forwardKinematics``: ``rnea`` itself does not update ``data.oMi``).
 
-    Returns v, a (m, 6), tau0 (m, 6), f0 (m, 3, 6) (crank, rod, slider; world axes, moment
-    about O) and the placements p2, p3, u, crank_origin (m, 3).
+    Returns v, a (m, nv), tau0 (m, nv), f0 (m, 3, 6) (crank, rod, slider; world axes, moment
+    about O) and the placements p2, p3, u, crank_origin and the universal joint's moment axis
+    n = a_r x k4 (a_r the rod's y axis; meaningful with a universal joint only), (m, 3) each.
     """
     model, data, pm = closure.model, closure.data, closure.pm
     fe, fp, rod, crank, slider = (
@@ -41,24 +49,28 @@ def rates_and_rnea(closure: Closure, case: Case, pos: dict[str, np.ndarray], sta
     )
     oMi, forces, spatial_acc = data.oMi, data.f, data.a
     classical = pin.getFrameClassicalAcceleration
-    m, nv = rows.size, model.nv
+    m, nv, nc = rows.size, model.nv, pm.nc
     q = pos["q"][rows]
     v = np.empty((m, nv))
     a = np.zeros((m, nv))
-    v[:, :2] = np.column_stack([state.theta_dot, state.s_dot])[rows]
-    a[:, :2] = np.column_stack([state.theta_ddot, state.s_ddot])[rows]
-    v[:, 2:] = np.einsum("nij,nj->ni", pos["K"][rows], v[:, :2])
-    a_inv = np.linalg.inv(pos["AB"][rows, :, 2:])
+    v[:, :nc] = np.column_stack([state.theta_dot, state.s_dot])[rows, :nc]
+    a[:, :nc] = np.column_stack([state.theta_ddot, state.s_ddot])[rows, :nc]
+    v[:, nc:] = np.einsum("nij,nj->ni", pos["K"][rows], v[:, :nc])
+    a_inv = np.linalg.inv(pos["AB"][rows, :, nc:])
     tau0 = np.empty((m, nv))
     f0 = np.empty((m, 3, 6))
-    geometry = np.empty((m, 4, 3))  # P2, P3, u, crank origin
+    geometry = np.empty((m, 5, 3))  # P2, P3, u, crank origin, n
     drift = np.empty(4)
     for k in range(m):
         qk, vk, ak = q[k], v[k], a[k]
         pin.forwardKinematics(model, data, qk, vk, ak)  # ak holds only the crank accelerations here
         drift[:3] = classical(model, data, fe, LWA).linear - classical(model, data, fp, LWA).linear
-        drift[3] = spatial_acc[rod].angular[0]
-        ak[2:] = -(a_inv[k] @ drift)
+        if pm.universal:
+            drift[3] = _universal_drift(data.v[rod].angular, spatial_acc[rod].angular,
+                                        oMi[rod].rotation.T @ pm.k4)
+        else:
+            drift[3] = spatial_acc[rod].angular[0]
+        ak[nc:] = -(a_inv[k] @ drift)
         tau0[k] = pin.rnea(model, data, qk, vk, ak)
         for j, joint in enumerate((crank, rod, slider)):
             world = oMi[joint].act(forces[joint])  # keep the Force alive while its vector is read
@@ -68,12 +80,21 @@ def rates_and_rnea(closure: Closure, case: Case, pos: dict[str, np.ndarray], sta
         geometry[k, 1] = oMi[slider].translation
         geometry[k, 2] = rod_placement.rotation[:, 0]
         geometry[k, 3] = oMi[crank].translation
+        geometry[k, 4] = np.cross(rod_placement.rotation[:, 1], pm.k4)
     return {"v": v, "a": a, "tau0": tau0, "f0": f0, "p2": geometry[:, 0], "p3": geometry[:, 1],
-            "u": geometry[:, 2], "crank_origin": geometry[:, 3]}
+            "u": geometry[:, 2], "crank_origin": geometry[:, 3], "n": geometry[:, 4]}
+
+
+def _universal_drift(omega: np.ndarray, alpha: np.ndarray, k4: np.ndarray) -> float:
+    """``d²(e·k4)/dt² = alpha·n + omega·((omega x e) x k4)`` with ``e`` the rod's y axis and
+    ``n = e x k4``; every vector in rod axes, (3,) each (``omega``, ``alpha``: the rod's absolute angular
+    velocity and acceleration)."""
+    e = np.array([0.0, 1.0, 0.0])
+    return float(alpha @ np.cross(e, k4) + omega @ np.cross(np.cross(omega, e), k4))
 
 
 def _least_squares(lhs: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Batched least squares ``min |lhs x - rhs|`` by QR; lhs (m, 6, 5) of full column rank, rhs (m, 6)."""
+    """Batched least squares ``min |lhs x - rhs|`` by QR; lhs (m, nv, k) of full column rank, rhs (m, nv)."""
     if lhs.shape[0] == 0:
         return np.empty((0, lhs.shape[2]))
     Q, R = np.linalg.qr(lhs)
@@ -92,7 +113,8 @@ def _least_squares(lhs: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 def closed_loop_inverse_dynamics(case: Case, pm: PinocchioSliderCrank, tau0: np.ndarray,
                                   jc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Least-squares solution of ``tau0 = S^T tau + J_c^T lambda`` for the unknown efforts and lambda.
+    """Least-squares solution of ``tau0 = S^T tau + J_c^T lambda (+ J_n^T mu)`` for the unknown efforts,
+    lambda and (universal joint) mu.
 
     The rows of the angular coordinates (crank angle, rod rotations; F·L) are divided by
     ``a2`` so that every row is a force: the least squares then weighs the equations the
@@ -101,15 +123,17 @@ def closed_loop_inverse_dynamics(case: Case, pm: PinocchioSliderCrank, tau0: np.
 
     Parameters
     ----------
-    tau0 : numpy.ndarray, shape (m, 6)
+    tau0 : numpy.ndarray, shape (m, nv)
         ``M qddot + b`` from ``rnea`` (gravity included).
-    jc : numpy.ndarray, shape (m, 3, 6)
-        Closure Jacobian (rod end minus slider pin, world axes).
+    jc : numpy.ndarray, shape (m, 3 or 4, nv)
+        Closure Jacobian (rod end minus slider pin, world axes), and with a universal joint its
+        row ``J_n = n^T J_omega``.
 
     Returns
     -------
-    effort : (m, 6) all joint efforts; lam : (m, 3) force of the slider on the rod at P3, world axes;
-    ls_residual : (m,) ``|W (lhs x - rhs)| / |W rhs|`` with the row weights ``W``.
+    effort : (m, nv) all joint efforts; lam : (m, 3 or 4) force of the slider on the rod at P3, world
+    axes (and mu, the slider's moment on the rod along n); ls_residual : (m,) ``|W (lhs x - rhs)| /
+    |W rhs|`` with the row weights ``W``.
     """
     m, nv = tau0.shape
     known, unknown = _effort_split(case, pm)
@@ -120,7 +144,7 @@ def closed_loop_inverse_dynamics(case: Case, pm: PinocchioSliderCrank, tau0: np.
     E[unknown, np.arange(len(unknown))] = 1.0
     w = np.ones(nv)
     w[[pm.v_crank.start, *range(pm.v_rod.start, pm.v_rod.stop)]] = 1.0 / pm.a2  # angular rows: F·L -> F
-    # (m, 6, 5)
+    # (m, nv, unknowns)
     lhs = np.concatenate([np.broadcast_to(E, (m, *E.shape)), np.swapaxes(jc, 1, 2)], axis=2) * w[:, None]
     rhs = (tau0 - tau_known) * w
     x = _least_squares(lhs, rhs)
@@ -134,15 +158,16 @@ def closed_loop_inverse_dynamics(case: Case, pm: PinocchioSliderCrank, tau0: np.
 def _effort_split(case: Case, pm: PinocchioSliderCrank) -> tuple[dict[int, float], list[int]]:
     """Known efforts {v index: value} and the unknown effort indices, by load mode.
 
-    The rod's ball joint carries zero effort (known); the axial force is always unknown.
+    The rod's ball joint carries zero effort (known); the axial force (cylindrical crank) is always
+    unknown.
     Torque mode: drive torque known, slider effort unknown; force mode the reverse.
     The prismatic effort along ``-k4`` is ``-k4·f = -slider_load``.
     """
-    theta_i, s_i = pm.v_crank.start, pm.v_crank.start + 1
+    theta_i, axial = pm.v_crank.start, list(range(pm.v_crank.start + 1, pm.v_crank.stop))  # S1: cylindrical
     s4_i = pm.v_slider.start
     known = {j: 0.0 for j in range(pm.v_rod.start, pm.v_rod.stop)}
     if case.loads.mode == "torque":
         known[theta_i] = float(case.loads.drive_torque)
-        return known, [s_i, s4_i]
+        return known, [*axial, s4_i]
     known[s4_i] = -float(case.loads.slider_force)
-    return known, [theta_i, s_i]
+    return known, [theta_i, *axial]

@@ -56,7 +56,10 @@ Method, per crank position (``docs/conventions.md`` for every symbol):
              W_4 = f_{slider} + (\\lambda, P_3\\times\\lambda),
 
    all in world axes about the world origin O; then moved to the documented
-   reference points (joint 4 about ``P3``).
+   reference points (joint 4 about ``P3``).  With a universal joint at P3 the
+   closure also carries the moment :math:`\\mu n` of the slider on the rod
+   (``pinocchio_dynamics``), added to the closure wrench the same way; the
+   ``j3_m`` columns are :math:`-\\mu n` (0 with a ball).
 
 Step 1 is :mod:`~dualmech.validation.pinocchio_closure`, steps 2-3 are
 :mod:`~dualmech.validation.pinocchio_dynamics`; this module runs them on a case
@@ -82,9 +85,7 @@ from dualmech.validation.pinocchio_closure import (
     LIMIT,
     NO_ASSEMBLY,
     OK,
-    Q_S4,
     STATUS_WORDS,
-    V_S4,
     Closure,
     close_positions,
     length_scale,
@@ -117,6 +118,8 @@ class PinocchioSolution:
         Joint efforts ``S^T tau``: drive torque, axial force, 0, 0, 0, prismatic effort (= -slider_load).
     closure_force : numpy.ndarray, shape (n, 3)
         lambda, the force of the slider on the rod at ``P3``, world axes.
+    closure_moment : numpy.ndarray, shape (n, 3)
+        mu n, the moment of the slider on the rod through the universal joint, world axes (0 with a ball).
     wrench1, wrench2, wrench4 : numpy.ndarray, shape (n, 6)
         Ground on crank, crank on rod, ground on slider: (force, moment about the world origin O), world axes.
     p2, p3, u, crank_origin : numpy.ndarray, shape (n, 3)
@@ -138,6 +141,7 @@ class PinocchioSolution:
     a: np.ndarray
     effort: np.ndarray
     closure_force: np.ndarray
+    closure_moment: np.ndarray
     wrench1: np.ndarray
     wrench2: np.ndarray
     wrench4: np.ndarray
@@ -181,7 +185,7 @@ def _edges(closure: Closure, pos: dict[str, np.ndarray]) -> tuple[np.ndarray, np
                                    tolerances.ASSEMBLY_REACH.value, tolerances.ASSEMBLY_LIMIT_CONDITION.value)
     status = np.array([STATUSES.index(w) for w in words], dtype=int)
     at_limit = status[failed] == LIMIT
-    q[failed[at_limit], Q_S4] = foot_s4(p2[at_limit], pm.F, pm.k4)
+    q[failed[at_limit], pm.q_slider.start] = foot_s4(p2[at_limit], pm.F, pm.k4)
     return status, condition, q
 
 
@@ -249,12 +253,15 @@ def _efforts(case: Case, pm: PinocchioSliderCrank, pos: dict[str, np.ndarray], d
     every other row is NaN.
     """
     live = rows[keep]
-    jc = pos["AB"][live, :3]  # (m, 3, 6): closure Jacobian rows stored by the closure pass
-    effort, lam, ls_res = closed_loop_inverse_dynamics(case, pm, dyn["tau0"][keep], jc)
+    jc = pos["AB"][live, :4 if pm.universal else 3]  # (m, 3 or 4, nv): constraint rows of the closure pass
+    effort, multipliers, ls_res = closed_loop_inverse_dynamics(case, pm, dyn["tau0"][keep], jc)
+    lam = multipliers[:, :3]
+    moment = multipliers[:, 3:] * dyn["n"][keep] if pm.universal else np.zeros_like(lam)
     f0 = dyn["f0"][keep]
-    closure_wrench = np.concatenate([lam, np.cross(dyn["p3"][keep], lam)], axis=1)
+    closure_wrench = np.concatenate([lam, np.cross(dyn["p3"][keep], lam) + moment], axis=1)
     return {
         "effort": _full(n, effort, live), "closure_force": _full(n, lam, live),
+        "closure_moment": _full(n, moment, live),
         "wrench1": _full(n, f0[:, 0] - closure_wrench, live),
         "wrench2": _full(n, f0[:, 1] - closure_wrench, live),
         "wrench4": _full(n, f0[:, 2] + closure_wrench, live),
@@ -293,17 +300,19 @@ def to_table(case: Case, sol: PinocchioSolution, meta: dict | None = None) -> Re
     t = transmission(sol, case.geometry.crank_length)
     w1, w2, w4 = sol.wrench1, sol.wrench2, sol.wrench4
     j4_moment_p3 = w4[:, 3:] - np.cross(sol.p3, w4[:, :3])
+    j3_moment = 0.0 - sol.closure_moment  # the rod's moment on the slider (+0.0, not -0.0, with a ball)
     cols = {
         "theta1_deg": np.asarray(case.motion.angles_deg, float).copy(),
         "S1": state.s.copy(),
-        "S4": sol.q[:, Q_S4].copy(),
-        "S4_dot": sol.v[:, V_S4].copy(),
-        "S4_ddot": sol.a[:, V_S4].copy(),
+        "S4": sol.q[:, -1].copy(),  # S4 is the last coordinate of build_model's layout
+        "S4_dot": sol.v[:, -1].copy(),
+        "S4_ddot": sol.a[:, -1].copy(),
         "j1_fx": w1[:, 0], "j1_fy": w1[:, 1], "j1_fz": w1[:, 2],
         "j1_mx": w1[:, 3], "j1_my": w1[:, 4], "j1_mz": w1[:, 5],
         "j2_fx": w2[:, 0], "j2_fy": w2[:, 1], "j2_fz": w2[:, 2],
         "j3_fx": -sol.closure_force[:, 0], "j3_fy": -sol.closure_force[:, 1],
         "j3_fz": -sol.closure_force[:, 2],
+        "j3_mx": j3_moment[:, 0], "j3_my": j3_moment[:, 1], "j3_mz": j3_moment[:, 2],
         "j4_fx": w4[:, 0], "j4_fy": w4[:, 1], "j4_fz": w4[:, 2],
         "j4_mx": j4_moment_p3[:, 0], "j4_my": j4_moment_p3[:, 1], "j4_mz": j4_moment_p3[:, 2],
         "slider_load": w4[:, :3] @ slider_axis(case)[0],

@@ -22,7 +22,6 @@ file system.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import platform
@@ -32,7 +31,7 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from importlib import import_module
 from pathlib import Path
-from typing import Any, Callable, Iterator
+from typing import Any, Callable
 
 import numpy as np
 
@@ -44,6 +43,7 @@ from dualmech.validation.matrix import Matrix, matrix_from_dict
 from dualmech.validation.provenance import (
     KEY_LIBRARIES,
     case_fingerprint,
+    key_versions,
     machine,
     result_fingerprint,
     versions,
@@ -375,24 +375,6 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
     return RunOutcome(results, len(calls), info["skipped"], seconds)
 
 
-@contextlib.contextmanager
-def rich_progress(description: str = "solving") -> Iterator[ProgressCallback]:
-    """A rich progress bar (on stderr) as a :data:`ProgressCallback`.
-
-    It redraws only when called (no refresh thread), so that worker processes
-    forked while it is shown cannot inherit a lock held by another thread.
-    """
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    console = Console(stderr=True)
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.fields[last]}"), console=console, transient=False,
-                  auto_refresh=False) as bar:
-        task = bar.add_task(description, total=None, last="")
-
-        def update(done: int, total: int, label: str) -> None:
-            bar.update(task, completed=done, total=total, last=label)
-            bar.refresh()
-
-        yield update
+def run_versions(outdir: Path) -> dict[str, str]:
+    """The key library versions recorded in the run directory's ``run.json``."""
+    return key_versions(load_run(outdir)[1])

@@ -21,7 +21,11 @@ from numba import njit
 
 from dualmech.core.kernel.dual_nb import ALLOC, JIT
 from dualmech.core.kernel.dynamics_nb import required_wrench
+from dualmech.core.table import REACTION_COLUMNS
 from dualmech.models.slider_crank_position_nb import _reactions
+
+#: The yardstick's outputs, in order: the slider's motion and every reaction column of a ball-ball rod.
+YARDSTICK_COLUMNS: tuple[str, ...] = ("S4", "S4_dot", "S4_ddot") + REACTION_COLUMNS
 
 
 @njit(**JIT)
@@ -84,7 +88,8 @@ def _position(
         required_wrench(
             mass[b], com[b], inertia[b], rot[b], origins[b], tw[b], ac[b], gravity, v[8:16], need[b]
         )
-    _reactions(need, p2, p3, k4, torque, load, v[16:32], out[3:23])
+    v[6] = 0.0  # joint 3 is a ball: no moment axis
+    _reactions(need, p2, p3, k4, torque, load, v[6], v[16:32], out[3:26])
 
 
 @njit(**JIT)
@@ -119,10 +124,11 @@ def closed_form_range(
     load: float,
     out: np.ndarray,
 ) -> None:
-    """Closed-form outputs of positions ``lo..hi-1`` of one case into ``out`` ``(23, n)``: S4, its two
-    rates, the 20 reaction columns (order of ``OUT_COLUMNS[5:25]``); ``crank`` ``(6, n)`` as in the kernel."""
-    v, m, rot, row = np.zeros((32, 3)), np.zeros((3, 3, 2, 3)), np.zeros((3, 3, 3)), np.zeros(23)
+    """Closed-form outputs of positions ``lo..hi-1`` of one case into ``out`` ``(26, n)``: S4, its two
+    rates, the reaction columns of a ball-ball rod (:data:`YARDSTICK_COLUMNS`); ``crank`` ``(6, n)`` as in
+    the kernel."""
+    v, m, rot, row = np.zeros((32, 3)), np.zeros((3, 3, 2, 3)), np.zeros((3, 3, 3)), np.zeros(26)
     for i in range(lo, hi):
         _position(i, crank, geo, mass, com, inertia, gravity, torque, load, v, m, rot, row)
-        for k in range(23):
+        for k in range(26):
             out[k, i] = row[k]

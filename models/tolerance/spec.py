@@ -27,7 +27,7 @@ import numpy as np
 from scipy.special import ndtr
 
 from dualmech.models.case import Case, case_from_dict
-from dualmech.models.inputs import CaseError, Range, key_text, show
+from dualmech.models.inputs import CaseError, Range, check_keys, key_text, show
 from dualmech.models.toml_input import read_toml
 
 
@@ -162,9 +162,7 @@ def spec_from_dict(data: Any) -> Spec:
     """Validate a parsed SPEC table (module docstring) and build the :class:`Spec`."""
     if not isinstance(data, dict):
         raise SpecError(f"spec: expected a table, got {show(data)}")
-    for k in data:
-        if k not in ("tolerances", "description"):
-            raise SpecError(f"{key_text(k)}: unknown key (valid top-level keys: description, tolerances)")
+    check_keys("", data, ("tolerances", "description"), SpecError)
     description = data.get("description", "")
     if not isinstance(description, str):
         raise SpecError(f"description: expected a string, got {show(description)}")

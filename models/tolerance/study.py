@@ -1,10 +1,10 @@
-"""A tolerance study end to end: sample designs in chunks, solve them batched, stream rows, summarise.
+"""A tolerance study's parts: sample designs in chunks, solve them batched, store and stream the rows.
 
 Designs are independent; chunks of :data:`~dualmech.models.tolerance.sampling.CHUNK_DESIGNS`
-run in this process, in a process pool (``jobs``) or on a Dask cluster (``scheduler``) through
-:func:`dualmech.validation.executors.execute`.  Each chunk's designs are solved together as the
-compiled kernel's arrays, in blocks of bounded memory, and reduced per design
-(:mod:`~dualmech.models.tolerance.designs`).  A finished chunk is stored at once as
+are tasks (:func:`solve_chunk`, picklable), run by :mod:`dualmech.validation.tolerance_study` in
+this process, a process pool or on a Dask cluster, which also judges and summarises.  Each chunk's
+designs are solved together as the compiled kernel's arrays, in blocks of bounded memory, and
+reduced per design (:mod:`~dualmech.models.tolerance.designs`).  A finished chunk is stored at once as
 ``DIR/chunks/chunk-NNNNNN.npz`` (written to a temporary name, then renamed), so an interrupted
 study resumes where it stopped; ``DIR/study.json`` names the case, SPEC, ``n`` and seed, and a
 folder holding another study is refused.  At the end the chunks are streamed, in design order,
@@ -17,7 +17,6 @@ from __future__ import annotations
 import csv
 import json
 import os
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
@@ -25,11 +24,10 @@ from typing import Iterator
 import numpy as np
 
 from dualmech.models.case import Case, case_from_dict
-from dualmech.models.slider_crank import solve_case
-from dualmech.models.tolerance.designs import analyse_designs, design_arrays, design_name
-from dualmech.models.tolerance.outputs import COUNTS, design_outputs, output_names
+from dualmech.models.tolerance.designs import analyse_designs, design_arrays
+from dualmech.models.tolerance.outputs import COUNTS, output_names
 from dualmech.models.tolerance.sampling import chunk_bounds, n_chunks, sample_chunk
-from dualmech.models.tolerance.spec import Spec, design_case, nominal_values, spec_from_dict
+from dualmech.models.tolerance.spec import Spec, nominal_values, spec_from_dict
 
 #: Format tag of ``study.json``.
 STUDY_FORMAT = "dualmech-tolerance/1"
@@ -70,7 +68,8 @@ def _chunk_path(outdir: Path, index: int) -> Path:
     return outdir / "chunks" / f"chunk-{index:06d}.npz"
 
 
-def _store(outdir: Path, entry: dict) -> None:
+def store_chunk(outdir: Path, entry: dict) -> None:
+    """Store one finished chunk (a :func:`solve_chunk` result) atomically: ``DIR/chunks/chunk-NNNNNN.npz``."""
     path = _chunk_path(outdir, entry["index"])
     tmp = path.with_name(path.name + ".tmp.npz")
     arrays = {f"out_{k}": np.asarray(v) for k, v in entry["outputs"].items() if k != "status"}
@@ -101,23 +100,6 @@ def prepare(outdir: Path, study: StudyInput) -> list[int]:
                          "use an empty folder")
     meta.write_text(json.dumps(identity, indent=1, sort_keys=True))
     return [c for c in range(n_chunks(study.n)) if not _chunk_path(outdir, c).exists()]
-
-
-def run_chunks(outdir: Path, study: StudyInput, todo: list[int], jobs: int, scheduler: str | None) -> int:
-    """Solve the chunks ``todo``, storing each as it finishes; returns how many ran."""
-    from dualmech.validation.executors import execute
-
-    calls = [(study.case.raw, study.spec.to_dict(), study.n, study.seed, c) for c in todo]
-    leftovers: list[dict] = []
-    done = 0
-    try:
-        for entry in execute(solve_chunk, calls, jobs, scheduler, leftovers):
-            _store(outdir, entry)
-            done += 1
-    finally:
-        for entry in leftovers:
-            _store(outdir, entry)
-    return done
 
 
 def iter_chunks(outdir: Path, n: int) -> Iterator[tuple[int, np.ndarray, dict[str, np.ndarray]]]:
@@ -185,78 +167,14 @@ def gather(outdir: Path, study: StudyInput) -> tuple[np.ndarray, dict[str, np.nd
     return np.concatenate(xs), {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-def monte_carlo(outdir: Path, study: StudyInput, jobs: int, scheduler: str | None) -> dict:
-    """Run (or resume) the Monte Carlo part; returns timing facts."""
-    todo = prepare(outdir, study)
-    start = time.perf_counter()
-    ran = run_chunks(outdir, study, todo, jobs, scheduler)
-    solve_s = time.perf_counter() - start
-    files = write_samples(outdir, study)
-    return {"chunks_run": ran, "chunks_resumed": n_chunks(study.n) - len(todo), "solve_s": solve_s,
-            "files": files}
-
-
-def _finite_json(obj: object) -> object:
+def finite_json(obj: object) -> object:
     """``obj`` with every non-finite float as ``None`` (strict JSON)."""
     if isinstance(obj, dict):
-        return {k: _finite_json(v) for k, v in obj.items()}
+        return {k: finite_json(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_finite_json(v) for v in obj]
+        return [finite_json(v) for v in obj]
     if isinstance(obj, (float, np.floating)):
         return float(obj) if np.isfinite(obj) else None
     if isinstance(obj, np.integer):
         return int(obj)
     return obj
-
-
-def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, scheduler: str | None = None,
-              judge_samples: int = 5) -> tuple[dict, np.ndarray | None, dict[str, np.ndarray] | None]:
-    """The whole study (module docstring): returns the summary (also in ``DIR/summary.json``) and the samples.
-
-    Sampled key values ``(n, k)`` and outputs are ``None`` for ``method = "linear"``.
-    """
-    from dualmech.models.tolerance.differences import check_sensitivities
-    from dualmech.models.tolerance.judges import candidates, run_spot_checks
-    from dualmech.models.tolerance.sampling import judge_picks
-    from dualmech.models.tolerance.sensitivity import sensitivities
-    from dualmech.models.tolerance.summary import summarize
-    from dualmech.validation.provenance import versions
-
-    if method not in METHODS:
-        raise ValueError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
-    if judge_samples < 0:
-        raise ValueError(f"judge-samples: expected 0 or more designs, got {judge_samples!r}")
-    outdir = Path(outdir)
-    timing: dict = {}
-    x = samples = None
-    if method != "linear":
-        timing = monte_carlo(outdir, study, jobs, scheduler)
-        x, samples = gather(outdir, study)
-    else:
-        outdir.mkdir(parents=True, exist_ok=True)
-    start = time.perf_counter()
-    table = solve_case(study.case)
-    mode = study.case.loads.mode
-    solved = design_outputs([table], mode)
-    nominal = {name: float(solved[name][0]) for name in output_names(mode)}
-    sens = sensitivities(study.case, study.spec, table) if method != "mc" else None
-    check = check_sensitivities(study.case, study.spec, sens).to_dict() if sens is not None else None
-    timing["sensitivity_s"] = time.perf_counter() - start
-    stats = summarize(study.spec, nominal, x, samples, sens)
-    if samples is not None:
-        picks = judge_picks(judge_samples, study.seed, candidates(samples["status"]))
-        designs = [design_case(study.case, study.spec, x[i], design_name(int(i))) for i in picks]
-    else:
-        designs = [study.case] if judge_samples else []
-    start = time.perf_counter()
-    spots = run_spot_checks(designs)
-    timing["judges_s"] = time.perf_counter() - start
-    summary = {"n": study.n if samples is not None else 0, "seed": study.seed, "method": method,
-               "case": study.case.name, "mode": study.case.loads.mode, "keys": list(study.spec.keys),
-               "nominal_values": dict(zip(study.spec.keys, nominal_values(study.case, study.spec).tolist())),
-               "spec": study.spec.to_dict(), **stats, "sensitivity_check": check,
-               "judges": [s.to_dict() for s in spots],
-               "judges_passed": all(s.passed for s in spots), "timing": timing, "versions": versions()}
-    summary = _finite_json(summary)
-    (outdir / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True) + "\n")
-    return summary, x, samples

@@ -92,6 +92,14 @@ def test_every_preset(name: str) -> None:
     assert_kernel_agrees(load_case(name))
 
 
+@pytest.mark.parametrize("name", ["thesis/a4-30-s1-3.5", "thesis/a4-20-alpha-232", "thesis/ideal"])
+def test_universal_joint_at_the_slider(name: str) -> None:
+    """The rod's spin set by a universal joint: the kernel's own code path (core.universal's twin)."""
+    case = load_case(name).with_values({"joints.rod_slider": "universal"})
+    table = assert_kernel_agrees(case)
+    assert np.nanmax(np.abs(table["j3_mx"])) > 0.0 or case.is_planar
+
+
 @settings(max_examples=30, deadline=None, derandomize=True)
 @given(
     a4=st.floats(-25.0, 45.0),
@@ -102,11 +110,13 @@ def test_every_preset(name: str) -> None:
     amp=st.floats(0.0, 6.0),
     cycles=st.sampled_from([0.0, 1.0, 2.0, 3.0]),
     torque_mode=st.booleans(),
+    rod_slider=st.sampled_from(["ball", "universal"]),
 )
 def test_random_geometries(
-    a4: float, twist: float, s1: float, amp: float, cycles: float, torque_mode: bool
+    a4: float, twist: float, s1: float, amp: float, cycles: float, torque_mode: bool, rod_slider: str
 ) -> None:
-    """Both twist signs, near 180/360 degrees, offsets leaving some angles unassemblable, both load modes."""
+    """Both twist signs, near 180/360 degrees, offsets leaving some angles unassemblable, both load modes,
+    both joints at the slider."""
     case = BASE.with_values(
         {
             "geometry.slider_offset": a4,
@@ -115,6 +125,7 @@ def test_random_geometries(
             "motion.axial_amplitude": amp,
             "motion.axial_cycles": cycles,
             "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 3.0},
+            "joints.rod_slider": rod_slider,
         }
     )
     loads = (

@@ -241,7 +241,7 @@ def test_bad_inputs_are_refused():
 
 
 def test_cli_simulate(tmp_path):
-    from dualmech.validation.cli import main
+    from dualmech.cli import main
 
     out = tmp_path / "run.csv"
     res = CliRunner().invoke(

@@ -12,9 +12,9 @@ import pytest
 from click.testing import CliRunner
 from numpy.testing import assert_allclose
 
+from dualmech.cli import main
 from dualmech.models.case import load_case, preset_names
 from dualmech.models.mjcf import case_to_mjcf, default_settings, slider_axis
-from dualmech.validation.cli import main
 from tests.oracles import exact_slider_motion
 from tests.validation.pinocchio_oracles import random_case
 

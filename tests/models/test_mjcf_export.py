@@ -18,9 +18,9 @@ import pytest
 from click.testing import CliRunner
 from numpy.testing import assert_allclose
 
+from dualmech.cli import main
 from dualmech.models.case import load_case
 from dualmech.models.mjcf import KEY_NAME, case_to_mjcf
-from dualmech.validation.cli import main
 from dualmech.validation.tolerances import (
     MJCF_EXPORT_ASSEMBLED,
     MJCF_EXPORT_CRANK_SPEED,

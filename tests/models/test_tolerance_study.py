@@ -12,7 +12,8 @@ from dualmech.models.tolerance.outputs import DesignStatus, design_outputs, outp
 from dualmech.models.tolerance.sampling import CHUNK_DESIGNS
 from dualmech.models.tolerance.sensitivity import output_group
 from dualmech.models.tolerance.spec import design_case, spec_from_dict
-from dualmech.models.tolerance.study import StudyInput, columns, run_study
+from dualmech.models.tolerance.study import StudyInput, columns
+from dualmech.validation.tolerance_study import run_study
 
 N = CHUNK_DESIGNS + 9  # two chunks, the second short
 #: A design's outputs in a batch against the design solved alone, relative to its output group's peak: the

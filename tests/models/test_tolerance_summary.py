@@ -11,8 +11,9 @@ from dualmech.models.case import case_from_dict, load_case
 from dualmech.models.slider_crank import solve_case
 from dualmech.models.tolerance.outputs import design_outputs
 from dualmech.models.tolerance.spec import design_case, nominal_values, spec_from_dict
-from dualmech.models.tolerance.study import StudyInput, run_study
+from dualmech.models.tolerance.study import StudyInput
 from dualmech.models.tolerance.summary import Z95, describe, sobol_first_order, wilson
+from dualmech.validation.tolerance_study import run_study
 
 #: Coverage of a 95 % interval over 400 seeded replications: 380 expected, binomial sd 4.4; ~3.4 sd each side.
 COVERAGE_RANGE = (0.91, 0.99)

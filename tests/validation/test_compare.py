@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from dualmech.cli import main
 from dualmech.core.status import Status
 from dualmech.core.table import ResultTable
-from dualmech.validation import provenance, report
+from dualmech.validation import derived, provenance, report
 from dualmech.validation.baseline import baseline_summary, compare_baseline
-from dualmech.validation.cli import main
 from dualmech.validation.compare import STATUS, Verdict, compare_case, compare_run
 from dualmech.validation.junit import junit_tree
 from dualmech.validation.matrix import load_matrix
@@ -237,7 +237,7 @@ def test_a_broken_report_section_fails_the_report(small, tmp_path, monkeypatch):
     matrix = load_matrix(small)
     out = tmp_path / "run"
     run_matrix(matrix, out, jobs=1, registry=FAKE_REGISTRY)
-    monkeypatch.setattr(report.sections, "FINDINGS_FUNCTION", f"{FAKES}:solve_case_raises")
+    monkeypatch.setattr(derived, "FINDINGS_FUNCTION", f"{FAKES}:solve_case_raises")
     with pytest.raises(report.ReportError, match="report section 'findings' failed: TypeError"):
         report.write_report(out, None, jobs=1)
     assert not Path(out / "summary.json").exists()
@@ -333,3 +333,23 @@ def test_a_judge_that_never_flags_a_dead_centre_fails(matrix, results, t, mode):
     status = [c for c in compare_case(mc.id, mode, flagged, unflagged, matrix.quantities,
                                       matrix.tolerances["pinocchio"]) if c.quantity == STATUS]
     assert not status[0].passed and "reference dead_centre, judge ok" in status[0].detail
+
+
+def test_the_comparison_keeps_each_judges_worst_r_i_per_row(matrix, results):
+    """What the report's difference figures draw: per row, the worst kinematic and the worst reaction r_i
+    of a judge (the gate's own).  Deliberate fault in the judge: j2_fy 1e-6 too large where it is not
+    zero, so the reaction curve rises off zero on those rows and the kinematic one stays at zero."""
+    from dualmech.core.table import REACTION_COLUMNS
+
+    mc = matrix.cases[0]
+    judge = results[mc.id]["pinocchio"]
+    results[mc.id]["pinocchio"] = replace(judge, columns={**judge.columns,
+                                                          "j2_fy": judge["j2_fy"] * (1 + 1e-6)})
+    theta, kinematic, reactions = compare_run(matrix, results).row_differences[mc.id]["pinocchio"]
+    ref = results[mc.id][matrix.reference]
+    np.testing.assert_array_equal(theta, ref["theta1_deg"])
+    assert "j2_fy" in matrix.quantities and "j2_fy" in REACTION_COLUMNS
+    # the fake judge's own deviation is ~1e-13 (matrix_fakes.solve_case_judge); the fault's is 1e-6 of j2_fy
+    noise_ceiling, fault_floor = 1e-12, 1e-8
+    assert np.nanmax(kinematic) < noise_ceiling
+    assert np.nanmax(reactions) > fault_floor

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from dualmech.validation.cli import main
+from dualmech.cli import main
 from dualmech.validation.matrix import MatrixError, load_matrix, parse_matrix
 
 #: The engineer's design of issue 14 (SI units), at a coarse step to keep the test short.

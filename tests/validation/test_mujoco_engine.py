@@ -12,9 +12,9 @@ import pytest
 from click.testing import CliRunner
 from numpy.testing import assert_allclose
 
+from dualmech.cli import main
 from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS, NUMERIC_COLUMNS, read_csv
 from dualmech.models.case import load_case, preset_names, with_loads
-from dualmech.validation.cli import main
 from dualmech.validation.tolerances import MUJOCO_RIGID_KINEMATICS, MUJOCO_RIGID_REACTIONS
 from tests.oracles import assembly_margin, exact_slider_motion
 from tests.validation.pinocchio_oracles import (

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from dualmech.cli import main
 from dualmech.core.table import NUMERIC_COLUMNS, read_csv
 from dualmech.models.case import load_case, preset_names, with_loads
-from dualmech.validation.cli import main
 from dualmech.validation.tolerances import (
     DEAD_CENTRE_TRANSMISSION,
     SIM_DEAD_CENTRE_TRANSMISSION,

@@ -183,7 +183,7 @@ def test_dead_centres_are_flagged_in_torque_mode_only():
 
 
 def test_cli_solve_with_the_pinocchio_engine(tmp_path):
-    from dualmech.validation.cli import main
+    from dualmech.cli import main
 
     out = tmp_path / "pin.csv"
     result = CliRunner().invoke(main, ["solve", "a4-30-s1-3.5", "--engine", "pinocchio", "-o", str(out)])

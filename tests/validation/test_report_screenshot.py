@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from dualmech.validation.cli import main
+from dualmech.cli import main
 from tests.validation.test_design import SI_DESIGN
 from tests.validation.test_validate import _chromium
 

@@ -14,8 +14,8 @@ import time
 import pytest
 from click.testing import CliRunner
 
+from dualmech.cli import main
 from dualmech.validation import executors
-from dualmech.validation.cli import main
 from dualmech.validation.executors import ClusterLost, check_address
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.report import write_report

@@ -18,9 +18,9 @@ import pytest
 from click.testing import CliRunner
 from numpy.testing import assert_array_equal
 
+from dualmech.cli import main
 from dualmech.validation import engines
 from dualmech.validation.baseline import baseline_summary, compare_baseline
-from dualmech.validation.cli import main
 from dualmech.validation.compare import compare_run
 from dualmech.validation.matrix import MatrixError, load_matrix, parse_matrix
 from dualmech.validation.report import write_report

@@ -16,6 +16,7 @@ from dualmech.validation.compare.differences import (
     compared_rows,
     engine_failures,
     relative_differences,
+    row_differences,
     rows_given,
     stroke,
     unit_scales,
@@ -30,6 +31,7 @@ from dualmech.validation.compare.results import (
     UNIT_GROUP,
     Check,
     Comparison,
+    RowDifferences,
 )
 from dualmech.validation.matrix import Matrix, ResolvedTolerance
 from dualmech.validation.tolerances import (
@@ -252,6 +254,7 @@ def compare_case(
     quantities: tuple[str, ...],
     tolerances: dict[str, ResolvedTolerance],
     expect: str | None = None,
+    rel: dict[str, np.ndarray] | None = None,
 ) -> list[Check]:
     """Every check of one judge on one case (module docstring).
 
@@ -267,6 +270,8 @@ def compare_case(
         Quantity (and ``"stroke"``, and the :data:`STATUS_RULES` bands) -> tolerance.
     expect : str, optional
         ``"no_assembly"``: the case is declared to assemble nowhere; only statuses are checked.
+    rel : dict, optional
+        The judge's :func:`relative_differences`, when the caller has them already.
     """
     engine = judge.engine
     theta = reference["theta1_deg"]
@@ -276,7 +281,8 @@ def compare_case(
     checks = [status_check(case_id, reference, judge, quantities, tolerances, mode)]
     if expect == EXPECT_NO_ASSEMBLY:
         return checks
-    rel = relative_differences(reference, judge, mode, quantities)
+    if rel is None:
+        rel = relative_differences(reference, judge, mode, quantities)
     scales = unit_scales(reference, judge, mode, quantities)
     checks += [
         quantity_check(case_id, mode, reference, judge, q, rel[q], scales[UNIT_GROUP[q]], tolerances[q])
@@ -301,6 +307,7 @@ def compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]
     strokes: dict[str, dict[str, float]] = {}
     dead: dict[str, dict[str, int]] = {}
     errors: dict[str, dict[str, str]] = {}
+    rows: dict[str, dict[str, RowDifferences]] = {}
     engine_tol = ResolvedTolerance("exact", 0.0, "the engine must run")
     for mc in matrix.cases:
         per_engine = results.get(mc.id, {})
@@ -323,10 +330,23 @@ def compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]
         checks.append(reference_check(mc.id, ref, matrix.quantities, mc.expect))
         for e in matrix.judges:
             if e in tables:
+                rel = _relative_rows(mc.id, e, mc.mode, ref, tables[e], matrix.quantities, rows)
                 checks += compare_case(
-                    mc.id, mc.mode, ref, tables[e], matrix.quantities, matrix.tolerances[e], mc.expect
+                    mc.id, mc.mode, ref, tables[e], matrix.quantities, matrix.tolerances[e], mc.expect, rel
                 )
-    return Comparison(tuple(checks), strokes, dead, errors)
+    return Comparison(tuple(checks), strokes, dead, errors, rows)
+
+
+def _relative_rows(case_id: str, engine: str, mode: str, reference: ResultTable, judge: ResultTable,
+                   quantities: tuple[str, ...], rows: dict[str, dict[str, RowDifferences]]
+                   ) -> dict[str, np.ndarray] | None:
+    """The judge's ``r_i`` when it gives as many rows as the reference (else ``None``), kept per row in
+    ``rows[case_id][engine]`` (:func:`row_differences`) for the report."""
+    if len(judge) != len(reference):
+        return None
+    rel = relative_differences(reference, judge, mode, quantities)
+    rows.setdefault(case_id, {})[engine] = row_differences(rel, reference["theta1_deg"])
+    return rel
 
 
 def first_line(message: str, width: int = 200) -> str:

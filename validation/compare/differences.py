@@ -5,6 +5,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
@@ -14,6 +16,7 @@ from dualmech.validation.compare.results import (
     RATE_COLUMNS,
     UNIT_GROUP,
     VERDICTS,
+    RowDifferences,
 )
 
 
@@ -91,6 +94,23 @@ def relative_differences(
         rel = np.where(np.isfinite(rel), rel, np.inf)
         out[q] = np.where(rows, rel, np.nan)
     return out
+
+
+def row_differences(rel: dict[str, np.ndarray], theta: np.ndarray) -> RowDifferences:
+    """Per row, the worst of the kinematic and of the reaction ``r_i`` in ``rel``
+    (:func:`relative_differences`); NaN where no column of the kind was compared."""
+    kinematic = tuple(q for q in rel if q not in REACTION_COLUMNS)
+    reactions = tuple(q for q in rel if q in REACTION_COLUMNS)
+    return theta, _row_worst(rel, kinematic, len(theta)), _row_worst(rel, reactions, len(theta))
+
+
+def _row_worst(rel: dict[str, np.ndarray], quantities: tuple[str, ...], n: int) -> np.ndarray:
+    """Per row, the largest of ``rel[q]`` over ``quantities`` (shape ``(n,)``); NaN where none compared."""
+    if not quantities:
+        return np.full(n, np.nan)
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: nothing compared there
+        return np.nanmax(np.stack([rel[q] for q in quantities]), axis=0)
 
 
 def stroke(table: ResultTable) -> float:

@@ -107,6 +107,10 @@ class Check:
         return d
 
 
+#: One judge on one case, row by row: theta1_deg, worst kinematic r_i, worst reaction r_i, each ``(n,)``.
+RowDifferences = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
 @dataclass(frozen=True)
 class Comparison:
     """Every check of a run, and the strokes and dead-centre counts per case and engine."""
@@ -115,6 +119,9 @@ class Comparison:
     strokes: dict[str, dict[str, float]] = field(default_factory=dict)  # case -> engine -> stroke
     dead_centres: dict[str, dict[str, int]] = field(default_factory=dict)  # case -> engine -> rows
     errors: dict[str, dict[str, str]] = field(default_factory=dict)  # case -> engine -> message
+    #: case -> judge -> (theta1_deg, worst kinematic r_i, worst reaction r_i) per row, each ``(n,)``: the
+    #: gate's own relative differences, kept for the report's difference figures (NaN: nothing compared)
+    row_differences: dict[str, dict[str, RowDifferences]] = field(default_factory=dict)
 
     @property
     def verdict(self) -> Verdict:

@@ -82,6 +82,8 @@ def _format_value(v: Any) -> str:
         return str(v).lower()
     if isinstance(v, float) or (isinstance(v, int) and v.bit_length() <= 1000):  # larger: no float
         return f"{v:g}"
+    if isinstance(v, str):  # a word (a joint type): as written, without quotes
+        return ID_SAFE.sub("_", v)[:24]
     return ID_SAFE.sub("_", show(v))[:24]
 
 

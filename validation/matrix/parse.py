@@ -72,7 +72,7 @@ from pathlib import Path
 from typing import Any
 
 from dualmech.models.case import Case, load_case, preset_names
-from dualmech.models.inputs import check_text, key_text, show
+from dualmech.models.inputs import check_keys, check_text, key_text, show
 from dualmech.models.toml_input import read_toml
 from dualmech.validation.engines import ENGINES
 from dualmech.validation.matrix.data import (
@@ -262,11 +262,7 @@ def _sweep_specs(sweeps_in: Any, n_modes: int) -> list[SweepSpec]:
         where = f"sweep[{i}]"
         if not isinstance(sw, dict):
             raise MatrixError(f"{where}: expected a table, got {show(sw)}")
-        for key in sw:
-            if key not in _SWEEP_KEYS:
-                raise MatrixError(
-                    f"{where}.{key_text(key)}: unknown key (valid: {', '.join(sorted(_SWEEP_KEYS))})"
-                )
+        check_keys(where, sw, _SWEEP_KEYS, MatrixError)
         sw_name = check_file_name(f"{where}.name", sw.get("name", f"sweep{i + 1}"))
         include_base = sw.get("include_base", True)
         if not isinstance(include_base, bool):

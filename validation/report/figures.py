@@ -8,12 +8,11 @@ from __future__ import annotations
 
 import contextlib
 import re
-import warnings
 
 import numpy as np
 
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
-from dualmech.validation.compare import STROKE, Comparison, relative_differences
+from dualmech.validation.compare import STROKE, Comparison
 from dualmech.validation.executors import process_pool
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.report.plots import Figure, difference_figure, heatmap_figure, sweep_figure
@@ -48,7 +47,7 @@ def figure_specs(matrix: Matrix, results: dict, comparison: Comparison) -> list[
     """Every figure of the report: the sweeps', then each judge's difference plot, then its heat map."""
     return [
         *_sweep_specs(matrix, results),
-        *_difference_specs(matrix, results),
+        *_difference_specs(matrix, comparison),
         *_heatmap_specs(matrix, comparison),
     ]
 
@@ -98,26 +97,18 @@ def _sweep_specs(matrix: Matrix, results: dict) -> list[FigureSpec]:
     return specs
 
 
-def _difference_specs(matrix: Matrix, results: dict) -> list[FigureSpec]:
-    """Per judge: the worst relative difference over kinematics and over reactions, row by row."""
+def _difference_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec]:
+    """Per judge: the worst relative difference over kinematics and over reactions, row by row (the gate's
+    own, :attr:`~dualmech.validation.compare.Comparison.row_differences`)."""
     specs: list[FigureSpec] = []
     kin_q = tuple(q for q in matrix.quantities if q not in REACTION_COLUMNS)
     rea_q = tuple(q for q in matrix.quantities if q in REACTION_COLUMNS)
     for e in matrix.judges:
         rows: dict[str, list] = {m: [] for m in matrix.modes}
         for mc in matrix.cases:
-            per = results.get(mc.id, {})
-            ref, judge = per.get(matrix.reference), per.get(e)
-            if (
-                not isinstance(ref, ResultTable)
-                or not isinstance(judge, ResultTable)
-                or len(ref) != len(judge)
-            ):
-                continue
-            rel = relative_differences(ref, judge, mc.mode, matrix.quantities)
-            rows[mc.mode].append(
-                (mc.id, ref["theta1_deg"], _row_worst(rel, kin_q, len(ref)), _row_worst(rel, rea_q, len(ref)))
-            )
+            differences = comparison.row_differences.get(mc.id, {}).get(e)
+            if differences is not None:
+                rows[mc.mode].append((mc.id, *differences))
         rows = {m: r for m, r in rows.items() if r}
         if rows:
             tols = matrix.tolerances[e]
@@ -136,15 +127,6 @@ def _difference_specs(matrix: Matrix, results: dict) -> list[FigureSpec]:
                 )
             )
     return specs
-
-
-def _row_worst(rel: dict[str, np.ndarray], quantities: tuple[str, ...], n: int) -> np.ndarray:
-    """Per row, the largest of ``rel[q]`` over ``quantities`` (shape ``(n,)``); NaN where none compared."""
-    if not quantities:
-        return np.full(n, np.nan)
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN rows: nothing compared there
-        return np.nanmax(np.stack([rel[q] for q in quantities]), axis=0)
 
 
 def _heatmap_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec]:

@@ -15,19 +15,18 @@ from pathlib import Path
 from typing import Any, Callable
 
 from dualmech.models.design_summary import JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION
-from dualmech.validation import runner
+from dualmech.validation import derived, runner
 from dualmech.validation.compare import Check, Comparison, compare_run
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.provenance import key_versions
 from dualmech.validation.report.figures import render_figures
 from dualmech.validation.report.plots import Figure
 from dualmech.validation.report.sections import (
-    balancing,
+    balancing_figure,
     copy_errata,
     dead_centre_rows,
     design_rows,
     engine_versions,
-    findings,
     stroke_rows,
     summary_rows,
     tolerance_rows,
@@ -152,16 +151,17 @@ def write_report(
         figures = _section(
             "figures", render_figures, matrix, results, comparison, jobs=jobs, progress=progress
         )
-        balance_figure, balance_rows = _section("balancing", balancing, matrix)
+        balance = _section("balancing", derived.balancing, matrix)
+        balance_figure = _section("balancing", balancing_figure, balance)
         figures = [*figures, *([balance_figure] if balance_figure is not None else [])]
         find = (
-            _section("findings", findings) if matrix.of_thesis else None
+            _section("findings", derived.findings) if matrix.of_thesis else None
         )  # about the thesis's mechanism only
         paths = _write_figures(outdir, figures)
         context = _context(matrix, run, results, comparison, figures)
         context.update(
             findings=find,
-            balancing=balance_rows,
+            balancing=balance.rows,
             errata=copy_errata(outdir) if find else None,
             report_seconds=time.perf_counter() - start,
         )

@@ -1,28 +1,28 @@
-"""The report's sections as data: rows for the templates' tables, computed from a finished run.
+"""The report's sections as data: rows for the templates' tables, from a finished run and its comparison.
 
-Every function here returns plain rows (dicts) or :class:`~dualmech.models.design_summary.DesignSummary`
-objects; :mod:`~dualmech.validation.report.render` puts them into the templates.
+Every function here returns plain rows (dicts), a figure or
+:class:`~dualmech.models.design_summary.DesignSummary` objects; :mod:`~dualmech.validation.report.render`
+puts them into the templates.  The numbers no stored table holds (balancing, the thesis's findings)
+come from :mod:`dualmech.validation.derived`.
 """
 
 from __future__ import annotations
 
 import shutil
 import tempfile
-from importlib import import_module
 from pathlib import Path
 
 import numpy as np
 
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
+from dualmech.models.balancing import draw_shaking_force_polar
 from dualmech.models.design_summary import DesignSummary, design_summary
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Comparison
+from dualmech.validation.derived import Balancing
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.report.plots import Figure
 from dualmech.validation.rundir import record_files
-
-#: The model package's function that lists the thesis's printed findings with verdicts.
-FINDINGS_FUNCTION = "dualmech.models.findings:thesis_findings"
 
 
 def engine_verdict(comparison: Comparison, case: str, engine: str) -> dict:
@@ -78,78 +78,23 @@ def stroke_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
     return rows
 
 
-def findings() -> list[dict]:
-    """The thesis's printed findings with verdicts, from the model package (a failure fails the report)."""
-    module, func = FINDINGS_FUNCTION.split(":")
-    rows = getattr(import_module(module), func)()
-    return [
-        {
-            "finding": str(r.get("finding", "")),
-            "verdict": str(r.get("verdict", "")),
-            "evidence": str(r.get("evidence", "")),
-        }
-        for r in rows
-    ]
-
-
-def balancing(matrix: Matrix) -> tuple[Figure | None, list[dict]]:
-    """Shaking force before and after force balancing (Sinatra–Angeles): a polar figure and a table.
-
-    The figure is for the first of these cases that assembles (``None`` if none does);
-    the table gives, for the base case and the last case of each sweep (the spatial
-    offsets), the peak shaking force and shaking moment over the cycle for the
-    original and the balanced design (NaN for a case that assembles nowhere).
-    """
-    from dualmech.models.balancing import balanced_case, shaking, shaking_force_polar
-
-    base = next((c for c in matrix.cases if c.is_base), matrix.cases[0])
-    picks = [base] + [
-        next(c for c in matrix.cases if c.id == s.case_ids[base.mode][-1])
-        for s in matrix.sweeps
-        if s.case_ids.get(base.mode)
-    ]
-    picks = list({mc.id: mc for mc in picks}.values())  # the base case may also end a sweep
-    rows = []
-    for mc in picks:
-        case = mc.case()
-        before, after = shaking(case), shaking(balanced_case(case))
-        peak = {
-            name: _peak_norm(getattr(s, attr))
-            for name, s, attr in (
-                ("force_before", before, "force"),
-                ("force_after", after, "force"),
-                ("moment_before", before, "moment"),
-                ("moment_after", after, "moment"),
-            )
-        }
-        ratio = (
-            peak["force_after"] / peak["force_before"] if peak["force_before"] > 0 else None
-        )  # at rest: none
-        rows.append({"case": mc.id, **peak, "ratio": ratio})
-    drawn = next((mc for mc, row in zip(picks, rows) if np.isfinite(row["force_before"])), None)
-    if drawn is None:
-        return None, rows
+def balancing_figure(balance: Balancing) -> Figure | None:
+    """The polar figure of the balancing section: the drawn case's shaking force, original and balanced."""
+    if balance.forces is None:
+        return None
     with tempfile.TemporaryDirectory() as tmp:
-        case = drawn.case()
-        png = Path(shaking_force_polar(case, balanced_case(case), Path(tmp) / "shaking.png")).read_bytes()
-    figure = Figure(
+        path = Path(tmp) / "shaking.png"
+        png = draw_shaking_force_polar(balance.forces, balance.name, balance.units, path).read_bytes()
+    return Figure(
         "balancing-shaking-force",
         "balancing",
         "balancing",
-        f"shaking force, {drawn.id}: original and force-balanced design",
+        f"shaking force, {balance.drawn}: original and force-balanced design",
         "Tip of the shaking force's component normal to the crank axis over one revolution. "
         "Balanced: crank and rod mass centres at xi1 = -(1 + mu2)/mu1, xi2 = -1/mu2 "
         "(docs/conventions.md; errata S7).",
         png,
     )
-    return figure, rows
-
-
-def _peak_norm(vectors: np.ndarray) -> float:
-    """Largest Euclidean norm over the rows of ``vectors`` (shape ``(n, 3)``) that are finite; NaN if none."""
-    norms = np.linalg.norm(vectors, axis=1)
-    norms = norms[np.isfinite(norms)]
-    return float(norms.max()) if norms.size else float("nan")
 
 
 def tolerance_rows(matrix: Matrix) -> list[dict]:

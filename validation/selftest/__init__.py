@@ -63,12 +63,11 @@ from dualmech.validation.selftest.run import (
     Report,
     format_report,
     run_selftest,
-    selftest,
 )
 from dualmech.validation.selftest.scratch import check_source, make_scratch, source_root
 
 __all__ = [
     "BOOT", "CATALOGUE", "CLASSES", "WRONG_IMPORT", "Catalogue", "GateRun", "Mutant", "Outcome", "Report",
     "SelftestError", "check_source", "format_report", "gate_main", "load_catalogue", "make_scratch",
-    "parse_catalogue", "run_gate", "run_selftest", "selftest", "source_root", "stale_reason",
+    "parse_catalogue", "run_gate", "run_selftest", "source_root", "stale_reason",
 ]

@@ -73,7 +73,7 @@ def gate_main(argv: list[str]) -> int:
     this process, compares, checks (or writes) the baseline and writes the JUnit
     file as ``dualmech validate --baseline --junit`` does (everything but the
     report), and returns the exit code ``validate`` would
-    (:func:`~dualmech.validation.cli_validate.exit_code`: 0 PASS, 1 FAIL or a
+    (:func:`~dualmech.validation.exit_codes.exit_code`: 0 PASS, 1 FAIL or a
     regression, 3 INCOMPLETE).  Prints one JSON line: ``verdict``, ``checks``,
     ``failures``, ``regressions`` (a few of each) and their counts.
     """
@@ -83,11 +83,11 @@ def gate_main(argv: list[str]) -> int:
         read_baseline,
         write_baseline,
     )
-    from dualmech.validation.cli_validate import exit_code, run_versions
     from dualmech.validation.compare import compare_run
+    from dualmech.validation.exit_codes import exit_code
     from dualmech.validation.junit import describe, write_junit
     from dualmech.validation.matrix import load_matrix
-    from dualmech.validation.runner import load_entries, run_matrix, timings
+    from dualmech.validation.runner import load_entries, run_matrix, run_versions, timings
 
     matrix_file, outdir, baseline_in, baseline_out = argv
     matrix = load_matrix(matrix_file)

@@ -1,25 +1,19 @@
-"""Running every fault of a catalogue against the gate, the report, and the ``dualmech selftest`` command."""
+"""Running every fault of a catalogue against the gate, and its report (command: dualmech.cli.selftest)."""
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import shutil
-import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-import click
-
-from dualmech.validation.cli_errors import one_line_errors
 from dualmech.validation.selftest.catalogue import (
-    CATALOGUE,
     Catalogue,
     Mutant,
     SelftestError,
-    load_catalogue,
     stale_reason,
 )
 from dualmech.validation.selftest.gate import GateRun, run_gate
@@ -158,33 +152,3 @@ def format_report(report: Report, jobs: int) -> str:
     lines.append(f"mutation score: {report.killed}/{n} killed ({report.score:.1f} %){extra}; "
                  f"{report.seconds:.0f} s with {jobs} jobs")
     return "\n".join(lines)
-
-
-
-@click.command()
-@click.option("--catalogue", type=click.Path(dir_okay=False), help=f"Fault catalogue [default: {CATALOGUE}].")
-@click.option("--jobs", type=click.IntRange(min=1), default=2, show_default=True,
-              help="Mutants gated side by side.")
-@click.option("--timeout", type=float, default=300.0, show_default=True,
-              help="Seconds each gate step may take (a step that outlives it counts as killed by timeout).")
-@click.option("--only", multiple=True, metavar="ID", help="Run only these mutants (repeatable).")
-@click.option("--source", type=click.Path(file_okay=False, exists=True),
-              help="Source tree to copy [default: the checkout dualmech runs from].")
-@click.option("--keep", type=click.Path(file_okay=False), help="Keep the scratch copies and runs here.")
-@one_line_errors
-def selftest(catalogue, jobs, timeout, only, source, keep) -> None:
-    """Apply every deliberate fault of the catalogue to a scratch copy and require the gate to FAIL.
-
-    Prints one row per fault (which part of the gate killed it, seconds) and the
-    mutation score; exits 1 below 100 % or when the gate fails without a fault.
-    """
-    root = check_source(Path(source) if source else source_root())
-    cat = load_catalogue(Path(catalogue) if catalogue else root / CATALOGUE)
-    def progress(o: Outcome) -> None:
-        click.echo(f"  {o.mutant.id}: {o.run.verdict} ({o.run.seconds:.1f} s)", err=True)
-
-    report = run_selftest(cat, root, jobs=jobs, timeout=timeout, only=tuple(only),
-                          keep=Path(keep) if keep else None, progress=progress)
-    click.echo(format_report(report, jobs))
-    if not report.passed:
-        sys.exit(1)

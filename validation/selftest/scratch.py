@@ -9,11 +9,11 @@ from dualmech.validation.selftest.catalogue import Mutant, SelftestError, stale_
 
 #: What a scratch copy holds (relative to the source root); absent optional entries are skipped.
 COPIED: tuple[str, ...] = (
-    "core", "models", "validation", "tests", "docs", "reports", "pyproject.toml", "README.md")
+    "core", "models", "validation", "cli", "tests", "docs", "reports", "pyproject.toml", "README.md")
 #: Entries a source root must have to be one.
 REQUIRED: tuple[str, ...] = ("core", "models", "validation", "pyproject.toml")
 #: Import packages and the folders that hold them (pyproject.toml ``package-dir``).
-PACKAGES: dict[str, str] = {"core": "core", "models": "models", "validation": "validation"}
+PACKAGES: dict[str, str] = {"core": "core", "models": "models", "validation": "validation", "cli": "cli"}
 
 
 def source_root() -> Path:

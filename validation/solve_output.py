@@ -1,4 +1,4 @@
-"""``dualmech solve`` output: the table as CSV or Parquet, and long in-house cases streamed chunk by chunk.
+"""The output of ``dualmech solve``: the table as CSV or Parquet, long in-house cases streamed chunk by chunk.
 
 A case of more than :data:`STREAM_POSITIONS` crank positions solved by the in-house engine
 never exists whole in memory: the compiled kernel analyses it chunk by chunk into one

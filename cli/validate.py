@@ -3,19 +3,21 @@
 ``validate`` runs a matrix (:mod:`dualmech.validation.runner`), compares every judge
 with the reference (:mod:`dualmech.validation.compare`), optionally writes JUnit XML
 and checks or writes a baseline, writes the report, prints a one-screen summary and
-exits with one of :data:`EXIT_CODES`.
+exits with one of :data:`dualmech.validation.exit_codes.EXIT_CODES`.
 """
 
 from __future__ import annotations
 
+import contextlib
 import sys
-from pathlib import Path
-from typing import IO, TYPE_CHECKING
+from typing import IO, TYPE_CHECKING, Iterator
 
 import click
 
-from dualmech.validation.cli_errors import one_line_errors
+from dualmech.cli.errors import one_line_errors
 from dualmech.validation.engines import ENGINES
+from dualmech.validation.exit_codes import EXIT_CLUSTER_LOST, EXIT_INTERRUPTED, exit_code
+from dualmech.validation.runner import ProgressCallback, run_versions
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -24,24 +26,6 @@ if TYPE_CHECKING:
 
 #: How many failing checks / regressions ``validate`` lists under its table.
 SHOWN_FAILURES = 12
-#: Exit codes of ``validate`` and ``report`` (also in the README).
-EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_INCOMPLETE = 0, 1, 2, 3
-EXIT_CLUSTER_LOST, EXIT_INTERRUPTED = 4, 130
-EXIT_CODES: dict[int, str] = {
-    EXIT_PASS: "PASS: every check of a complete run passed, no regression",
-    EXIT_FAIL: "FAIL: a check failed, an engine failed, or (with --baseline) something regressed",
-    EXIT_BAD_INPUT: "bad input, or an output folder that is not dualmech's or is in use (one line on stderr)",
-    EXIT_INCOMPLETE: "INCOMPLETE: no check failed, but work is missing (cases or engines not run)",
-    EXIT_CLUSTER_LOST: "the Dask scheduler or all its workers were lost (finished cases are kept; --resume)",
-    EXIT_INTERRUPTED: "interrupted (finished cases are kept; re-run with --resume)",
-}
-
-
-def exit_code(verdict: str, regressions: list) -> int:
-    """The exit code of a compared run: FAIL (or any regression) 1, INCOMPLETE 3, PASS 0."""
-    if verdict == "FAIL" or regressions:
-        return EXIT_FAIL
-    return EXIT_INCOMPLETE if verdict == "INCOMPLETE" else EXIT_PASS
 
 
 def _engine_list(values: tuple[str, ...]) -> tuple[str, ...]:
@@ -50,6 +34,29 @@ def _engine_list(values: tuple[str, ...]) -> tuple[str, ...]:
         if n not in ENGINES:
             raise ValueError(f"--engines: {n!r} is not an engine (valid: {', '.join(ENGINES)})")
     return names
+
+
+@contextlib.contextmanager
+def rich_progress(description: str = "solving") -> Iterator[ProgressCallback]:
+    """A rich progress bar (on stderr) as a :data:`~dualmech.validation.runner.ProgressCallback`.
+
+    It redraws only when called (no refresh thread), so that worker processes
+    forked while it is shown cannot inherit a lock held by another thread.
+    """
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    console = Console(stderr=True)
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.fields[last]}"), console=console, transient=False,
+                  auto_refresh=False) as bar:
+        task = bar.add_task(description, total=None, last="")
+
+        def update(done: int, total: int, label: str) -> None:
+            bar.update(task, completed=done, total=total, last=label)
+            bar.refresh()
+
+        yield update
 
 
 #: Console width when stdout is a pipe or a file: wide enough that no table cell is ever cut or wrapped.
@@ -145,7 +152,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     from dualmech.validation.junit import write_junit
     from dualmech.validation.report import write_report
     from dualmech.validation.rundir import check_output_folder
-    from dualmech.validation.runner import load_entries, rich_progress, timings
+    from dualmech.validation.runner import load_entries, timings
 
     matrix, outdir = open_run(matrix_file, outdir, _engine_list(engines))
     baseline = read_baseline(baseline_file) if baseline_file else None  # fail early on a bad file
@@ -210,14 +217,6 @@ def _print_verdict(console, comparison, files, regressions: list, baseline_file:
         console.print(f"baseline written: {write_baseline_file}")
     if junit_file:
         console.print(f"JUnit: {junit_file}")
-
-
-def run_versions(outdir: Path) -> dict[str, str]:
-    """The key library versions recorded in the run directory's ``run.json``."""
-    from dualmech.validation.provenance import key_versions
-    from dualmech.validation.runner import load_run
-
-    return key_versions(load_run(outdir)[1])
 
 
 def _cores() -> int:

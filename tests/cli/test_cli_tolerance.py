@@ -7,9 +7,9 @@ import pytest
 from click.testing import CliRunner
 
 import dualmech.models
+from dualmech.cli import main
 from dualmech.models.case import load_case
 from dualmech.models.slider_crank import solve_case
-from dualmech.validation.cli import main
 
 SPEC = Path(dualmech.models.__file__).parent / "cases/thesis/tolerances/tolerances-thesis.toml"
 CASE = "thesis/a4-20-s1-3.5"
@@ -113,7 +113,7 @@ def test_sensitivities_the_solver_disagrees_with_are_named_and_exit_1(tmp_path, 
 
 def test_spot_check_passes_on_the_same_design_and_fails_on_a_perturbed_one():
     pin = pytest.importorskip("dualmech.validation.pinocchio_engine")
-    from dualmech.models.tolerance.judges import spot_check
+    from dualmech.validation.tolerance_judges import spot_check
 
     design = load_case("a4-10-s1-3.5")
     reference = solve_case(design)

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 from click.testing import CliRunner
 
+from dualmech.cli import main
 from dualmech.core.table import NUMERIC_COLUMNS, read_csv, read_parquet
 from dualmech.models import slider_crank_kernel
 from dualmech.models.case import load_case
-from dualmech.validation import cli_solve
-from dualmech.validation.cli import main
+from dualmech.validation import solve_output
 
 
 def _same(a, b) -> None:
@@ -28,13 +28,13 @@ def test_parquet_holds_what_csv_holds(tmp_path) -> None:
 
 def test_long_cases_stream_in_chunks_with_the_same_rows(tmp_path, monkeypatch) -> None:
     """Streamed (5 chunks of 80 rows into one buffer) = solved whole, in both formats; so is the summary."""
-    monkeypatch.setattr(cli_solve, "STREAM_POSITIONS", 100)
+    monkeypatch.setattr(solve_output, "STREAM_POSITIONS", 100)
     monkeypatch.setattr(slider_crank_kernel, "CHUNK_POSITIONS", 80)
     case = load_case("a4-30-s1-3.5").with_values({"geometry.slider_offset": 40.0})  # some no_assembly rows
     whole = slider_crank_kernel.solve_case(case)
     assert "no_assembly" in set(whole.status) and "ok" in set(whole.status)
     for suffix, read in (("parquet", read_parquet), ("csv", read_csv)):
-        text = cli_solve.stream_solve(case, tmp_path / f"s.{suffix}")
+        text = solve_output.stream_solve(case, tmp_path / f"s.{suffix}")
         _same(read(tmp_path / f"s.{suffix}"), whole)
         assert "streamed" in text and whole.meta["messages"][0] in text
     assert (tmp_path / "s.csv").read_text() == whole.to_csv()

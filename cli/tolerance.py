@@ -1,6 +1,6 @@
 """``dualmech tolerance``: distributions of the stroke and joint loads under manufacturing tolerances.
 
-A thin shell over :func:`dualmech.models.tolerance.study.run_study` and
+A thin shell over :func:`dualmech.validation.tolerance_study.run_study` and
 :func:`dualmech.validation.tolerance_report.write_tolerance_report`; ``docs/conventions.md``
 ("Tolerance analysis") defines the SPEC, every column and the summary.
 Exit codes: 0 every spot check passed; 1 a judge disagreed, or the exact sensitivities disagree with
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import click
 
-from dualmech.validation.cli_errors import one_line_errors
+from dualmech.cli.errors import one_line_errors
 
 
 def _print_summary(summary: dict) -> None:
@@ -50,8 +50,9 @@ def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir:
     """Tolerance study of CASE: Monte Carlo of SPEC and exact sensitivities, judged and reported."""
     from dualmech.models.case import load_case
     from dualmech.models.tolerance.spec import load_spec
-    from dualmech.models.tolerance.study import StudyInput, run_study
+    from dualmech.models.tolerance.study import StudyInput
     from dualmech.validation.tolerance_report import write_tolerance_report
+    from dualmech.validation.tolerance_study import run_study
 
     if jobs < 1:
         raise ValueError(f"jobs: expected 1 or more processes, got {jobs!r}")

@@ -5,16 +5,17 @@ import pytest
 from click.testing import CliRunner
 from numpy.testing import assert_allclose
 
+from dualmech.cli import main
 from dualmech.core.table import COLUMNS, read_csv
-from dualmech.models.case import load_case
+from dualmech.models.case import load_case, preset_names
 from dualmech.models.slider_crank import solve_case
-from dualmech.validation.cli import main
 
 
 def test_cases_lists_every_preset():
     result = CliRunner().invoke(main, ["cases"])
     assert result.exit_code == 0
-    assert len(result.output.strip().splitlines()) == 9
+    lines = result.output.strip().splitlines()
+    assert [line.split()[0] for line in lines] == preset_names()
     assert "thesis/a4-30-s1-3.5" in result.output
 
 
@@ -99,7 +100,7 @@ def test_summary_console_abbreviates_only_on_a_terminal():
 
     from rich.table import Table
 
-    from dualmech.validation.cli_validate import summary_console
+    from dualmech.cli.validate import summary_console
 
     table = Table()
     for name in ("case", "stroke (dualmech)", "pinocchio", "mujoco"):

@@ -28,8 +28,8 @@ from typing import Callable
 import click
 import numpy as np
 
-#: Exit code for bad input (one line names it).
-EXIT_BAD_INPUT = 2
+from dualmech.validation.exit_codes import EXIT_BAD_INPUT
+
 #: Exit code for an unexpected internal error (``EX_SOFTWARE``).
 EXIT_INTERNAL = 70
 #: Longest message text on the error line, characters.

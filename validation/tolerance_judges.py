@@ -1,9 +1,9 @@
-"""Spot checks: sampled designs re-solved by Pinocchio and MuJoCo rigid, compared like the validation matrix.
+"""A tolerance study's spot checks: sampled designs re-solved by the judges, compared like the matrix.
 
 Each picked design is solved by the in-house engine (the reference) and by every judge
 (:func:`dualmech.validation.engines.run_engine`), and compared column by column with
 :func:`dualmech.validation.compare.compare_case` under the validation matrix's default
-tolerances for that judge (``validation/matrix.py``, ``DEFAULT_TOLERANCES``; each named in
+tolerances for that judge (``validation/matrix/tolerances.py``, ``DEFAULT_TOLERANCES``; each named in
 ``validation/tolerances.py``).  A design is picked among those that assemble at least in part,
 by the study's seed (:func:`~dualmech.models.tolerance.sampling.judge_picks`).
 """
@@ -17,6 +17,9 @@ import numpy as np
 from dualmech.core.table import ResultTable
 from dualmech.models.case import Case
 from dualmech.models.tolerance.outputs import DesignStatus, design_outputs, output_names
+from dualmech.validation import engines
+from dualmech.validation.compare import compare_case
+from dualmech.validation.matrix import COMPARABLE, resolve_tolerances
 
 #: The judges of a tolerance study: the exact rigid-body engines (the simulation's tolerances are
 #: far looser than a design's spread, so it would not tell designs apart).
@@ -46,16 +49,11 @@ class SpotCheck:
 
 def judge_tolerances(engine: str) -> dict:
     """The matrix's default tolerances of judge ``engine`` for every comparable column and the stroke."""
-    from dualmech.validation.matrix import COMPARABLE, resolve_tolerances
-
     return resolve_tolerances(None, (engine,), COMPARABLE)[engine]
 
 
 def spot_check(design: Case, reference: ResultTable, engine: str, judge: ResultTable) -> SpotCheck:
     """Compare ``judge`` (engine ``engine``) with the in-house ``reference`` on one design."""
-    from dualmech.validation.compare import compare_case
-    from dualmech.validation.matrix import COMPARABLE
-
     mode = design.loads.mode
     checks = compare_case(design.name, mode, reference, judge, COMPARABLE, judge_tolerances(engine))
     worst = max(checks, key=lambda c: c.ratio)
@@ -66,15 +64,14 @@ def spot_check(design: Case, reference: ResultTable, engine: str, judge: ResultT
                      failures, outputs)
 
 
-def run_spot_checks(designs: list[Case], engines: tuple[str, ...] = JUDGES) -> list[SpotCheck]:
+def run_spot_checks(designs: list[Case], judges: tuple[str, ...] = JUDGES) -> list[SpotCheck]:
     """Every judge on every design (the reference solved once per design)."""
     from dualmech.models.slider_crank import solve_case
-    from dualmech.validation.engines import run_engine
 
     out = []
     for design in designs:
         reference = solve_case(design)
-        out += [spot_check(design, reference, e, run_engine(e, design)) for e in engines]
+        out += [spot_check(design, reference, e, engines.run_engine(e, design)) for e in judges]
     return out
 
 

@@ -13,10 +13,10 @@ import sys
 import click
 import numpy as np
 
+from dualmech.cli.errors import one_line_errors
 from dualmech.models.case import load_case
 from dualmech.models.forward_dynamics import MAX_EVALUATIONS, TIME_LIMIT
 from dualmech.models.inputs import ANGLE_DEG, Range, show
-from dualmech.validation.cli_errors import one_line_errors
 
 #: Longest integer option text: beyond this many digits it is out of every range anyway.
 _MAX_INT_DIGITS = 18

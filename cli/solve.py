@@ -1,8 +1,6 @@
-"""The ``dualmech`` command line: a thin shell over importable functions.
+"""``dualmech cases``, ``case-path``, ``solve``, ``mjcf`` and ``benchmark``: the commands about one case.
 
-Every subcommand calls a library function and prints its result; bad input
-(a :class:`ValueError` from the library) becomes one line on stderr and exit
-code 2, never a traceback.
+Registered in :data:`dualmech.cli.COMMANDS`.
 """
 
 from __future__ import annotations
@@ -13,20 +11,14 @@ from pathlib import Path
 import click
 import numpy as np
 
+from dualmech.cli.errors import one_line_errors
 from dualmech.core.table import ResultTable
 from dualmech.models.case import load_case, preset_names, preset_path
-from dualmech.validation.cli_errors import one_line_errors
-from dualmech.validation.cli_solve import STREAM_POSITIONS, output_format, stream_solve, write_table
 from dualmech.validation.engines import ENGINES, run_engine
+from dualmech.validation.solve_output import STREAM_POSITIONS, output_format, stream_solve, write_table
 
 
-@click.group()
-@click.version_option(package_name="dualmech")
-def main() -> None:
-    """Dual-number solver for the generalized slider crank, judged by Pinocchio and MuJoCo."""
-
-
-@main.command()
+@click.command()
 def cases() -> None:
     """List the bundled case presets."""
     for name in preset_names():
@@ -51,7 +43,7 @@ def summarize(table: ResultTable, units: str = "consistent") -> str:
     return "\n".join(lines)
 
 
-@main.command()
+@click.command()
 @click.argument("case")
 @click.option("-o", "--output", type=click.Path(dir_okay=False),
               help="File for the table: OUT.csv or OUT.parquet (streamed row groups).")
@@ -81,7 +73,7 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
     click.echo(summarize(table, c.units), err=output is None)
 
 
-@main.command()
+@click.command()
 @click.argument("case")
 @click.option("-o", "--output", type=click.Path(dir_okay=False), required=True)
 @one_line_errors
@@ -111,7 +103,7 @@ def mjcf(case: str, output: str) -> None:
     click.echo(f"open it: python -m mujoco.viewer --mjcf={output}, then Simulation > Load key")
 
 
-@main.command()
+@click.command()
 @click.option("--cases", default=1000, show_default=True, help="Random cases of 360 positions for the "
                                                                "in-house solver.")
 @click.option("--judge-cases", default=5, show_default=True, help="How many of them the judges solve (they "
@@ -128,27 +120,10 @@ def benchmark(cases: int, judge_cases: int, big: int, repeats: int) -> None:
     click.echo(run_benchmark(cases, judge_cases, big, repeats))
 
 
-@main.command(name="case-path")
+@click.command(name="case-path")
 @click.argument("name")
 @one_line_errors
 def case_path(name: str) -> None:
     """Print the file of a bundled preset (to copy and edit)."""
     click.echo(str(preset_path(name)))
 
-
-from dualmech.validation.cli_validate import report, validate  # noqa: E402
-
-main.add_command(validate)
-main.add_command(report)
-
-from dualmech.validation.cli_simulate import simulate  # noqa: E402
-
-main.add_command(simulate)
-
-from dualmech.validation.selftest import selftest  # noqa: E402
-
-main.add_command(selftest)
-
-from dualmech.validation.cli_tolerance import tolerance  # noqa: E402
-
-main.add_command(tolerance)

@@ -1,0 +1,35 @@
+"""The ``dualmech`` command line (``dualmech.cli``): a thin shell over importable functions.
+
+Every subcommand calls a library function of ``core``, ``models`` or ``validation`` and
+prints its result; bad input (a :class:`ValueError` from the library) becomes one line on
+stderr and exit code 2, never a traceback (:mod:`dualmech.cli.errors`).  This package is the
+top layer: it may import every other one, none of them imports it.
+
+The subcommands are registered here, in :data:`COMMANDS`, and nowhere else.
+"""
+
+from __future__ import annotations
+
+import click
+
+from dualmech.cli.selftest import selftest
+from dualmech.cli.simulate import simulate
+from dualmech.cli.solve import benchmark, case_path, cases, mjcf, solve
+from dualmech.cli.tolerance import tolerance
+from dualmech.cli.validate import report, validate
+
+#: Every subcommand of ``dualmech``, by module: one case (cases, case-path, solve, mjcf, benchmark),
+#: forward dynamics, the tolerance study, the validation run and its report, the mutation selftest.
+COMMANDS: tuple[click.Command, ...] = (
+    cases, case_path, solve, mjcf, benchmark, simulate, tolerance, validate, report, selftest,
+)
+
+
+@click.group()
+@click.version_option(package_name="dualmech")
+def main() -> None:
+    """Dual-number solver for the generalized slider crank, judged by Pinocchio and MuJoCo."""
+
+
+for _command in COMMANDS:
+    main.add_command(_command)

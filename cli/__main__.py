@@ -1,0 +1,5 @@
+"""``python -m dualmech.cli``: the same as the ``dualmech`` command."""
+
+from dualmech.cli import main
+
+main()

@@ -1,0 +1,121 @@
+"""Single-loop linkages other than the slider crank, from the same link-joint table and the same method.
+
+:func:`solve_linkage` reads a case (a path, a bundled case ``"rssr"`` or a parsed
+dict) whose ``[mechanism] kind`` names the linkage, and returns its
+:class:`~dualmech.models.linkages.table.LinkageTable` (``docs/conventions.md``, "RSSR", "RCCC").
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dualmech.models.inputs import CaseError, show
+from dualmech.models.linkages.table import LinkageTable
+from dualmech.models.toml_input import read_toml
+
+#: ``[mechanism] kind`` values this package solves.
+KINDS = ("rssr", "rccc")
+#: The bundled linkage cases (``<stem>.toml``; to join ``models/cases/linkages/`` once ``load_case`` reads
+#: ``[mechanism] kind``, as the slider crank's presets there are all read by it).
+CASES = Path(__file__).resolve().parent / "cases"
+
+
+def read_linkage(source: str | Path | dict) -> dict:
+    """The parsed case table of ``source``: a dict as is, else a TOML file or a bundled case's stem
+    (``"rssr"``)."""
+    if isinstance(source, dict):
+        return source
+    path = Path(source)
+    if not path.is_file():
+        bundled = sorted(p.stem for p in CASES.glob("*.toml"))
+        if str(source) not in bundled:
+            raise CaseError(f"case: {show(str(source))} is neither a file nor a bundled linkage case "
+                            f"(bundled: {', '.join(bundled)})")
+        path = CASES / f"{source}.toml"
+    return read_toml(path, CaseError)
+
+
+def linkage_kind(data: Any) -> str | None:
+    """``[mechanism] kind`` of a parsed case, or ``None`` for a case without one (the slider crank)."""
+    mech = data.get("mechanism") if isinstance(data, dict) else None
+    return mech.get("kind") if isinstance(mech, dict) else None
+
+
+def is_linkage(source: str | Path | dict) -> bool:
+    """Whether ``source`` (a dict, a TOML file or a name) is a linkage case: ``[mechanism] kind`` in
+    :data:`KINDS`, or a bundled linkage stem.  Never raises: a slider-crank case or preset name is ``False``
+    (for the command line's dispatch)."""
+    if isinstance(source, dict):
+        return linkage_kind(source) in KINDS
+    path = Path(source)
+    if not path.is_file():
+        return (CASES / f"{source}.toml").is_file()
+    try:
+        return linkage_kind(read_toml(path, CaseError)) in KINDS
+    except CaseError:
+        return False
+
+
+def linkage_case(source: str | Path | dict) -> Any:
+    """The checked case of a linkage (:class:`~dualmech.models.linkages.rssr_case.RssrCase` or
+    :class:`~dualmech.models.linkages.rccc_case.RcccCase`), by its ``[mechanism] kind``.
+
+    Raises
+    ------
+    CaseError
+        One line, for any invalid input (including a ``kind`` not in :data:`KINDS`).
+    """
+    data = read_linkage(source)
+    kind = linkage_kind(data)
+    if kind == "rssr":
+        from dualmech.models.linkages.rssr_case import rssr_from_dict
+
+        return rssr_from_dict(data)
+    if kind == "rccc":
+        from dualmech.models.linkages.rccc_case import rccc_from_dict
+
+        return rccc_from_dict(data)
+    raise CaseError(f"mechanism.kind: {show(kind)} is not a linkage dualmech solves here "
+                    f"(valid: {', '.join(KINDS)})")
+
+
+#: Engines that solve a linkage: module and function by kind (the judges import Pinocchio / MuJoCo).
+ENGINES = {
+    "dualmech": {"rssr": ("rssr", "solve_rssr"), "rccc": ("rccc", "solve_rccc")},
+    "pinocchio": {"rssr": ("pinocchio_rssr", "solve_pinocchio"),
+                  "rccc": ("pinocchio_rccc", "solve_pinocchio_rccc")},
+    "mujoco": {"rssr": ("mujoco_rssr", "solve_mujoco"), "rccc": ("mujoco_rccc", "solve_mujoco_rccc")},
+}
+
+
+def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> LinkageTable:
+    """Solve every crank position of a linkage case: ``engine`` ``"dualmech"`` (the in-house dual-number
+    method), ``"pinocchio"`` or ``"mujoco"`` (the rigid judges).
+
+    Raises
+    ------
+    CaseError
+        One line, for any invalid input (including a ``kind`` not in :data:`KINDS`).
+    """
+    if engine not in ENGINES:
+        raise CaseError(f"engine: {show(engine)} does not solve linkages (valid: {', '.join(ENGINES)})")
+    data = read_linkage(source)
+    case = linkage_case(data)
+    module, function = ENGINES[engine][linkage_kind(data)]
+    return getattr(import_module(f"dualmech.models.linkages.{module}"), function)(case)
+
+
+def summary(table: LinkageTable) -> str:
+    """A short text about a linkage table: engine, case, rows, status counts, worst closure residual, the
+    engine's messages (e.g. the ``no_assembly`` ranges)."""
+    words, counts = np.unique(np.asarray(table.status, dtype=str), return_counts=True)
+    lines = [f"{table.engine}: {table.case}, {len(table)} positions: "
+             + ", ".join(f"{c} {w}" for w, c in zip(words, counts))]
+    residual = table.columns["residual"]
+    if np.isfinite(residual).any():
+        lines.append(f"worst closure residual: {np.nanmax(residual):.3g}")
+    return "\n".join(lines + list(table.meta.get("messages", [])))

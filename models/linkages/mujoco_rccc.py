@@ -1,0 +1,119 @@
+"""The RCCC judged by MuJoCo (rigid): the MJCF of :func:`~dualmech.models.linkages.mjcf_rssr.rccc_mjcf`.
+
+The same cut as the Pinocchio judge (:mod:`~dualmech.models.linkages.pinocchio_rccc`): Newton on the
+pose error of the site "input" (``mj_jacSite``), rates and accelerations from the same Jacobian with
+the drift of ``mj_jacDot``; ``mj_rne`` for :math:`M\\ddot q + c`, the cut wrench from
+:math:`M\\ddot q + c = S^T\\tau + J^T w`; then ``w`` applied to the input link (``xfrc_applied``) and
+the joint wrenches read from ``cfrc_int`` after ``mj_rnePostConstraint``.  MuJoCo has no revolute
+equality, and its constraint solver is soft: the rigid judge uses neither.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from dualmech.models.linkages.judges import (
+    JUDGE_CLOSURE_TOL,
+    JUDGE_MAX_ITER,
+    JudgeAnswer,
+    cfrc_about,
+    cut_efforts,
+    pose_error,
+    rccc_judge_table,
+    rccc_transmission,
+    rccc_values,
+)
+from dualmech.models.linkages.mjcf_rssr import rccc_mjcf
+from dualmech.models.linkages.rccc_case import RcccCase
+from dualmech.models.linkages.table import LinkageTable
+
+
+@dataclass(frozen=True)
+class MjRccc:
+    """Compiled model and data; bodies ``output, coupler, input`` (links 3, 2, 1) and the site."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    output: int
+    coupler: int
+    input: int
+    site: int
+
+
+def build(case: RcccCase) -> MjRccc:
+    """Compile :func:`~dualmech.models.linkages.mjcf_rssr.rccc_mjcf` of ``case``."""
+    model = mujoco.MjModel.from_xml_string(rccc_mjcf(case))
+    return MjRccc(model, mujoco.MjData(model), model.body("output_link").id, model.body("coupler").id,
+                  model.body("input_link").id, model.site("input").id)
+
+
+def _error(mr: MjRccc, theta1: float, s1: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pose error of the site (world) and its Jacobian ``(6, nv)`` (linear rows first), current ``qpos``."""
+    m, d = mr.model, mr.data
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_comPos(m, d)
+    jac = np.empty((6, m.nv))
+    mujoco.mj_jacSite(m, d, jac[:3], jac[3:], mr.site)
+    return pose_error(d.site_xmat[mr.site].reshape(3, 3), d.site_xpos[mr.site], theta1, s1), jac
+
+
+def _close(mr: MjRccc, theta1: float, case: RcccCase) -> tuple[bool, float]:
+    size = case.geometry.size
+    for _ in range(JUDGE_MAX_ITER):
+        err, jac = _error(mr, theta1, case.geometry.s1)
+        gap = max(np.linalg.norm(err[:3]), size * np.linalg.norm(err[3:]))
+        if gap <= JUDGE_CLOSURE_TOL * size:
+            return True, float(gap)
+        mujoco.mj_integratePos(mr.model, mr.data.qpos, np.linalg.solve(jac, err), 1.0)
+    return False, float(gap)
+
+
+def _point(mr: MjRccc, body: int, x: float) -> np.ndarray:
+    """World position of ``(x, 0, 0)`` of ``body``'s frame before its own joints move it (the table's frame
+    of the link below, on that link's first axis)."""
+    d = mr.data
+    return d.xpos[body] + d.xmat[body].reshape(3, 3) @ np.array([x, 0.0, 0.0])
+
+
+def _moved(mr: MjRccc, body: int, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``cfrc_int`` of ``body`` (force, moment about ``point``), world axes."""
+    return cfrc_about(mr.data, body, mr.data.subtree_com[mr.model.body_rootid[body]], point)
+
+
+def _position(mr: MjRccc, case: RcccCase, theta1: float, w: float, wd: float, start: np.ndarray
+              ) -> JudgeAnswer:
+    g, m, d = case.geometry, mr.model, mr.data
+    d.qpos[:] = -np.array([start[4], start[5], start[2], start[3], start[0], start[1]])
+    ok, gap = _close(mr, theta1, case)
+    _, jac = _error(mr, theta1, g.s1)
+    d.qvel[:] = np.linalg.solve(jac, np.array([0.0, 0.0, 0.0, 0.0, 0.0, w]))
+    mujoco.mj_forward(m, d)
+    jdot = np.empty((6, m.nv))
+    mujoco.mj_jacDot(m, d, jdot[:3], jdot[3:], d.site_xpos[mr.site], mr.input)
+    qacc = np.linalg.solve(jac, np.array([0.0, 0.0, 0.0, 0.0, 0.0, wd]) - jdot @ d.qvel)
+    d.qacc[:] = qacc
+    bias = np.empty(m.nv)
+    mujoco.mj_rne(m, d, 1, bias)
+    cut, fit = cut_efforts(case, bias, jac)
+    site = d.site_xpos[mr.site].copy()
+    about_com = cut[3:] + np.cross(site - d.xipos[mr.input], cut[:3])
+    d.xfrc_applied[mr.input] = np.concatenate([cut[:3], about_com])
+    mujoco.mj_rnePostConstraint(m, d)
+    d.xfrc_applied[:] = 0.0
+    (f4, m4), (f3, m3), (f2, m2) = (_moved(mr, b, p) for b, p in (
+        (mr.output, np.array([-g.a[3], 0.0, 0.0])), (mr.coupler, _point(mr, mr.output, -g.a[2])),
+        (mr.input, _point(mr, mr.coupler, -g.a[1]))))
+    wrenches = {"j1_f": cut[:3], "j1_m": cut[3:] + np.cross(site, cut[:3]), "j2_f": -f2, "j2_m": -m2,
+                "j3_f": -f3, "j3_m": -m3, "j4_f": f4, "j4_m": m4}
+    z2, z3, z4 = (d.xmat[b].reshape(3, 3)[:, 2].copy() for b in (mr.input, mr.coupler, mr.output))
+    values = rccc_values(d.qpos[:2], d.qvel[:2], qacc[:2], fit, wrenches, z4)
+    return JudgeAnswer(ok, float(-d.qpos[0]), np.nan, rccc_transmission(z2, z3, z4, case), gap, values)
+
+
+def solve_mujoco_rccc(case: RcccCase) -> LinkageTable:
+    """Every position of ``case`` judged by rigid MuJoCo, as the common table (engine ``"mujoco"``)."""
+    mr = build(case)
+    return rccc_judge_table(case, "mujoco", lambda th, w, wd, start: _position(mr, case, th, w, wd, start))

@@ -1,0 +1,143 @@
+"""The RSSR judged by MuJoCo (rigid): the MJCF of :mod:`~dualmech.models.linkages.mjcf_rssr`, per position.
+
+Newton on the connect's site gap (``mj_jacSite``, minimum-norm steps, ``mj_integratePos``); rates
+from the gap Jacobian and the coupler's zero-spin row (``mj_jacBody``), accelerations with the
+drift of ``mj_jacDot``; efforts and the connect force by least squares on
+:math:`M\\ddot q + c = \\tau + J_c^T\\lambda` (``mj_rne``); joint wrenches from ``cfrc_int`` after
+``mj_rnePostConstraint`` with :math:`\\lambda` in ``efc_force``.  MuJoCo's own constraint solver
+(soft) is never used: this is the rigid judge.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from dualmech.models.linkages.judges import (
+    JUDGE_CLOSURE_TOL,
+    JUDGE_MAX_ITER,
+    JudgeAnswer,
+    cfrc_about,
+    coupler_start,
+    judge_table,
+    loop_efforts,
+    min_norm_step,
+    motion_values,
+    transmissions,
+    wrench_columns,
+)
+from dualmech.models.linkages.mjcf_rssr import rssr_mjcf
+from dualmech.models.linkages.rssr_case import RssrCase
+from dualmech.models.linkages.table import LinkageTable
+
+
+@dataclass(frozen=True)
+class MjRssr:
+    """Compiled model and data with the ids: bodies ``crank, coupler, output``; sites ``pin`` (site1)
+    and ``end`` (site2) of the connect."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    crank: int
+    coupler: int
+    output: int
+    pin: int
+    end: int
+
+
+def build(case: RssrCase, xml: str | None = None) -> MjRssr:
+    """Compile :func:`~dualmech.models.linkages.mjcf_rssr.rssr_mjcf` of ``case`` (or the MJCF ``xml``)."""
+    model = mujoco.MjModel.from_xml_string(rssr_mjcf(case) if xml is None else xml)
+    return MjRssr(model, mujoco.MjData(model), model.body("input_crank").id, model.body("coupler").id,
+                  model.body("output_crank").id, model.site("output_pin").id, model.site("coupler_end").id)
+
+
+def _gap(mr: MjRssr) -> tuple[np.ndarray, np.ndarray]:
+    """Gap ``x_pin - x_end`` (world) and its Jacobian ``(3, nv)`` at the current ``qpos``."""
+    m, d = mr.model, mr.data
+    mujoco.mj_kinematics(m, d)
+    mujoco.mj_comPos(m, d)
+    jp, je = np.empty((3, m.nv)), np.empty((3, m.nv))
+    mujoco.mj_jacSite(m, d, jp, None, mr.pin)
+    mujoco.mj_jacSite(m, d, je, None, mr.end)
+    return d.site_xpos[mr.pin] - d.site_xpos[mr.end], jp - je
+
+
+def _start(mr: MjRssr, case: RssrCase, theta1: float, phi: float) -> None:
+    """``qpos`` with the coupler pointed from ``P2`` at the output pin of angle ``phi``."""
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, coupler_start(case, theta1, phi).reshape(9))
+    mr.data.qpos[:] = np.concatenate([[theta1], quat, [phi]])
+
+
+def _close(mr: MjRssr, a2: float) -> tuple[bool, float]:
+    """Newton with minimum-norm steps on the coupler ball and the output hinge."""
+    m, d = mr.model, mr.data
+    for _ in range(JUDGE_MAX_ITER):
+        gap, jac = _gap(mr)
+        if np.linalg.norm(gap) <= JUDGE_CLOSURE_TOL * a2:
+            return True, float(np.linalg.norm(gap))
+        step = np.zeros(m.nv)
+        step[1:] = min_norm_step(jac[:, 1:], gap)
+        mujoco.mj_integratePos(m, d.qpos, step, 1.0)
+    gap, _ = _gap(mr)
+    return False, float(np.linalg.norm(gap))
+
+
+def _rows(mr: MjRssr, jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Gap Jacobian with the zero-spin row ``u · omega_coupler``, ``(4, nv)``, and ``u`` (world)."""
+    jr = np.empty((3, mr.model.nv))
+    mujoco.mj_jacBody(mr.model, mr.data, None, jr, mr.coupler)
+    u = mr.data.xmat[mr.coupler].reshape(3, 3)[:, 0].copy()
+    return np.vstack([jac, u @ jr]), u
+
+
+def _drift(mr: MjRssr, u: np.ndarray) -> np.ndarray:
+    """``[Jdot_gap qdot; u · Jdot_omega qdot]`` at the current ``qvel`` (``mj_jacDot``)."""
+    m, d = mr.model, mr.data
+    mujoco.mj_comVel(m, d)
+    jp, je, jr = (np.empty((3, m.nv)) for _ in range(3))
+    mujoco.mj_jacDot(m, d, jp, None, d.site_xpos[mr.pin], mr.output)
+    mujoco.mj_jacDot(m, d, je, None, d.site_xpos[mr.end], mr.coupler)
+    mujoco.mj_jacDot(m, d, None, jr, d.xpos[mr.coupler], mr.coupler)
+    return np.concatenate([(jp - je) @ d.qvel, [u @ (jr @ d.qvel)]])
+
+
+def _moved(mr: MjRssr, body: int, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``cfrc_int`` of ``body`` (force, moment about ``point``), world axes."""
+    return cfrc_about(mr.data, body, mr.data.subtree_com[mr.model.body_rootid[body]], point)
+
+
+def _position(mr: MjRssr, case: RssrCase, theta1: float, w: float, wd: float, phi: float) -> JudgeAnswer:
+    g, m, d = case.geometry, mr.model, mr.data
+    _start(mr, case, theta1, phi)
+    ok, gap_norm = _close(mr, g.a2)
+    _, jac = _gap(mr)
+    rows, u = _rows(mr, jac)
+    d.qvel[:] = 0.0
+    d.qvel[0] = w
+    d.qvel[1:] = -np.linalg.solve(rows[:, 1:], rows[:, 0] * w)
+    qacc = np.zeros(m.nv)
+    qacc[0] = wd
+    qacc[1:] = -np.linalg.solve(rows[:, 1:], rows[:, 0] * wd + _drift(mr, u))
+    mujoco.mj_forward(m, d)  # the connect's constraint rows (efc_*) at this pose
+    d.qacc[:] = qacc
+    bias = np.empty(m.nv)
+    mujoco.mj_rne(m, d, 1, bias)
+    lam, fit = loop_efforts(case, bias, jac)
+    d.efc_force[:3] = lam  # force on site1's body: the coupler's on the output crank (joint 3)
+    mujoco.mj_rnePostConstraint(m, d)
+    p2, p3 = d.xpos[mr.coupler].copy(), d.site_xpos[mr.pin].copy()
+    (f1, m1), (f4, m4) = _moved(mr, mr.crank, np.zeros(3)), _moved(mr, mr.output, g.foot)
+    values = wrench_columns(f1, m1, d.cfrc_int[mr.coupler, 3:].copy(), lam, f4, m4, g.k4)
+    values.update(motion_values(d.qpos[5], d.qvel[4], qacc[4], fit))
+    t1, t4 = transmissions(p2, p3, case)
+    return JudgeAnswer(ok, float(d.qpos[5]), t1, t4, gap_norm, values)
+
+
+def solve_mujoco(case: RssrCase) -> LinkageTable:
+    """Every position of ``case`` judged by rigid MuJoCo, as the common table (engine ``"mujoco"``)."""
+    mr = build(case)
+    return judge_table(case, "mujoco", lambda th, w, wd, phi: _position(mr, case, th, w, wd, phi))

@@ -1,0 +1,72 @@
+"""The result table of a linkage other than the slider crank: named columns, one row per crank position.
+
+Like :class:`~dualmech.core.table.ResultTable` (same status words, same CSV writer), but
+with the mechanism's own columns (``docs/conventions.md``, "RSSR"): the slider crank's
+``S4`` or ``slider_load`` mean nothing for a four-bar.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from dualmech.core.table import write_csv
+
+
+class TableSpec(NamedTuple):
+    """A mechanism's output columns in order, and which of them a status word gives: the ``pose``
+    (assembled words), the ``rates`` (``ok``, ``dead_centre``), the ``reactions`` (``ok``)."""
+
+    columns: tuple[str, ...]
+    pose: tuple[str, ...]
+    rates: tuple[str, ...]
+    reactions: tuple[str, ...]
+
+    @property
+    def kinematics(self) -> tuple[str, ...]:
+        """The pose and rate columns (compared column by column)."""
+        return self.pose + self.rates
+
+    @property
+    def forces(self) -> tuple[str, ...]:
+        """The reaction columns that are forces."""
+        return tuple(c for c in self.reactions if "_f" in c)
+
+    @property
+    def moments(self) -> tuple[str, ...]:
+        """The reaction columns that are moments or torques."""
+        return tuple(c for c in self.reactions if "_m" in c or c.endswith("torque"))
+
+
+@dataclass(frozen=True)
+class LinkageTable:
+    """Columns of one engine's answer for one linkage case.
+
+    ``columns`` name -> ``(n,)`` float arrays in the mechanism's column order; ``status``
+    ``(n,)`` status words (:mod:`dualmech.core.status`); ``meta`` engine facts.
+    """
+
+    engine: str
+    case: str
+    columns: dict[str, np.ndarray]
+    status: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        n = self.status.shape[0]
+        for name, col in self.columns.items():
+            if col.shape != (n,):
+                raise ValueError(f"columns[{name!r}]: expected shape ({n},), got {col.shape}")
+
+    def __len__(self) -> int:
+        return self.status.shape[0]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.status if name == "status" else self.columns[name]
+
+    def to_csv(self, path: str | Path | None = None) -> str:
+        """CSV text of every column (full precision), then ``status``; written to ``path`` if given."""
+        return write_csv(self.columns, np.asarray(self.status), path)

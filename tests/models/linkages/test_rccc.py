@@ -1,0 +1,187 @@
+"""The in-house RCCC (Yang 1971) and its two judges: the dual-number Newton finds the slides from the
+spherical estimate, rates match finite differences, the reactions balance power, statuses are honest,
+both judges agree and deliberate faults are seen."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+from scipy.optimize import brentq
+
+from dualmech.core.dual import Dual
+from dualmech.core.loop import LoopState
+from dualmech.core.reactions import momentum_rate
+from dualmech.core.status import Status
+from dualmech.models.inputs import CaseError
+from dualmech.models.linkages import dynamics as dynamics_module
+from dualmech.models.linkages import read_linkage, solve_linkage
+from dualmech.models.linkages.judges import worst
+from dualmech.models.linkages.rccc import SPEC, analyze_rccc, estimate, spherical_estimate, to_table
+from dualmech.models.linkages.rccc_case import RcccCase, rccc_from_dict
+from dualmech.models.linkages.tolerances import (
+    LINKAGE_CLOSED_FORM,
+    LINKAGE_FINITE_DIFFERENCE,
+    LINKAGE_JUDGE_KINEMATICS,
+    LINKAGE_JUDGE_REACTIONS,
+    LINKAGE_POWER_BALANCE,
+)
+from tests.models.linkages.cases import random_rccc
+
+
+def _bundled() -> RcccCase:
+    return rccc_from_dict(read_linkage("rccc"))
+
+
+def _at(case: RcccCase, degrees: np.ndarray) -> RcccCase:
+    return replace(case, motion=replace(case.motion, angles_deg=np.asarray(degrees, dtype=float)))
+
+
+@pytest.mark.parametrize("key, value, words", [
+    ("coupler_twist_deg", 180.0, ["geometry.coupler_twist_deg", "180.0", "parallel", "skew axes"]),
+    ("output_link", "0.2", ["geometry.output_link", "'0.2'", "length"]),
+    ("crank_length", 1.0, ["geometry.crank_length", "unknown key", "input_link"]),
+])
+def test_bad_input_is_one_line(key: str, value: object, words: list[str]) -> None:
+    data = read_linkage("rccc")
+    data["geometry"][key] = value
+    with pytest.raises(CaseError) as err:
+        rccc_from_dict(data)
+    assert "\n" not in str(err.value) and all(w in str(err.value) for w in words), str(err.value)
+
+
+def test_newton_finds_the_slides_and_corrects_the_angles() -> None:
+    """From the spherical estimate (slides 0) one dual Newton step finds the slides (the dual part is linear);
+    from angles 0.1-0.2 rad off, Newton (not the estimate) lands on the same pose."""
+    rng = np.random.default_rng(4)
+    case = _bundled()
+    exact = analyze_rccc(case)
+    assert (exact.status == Status.OK).all() and (np.abs(exact.q[:, 5]) > 0.1).all()
+    theta = exact.crank.theta
+    z3, _ = spherical_estimate(case.geometry, theta, case.branch)
+    start = estimate(case.geometry, theta, z3).scalars
+    error = rng.uniform(0.1, 0.2, (theta.size, 3)) * rng.choice([-1.0, 1.0], (theta.size, 3))
+    start[:, [0, 2, 4]] += error
+    moved = analyze_rccc(case, LoopState(start, np.zeros((theta.size, 0, 3, 3))))
+    assert (moved.iterations >= 3).all() and (moved.status == Status.OK).all()
+    wrapped = moved.q - exact.q
+    wrapped[:, [0, 2, 4]] = np.mod(wrapped[:, [0, 2, 4]] + math.pi, 2 * math.pi) - math.pi
+    assert_allclose(wrapped, 0.0, rtol=0, atol=LINKAGE_CLOSED_FORM.value)
+
+
+def test_rates_match_finite_differences() -> None:
+    case = _bundled()
+    deg = case.motion.angles_deg
+    h = 1e-4
+    runs = [analyze_rccc(_at(case, deg + math.degrees(k * h))) for k in (-1, 0, 1)]
+    an = runs[1]
+    w, wd = an.crank.theta_dot, an.crank.theta_ddot
+    for col, wrap in ((4, True), (5, False)):
+        f = [r.q[:, col] for r in runs]
+        d = (lambda x: np.mod(x + math.pi, 2 * math.pi) - math.pi) if wrap else (lambda x: x)
+        d1, d2 = d(f[2] - f[0]) / (2 * h), (d(f[2] - f[1]) - d(f[1] - f[0])) / h**2
+        for got, want in ((an.q_dot[:, col], d1 * w), (an.q_ddot[:, col], d2 * w**2 + d1 * wd)):
+            tol = LINKAGE_FINITE_DIFFERENCE.value
+            assert_allclose(got, want, rtol=tol, atol=tol * np.abs(want).max())
+
+
+def test_reactions_balance_power() -> None:
+    """Drive power + output power (link 3 turns at -theta4_dot about z4) + weight power = dT/dt: the
+    cylinders' zero axial force and moment make every joint ideal."""
+    an = analyze_rccc(rccc_from_dict(random_rccc(np.random.default_rng(1))))
+    assert (an.status == Status.OK).all()
+    r = an.reactions
+    alpha41 = an.case.geometry.alpha[3]
+    z4 = np.array([0.0, math.sin(alpha41), math.cos(alpha41)])  # the ground's axis of joint 4
+    terms = [r.moment["j1"][:, 2] * an.crank.theta_dot,
+             -(r.moment["j4"] @ z4) * an.q_dot[:, 4]]
+    for body, m in zip(an.case.bodies, an.motions):
+        i_world = m.rotation @ body.inertia @ np.swapaxes(m.rotation, 1, 2)
+        terms += [body.mass * m.com_vel @ an.case.gravity,
+                  -body.mass * np.einsum("ni,ni->n", m.com_vel, m.com_acc)
+                  - np.einsum("ni,nij,nj->n", m.omega, i_world, m.omega_dot)]
+    residual = np.sum(terms, axis=0) / np.abs(np.stack(terms)).max(axis=0)
+    assert_allclose(residual, 0.0, rtol=0, atol=LINKAGE_POWER_BALANCE.value)
+
+
+def test_edges_of_assembly_and_branches() -> None:
+    """1e-9 deg inside the edge of the spherical part: assembly_limit (pose given, rates not); outside:
+    no_assembly; the other branch's estimate: branch_jump."""
+    case = rccc_from_dict(random_rccc(np.random.default_rng(4)))
+    table = to_table(analyze_rccc(case))
+    missing = table.status == Status.NO_ASSEMBLY
+    assert 0 < missing.sum() < missing.size
+    assert table.meta["messages"][0].startswith("no_assembly: the axes' cones about z2 and z4 do not meet at")
+    k = int(np.flatnonzero(np.diff(missing.astype(int)))[0])
+    deg = table["theta1_deg"]
+
+    def reach(d: float) -> float:
+        return float(spherical_estimate(case.geometry, np.radians([d]), case.branch)[1][0] - 1.0)
+
+    edge = brentq(reach, deg[k], deg[k + 1], xtol=1e-13)
+    toward = -1.0 if reach(deg[k]) < 0 else 1.0
+    near = to_table(analyze_rccc(_at(case, [edge + toward * 1e-9, edge - toward * 1e-9])))
+    assert list(near.status) == [Status.ASSEMBLY_LIMIT, Status.NO_ASSEMBLY]
+    assert np.isfinite(near["theta4_deg"][0]) and np.isnan(near["theta4_dot"][0])
+    bundled = _bundled()
+    theta = bundled.motion.state(0.0).theta
+    other = estimate(bundled.geometry, theta, spherical_estimate(bundled.geometry, theta, -bundled.branch)[0])
+    assert (analyze_rccc(bundled, other).status == Status.BRANCH_JUMP).all()
+
+
+def _judges():
+    pytest.importorskip("pinocchio")
+    pytest.importorskip("mujoco")
+    from dualmech.models.linkages.mujoco_rccc import solve_mujoco_rccc
+    from dualmech.models.linkages.pinocchio_rccc import solve_pinocchio_rccc
+
+    return {"pinocchio": solve_pinocchio_rccc, "mujoco": solve_mujoco_rccc}
+
+
+def _ratios(case: RcccCase, judge: str) -> dict[str, float]:
+    ours, theirs = to_table(analyze_rccc(case)), _judges()[judge](case)
+    assert_array_equal(np.asarray(theirs.status, dtype=str), np.asarray(ours.status, dtype=str))
+    assert (ours.status == Status.OK).any()
+    kinematics = set(SPEC.kinematics)
+    return {c: w / (LINKAGE_JUDGE_KINEMATICS.value if c in kinematics else LINKAGE_JUDGE_REACTIONS.value)
+            for c, w in worst(ours, theirs, SPEC).items()}
+
+
+@pytest.mark.parametrize("judge", ["pinocchio", "mujoco"])
+@pytest.mark.parametrize("seed", [None, 1, 4, 7])
+def test_judges_agree(judge: str, seed: int | None) -> None:
+    """The bundled case and random ones (seeds 4 and 7 have no_assembly rows and rows near the edge)."""
+    case = _bundled() if seed is None else rccc_from_dict(random_rccc(np.random.default_rng(seed)))
+    bad = {c: r for c, r in _ratios(case, judge).items() if not r <= 1.0}
+    assert not bad, f"columns over tolerance (ratio to it): {bad}"
+
+
+def test_a_judge_with_the_wrong_twist_sign_fails() -> None:
+    """Deliberate fault: MuJoCo's model built with the coupler's twist of the other sign."""
+    case = _bundled()
+    g = case.geometry
+    flipped = replace(case, geometry=replace(g, alpha=(g.alpha[0], -g.alpha[1], g.alpha[2], g.alpha[3])))
+    ours = to_table(analyze_rccc(case))
+    theirs = _judges()["mujoco"](flipped)
+    assert max(worst(ours, theirs, SPEC).values()) > 1e6 * LINKAGE_JUDGE_KINEMATICS.value
+
+
+def test_a_dropped_gyroscopic_term_is_seen(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Deliberate fault: the in-house dynamics without omega x I omega; Pinocchio must see it."""
+    def without_gyroscopic(body, motion):
+        i_world = motion.rotation @ body.inertia @ np.swapaxes(motion.rotation, -1, -2)
+        gyro = np.cross(motion.omega, np.einsum("nij,nj->ni", i_world, motion.omega))
+        return momentum_rate(body, motion) - Dual(np.zeros_like(gyro), gyro)
+
+    case = rccc_from_dict(random_rccc(np.random.default_rng(1)))
+    monkeypatch.setattr(dynamics_module, "momentum_rate", without_gyroscopic)
+    ratios = _ratios(case, "pinocchio")
+    assert max(ratios.values()) > 100.0 and all(ratios[c] <= 1.0 for c in SPEC.kinematics)
+
+
+def test_solve_linkage_reads_the_bundled_rccc() -> None:
+    table = solve_linkage("rccc")
+    assert table.columns.keys() == set(SPEC.columns) and (table.status == Status.OK).all()

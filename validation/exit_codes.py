@@ -1,0 +1,27 @@
+"""The exit codes of a validation run: ``dualmech validate``, ``dualmech report`` and the selftest's gate.
+
+One home for them: the command line (:mod:`dualmech.cli`) exits with them, and the selftest's
+gate returns the code ``validate`` would (:func:`dualmech.validation.selftest.gate.gate_main`).
+The README's "Exit codes" table lists :data:`EXIT_CODES`.
+"""
+
+from __future__ import annotations
+
+#: Exit codes of ``validate`` and ``report`` (also in the README).
+EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_INCOMPLETE = 0, 1, 2, 3
+EXIT_CLUSTER_LOST, EXIT_INTERRUPTED = 4, 130
+EXIT_CODES: dict[int, str] = {
+    EXIT_PASS: "PASS: every check of a complete run passed, no regression",
+    EXIT_FAIL: "FAIL: a check failed, an engine failed, or (with --baseline) something regressed",
+    EXIT_BAD_INPUT: "bad input, or an output folder that is not dualmech's or is in use (one line on stderr)",
+    EXIT_INCOMPLETE: "INCOMPLETE: no check failed, but work is missing (cases or engines not run)",
+    EXIT_CLUSTER_LOST: "the Dask scheduler or all its workers were lost (finished cases are kept; --resume)",
+    EXIT_INTERRUPTED: "interrupted (finished cases are kept; re-run with --resume)",
+}
+
+
+def exit_code(verdict: str, regressions: list) -> int:
+    """The exit code of a compared run: FAIL (or any regression) 1, INCOMPLETE 3, PASS 0."""
+    if verdict == "FAIL" or regressions:
+        return EXIT_FAIL
+    return EXIT_INCOMPLETE if verdict == "INCOMPLETE" else EXIT_PASS
