@@ -161,11 +161,8 @@ def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, 
     drive_torque, slider_load : float or ``(n,)``
         At each position exactly one is finite (given); the other is NaN and solved.
     moment_axis : ``(n, 3)``, optional
-        Where joint 3 is a universal joint, its moment axis ``n``
-        (:func:`dualmech.core.universal.joint_axes`); zero rows (and ``None``) are ball joints.
-        The joint's moment :math:`\\mu n` on the slider
-        is the 18th unknown; the rod's spin equation gives it,
-        :math:`\\mu = -u\\cdot K_2 / (n\\cdot u)`, and :math:`K_2 + \\mu n` replaces :math:`K_2` above.
+        A universal joint 3's moment axis ``n`` (:func:`dualmech.core.universal.joint_axes`; zero rows and
+        ``None``: ball joints); :math:`\\mu n`, the 18th unknown: :math:`\\mu = -u\\cdot K_2/(n\\cdot u)`.
 
     Notes
     -----

@@ -18,6 +18,8 @@ word                kinematics  reactions   meaning
 ``not_converged``   NaN         NaN         the solver stopped without meeting its tolerance
 ``no_assembly``     NaN         NaN         proven: the rod cannot reach the slider line
 ``not_finite``      NaN         NaN         the arithmetic overflowed (input far out of range)
+``joint_lock``      S1, S4, c   NaN         a universal joint at the slider, the rod (nearly)
+                                            along the slider axis: its spin rate is unbounded
 ==================  ==========  ==========  =================================================
 """
 
@@ -26,6 +28,8 @@ from __future__ import annotations
 from enum import StrEnum
 
 import numpy as np
+
+from dualmech.core.thresholds import JOINT_LOCK_CONDITION
 
 
 class Status(StrEnum):
@@ -38,12 +42,14 @@ class Status(StrEnum):
     NOT_CONVERGED = "not_converged"
     NO_ASSEMBLY = "no_assembly"
     NOT_FINITE = "not_finite"
+    JOINT_LOCK = "joint_lock"
 
 
-#: Every status word, in order of precedence when several apply.
+#: Every status word (an engine's integer code for a word is its position here).
 STATUSES: tuple[str, ...] = tuple(s.value for s in Status)
 #: Positions where the loop is assembled and the pose (S1, S4) is given.
-ASSEMBLED: frozenset[str] = frozenset({Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT})
+ASSEMBLED: frozenset[str] = frozenset({Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT,
+                                       Status.JOINT_LOCK})
 #: Positions where the rates (S4_dot, S4_ddot, transmission) are given as well.
 RATES_GIVEN: frozenset[str] = frozenset({Status.OK, Status.DEAD_CENTRE})
 
@@ -86,16 +92,35 @@ def settle(columns: dict[str, np.ndarray], status: np.ndarray, reactions: tuple[
 
     Rows claiming a non-finite value they should give become ``not_finite``
     (:func:`demote_non_finite`: ``ok`` in every column, ``dead_centre`` in
-    :data:`POSE_COLUMNS` and :data:`RATE_COLUMNS`, ``assembly_limit`` in
+    :data:`POSE_COLUMNS` and :data:`RATE_COLUMNS`, ``assembly_limit`` and ``joint_lock`` in
     :data:`POSE_COLUMNS`); then every column a row's word does not give is set to
     NaN (``reactions`` outside ``ok``, rates outside :data:`RATES_GIVEN`, the pose
     outside :data:`ASSEMBLED`).  Returns the status words, object array, shape ``(n,)``.
     Another mechanism's table names its own ``pose`` and ``rates`` columns (e.g. the RSSR's).
     """
     status = demote_non_finite(columns, status, pose + rates + tuple(reactions), {
-        Status.DEAD_CENTRE.value: pose + rates, Status.ASSEMBLY_LIMIT.value: pose})
+        Status.DEAD_CENTRE.value: pose + rates, Status.JOINT_LOCK.value: pose,
+        Status.ASSEMBLY_LIMIT.value: pose})
     for names, given in ((reactions, (Status.OK,)), (rates, RATES_GIVEN), (pose, ASSEMBLED)):
         off = ~is_status(status, *given)
         for name in names:
             columns[name][off] = np.nan
+    return status
+
+
+def joint_locked(condition: np.ndarray, universal: bool | np.ndarray) -> np.ndarray:
+    """Rows, shape ``(n,)``, where a universal joint at the slider locks: ``universal`` and the
+    closure condition ``|u·k4|`` (shape ``(n,)``, NaN where not given) at or above
+    :data:`~dualmech.core.thresholds.JOINT_LOCK_CONDITION` (``docs/conventions.md``, "Status words")."""
+    with np.errstate(invalid="ignore"):
+        return np.asarray(universal, dtype=bool) & (np.asarray(condition, dtype=float)
+                                                    >= JOINT_LOCK_CONDITION.value)
+
+
+def flag_joint_lock(status: np.ndarray, condition: np.ndarray, universal: bool | np.ndarray) -> np.ndarray:
+    """Status words with every ``ok`` or ``dead_centre`` row where :func:`joint_locked` set to
+    ``joint_lock`` (its rates and reactions are then blanked by :func:`settle`); a new object array."""
+    status = np.asarray(status, dtype=object).copy()
+    status[joint_locked(condition, universal) & is_status(status, Status.OK, Status.DEAD_CENTRE)] = \
+        Status.JOINT_LOCK.value
     return status

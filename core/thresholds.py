@@ -1,4 +1,4 @@
-"""Thresholds the solver decides with: the edges of assembly and the dead-centre flag.
+"""Thresholds the solver decides with: the edges of assembly, the dead-centre and joint-lock flags.
 
 These are the in-house engine's own numerical decisions (which status word a row gets), not
 tolerances of a comparison; every engine applies the same ones so that their statuses can be
@@ -9,6 +9,7 @@ these where it needs them: each number has this one home.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 
@@ -28,6 +29,12 @@ DEAD_CENTRE_TRANSMISSION = Tolerance(
 ASSEMBLY_LIMIT_CONDITION = Tolerance(
     1e-2, "S4 carries the closure error times 1/c, S4_ddot and reactions ~1/c^3: rigid engines measured "
     "2.8e-10 apart (row-relative) at c = 1.4e-3, ~1/c^2, so 1e-2 keeps 100x under MATRIX_KINEMATICS")
+#: Universal-joint lock, every engine: with a universal joint at the slider, a closure_condition |u·k4| at
+#: or above this makes a row ``joint_lock`` (pose and rates given, reactions not).
+JOINT_LOCK_CONDITION = Tolerance(
+    math.sqrt(1.0 - 1e-4), "the rod within asin(1e-2) = 0.57 deg of the slider axis (the crank pin within "
+    "a2/100 of the slider line): the rod's spin rate carries 1/sin, its rate and the reactions 1/sin^2, "
+    "so 1e-2 keeps the margin of ASSEMBLY_LIMIT_CONDITION")
 #: Edge of reach, every engine: P2 farther than a2 from the slider line by more than this (relative to a2)
 #: is ``no_assembly``.
 ASSEMBLY_REACH = Tolerance(

@@ -23,7 +23,7 @@ from dualmech.core.loop import evaluate
 from dualmech.core.motion import CrankState
 from dualmech.core.rates import Rates, solve_rates
 from dualmech.core.reactions import BodyMotion, Reactions, body_motion, solve_reactions
-from dualmech.core.status import Status, is_status, settle
+from dualmech.core.status import Status, flag_joint_lock, is_status, joint_locked, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
 from dualmech.core.universal import joint_axes, link_frame, universal_motion
@@ -102,7 +102,10 @@ def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[
     hub = np.stack([np.zeros_like(c.s), np.zeros_like(c.s), c.s], 1)
     transmission = np.cross(p2 - hub, u)[:, 2] / batch.a1
     _, k4 = batch.slider_line()
-    universal = np.repeat([k.joints.universal for k in cases], counts)
+    condition_closed = closure_condition(p2, p3, k4)
+    universal_joint = np.repeat([k.joints.universal for k in cases], counts)
+    # where the joint locks its spin is not determined: the gauge's instead (joint_lock gives the pose only)
+    universal = universal_joint & ~joint_locked(condition_closed, universal_joint)
     rod = _rod_motion(chain.frames[1].re, rates.link_twist[1], rates.link_accel[1], p2, u, k4, universal)
     frames = ((chain.frames[0].re, hub, rates.link_twist[0], rates.link_accel[0]), (*rod[:1], p2, *rod[1:]),
               (np.broadcast_to(np.eye(3), chain.frames[0].re.shape), p3, rates.link_twist[2],
@@ -111,7 +114,7 @@ def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[
                    for name in ("crank", "rod", "slider"))
     motions = tuple(body_motion(b, *f) for b, f in zip(bodies, frames))
     closed = is_status(status, Status.OK)
-    status, condition = edge_status(status, closed, batch.reach(), closure_condition(p2, p3, k4),
+    status, condition = edge_status(status, closed, batch.reach(), condition_closed,
                                     ASSEMBLY_REACH.value, ASSEMBLY_LIMIT_CONDITION.value)
     s4 = np.where(is_status(status, Status.ASSEMBLY_LIMIT) & ~closed, batch.foot_s4(), state.scalars[:, 0])
     given = np.array([[np.nan if k.loads.drive_torque is None else k.loads.drive_torque,
@@ -124,6 +127,7 @@ def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[
     torque_mode = np.repeat(np.isfinite(given[:, 0]), counts)
     dead = is_status(status, Status.OK) & torque_mode & (np.abs(transmission) < DEAD_CENTRE)
     status[dead] = Status.DEAD_CENTRE.value
+    status = flag_joint_lock(status, condition, universal_joint)
     out, start = [], 0
     for case, crank, n in zip(cases, cranks, counts):
         sl = slice(start, start + n)

@@ -110,7 +110,7 @@ def _setup() -> tuple[FlatLoop, Rules]:
     from dualmech.core.kernel.closure_nb import closure_tols
     from dualmech.core.kernel.loop_nb import value_names
     from dualmech.core.status import Status
-    from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
+    from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, JOINT_LOCK_CONDITION
     from dualmech.models import slider_crank_loop as sc
 
     names = value_names(sc.LOOP)
@@ -123,6 +123,7 @@ def _setup() -> tuple[FlatLoop, Rules]:
         Status.NOT_CONVERGED,
         Status.NO_ASSEMBLY,
         Status.NOT_FINITE,
+        Status.JOINT_LOCK,
     )
     codes = np.array([STATUSES.index(s.value) for s in order], dtype=np.int64)
     rules = Rules(
@@ -132,6 +133,7 @@ def _setup() -> tuple[FlatLoop, Rules]:
         ASSEMBLY_REACH.value,
         ASSEMBLY_LIMIT_CONDITION.value,
         sc.DEAD_CENTRE,
+        JOINT_LOCK_CONDITION.value,
         sc.CONTINUATION_STEPS,
     )
     return flatten(sc.LOOP), rules

@@ -39,8 +39,8 @@ class Rules(NamedTuple):
     """What the per-position analysis needs besides the data (read from their homes at call time).
 
     ``vidx`` ``(6,)``: indices in ``vals`` of theta1, S1, a1, a2, a4, alpha4; ``codes``
-    ``(7,)``: the codes of ok, dead_centre, assembly_limit, branch_jump, not_converged,
-    no_assembly, not_finite (positions in :data:`dualmech.core.status.STATUSES`).
+    ``(8,)``: the codes of ok, dead_centre, assembly_limit, branch_jump, not_converged,
+    no_assembly, not_finite, joint_lock (positions in :data:`dualmech.core.status.STATUSES`).
     """
 
     tols: ClosureTols
@@ -49,6 +49,7 @@ class Rules(NamedTuple):
     reach_tol: float
     limit_band: float
     dead_centre: float
+    joint_lock: float
     continuation_steps: int
 
 

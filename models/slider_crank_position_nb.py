@@ -298,18 +298,19 @@ def _dynamics(
 def _settle(rules: Rules, status: int, col: np.ndarray) -> int:
     """``not_finite`` where a given column is not finite, then NaN where the word does not give it
     (:func:`dualmech.core.status.settle`)."""
-    ok, dead, limit, not_finite = rules.codes[0], rules.codes[1], rules.codes[2], rules.codes[6]
-    n_check = 5 + N_REACT if status == ok else (5 if status == dead else (2 if status == limit else 0))
+    ok, dead, not_finite = rules.codes[0], rules.codes[1], rules.codes[6]
+    pose = status == rules.codes[2] or status == rules.codes[7]  # assembly_limit, joint_lock: the pose only
+    n_check = 5 + N_REACT if status == ok else (5 if status == dead else (2 if pose else 0))
     checks = (_S4, _COND, _S4_DOT, _S4_DDOT, _TRANS)
     for k in range(n_check):
         c = checks[k] if k < 5 else _REACT + k - 5
         if not math.isfinite(col[c]):
-            status = not_finite
+            status, pose = not_finite, False
     if status != ok:
         col[_REACT : _REACT + N_REACT] = np.nan
     if status != ok and status != dead:
         col[_S4_DOT], col[_S4_DDOT], col[_TRANS] = np.nan, np.nan, np.nan
-    if status != ok and status != dead and status != limit:
+    if status != ok and status != dead and not pose:
         col[_S4], col[_COND] = np.nan, np.nan
     return status
 
@@ -386,12 +387,13 @@ def _position(
     if word == rules.codes[0]:
         torque, load = bodies[4][c], bodies[5][c]
         body = (fl, bodies[0][c], bodies[1][c], bodies[2][c], bodies[3][c], torque, load)
-        dyn[i] = _dynamics(rules, g, geo[c, 4] != 0.0, crank, i, body, w, sc, p2, p3, k4, col)
-        if math.isfinite(torque) and abs(col[_TRANS]) < rules.dead_centre:
-            word = rules.codes[1]
+        locked = geo[c, 4] != 0.0 and cond >= rules.joint_lock  # spin undetermined: gauge's (pose only)
+        dyn[i] = _dynamics(rules, g, geo[c, 4] != 0.0 and not locked, crank, i, body, w, sc, p2, p3, k4, col)
+        dead = math.isfinite(torque) and abs(col[_TRANS]) < rules.dead_centre
+        word = rules.codes[7] if locked else (rules.codes[1] if dead else word)
     status[i] = _settle(rules, word, col)
     iters[i] = it
-    return status[i] == rules.codes[0] or status[i] == rules.codes[1]
+    return status[i] == rules.codes[0] or status[i] == rules.codes[1] or status[i] == rules.codes[7]
 
 
 @njit(**JIT)

@@ -59,7 +59,7 @@ import mujoco
 import numpy as np
 
 from dualmech.core.assembly import edge_status, foot_s4
-from dualmech.core.status import Status, settle
+from dualmech.core.status import Status, flag_joint_lock, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
 from dualmech.validation.mujoco_closure import (
@@ -200,7 +200,8 @@ def solve_case(case: Case) -> ResultTable:
         status[i] = pos.status
         iters[i] = pos.iterations
         warm = pos.status in (Status.OK, Status.DEAD_CENTRE)
-    status = settle(cols, status, REACTION_COLUMNS)
+    status = settle(cols, flag_joint_lock(status, cols["closure_condition"], case.joints.universal),
+                    REACTION_COLUMNS)
     meta = {"mujoco": mujoco.__version__, "newton_iterations": iters,
             "messages": status_messages(cols["theta1_deg"], status)}
     return ResultTable(ENGINE, case.name, cols, status, meta)

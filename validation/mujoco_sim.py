@@ -92,7 +92,7 @@ import mujoco
 import numpy as np
 
 from dualmech.core.assembly import edge_status
-from dualmech.core.status import Status, settle
+from dualmech.core.status import Status, flag_joint_lock, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
 from dualmech.models.mjcf import STEPS_PER_DEGREE, MjcfSettings, case_to_mjcf
@@ -264,7 +264,7 @@ def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTa
     cols["theta1_deg"] = case.motion.angles_deg.astype(float).copy()
     status = np.where(dead, Status.DEAD_CENTRE.value, Status.OK.value).astype(object)
     status[~np.isfinite(cols["S4"])] = Status.NOT_CONVERGED.value
-    status = _edges(status, cols, sv)
+    status = flag_joint_lock(_edges(status, cols, sv), cols["closure_condition"], case.joints.universal)
     cols["S1"] = np.where(reachable, cols["S1"], case.motion.state(case.geometry.crank_axial_shift).s)
     status = settle(cols, status, REACTION_COLUMNS)
     lag = raw["theta_lag"]

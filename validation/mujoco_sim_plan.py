@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from dualmech.core.status import Status, is_status
+from dualmech.core.status import Status, flag_joint_lock, is_status
 from dualmech.models.case import Case
 from dualmech.models.mjcf import (
     STEPS_PER_DEGREE,
@@ -112,8 +112,10 @@ class Survey:
 
     @property
     def simulated(self) -> np.ndarray:
-        """Rows a simulation can pass, (n,) bool: not ``no_assembly``, not at the ``assembly_limit``."""
-        return ~is_status(self.status, Status.NO_ASSEMBLY, Status.ASSEMBLY_LIMIT)
+        """Rows a simulation can pass, (n,) bool: not ``no_assembly``, not at the ``assembly_limit``, not
+        where a universal joint locks (``joint_lock``: the rod's spin rate, hence the servos' effective
+        inertia and the time step, unbounded)."""
+        return ~is_status(self.status, Status.NO_ASSEMBLY, Status.ASSEMBLY_LIMIT, Status.JOINT_LOCK)
 
 
 def survey(case: Case) -> Survey:
@@ -136,6 +138,7 @@ def survey(case: Case) -> Survey:
         for k, rates in enumerate(((1.0, 0.0), (0.0, 1.0))[:lp.crank_dofs.size]):
             word, _, _, c = rigid.assembled_state(lp, (float(st.theta[i]), float(st.s[i]), *rates), warm)
             if k == 0:
+                word = flag_joint_lock(np.array([word]), c, case.joints.universal)[0]
                 status[i], s4[i], condition[i] = word, lp.data.qpos[lp.qadr[3]], c
             if word != Status.OK:
                 break

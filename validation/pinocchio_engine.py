@@ -76,7 +76,7 @@ import numpy as np
 import pinocchio as pin
 
 from dualmech.core.assembly import edge_status, foot_s4, reach
-from dualmech.core.status import settle
+from dualmech.core.status import flag_joint_lock, settle
 from dualmech.core.table import REACTION_COLUMNS, STATUSES, ResultTable
 from dualmech.models.case import Case
 from dualmech.validation import tolerances
@@ -323,7 +323,8 @@ def to_table(case: Case, sol: PinocchioSolution, meta: dict | None = None) -> Re
     }
     cols = {k: np.array(v, dtype=float) for k, v in cols.items()}
     cols["residual"][status == NO_ASSEMBLY] = np.nan
-    words = settle(cols, STATUS_WORDS[status], REACTION_COLUMNS)
+    words = settle(cols, flag_joint_lock(STATUS_WORDS[status], sol.condition, case.joints.universal),
+                   REACTION_COLUMNS)
     status = np.array([STATUSES.index(w) for w in words], dtype=int)
     messages = []
     for code, word in enumerate(STATUS_WORDS):

@@ -12,6 +12,7 @@ from dualmech.core.thresholds import (  # noqa: F401  (re-exported: matrix files
     ASSEMBLY_LIMIT_CONDITION,
     ASSEMBLY_REACH,
     DEAD_CENTRE_TRANSMISSION,
+    JOINT_LOCK_CONDITION,
     Tolerance,
 )
 

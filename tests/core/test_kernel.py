@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from numpy.testing import assert_allclose
+from numpy.testing import assert_allclose, assert_array_equal
 
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
+from dualmech.core.thresholds import JOINT_LOCK_CONDITION
 from dualmech.models import slider_crank, slider_crank_kernel
 from dualmech.models.case import Case, load_case, preset_names, with_loads
 from dualmech.validation.compare import relative_differences
@@ -98,6 +99,25 @@ def test_universal_joint_at_the_slider(name: str) -> None:
     case = load_case(name).with_values({"joints.rod_slider": "universal"})
     table = assert_kernel_agrees(case)
     assert np.nanmax(np.abs(table["j3_mx"])) > 0.0 or case.is_planar
+
+
+@pytest.mark.parametrize("twist", [185.0, 199.0, 270.0])
+@pytest.mark.parametrize("torque_mode", [False, True])
+def test_universal_joint_lock(twist: float, torque_mode: bool) -> None:
+    """a4 = a1: at theta1 = 180 deg the crank pin lies on the slider line and the rod along it (the CI
+    failure of a seed at twist 185/199 deg: an unflagged singular row, decided by round-off). Both
+    implementations flag ``joint_lock`` there and only within the band, the pose given (the band
+    spans 0.6 deg of crank angle at twist 185, 33 deg in the plane, where the pin runs along the line)."""
+    case = BASE.with_values({
+        "geometry.slider_offset": 12.0, "geometry.slider_twist_deg": twist, "geometry.crank_axial_shift": 0.0,
+        "motion.angles_deg": {"start": 150.0, "stop": 210.0, "step": 0.25}, "joints.rod_slider": "universal"})
+    loads = {"drive_torque": 100.0, "slider_force": None} if torque_mode else {}
+    table = assert_kernel_agrees(with_loads(case, **loads) if loads else case)
+    lock = table.status == "joint_lock"
+    assert lock[np.flatnonzero(table["theta1_deg"] == 180.0)].all()
+    assert_array_equal(lock, table["closure_condition"] >= JOINT_LOCK_CONDITION.value)
+    assert np.isfinite(table["S4"][lock]).all() and np.isnan(table["S4_dot"][lock]).all()
+    assert not lock.all()
 
 
 @settings(max_examples=30, deadline=None, derandomize=True)

@@ -38,6 +38,7 @@ from dualmech.validation.tolerances import (
     ASSEMBLY_LIMIT_CONDITION,
     ASSEMBLY_LIMIT_POSE,
     DEAD_CENTRE_TRANSMISSION,
+    JOINT_LOCK_CONDITION,
 )
 
 
@@ -89,6 +90,8 @@ STATUS_RULES: tuple[StatusRule, ...] = (
     StatusRule(
         Status.ASSEMBLY_LIMIT, "closure_condition", ASSEMBLY_LIMIT_CONDITION.value, "assembly_limit_band"
     ),
+    # the same closure condition at its other end (c -> 1), resolved as well as at the assembly limit
+    StatusRule(Status.JOINT_LOCK, "closure_condition", JOINT_LOCK_CONDITION.value, "assembly_limit_band"),
 )
 
 

@@ -29,7 +29,7 @@ RATE_COLUMNS: tuple[str, ...] = ("S4_dot", "S4_ddot", "transmission")
 STROKE_PROXY = "S4"
 #: Status words that are verdicts about the mechanism (the others are engine failures).
 VERDICTS: frozenset[str] = frozenset(
-    {Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.NO_ASSEMBLY}
+    {Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.JOINT_LOCK, Status.NO_ASSEMBLY}
 )
 #: Pseudo-quantities of :class:`Check` besides the table columns.
 STROKE, STATUS, ENGINE = "stroke", "status", "engine"
