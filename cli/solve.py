@@ -14,8 +14,12 @@ import numpy as np
 from dualmech.cli.errors import one_line_errors
 from dualmech.core.table import ResultTable
 from dualmech.models.case import load_case, preset_names, preset_path
+from dualmech.models.linkages import is_linkage
 from dualmech.validation.engines import ENGINES, run_engine
 from dualmech.validation.solve_output import STREAM_POSITIONS, output_format, stream_solve, write_table
+
+#: Engines that solve the other linkages (models/linkages: the in-house method and the rigid judges).
+LINKAGE_ENGINES: tuple[str, ...] = ("dualmech", "pinocchio", "mujoco")
 
 
 @click.command()
@@ -56,6 +60,9 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
     if frames == "joint" and not output:
         raise ValueError("--frames joint: the joint-frame table goes beside the -o file (OUT.joint.csv); "
                          "give -o OUT.csv")
+    if is_linkage(case):
+        _solve_linkage(case, output, engine, frames)
+        return
     c = load_case(case)
     if output and output_format(output) and engine == "dualmech" and frames == "world" \
             and len(c.motion.angles_deg) > STREAM_POSITIONS:  # long: streamed, chunk by chunk, into the file
@@ -71,6 +78,23 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
     else:
         sys.stdout.write(table.to_csv())
     click.echo(summarize(table, c.units), err=output is None)
+
+
+def _solve_linkage(case: str, output: str | None, engine: str, frames: str) -> None:
+    """A case whose ``[mechanism] kind`` is another linkage (RSSR, RCCC): its own table, as CSV."""
+    from dualmech.models.linkages import solve_linkage, summary
+
+    if engine not in LINKAGE_ENGINES or frames != "world":
+        raise ValueError(f"--engine {engine} --frames {frames}: a linkage is solved by --engine "
+                         f"{', '.join(LINKAGE_ENGINES)} in world frames")
+    if output and Path(output).suffix.lower() != ".csv":
+        raise ValueError(f"-o {output}: a linkage's table is written as CSV (OUT.csv)")
+    table = solve_linkage(case, engine)
+    if output:
+        table.to_csv(output)
+    else:
+        sys.stdout.write(table.to_csv())
+    click.echo(summary(table), err=output is None)
 
 
 @click.command()

@@ -110,3 +110,23 @@ def test_summary_console_abbreviates_only_on_a_terminal():
         out = io.StringIO()
         summary_console(terminal, file=out).print(table)  # a StringIO "terminal" is 80 columns wide
         assert ("…" in out.getvalue()) is cut and (LONG_SYMBOL in out.getvalue()) is not cut
+
+
+@pytest.mark.parametrize("name", ["rssr", "rccc"])
+def test_solve_dispatches_other_linkages_to_their_solver(tmp_path, name):
+    # [mechanism] kind = "rssr" | "rccc": the linkage's own table, the same as the Python API's
+    from dualmech.models.linkages import solve_linkage
+
+    out = tmp_path / f"{name}.csv"
+    result = CliRunner().invoke(main, ["solve", name, "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert out.read_text() == solve_linkage(name).to_csv()
+    assert " ok" in result.output
+
+
+@pytest.mark.parametrize(
+    "args", [["-o", "x.parquet"], ["--engine", "mujoco-sim"], ["--frames", "joint", "-o", "x.csv"]]
+)
+def test_solve_refuses_what_a_linkage_cannot_give(tmp_path, args):
+    result = CliRunner().invoke(main, ["solve", "rssr", *args])
+    assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
