@@ -67,8 +67,7 @@ def _position(
     out[0], out[1], out[2] = s4, s4d, s4dd
     # twists w + eps v_O and their rates: crank, rod (zero spin), slider
     tw, ac = m[0], m[1]
-    tw[:] = 0.0
-    ac[:] = 0.0
+    tw[:], ac[:] = 0.0, 0.0
     tw[0, 0, 2], tw[0, 1, 2], ac[0, 0, 2], ac[0, 1, 2] = thd, s1d, thdd, s1dd  # about and along z, through O
     u = (r[0] / a2, r[1] / a2, r[2] / a2)
     ud = (rd[0] / a2, rd[1] / a2, rd[2] / a2)

@@ -14,6 +14,7 @@ kernel module             what                                   numpy twin
 ``closure_nb``            Newton with the screws, DFP fallback   :mod:`dualmech.core.closure`
 ``rates_nb``              rates and accelerations from screws    :mod:`dualmech.core.rates`
 ``dynamics_nb``           dual momentum rate of a rigid body     :mod:`dualmech.core.reactions`
+``universal_nb``          a universal joint's link spin          :mod:`dualmech.core.universal`
 ========================  =====================================  ==============================
 
 Nothing here allocates or counts references (compiled without numba's runtime: see
