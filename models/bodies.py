@@ -21,9 +21,9 @@ from dualmech.models.inputs import (
     POSITIVE_LENGTH,
     POSITIVE_MASS,
     CaseError,
+    check_keys,
     check_number,
     check_vector,
-    key_text,
     show,
 )
 from dualmech.models.mechanism import Bodies, Geometry
@@ -62,9 +62,7 @@ def _mass_per_volume(b: dict) -> float | None:
 def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
     """Mass properties of one body: the default shape, then any explicit overrides."""
     explicit = b.get(name, {})
-    for key in explicit:
-        if key not in _BODY_KEYS:
-            raise CaseError(f"bodies.{name}.{key_text(key)}: unknown key (valid: com, inertia, mass)")
+    check_keys(f"bodies.{name}", explicit, _BODY_KEYS)
     shape_key = {"crank": "crank_radius", "rod": "rod_radius", "slider": "slider_side"}[name]
     default = None
     if shape_key in b and rho is not None:

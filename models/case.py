@@ -40,10 +40,10 @@ from dualmech.models.inputs import (
     POSITIVE_LENGTH,
     TORQUE,
     CaseError,
+    check_keys,
     check_number,
     check_text,
     check_vector,
-    key_text,
     show,
 )
 from dualmech.models.mechanism import JOINT_TYPES, Bodies, Geometry, Joints, Loads
@@ -154,10 +154,7 @@ def _type_name(t: type | tuple) -> str:
 
 
 def _check_keys(data: dict) -> None:
-    for key in data:
-        if key not in _TOP and key not in _SCHEMA:
-            valid = ", ".join(sorted([*_TOP, *_SCHEMA]))
-            raise CaseError(f"{key_text(key)}: unknown key (valid top-level keys: {valid})")
+    check_keys("", data, [*_TOP, *_SCHEMA])
     for key, (typ, required) in _TOP.items():
         if key in data and not isinstance(data[key], typ):
             raise CaseError(f"{key}: expected {_type_name(typ)}, got {show(data[key])}")
@@ -167,11 +164,8 @@ def _check_keys(data: dict) -> None:
         table = data.get(section, {})
         if not isinstance(table, dict):
             raise CaseError(f"{section}: expected a table, got {show(table)}")
+        check_keys(section, table, fields)
         for key, value in table.items():
-            if key not in fields:
-                raise CaseError(
-                    f"{section}.{key_text(key)}: unknown key (valid: {', '.join(sorted(fields))})"
-                )
             typ = fields[key][0]
             if isinstance(value, bool) or not isinstance(value, typ):
                 raise CaseError(f"{section}.{key}: expected {_type_name(typ)}, got {show(value)}")
@@ -192,10 +186,7 @@ def _geometry(g: dict) -> Geometry:
 
 
 def _angles(spec: dict) -> np.ndarray:
-    allowed = {"start", "stop", "step"}
-    for key in spec:
-        if key not in allowed:
-            raise CaseError(f"motion.angles_deg.{key_text(key)}: unknown key (valid: start, step, stop)")
+    check_keys("motion.angles_deg", spec, ("start", "stop", "step"))
     start = check_number("motion.angles_deg.start", spec.get("start", 0.0), ANGLE_DEG)
     stop = check_number("motion.angles_deg.stop", spec.get("stop", 360.0), ANGLE_DEG)
     step = check_number("motion.angles_deg.step", spec.get("step", 1.0), ANGLE_DEG)
