@@ -129,6 +129,7 @@ _SCHEMA: dict[str, dict[str, tuple[type | tuple, bool]]] = {
         "rod": (dict, False),
         "slider": (dict, False),
     },
+    "mechanism": {"kind": (str, False)},
     "joints": {name: (str, False) for name in JOINT_TYPES},
     "loads": {
         "drive_torque": ((int, float), False),
@@ -137,6 +138,8 @@ _SCHEMA: dict[str, dict[str, tuple[type | tuple, bool]]] = {
     },
 }
 _TOP = {"name": (str, True), "units": (str, False), "description": (str, False)}
+#: ``[mechanism] kind`` of this case format (optional; the other linkages: :mod:`dualmech.models.linkages`).
+SLIDER_CRANK = "slider-crank"
 
 
 def _deep_copy(d: Any) -> Any:
@@ -183,6 +186,19 @@ def _geometry(g: dict) -> Geometry:
     alpha = check_number("geometry.slider_twist_deg", g["slider_twist_deg"], ANGLE_DEG)
     s1 = check_number("geometry.crank_axial_shift", g["crank_axial_shift"], LENGTH)
     return Geometry(a1, a2, a4, alpha, s1)
+
+
+def _slider_crank(kind: str) -> None:
+    """Refuse a ``[mechanism] kind`` other than the slider crank's (the other linkages have their own case
+    format: ``docs/conventions.md``, "Linkages")."""
+    from dualmech.models.linkages import KINDS
+
+    if kind in KINDS:
+        raise CaseError(f"mechanism.kind: {show(kind)} is read by dualmech solve or "
+                        f"dualmech.models.linkages, not as a slider crank (valid here: {SLIDER_CRANK})")
+    if kind != SLIDER_CRANK:
+        raise CaseError(f"mechanism.kind: {show(kind)} is not a known mechanism (valid: "
+                        f"{', '.join((SLIDER_CRANK, *KINDS))})")
 
 
 def _angles(spec: dict) -> np.ndarray:
@@ -266,6 +282,7 @@ def case_from_dict(data: dict) -> Case:
     if not isinstance(data, dict):
         raise CaseError(f"case: expected a table, got {show(data)}")
     _check_keys(data)
+    _slider_crank(data.get("mechanism", {}).get("kind", SLIDER_CRANK))
     geom = _geometry(data["geometry"])
     motion, bodies = _motion(data["motion"]), bodies_from_table(data.get("bodies", {}), geom)
     _check_proportions(geom, motion)

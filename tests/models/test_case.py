@@ -63,6 +63,12 @@ def test_presets_cover_the_thesis_example():
     (lambda d: d.update(units="furlong-firkin"), ["units", "furlong-firkin", "inch-lbf-s", "m-kg-s"]),
     (lambda d: d.update(name="two\nlines"), ["name", "control"]),
     (lambda d: d.update({"x" * 5000: 1}), ["unknown", "..."]),
+    # [mechanism] kind (issue 15): this format is the slider crank's; the other linkages have their own
+    (lambda d: d.update(mechanism={"kind": "rssr"}), ["mechanism.kind", "'rssr'", "dualmech solve"]),
+    (lambda d: d.update(mechanism={"kind": "four-bar"}),
+     ["mechanism.kind", "'four-bar'", "slider-crank, rssr"]),
+    (lambda d: d.update(mechanism={"kind": 4}), ["mechanism.kind", "4", "string"]),
+    (lambda d: d.update(mechanism={"type": "rssr"}), ["mechanism.type", "unknown", "kind"]),
 ])
 def test_bad_input_is_one_line_naming_key_and_value(edit, words):
     data = _base()
@@ -86,6 +92,12 @@ def test_explicit_body_overrides():
     case = case_from_dict(data)
     assert_allclose(case.bodies.crank.com, [-3.0, 0, 0])
     assert case.bodies.slider.mass == 2.0
+
+
+def test_mechanism_kind_slider_crank_is_the_default_spelled_out():
+    data = _base()
+    data["mechanism"] = {"kind": "slider-crank"}
+    assert case_from_dict(data).geometry == case_from_dict(_base()).geometry
 
 
 def test_with_values_derives_a_validated_case():
