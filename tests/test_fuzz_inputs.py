@@ -1,33 +1,34 @@
-"""Hostile input (issue 11): fuzzed case and matrix files, and the inputs the issue lists.
+"""Hostile input (issue 11): fuzzed case and matrix files.
 
 Property of every input: loading raises a ``ValueError`` whose message is one line
 starting with the key it is about, or the input loads and the in-house engine gives
 only finite numbers in its ``ok`` rows (and, for a matrix, every name that becomes a
 file name is one safe path component).  The fuzz drives the library in-process (a
-coarse angle step keeps each solve to milliseconds); a few end-to-end runs of the
-command line check exit code 2 and exactly one stderr line.  Hypothesis runs
-derandomized (the same inputs on every run) with a stated number of examples.
+coarse angle step keeps each solve to milliseconds).  Hypothesis runs derandomized
+(the same inputs on every run) with a stated number of examples.  The inputs the issue
+lists, one by one, are in ``test_hostile_cli_inputs.py`` (command line, exit code 2 and
+exactly one stderr line) and ``test_hostile_matrices.py``; the last line of defence in
+``test_internal_errors.py``.
 """
 
 from __future__ import annotations
 
 import copy
 import re
-import subprocess
 import sys
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from dualmech.core.status import Status
-from dualmech.models.case import case_from_dict, preset_path
+from dualmech.models.case import case_from_dict
 from dualmech.models.slider_crank import solve_case
 from dualmech.validation.matrix import check_file_name, matrix_from_dict, parse_matrix
+from tests.hostile_inputs import ideal_case
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE_FILES = sorted((ROOT / "models" / "cases" / "thesis").glob("*.toml"))
@@ -192,11 +193,7 @@ def test_fuzzed_matrix_files_expand_cleanly_or_fail_in_one_line(data_and_path):
         _assert_finite_ok_rows(mc.case())
 
 
-# ----------------------------------------------------------------------------- the issue's inputs, one by one
-
-def _ideal() -> dict:
-    return tomllib.loads(preset_path("ideal").read_text())
-
+# ----------------------------------------------------------------------------- the property is not vacuous
 
 def test_the_fuzz_property_catches_a_non_finite_ok_row(monkeypatch):
     """The property is not vacuous: an engine that calls a NaN row ok fails it."""
@@ -210,234 +207,4 @@ def test_the_fuzz_property_catches_a_non_finite_ok_row(monkeypatch):
 
     monkeypatch.setattr(sys.modules[__name__], "solve_case", broken)
     with pytest.raises(AssertionError, match="j2_fx not finite"):
-        _check_case(_ideal())
-
-
-def _run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "dualmech.cli", *args], capture_output=True,
-                          text=True, cwd=cwd, timeout=60)
-
-
-def _write_case(tmp_path: Path, edit) -> Path:
-    data = _ideal()
-    edit(data)
-    lines = []
-    for section, table in data.items():
-        if not isinstance(table, dict):
-            lines.insert(0, f"{section} = {_toml(table)}")
-            continue
-        lines.append(f"[{section}]")
-        lines += [f"{k} = {_toml(v)}" for k, v in table.items()]
-    path = tmp_path / "case.toml"
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
-def _toml(v: object) -> str:
-    if isinstance(v, bool):
-        return str(v).lower()
-    if isinstance(v, str):
-        return '"' + v + '"'
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{k} = {_toml(x)}" for k, x in v.items()) + " }"
-    if isinstance(v, list):
-        return "[" + ", ".join(_toml(x) for x in v) + "]"
-    return str(v)  # TOML writes floats and integers as Python does ("1e+300" is valid TOML)
-
-
-CASE_EDITS = {
-    "1e300 length": (lambda d: d["geometry"].update(crank_length=1e300), "geometry.crank_length"),
-    "crank_rpm 1e160": (lambda d: d["motion"].update(crank_rpm=1e160), "motion.crank_rpm"),
-    "crank_rpm 1e308": (lambda d: d["motion"].update(crank_rpm=1e308), "motion.crank_rpm"),
-    "crank_accel -1e308": (lambda d: d["motion"].update(crank_accel=-1e308), "motion.crank_accel"),
-    "huge integer": (lambda d: d["geometry"].update(rod_length=10**400), "geometry.rod_length"),
-    "overflowing step": (lambda d: d["motion"].update(angles_deg={"step": 5e-324}), "motion.angles_deg.step"),
-    "unknown units": (lambda d: d.update(units="parsec-stone-fortnight"), "units"),
-}
-
-
-@pytest.mark.parametrize("what", sorted(CASE_EDITS))
-def test_cli_solve_refuses_the_issues_case_inputs_in_one_line(tmp_path, what):
-    edit, key = CASE_EDITS[what]
-    proc = _run("solve", str(_write_case(tmp_path, edit)), "-o", str(tmp_path / "out.csv"), cwd=tmp_path)
-    assert proc.returncode == 2, proc.stderr
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith(f"dualmech: error: {key}:"), proc.stderr
-    assert not (tmp_path / "out.csv").exists()
-
-
-def test_cli_solve_refuses_deeply_nested_toml(tmp_path):
-    path = tmp_path / "deep.toml"
-    path.write_text('name = "x"\nunits = ' + "{ a = " * 5000 + "1" + " }" * 5000 + "\n")
-    proc = _run("solve", str(path), cwd=tmp_path)
-    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
-    assert "nested 5000 deep" in proc.stderr
-
-
-@pytest.mark.parametrize("option, value, words", [
-    ("--torque", "1e400", ["inf"]),            # crashed inside the error handler
-    ("--torque", "sqrt(-1)", ["not a real number"]),  # hung
-    ("--torque", "9**9**9", ["exponent"]),     # hung
-    ("--rtol", "nan", ["--rtol", "nan"]),       # hung
-    ("--samples", "1" + "0" * 5000, ["--samples", "100,000"]),
-    ("--duration", "abc", ["--duration", "'abc'"]),
-])
-def test_cli_simulate_refuses_the_issues_options_in_one_line(tmp_path, option, value, words):
-    out = str(tmp_path / "o.csv")
-    proc = _run("simulate", "ideal", "--duration", "0.01", option, value, "-o", out, cwd=tmp_path)
-    assert proc.returncode == 2, proc.stderr
-    lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("dualmech: error: "), proc.stderr
-    for w in words:
-        assert w in lines[0], (w, lines[0])
-
-
-MATRIX = """
-name = "{name}"
-base = "thesis/ideal"
-engines = ["dualmech", "pinocchio"]
-set = {{ "motion.angles_deg" = {{ start = 0.0, stop = 360.0, step = 90.0 }} }}
-
-[[sweep]]
-name = "a4"
-grid = {{ "geometry.slider_offset" = [10.0] }}
-"""
-
-
-@pytest.mark.parametrize("name", ["VICTIM", "../../victim", "a/../../victim", "..", "victim\x01"])
-def test_a_matrix_name_that_leaves_the_output_folder_is_refused_and_nothing_is_written(tmp_path, name):
-    """The matrix name is the default output folder runs/<name>: it wrote to '/tmp/victim' and '../../x'."""
-    work = tmp_path / "a" / "b"
-    work.mkdir(parents=True)
-    victim = tmp_path / "victim"
-    path = work / "m.toml"
-    path.write_text(MATRIX.format(name=str(victim) if name == "VICTIM" else name.replace("\x01", "\\u0001")))
-    proc = _run("validate", str(path), "--jobs", "1", cwd=work)
-    assert proc.returncode == 2, proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1 and "name: " in proc.stderr, proc.stderr
-    assert not victim.exists() and sorted(p.name for p in tmp_path.rglob("*")) == ["a", "b", "m.toml"]
-
-
-def test_a_matrix_without_load_modes_runs_in_the_base_case_mode():
-    """The format calls [load_modes] optional; it raised StopIteration."""
-    matrix = parse_matrix(tomllib.loads(MATRIX.format(name="no-modes")))
-    assert matrix.modes == ("torque",) and [c.id for c in matrix.cases] == ["torque_base", "torque_a4=10"]
-    assert all(c.case().loads.drive_torque == 100.0 for c in matrix.cases)
-
-
-def test_sweep_expect_is_declared_carried_and_checked():
-    data = tomllib.loads(MATRIX.format(name="expect"))
-    data["sweep"].append({"name": "beyond", "expect": "no_assembly", "include_base": False,
-                          "grid": {"geometry.slider_offset": [80.0]}})
-    matrix = parse_matrix(data)
-    expects = {c.id: c.expect for c in matrix.cases}
-    assert expects == {"torque_base": None, "torque_a4=10": None, "torque_a4=80": "no_assembly"}
-    assert {c.id: c.expect for c in matrix_from_dict(matrix.to_dict()).cases} == expects
-    data["sweep"][1]["expect"] = "no-assembly"
-    with pytest.raises(ValueError, match=r"sweep\[1\]\.expect: 'no-assembly' is not an expectation"):
-        parse_matrix(data)
-
-
-def test_a_matrix_is_bounded_before_it_is_expanded():
-    data = tomllib.loads(MATRIX.format(name="big"))
-    data["sweep"][0]["grid"] = {"geometry.slider_offset": list(range(100)),
-                                "geometry.rod_length": [50.0 + k for k in range(100)],
-                                "geometry.crank_axial_shift": list(range(100))}
-    with pytest.raises(ValueError, match=r"more than 1,000 cases .*1,000,000 points"):
-        parse_matrix(data)
-
-
-def test_an_unknown_key_is_named_with_every_valid_key_sorted():
-    """One helper writes every "unknown key" line (models.inputs.check_keys): the key (quoted when odd) and
-    the valid keys, sorted; a sweep's and a SPEC's keys go through it."""
-    from dualmech.models.inputs import check_keys
-    from dualmech.models.tolerance.spec import SpecError, spec_from_dict
-
-    with pytest.raises(ValueError) as err:
-        check_keys("bodies.crank", {"mass": 1.0, "colour": "red"}, {"mass", "inertia", "com"})
-    assert str(err.value) == "bodies.crank.colour: unknown key (valid: com, inertia, mass)"
-    with pytest.raises(SpecError) as err:
-        spec_from_dict({"tolerances": {}, "a b": 1})
-    assert str(err.value) == "'a b': unknown key (valid top-level keys: description, tolerances)"
-    data = tomllib.loads(MATRIX.format(name="keys"))
-    data["sweep"][0]["grids"] = {}
-    with pytest.raises(ValueError) as err:
-        parse_matrix(data)
-    assert str(err.value) == ("sweep[0].grids: unknown key "
-                              "(valid: cases, expect, fixed, grid, include_base, label, name)")
-    check_keys("", {"name": "x"}, ("name",))  # every key valid: no error
-
-
-def test_report_of_a_crank_at_rest_has_no_balancing_ratio():
-    """crank_rpm = 0 (quasi-static, a meaningful case) divided by a zero shaking force in the report."""
-    from dualmech.validation.derived import balancing
-
-    data = tomllib.loads(MATRIX.format(name="rest"))
-    data["set"]["motion.crank_rpm"] = 0.0
-    rows = balancing(parse_matrix(data)).rows
-    assert rows and all(r["force_before"] == 0.0 and r["ratio"] is None for r in rows)
-
-
-# ----------------------------------------------------------------------------- the last line of defence
-
-def _command(exc: BaseException):
-    import click
-
-    from dualmech.cli.errors import one_line_errors
-
-    @click.command()
-    @click.option("-o", "--output", "outdir", default=None)
-    @one_line_errors
-    def cmd(outdir):
-        raise exc
-
-    return cmd
-
-
-def test_an_internal_error_is_one_line_exit_70_with_the_traceback_in_the_output_folder(tmp_path):
-    res = CliRunner().invoke(_command(KeyError("no such thing\nsecond line")), ["-o", str(tmp_path)])
-    assert res.exit_code == 70
-    line = res.output.strip()
-    assert "\n" not in line and line.startswith("dualmech: internal error: KeyError: 'no such thing")
-    log = Path(line.rsplit("traceback in ", 1)[1])
-    assert log.parent == tmp_path and "Traceback" in log.read_text() and "KeyError" in log.read_text()
-
-
-def test_an_internal_error_without_an_output_folder_logs_to_a_temporary_file():
-    res = CliRunner().invoke(_command(ZeroDivisionError("float division by zero")), [])
-    assert res.exit_code == 70
-    log = Path(res.output.strip().rsplit("traceback in ", 1)[1])
-    try:
-        assert log.is_file() and "ZeroDivisionError" in log.read_text()
-    finally:
-        log.unlink()
-
-
-def test_a_bad_input_message_is_cut_to_its_first_line():
-    big = ValueError("x: got array([" + ", ".join(["1.0"] * 2000) + "])\n  [more rows]\n")
-    res = CliRunner().invoke(_command(big), [])
-    assert res.exit_code == 2
-    line = res.output.strip()
-    assert "\n" not in line and line.startswith("dualmech: error: x: got array([1.0")
-    assert line.endswith(" ...")
-    assert len(line) < 400
-
-
-def test_keyboard_interrupt_and_usage_errors_keep_their_handling():
-    import click
-
-    res = CliRunner().invoke(_command(KeyboardInterrupt()), [])
-    assert res.exit_code == 1 and "Aborted" in res.output  # click's own handling, as before
-    res = CliRunner().invoke(_command(click.UsageError("bad usage")), [])
-    assert res.exit_code == 2 and "Usage:" in res.output
-
-
-
-def test_a_failure_of_the_arithmetic_is_internal_not_bad_input(tmp_path):
-    """numpy's LinAlgError subclasses ValueError; it is an engine failure (exit 70), never the user's input
-    (2)."""
-    import numpy as np
-
-    res = CliRunner().invoke(_command(np.linalg.LinAlgError("SVD did not converge")), ["-o", str(tmp_path)])
-    assert res.exit_code == 70
-    assert res.output.startswith("dualmech: internal error: LinAlgError: SVD did not converge")
+        _check_case(ideal_case())

@@ -1,0 +1,86 @@
+"""Hostile input (issue 11), the case files and options the issue lists, one by one, at the command
+line: each is refused with exit code 2 and exactly one stderr line naming the key, and nothing is
+written.  The fuzzed files are in ``test_fuzz_inputs.py``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.hostile_inputs import ideal_case, run_cli
+
+
+def _write_case(tmp_path: Path, edit) -> Path:
+    data = ideal_case()
+    edit(data)
+    lines = []
+    for section, table in data.items():
+        if not isinstance(table, dict):
+            lines.insert(0, f"{section} = {_toml(table)}")
+            continue
+        lines.append(f"[{section}]")
+        lines += [f"{k} = {_toml(v)}" for k, v in table.items()]
+    path = tmp_path / "case.toml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _toml(v: object) -> str:
+    if isinstance(v, bool):
+        return str(v).lower()
+    if isinstance(v, str):
+        return '"' + v + '"'
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {_toml(x)}" for k, x in v.items()) + " }"
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml(x) for x in v) + "]"
+    return str(v)  # TOML writes floats and integers as Python does ("1e+300" is valid TOML)
+
+
+CASE_EDITS = {
+    "1e300 length": (lambda d: d["geometry"].update(crank_length=1e300), "geometry.crank_length"),
+    "crank_rpm 1e160": (lambda d: d["motion"].update(crank_rpm=1e160), "motion.crank_rpm"),
+    "crank_rpm 1e308": (lambda d: d["motion"].update(crank_rpm=1e308), "motion.crank_rpm"),
+    "crank_accel -1e308": (lambda d: d["motion"].update(crank_accel=-1e308), "motion.crank_accel"),
+    "huge integer": (lambda d: d["geometry"].update(rod_length=10**400), "geometry.rod_length"),
+    "overflowing step": (lambda d: d["motion"].update(angles_deg={"step": 5e-324}), "motion.angles_deg.step"),
+    "unknown units": (lambda d: d.update(units="parsec-stone-fortnight"), "units"),
+}
+
+
+@pytest.mark.parametrize("what", sorted(CASE_EDITS))
+def test_cli_solve_refuses_the_issues_case_inputs_in_one_line(tmp_path, what):
+    edit, key = CASE_EDITS[what]
+    proc = run_cli("solve", str(_write_case(tmp_path, edit)), "-o", str(tmp_path / "out.csv"), cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"dualmech: error: {key}:"), proc.stderr
+    assert not (tmp_path / "out.csv").exists()
+
+
+def test_cli_solve_refuses_deeply_nested_toml(tmp_path):
+    path = tmp_path / "deep.toml"
+    path.write_text('name = "x"\nunits = ' + "{ a = " * 5000 + "1" + " }" * 5000 + "\n")
+    proc = run_cli("solve", str(path), cwd=tmp_path)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert "nested 5000 deep" in proc.stderr
+
+
+@pytest.mark.parametrize("option, value, words", [
+    ("--torque", "1e400", ["inf"]),            # crashed inside the error handler
+    ("--torque", "sqrt(-1)", ["not a real number"]),  # hung
+    ("--torque", "9**9**9", ["exponent"]),     # hung
+    ("--rtol", "nan", ["--rtol", "nan"]),       # hung
+    ("--samples", "1" + "0" * 5000, ["--samples", "100,000"]),
+    ("--duration", "abc", ["--duration", "'abc'"]),
+])
+def test_cli_simulate_refuses_the_issues_options_in_one_line(tmp_path, option, value, words):
+    out = str(tmp_path / "o.csv")
+    proc = run_cli("simulate", "ideal", "--duration", "0.01", option, value, "-o", out, cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dualmech: error: "), proc.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
