@@ -1,8 +1,10 @@
-"""The package layout: imports go downwards only (core < models < validation < cli), docs/architecture.md.
+"""The package layout: imports go downwards only (core < models < validation < cli), docs/architecture.md;
+and the house's size limits (issue 16): no module over 400 lines, no function over 60.
 
 Every ``import`` statement of ``core/``, ``models/`` and ``validation/`` is read with :mod:`ast`,
 those inside functions included (a lazy import is still a dependency).  ``cli/``, the top floor,
-may import every other one.
+may import every other one.  Every module of the four packages and of ``tests/`` is measured: its
+lines, and each function's (``def`` line to last line, methods and nested functions included).
 """
 
 from __future__ import annotations
@@ -73,3 +75,70 @@ def test_the_command_line_is_the_top_floor() -> None:
     source = "from dualmech.cli.errors import one_line_errors\nfrom dualmech.models.case import load_case\n"
     assert upward_imports("validation", ROOT / "validation" / "x.py", source) == [
         "validation/x.py:1 imports dualmech.cli.errors (a validation module may not import cli)"]
+
+
+# ----------------------------------------------------------------------------- size limits (issue 16)
+
+#: The house's limits (docs/conventions.md): lines per module, lines per function (``def`` to last line).
+MAX_MODULE_LINES, MAX_FUNCTION_LINES = 400, 60
+#: Where the limits hold: the packages and the tests; never the virtual environment or byte-code caches.
+SIZED = FLOORS + ("tests",)
+NOT_SIZED = frozenset({".venv", "__pycache__"})
+
+
+def oversize(rel: str, source: str) -> list[str]:
+    """A message per limit the module ``source`` (at ``rel``) breaks: its lines, then each function's."""
+    bad = []
+    lines = len(source.splitlines())
+    if lines > MAX_MODULE_LINES:
+        bad.append(f"{rel}: {lines} lines (a module has at most {MAX_MODULE_LINES})")
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            length = node.end_lineno - node.lineno + 1
+            if length > MAX_FUNCTION_LINES:
+                bad.append(f"{rel}:{node.lineno} {node.name}: {length} lines "
+                           f"(a function has at most {MAX_FUNCTION_LINES})")
+    return bad
+
+
+def oversize_in(root: Path, package: str) -> list[str]:
+    """:func:`oversize` of every ``.py`` file under ``root / package`` (``.venv`` and caches skipped)."""
+    bad = []
+    for path in sorted((root / package).rglob("*.py")):
+        rel = path.relative_to(root)
+        if NOT_SIZED.isdisjoint(rel.parts):
+            bad += oversize(rel.as_posix(), path.read_text())
+    return bad
+
+
+@pytest.mark.parametrize("package", SIZED)
+def test_no_module_or_function_is_oversize(package: str) -> None:
+    bad = oversize_in(ROOT, package)
+    assert not bad, "\n".join(bad)
+
+
+def _module(lines: int, function_lines: int, prefix: str = "def") -> str:
+    """Source of ``lines`` lines holding one function of ``function_lines`` lines (``prefix`` its keyword)."""
+    body = [f"{prefix} f():"] + ["    x = 1"] * (function_lines - 2) + ["    return x"]
+    return "\n".join(body + ["y = 2"] * (lines - function_lines)) + "\n"
+
+
+def test_the_size_check_sees_an_oversize_module_and_function() -> None:
+    """At the limits nothing is reported; one line over each is, as are methods and async functions."""
+    assert oversize("core/x.py", _module(400, 60)) == []
+    assert oversize("core/x.py", _module(401, 61)) == [
+        "core/x.py: 401 lines (a module has at most 400)",
+        "core/x.py:1 f: 61 lines (a function has at most 60)"]
+    method = "class C:\n" + "\n".join("    " + line for line in _module(61, 61, "async def").splitlines())
+    assert oversize("tests/t.py", method + "\n") == ["tests/t.py:2 f: 61 lines (a function has at most 60)"]
+
+
+def test_the_size_walk_measures_every_module_but_the_environment(tmp_path: Path) -> None:
+    """A deliberate fault in a package (nested folder too) fails the gate; the same file in .venv or a cache
+    does not."""
+    for where in ("core/big.py", "core/deep/big.py", "core/.venv/big.py", "core/__pycache__/big.py"):
+        (tmp_path / where).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / where).write_text(_module(401, 10))
+    (tmp_path / "core" / "small.py").write_text(_module(400, 60))
+    assert oversize_in(tmp_path, "core") == ["core/big.py: 401 lines (a module has at most 400)",
+                                             "core/deep/big.py: 401 lines (a module has at most 400)"]
