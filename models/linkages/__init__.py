@@ -1,13 +1,13 @@
 """Single-loop linkages other than the slider crank, from the same link-joint table and the same method.
 
 :func:`solve_linkage` reads a case (a path, a bundled case ``"rssr"`` or a parsed
-dict) whose ``[mechanism] kind`` names the linkage, and returns its
+dict) whose ``[mechanism] kind`` names the linkage, and returns the in-house engine's
 :class:`~dualmech.models.linkages.table.LinkageTable` (``docs/conventions.md``, "RSSR", "RCCC").
+The judges of these linkages (Pinocchio, MuJoCo) live in :mod:`dualmech.validation.linkages`.
 """
 
 from __future__ import annotations
 
-from importlib import import_module
 from pathlib import Path
 from typing import Any
 
@@ -83,30 +83,26 @@ def linkage_case(source: str | Path | dict) -> Any:
                     f"(valid: {', '.join(KINDS)})")
 
 
-#: Engines that solve a linkage: module and function by kind (the judges import Pinocchio / MuJoCo).
-ENGINES = {
-    "dualmech": {"rssr": ("rssr", "solve_rssr"), "rccc": ("rccc", "solve_rccc")},
-    "pinocchio": {"rssr": ("pinocchio_rssr", "solve_pinocchio"),
-                  "rccc": ("pinocchio_rccc", "solve_pinocchio_rccc")},
-    "mujoco": {"rssr": ("mujoco_rssr", "solve_mujoco"), "rccc": ("mujoco_rccc", "solve_mujoco_rccc")},
-}
+def solve_linkage(source: str | Path | dict) -> LinkageTable:
+    """Solve every crank position of a linkage case with the in-house dual-number method.
 
-
-def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> LinkageTable:
-    """Solve every crank position of a linkage case: ``engine`` ``"dualmech"`` (the in-house dual-number
-    method), ``"pinocchio"`` or ``"mujoco"`` (the rigid judges).
+    The judges (Pinocchio, MuJoCo rigid and simulated) solve it through
+    :func:`dualmech.validation.linkages.solve_linkage` (``engine=``), beside the slider crank's engines.
 
     Raises
     ------
     CaseError
         One line, for any invalid input (including a ``kind`` not in :data:`KINDS`).
     """
-    if engine not in ENGINES:
-        raise CaseError(f"engine: {show(engine)} does not solve linkages (valid: {', '.join(ENGINES)})")
     data = read_linkage(source)
     case = linkage_case(data)
-    module, function = ENGINES[engine][linkage_kind(data)]
-    return getattr(import_module(f"dualmech.models.linkages.{module}"), function)(case)
+    if linkage_kind(data) == "rssr":
+        from dualmech.models.linkages.rssr import solve_rssr
+
+        return solve_rssr(case)
+    from dualmech.models.linkages.rccc import solve_rccc
+
+    return solve_rccc(case)
 
 
 def summary(table: LinkageTable) -> str:

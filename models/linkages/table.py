@@ -40,6 +40,23 @@ class TableSpec(NamedTuple):
         """The reaction columns that are moments or torques."""
         return tuple(c for c in self.reactions if "_m" in c or c.endswith("torque"))
 
+    def unit_group(self, column: str) -> str:
+        """The unit group of a compared column (its differences share the group's scale, as the slider
+        crank's ``UNIT_GROUP``): ``force``, ``moment``, ``ratio`` (transmissions), else the output angle
+        (``theta*``, ``phi*``) or slide (``s*``) and its derivative order (``angle``, ``angle_dot``,
+        ``angle_ddot``, ``length``, ``length_dot``, ``length_ddot``)."""
+        if column in self.forces:
+            return "force"
+        if column in self.moments:
+            return "moment"
+        if column.startswith("transmission"):
+            return "ratio"
+        base = "angle" if column.startswith(("theta", "phi")) else "length"
+        for order in ("_ddot", "_dot"):
+            if column.endswith(order):
+                return base + order
+        return base
+
 
 @dataclass(frozen=True)
 class LinkageTable:

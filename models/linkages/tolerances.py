@@ -1,9 +1,11 @@
 """Tolerances of the linkages' checks (in-house against both judges, and against identities), each with
 its reason and the value measured when it was set.
 
-A comparison of a column is ``|a - b| <= tol * peak`` with ``peak`` the column's largest magnitude over
-the case (kinematics), or the largest magnitude of every force (moment) column of the case (reactions),
-so that a tolerance means the same in any unit system (:func:`~dualmech.models.linkages.judges.worst`).
+A comparison of a column is ``|a - b| <= tol * peak`` with ``peak`` the largest magnitude over the case of
+the column's unit group (the output angle, its rates, the transmissions, every force, every moment column;
+:meth:`~dualmech.models.linkages.table.TableSpec.unit_group`), so that a tolerance means the same in any unit
+system (``dualmech.validation.linkages.gate.worst``; ``dualmech validate linkages`` holds the judges to the
+slider crank's tolerances instead).
 The suite's gates for the slider crank (``validation/tolerances.py``: ``MATRIX_KINEMATICS`` 1e-9,
 ``MATRIX_REACTIONS`` 1e-8) are looser; these are what the RSSR and the RCCC are held to.  Measured on the
 bundled cases and the random ones of ``tests/models/linkages/`` (RSSR seeds 21, 22, 11; RCCC 1, 4, 7).

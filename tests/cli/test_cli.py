@@ -125,8 +125,10 @@ def test_solve_dispatches_other_linkages_to_their_solver(tmp_path, name):
 
 
 @pytest.mark.parametrize(
-    "args", [["-o", "x.parquet"], ["--engine", "mujoco-sim"], ["--frames", "joint", "-o", "x.csv"]]
+    "name, args", [("rssr", ["-o", "x.parquet"]), ("rccc", ["--engine", "mujoco-sim"]),
+                   ("rssr", ["--frames", "joint", "-o", "x.csv"])]
 )
-def test_solve_refuses_what_a_linkage_cannot_give(tmp_path, args):
-    result = CliRunner().invoke(main, ["solve", "rssr", *args])
+def test_solve_refuses_what_a_linkage_cannot_give(tmp_path, name, args):
+    # the RSSR's simulation exists (validation/linkages/mujoco_rssr_sim.py), the RCCC's does not
+    result = CliRunner().invoke(main, ["solve", name, *args])
     assert result.exit_code == 2 and result.output.count("\n") == 1, result.output

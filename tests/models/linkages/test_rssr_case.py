@@ -71,7 +71,8 @@ def test_the_bundled_case_reads_as_written() -> None:
 
 
 def test_entry_points_for_the_command_line(tmp_path) -> None:
-    """is_linkage never raises (a slider-crank preset is simply not one); solve_linkage runs any engine."""
+    """is_linkage never raises (a slider-crank preset is simply not one); solve_linkage is the in-house engine
+    (the judges: tests/validation/linkages/test_engines.py)."""
     from dualmech.models.linkages import CASES, is_linkage, summary
 
     assert is_linkage("rssr") and is_linkage("rccc") and is_linkage(bundled())
@@ -79,8 +80,6 @@ def test_entry_points_for_the_command_line(tmp_path) -> None:
     path = tmp_path / "four-bar.toml"
     path.write_text((CASES / "rssr.toml").read_text())
     assert is_linkage(str(path))
-    table = solve_linkage(str(path), engine="pinocchio")
-    assert table.engine == "pinocchio"
-    assert summary(table).startswith("pinocchio: rssr-crank-rocker, 180 positions: 180 ok")
-    with pytest.raises(CaseError, match=r"engine: 'mujoco-sim' does not solve linkages \(valid: dualmech, "):
-        solve_linkage("rssr", engine="mujoco-sim")
+    table = solve_linkage(str(path))
+    assert table.engine == "dualmech"
+    assert summary(table).startswith("dualmech: rssr-crank-rocker, 180 positions: 180 ok")

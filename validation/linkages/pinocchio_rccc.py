@@ -22,7 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from dualmech.models.linkages.judges import (
+from dualmech.models.linkages.rccc_case import RcccCase
+from dualmech.models.linkages.table import LinkageTable
+from dualmech.validation.linkages.judges import (
     JUDGE_CLOSURE_TOL,
     JUDGE_MAX_ITER,
     JudgeAnswer,
@@ -32,9 +34,7 @@ from dualmech.models.linkages.judges import (
     rccc_transmission,
     rccc_values,
 )
-from dualmech.models.linkages.pinocchio_rssr import pin_inertia
-from dualmech.models.linkages.rccc_case import RcccCase
-from dualmech.models.linkages.table import LinkageTable
+from dualmech.validation.linkages.pinocchio_rssr import pin_inertia
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 
@@ -78,7 +78,7 @@ def build_model(case: RcccCase) -> PinocchioRccc:
 
 
 def _error(pr: PinocchioRccc, q: np.ndarray, theta1: float, s1: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pose error of the frame "input" (world, :func:`~dualmech.models.linkages.judges.pose_error`) and
+    """Pose error of the frame "input" (world, :func:`~dualmech.validation.linkages.judges.pose_error`) and
     its world Jacobian ``(6, 6)``."""
     model, data = pr.model, pr.data
     pin.computeJointJacobians(model, data, q)

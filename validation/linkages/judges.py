@@ -152,25 +152,6 @@ def min_norm_step(jac: np.ndarray, gap: np.ndarray) -> np.ndarray:
     return -jac.T @ np.linalg.solve(jac @ jac.T, gap)
 
 
-def worst(a: LinkageTable, b: LinkageTable, spec: TableSpec = SPEC) -> dict[str, float]:
-    """Per compared column, the largest ``|a - b|`` over the rows both give, divided by the column's peak
-    (kinematics) or the group's peak (force or moment columns) of ``a``; ``inf`` where one table gives a
-    value and the other does not (``models/linkages/tolerances.py``).  Angles in degrees are compared
-    modulo 360."""
-    out = {}
-    for names in [(c,) for c in spec.kinematics] + [spec.forces, spec.moments]:
-        peak = max(float(np.nanmax(np.abs(a[c]), initial=0.0)) for c in names)
-        for c in names:
-            given_a, given_b = np.isfinite(a[c]), np.isfinite(b[c])
-            both = given_a & given_b
-            delta = a[c][both] - b[c][both]
-            if c.endswith("_deg"):  # an angle: -180 and 180 are the same
-                delta = np.mod(delta + 180.0, 360.0) - 180.0
-            diff = float(np.max(np.abs(delta), initial=0.0)) / max(peak, 1e-300)
-            out[c] = diff if np.array_equal(given_a, given_b) else np.inf
-    return out
-
-
 def rccc_judge_table(case: RcccCase, engine: str,
                      position: Callable[[float, float, float, np.ndarray], JudgeAnswer]) -> LinkageTable:
     """:func:`judge_positions` for an RCCC case, each position started from the spherical estimate's

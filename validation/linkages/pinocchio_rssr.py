@@ -24,7 +24,9 @@ import numpy as np
 import pinocchio as pin
 
 from dualmech.core.inertia import BodyInertia
-from dualmech.models.linkages.judges import (
+from dualmech.models.linkages.rssr_case import RssrCase
+from dualmech.models.linkages.table import LinkageTable
+from dualmech.validation.linkages.judges import (
     JUDGE_CLOSURE_TOL,
     JUDGE_MAX_ITER,
     JudgeAnswer,
@@ -36,8 +38,6 @@ from dualmech.models.linkages.judges import (
     transmissions,
     wrench_columns,
 )
-from dualmech.models.linkages.rssr_case import RssrCase
-from dualmech.models.linkages.table import LinkageTable
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 

@@ -12,10 +12,10 @@ from numpy.testing import assert_array_equal
 from dualmech.core.reactions import momentum_rate
 from dualmech.core.status import Status
 from dualmech.models.linkages import dynamics as dynamics_module
-from dualmech.models.linkages.judges import worst
 from dualmech.models.linkages.rssr import SPEC, analyze_rssr, to_table
 from dualmech.models.linkages.rssr_case import RssrCase, rssr_from_dict
 from dualmech.models.linkages.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
+from dualmech.validation.linkages.gate import worst
 from tests.models.linkages.cases import bundled, random_rssr
 
 pytest.importorskip("pinocchio")
@@ -23,8 +23,8 @@ pytest.importorskip("mujoco")
 
 
 def _judges():
-    from dualmech.models.linkages.mujoco_rssr import solve_mujoco
-    from dualmech.models.linkages.pinocchio_rssr import solve_pinocchio
+    from dualmech.validation.linkages.mujoco_rssr import solve_mujoco
+    from dualmech.validation.linkages.pinocchio_rssr import solve_pinocchio
 
     return {"pinocchio": solve_pinocchio, "mujoco": solve_mujoco}
 
@@ -35,7 +35,7 @@ def _verdict(case: RssrCase, judge) -> dict[str, float]:
     assert_array_equal(np.asarray(theirs.status, dtype=str), np.asarray(ours.status, dtype=str))
     assert (ours.status == Status.OK).any()
     return {c: w / (LINKAGE_JUDGE_KINEMATICS.value if c in SPEC.kinematics else LINKAGE_JUDGE_REACTIONS.value)
-            for c, w in worst(ours, theirs).items()}
+            for c, w in worst(ours, theirs, SPEC).items()}
 
 
 def _assert_pass(verdict: dict[str, float]) -> None:
@@ -62,7 +62,7 @@ def test_a_judge_with_the_wrong_twist_sign_fails() -> None:
     flipped = replace(case, geometry=replace(case.geometry, alpha4=-case.geometry.alpha4))
     ours = to_table(analyze_rssr(case))
     theirs = _judges()["pinocchio"](flipped)
-    assert worst(ours, theirs)["phi4_deg"] > 1e6 * LINKAGE_JUDGE_KINEMATICS.value
+    assert worst(ours, theirs, SPEC)["phi4_deg"] > 1e6 * LINKAGE_JUDGE_KINEMATICS.value
 
 
 @pytest.mark.parametrize("judge", ["pinocchio", "mujoco"])

@@ -1,6 +1,6 @@
-"""The RCCC judged by MuJoCo (rigid): the MJCF of :func:`~dualmech.models.linkages.mjcf_rssr.rccc_mjcf`.
+"""The RCCC judged by MuJoCo (rigid): the MJCF of :func:`~dualmech.validation.linkages.mjcf_rssr.rccc_mjcf`.
 
-The same cut as the Pinocchio judge (:mod:`~dualmech.models.linkages.pinocchio_rccc`): Newton on the
+The same cut as the Pinocchio judge (:mod:`~dualmech.validation.linkages.pinocchio_rccc`): Newton on the
 pose error of the site "input" (``mj_jacSite``), rates and accelerations from the same Jacobian with
 the drift of ``mj_jacDot``; ``mj_rne`` for :math:`M\\ddot q + c`, the cut wrench from
 :math:`M\\ddot q + c = S^T\\tau + J^T w`; then ``w`` applied to the input link (``xfrc_applied``) and
@@ -15,7 +15,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from dualmech.models.linkages.judges import (
+from dualmech.models.linkages.rccc_case import RcccCase
+from dualmech.models.linkages.table import LinkageTable
+from dualmech.validation.linkages.judges import (
     JUDGE_CLOSURE_TOL,
     JUDGE_MAX_ITER,
     JudgeAnswer,
@@ -26,9 +28,7 @@ from dualmech.models.linkages.judges import (
     rccc_transmission,
     rccc_values,
 )
-from dualmech.models.linkages.mjcf_rssr import rccc_mjcf
-from dualmech.models.linkages.rccc_case import RcccCase
-from dualmech.models.linkages.table import LinkageTable
+from dualmech.validation.linkages.mjcf_rssr import rccc_mjcf
 
 
 @dataclass(frozen=True)
@@ -44,7 +44,7 @@ class MjRccc:
 
 
 def build(case: RcccCase) -> MjRccc:
-    """Compile :func:`~dualmech.models.linkages.mjcf_rssr.rccc_mjcf` of ``case``."""
+    """Compile :func:`~dualmech.validation.linkages.mjcf_rssr.rccc_mjcf` of ``case``."""
     model = mujoco.MjModel.from_xml_string(rccc_mjcf(case))
     return MjRccc(model, mujoco.MjData(model), model.body("output_link").id, model.body("coupler").id,
                   model.body("input_link").id, model.site("input").id)

@@ -20,7 +20,7 @@ pytest.importorskip("mujoco")
 def _disagreement(case: RssrCase, judged: RssrCase | None = None) -> dict[str, float]:
     """Output angle (rad), output rate and joint-3 force (relative to their peaks): the simulation of
     ``judged`` (default ``case``) against the in-house answer for ``case`` at the simulated input states."""
-    from dualmech.models.linkages.mujoco_rssr_sim import crank_states, simulate_rssr
+    from dualmech.validation.linkages.mujoco_rssr_sim import crank_states, simulate_rssr
 
     sim = simulate_rssr(case if judged is None else judged, 2e-5, 0.5, 250)
     an = analyze_rssr(case, crank=crank_states(sim))

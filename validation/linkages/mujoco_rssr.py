@@ -1,4 +1,5 @@
-"""The RSSR judged by MuJoCo (rigid): the MJCF of :mod:`~dualmech.models.linkages.mjcf_rssr`, per position.
+"""The RSSR judged by MuJoCo (rigid), per position: the MJCF of
+:mod:`~dualmech.validation.linkages.mjcf_rssr`.
 
 Newton on the connect's site gap (``mj_jacSite``, minimum-norm steps, ``mj_integratePos``); rates
 from the gap Jacobian and the coupler's zero-spin row (``mj_jacBody``), accelerations with the
@@ -15,7 +16,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from dualmech.models.linkages.judges import (
+from dualmech.models.linkages.rssr_case import RssrCase
+from dualmech.models.linkages.table import LinkageTable
+from dualmech.validation.linkages.judges import (
     JUDGE_CLOSURE_TOL,
     JUDGE_MAX_ITER,
     JudgeAnswer,
@@ -28,9 +31,7 @@ from dualmech.models.linkages.judges import (
     transmissions,
     wrench_columns,
 )
-from dualmech.models.linkages.mjcf_rssr import rssr_mjcf
-from dualmech.models.linkages.rssr_case import RssrCase
-from dualmech.models.linkages.table import LinkageTable
+from dualmech.validation.linkages.mjcf_rssr import rssr_mjcf
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,7 @@ class MjRssr:
 
 
 def build(case: RssrCase, xml: str | None = None) -> MjRssr:
-    """Compile :func:`~dualmech.models.linkages.mjcf_rssr.rssr_mjcf` of ``case`` (or the MJCF ``xml``)."""
+    """Compile :func:`~dualmech.validation.linkages.mjcf_rssr.rssr_mjcf` of ``case`` (or the MJCF ``xml``)."""
     model = mujoco.MjModel.from_xml_string(rssr_mjcf(case) if xml is None else xml)
     return MjRssr(model, mujoco.MjData(model), model.body("input_crank").id, model.body("coupler").id,
                   model.body("output_crank").id, model.site("output_pin").id, model.site("coupler_end").id)

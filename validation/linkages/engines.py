@@ -1,0 +1,68 @@
+"""Registry of the engines that solve a linkage case (RSSR, RCCC) into a
+:class:`~dualmech.models.linkages.table.LinkageTable`: the in-house method (``models/linkages/``) and its
+judges (this package), as :mod:`dualmech.validation.engines` is for the slider crank.
+
+Engines are imported lazily: solving with ``dualmech`` never imports Pinocchio or MuJoCo.  Every entry
+is a function ``solve(case) -> LinkageTable`` of the checked case
+(:func:`~dualmech.models.linkages.linkage_case`).
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from pathlib import Path
+from typing import Any
+
+from dualmech.models.inputs import CaseError, show
+from dualmech.models.linkages import linkage_case, linkage_kind, read_linkage
+from dualmech.models.linkages.table import LinkageTable
+
+#: engine -> ``[mechanism] kind`` -> "module:function"; an engine solves only the kinds listed under it.
+ENGINES: dict[str, dict[str, str]] = {
+    "dualmech": {"rssr": "dualmech.models.linkages.rssr:solve_rssr",
+                 "rccc": "dualmech.models.linkages.rccc:solve_rccc"},
+    "pinocchio": {"rssr": "dualmech.validation.linkages.pinocchio_rssr:solve_pinocchio",
+                  "rccc": "dualmech.validation.linkages.pinocchio_rccc:solve_pinocchio_rccc"},
+    "mujoco": {"rssr": "dualmech.validation.linkages.mujoco_rssr:solve_mujoco",
+               "rccc": "dualmech.validation.linkages.mujoco_rccc:solve_mujoco_rccc"},
+    "mujoco-sim": {"rssr": "dualmech.validation.linkages.mujoco_rssr_sim:solve_mujoco_sim"},
+}
+
+
+def solves(engine: str, kind: str, case: Any) -> bool:
+    """Whether ``engine`` solves ``case`` of ``kind``: the kind is registered under it, and for the
+    simulation (a servo drives the input) the case gives the output torque."""
+    if kind not in ENGINES.get(engine, {}):
+        return False
+    return engine != "mujoco-sim" or getattr(case, "mode", "") == "output"
+
+
+def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> LinkageTable:
+    """Solve every crank position of a linkage case (a TOML file, a bundled case ``"rssr"`` / ``"rccc"`` or a
+    parsed dict) with ``engine``: ``"dualmech"`` (the in-house dual-number method), ``"pinocchio"``,
+    ``"mujoco"`` (the rigid judges) or ``"mujoco-sim"`` (the RSSR simulated, output-torque cases: its rows
+    are the simulated input states).
+
+    Raises
+    ------
+    CaseError
+        One line, for any invalid input, and for an engine that does not solve the case.
+    """
+    if engine not in ENGINES:
+        raise CaseError(f"engine: {show(engine)} does not solve linkages (valid: {', '.join(ENGINES)})")
+    data = read_linkage(source)
+    case = linkage_case(data)
+    kind = linkage_kind(data)
+    if not solves(engine, kind, case):
+        valid = [e for e in ENGINES if solves(e, kind, case)]
+        why = "; its input is servo-driven: the case must give loads.output_torque" if kind in ENGINES[
+            engine] else ""
+        raise CaseError(f"engine: {show(engine)} does not solve this {kind.upper()} case (valid: "
+                        f"{', '.join(valid)}{why})")
+    return solve_case(engine, kind, case)
+
+
+def solve_case(engine: str, kind: str, case: Any) -> LinkageTable:
+    """``case`` (checked, of ``kind``) solved by ``engine``, which must solve it (:func:`solves`)."""
+    module, function = ENGINES[engine][kind].split(":")
+    return getattr(import_module(module), function)(case)

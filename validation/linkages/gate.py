@@ -1,0 +1,220 @@
+"""The linkages' gate: every judge against the in-house reference, row by row and column by column.
+
+The rules of the slider crank's gate (:mod:`dualmech.validation.compare`), on a linkage's own columns
+(:class:`~dualmech.models.linkages.table.TableSpec`), one :class:`~dualmech.validation.compare.Check` each:
+
+* ``engine`` -- the judge ran (else a failing check with the first line of its error);
+* ``status`` -- the judge's word equals the reference's at every row, and the judge neither says an
+  engine failure (``not_converged``, ``branch_jump``, ``not_finite``) nor gives a non-finite value
+  where its word says the value is given.  No band: every linkage engine sets its words with the same
+  :func:`~dualmech.models.linkages.rssr.status_words` from its own transmissions (measured: equal at
+  every row of the bundled and random cases).  The reference gets its own ``status`` check (no engine
+  failure, assembled somewhere);
+* every compared column ``q`` -- on the rows where both engines give it,
+
+  .. math:: r_i = |J_i - R_i| / s_g, \\qquad \\text{pass} \\iff n > 0,\\ \\max_i r_i \\le \\text{tol}
+
+  with ``s_g`` the reference's largest ``|R|`` over those rows of every compared column of ``q``'s unit
+  group (:meth:`~dualmech.models.linkages.table.TableSpec.unit_group`: forces, moments, the output angle,
+  its rates, ...), so no verdict depends on the unit system; angles in degrees differ modulo 360; a row
+  where only one engine gives the value fails the column (``inf``).
+
+Tolerances are the slider crank's defaults per judge and group (``kinematics``, ``reactions``) of
+:data:`~dualmech.validation.matrix.tolerances.DEFAULT_TOLERANCES`: Pinocchio ``PINOCCHIO_*``, MuJoCo
+``MUJOCO_RIGID_*``, the simulation ``MATRIX_SIM_KINEMATICS`` and ``SIM_REACTIONS``.  The linkages have no
+condition factor: the RSSR and RCCC cases are judged as given, dead centres flagged by their words.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
+from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.validation import tolerances as tolerance_table
+from dualmech.validation.compare import ENGINE, STATUS, VERDICTS, Check, first_line
+from dualmech.validation.matrix import ResolvedTolerance
+from dualmech.validation.matrix.tolerances import DEFAULT_TOLERANCES
+
+#: The tolerance of status and engine checks: exact.
+EXACT = ResolvedTolerance("exact", 0.0, "statuses must agree row by row, and the engine must run")
+
+
+def compared_columns(spec: TableSpec, judge: LinkageTable) -> tuple[str, ...]:
+    """The columns compared for ``judge``: kinematics, forces and moments of ``spec``, or the judge's own
+    ``meta["gives"]`` (the simulation gives a few)."""
+    every = spec.kinematics + spec.forces + spec.moments
+    gives = judge.meta.get("gives")
+    return every if gives is None else tuple(c for c in every if c in gives)
+
+
+def judge_tolerances(engine: str) -> dict[str, ResolvedTolerance]:
+    """``kinematics`` and ``reactions`` tolerances of judge ``engine``: the slider crank's defaults."""
+    names = DEFAULT_TOLERANCES.get(engine, DEFAULT_TOLERANCES["*"])
+    out = {}
+    for group in ("kinematics", "reactions"):
+        tol = getattr(tolerance_table, names[group])
+        out[group] = ResolvedTolerance(names[group], float(tol.value), tol.reason)
+    return out
+
+
+def unit_scales(reference: LinkageTable, judge: LinkageTable, spec: TableSpec,
+                columns: tuple[str, ...]) -> dict[str, float]:
+    """``s_g`` per unit group of ``columns``: the reference's largest ``|R|`` over the rows where both tables
+    give the column; 1 for a group that is zero throughout (the comparison is then absolute)."""
+    scales: dict[str, float] = {}
+    for c in columns:
+        both = np.isfinite(reference[c]) & np.isfinite(judge[c])
+        group = spec.unit_group(c)
+        scales[group] = max(scales.get(group, 0.0), float(np.max(np.abs(reference[c][both]), initial=0.0)))
+    return {g: s or 1.0 for g, s in scales.items()}
+
+
+def relative_differences(reference: LinkageTable, judge: LinkageTable, spec: TableSpec,
+                         columns: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """``r_i`` of each column (module docstring), each ``(n,)``: NaN where neither table gives the value,
+    ``inf`` where only one does."""
+    scales = unit_scales(reference, judge, spec, columns)
+    out = {}
+    for c in columns:
+        r_given, j_given = np.isfinite(reference[c]), np.isfinite(judge[c])
+        with np.errstate(invalid="ignore"):
+            delta = judge[c] - reference[c]
+        if c.endswith("_deg"):  # an angle: -180 and 180 are the same
+            delta = np.mod(delta + 180.0, 360.0) - 180.0
+        rel = np.where(r_given & j_given, np.abs(delta) / scales[spec.unit_group(c)], np.nan)
+        out[c] = np.where(r_given != j_given, np.inf, rel)
+    return out
+
+
+def worst(a: LinkageTable, b: LinkageTable, spec: TableSpec) -> dict[str, float]:
+    """Per compared column (kinematics, forces, moments), the largest ``r_i`` of ``b`` against ``a``
+    (:func:`relative_differences`; ``inf`` where one table gives a value and the other does not)."""
+    rel = relative_differences(a, b, spec, spec.kinematics + spec.forces + spec.moments)
+    return {c: float(np.max(np.where(np.isnan(r), 0.0, r), initial=0.0)) for c, r in rel.items()}
+
+
+def _given_under(column: str, spec: TableSpec) -> frozenset[str]:
+    """The status words under which an engine gives ``column`` (pose, rates, reactions)."""
+    if column in spec.pose:
+        return ASSEMBLED
+    return RATES_GIVEN if column in spec.rates else frozenset({Status.OK})
+
+
+def _failures(table: LinkageTable, spec: TableSpec, columns: tuple[str, ...]
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Rows where ``table``'s engine failed: by its own word, and by a non-finite value its word gives."""
+    failed = ~is_status(table.status, *VERDICTS)
+    non_finite = np.zeros(len(table), dtype=bool)
+    for c in columns:
+        non_finite |= is_status(table.status, *_given_under(c, spec)) & ~np.isfinite(table[c])
+    return failed, non_finite & ~failed
+
+
+def _angles(rows: np.ndarray, theta: np.ndarray, limit: int = 4) -> str:
+    idx = np.flatnonzero(rows)
+    shown = ", ".join(f"{theta[i]:.6g}" for i in idx[:limit])
+    return shown + (f", ... ({idx.size} rows)" if idx.size > limit else "")
+
+
+def _failure_notes(who: str, table: LinkageTable, failed: np.ndarray, non_finite: np.ndarray) -> list[str]:
+    """What ``who`` failed at: its failure words and its non-finite given values, with their crank angles."""
+    theta, words = table["theta1_deg"], np.asarray(table.status, dtype=str)
+    notes = [f"{who} says {w} at theta1 = {_angles(failed & (words == w), theta)} deg"
+             for w in sorted(set(words[failed]))]
+    if non_finite.any():
+        notes.append(f"{who} gives a non-finite value at theta1 = {_angles(non_finite, theta)} deg")
+    return notes
+
+
+def engine_check(case_id: str, engine: str, error: str) -> Check:
+    """The failing ``engine`` check of an engine that raised ``error``."""
+    nan = float("nan")
+    return Check(case_id, engine, ENGINE, nan, nan, nan, EXACT, nan, 0, 0, 0, False, first_line(error))
+
+
+def reference_check(case_id: str, reference: LinkageTable, spec: TableSpec) -> Check:
+    """The reference's own ``status`` check: no engine failure, and assembled at some crank position."""
+    failed, non_finite = _failures(reference, spec, spec.kinematics + spec.forces + spec.moments)
+    bad = failed | non_finite
+    notes = _failure_notes("the reference", reference, failed, non_finite)
+    if not is_status(reference.status, *ASSEMBLED).any() and not bad.any():
+        notes.append("the reference assembles at no crank position")
+        bad = np.ones(len(reference), dtype=bool)
+    n_bad = int(bad.sum())
+    return Check(case_id, reference.engine, STATUS, float(n_bad), float(n_bad), float("nan"), EXACT, 1.0,
+                 len(reference), 0, n_bad, n_bad == 0, "; ".join(notes))
+
+
+def status_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spec: TableSpec,
+                 columns: tuple[str, ...]) -> Check:
+    """The judge's ``status`` check (module docstring); rows where the reference failed are left to
+    :func:`reference_check`."""
+    theta = reference["theta1_deg"]
+    usable = ~np.logical_or(*_failures(reference, spec, columns))
+    failed, non_finite = (rows & usable for rows in _failures(judge, spec, columns))
+    rs, js = np.asarray(reference.status, dtype=str), np.asarray(judge.status, dtype=str)
+    mismatch = usable & ~failed & (rs != js)
+    notes = _failure_notes("the judge", judge, failed, non_finite)
+    for r_word, j_word in sorted(set(zip(rs[mismatch], js[mismatch]))):
+        rows = mismatch & (rs == r_word) & (js == j_word)
+        notes.append(f"reference {r_word}, judge {j_word} at theta1 = {_angles(rows, theta)} deg")
+    bad = failed | non_finite | mismatch
+    n_bad = int(bad.sum())
+    unassembled = usable & ~bad & ~is_status(rs, *ASSEMBLED)
+    return Check(case_id, judge.engine, STATUS, float(n_bad), float(n_bad), float("nan"), EXACT, 1.0,
+                 int(usable.sum()), int(unassembled.sum()), n_bad, n_bad == 0, "; ".join(notes))
+
+
+def column_check(case_id: str, reference: LinkageTable, judge: LinkageTable, column: str, rel: np.ndarray,
+                 tol: ResolvedTolerance, scale: float) -> Check:
+    """One column's check: some row compared, none given by one engine only, ``max r_i <= tol``."""
+    theta = reference["theta1_deg"]
+    infinite, finite = np.isinf(rel), np.isfinite(rel)
+    max_rel = float(rel[finite].max()) if finite.any() else float("nan")
+    at = float(theta[np.flatnonzero(finite)[np.argmax(rel[finite])]]) if finite.any() else float("nan")
+    notes = []
+    if not finite.any():
+        notes.append("no row compared: no position where both engines give it")
+    if infinite.any():
+        notes.append(f"given by one engine only at theta1 = {_angles(infinite, theta)} deg")
+    if np.isfinite(max_rel) and max_rel > tol.value:
+        notes.append(f"max rel {max_rel:.3g} > {tol.value:.3g} ({tol.name}) at theta1 = {at:.6g} deg")
+    assembled = is_status(reference.status, *ASSEMBLED) & is_status(judge.status, *ASSEMBLED)
+    n_excluded = int((assembled & np.isnan(rel)).sum())
+    passed = bool(finite.any()) and not infinite.any() and max_rel <= tol.value
+    max_abs = max_rel * scale if finite.any() else float("nan")
+    return Check(case_id, judge.engine, column, max_abs, max_rel, at, tol, scale, int(finite.sum()),
+                 n_excluded, int(infinite.sum()), passed, "; ".join(notes))
+
+
+def judge_checks(case_id: str, reference: LinkageTable, judge: LinkageTable, spec: TableSpec
+                 ) -> tuple[list[Check], tuple[np.ndarray, ...] | None]:
+    """Every check of one judge on one case, and per row its worst kinematic and reaction ``r_i`` over their
+    tolerance (``theta1_deg`` and the two ratios, each ``(n,)``, NaN where nothing was compared; for the
+    report; ``None`` when the rows differ).  ``reference`` is the in-house table at the judge's rows."""
+    theta = reference["theta1_deg"]
+    if len(judge) != len(reference) or not np.allclose(judge["theta1_deg"], theta, rtol=0, atol=1e-9):
+        detail = f"rows differ: {len(judge)} crank angles against the reference's {len(reference)}"
+        nan = float("nan")
+        return [Check(case_id, judge.engine, STATUS, nan, nan, nan, EXACT, nan, 0, 0, 0, False, detail)], None
+    columns = compared_columns(spec, judge)
+    tols = judge_tolerances(judge.engine)
+    group = {c: "kinematics" if c in spec.kinematics else "reactions" for c in columns}
+    rel = relative_differences(reference, judge, spec, columns)
+    scales = unit_scales(reference, judge, spec, columns)
+    checks = [status_check(case_id, reference, judge, spec, columns)]
+    checks += [column_check(case_id, reference, judge, c, rel[c], tols[group[c]], scales[spec.unit_group(c)])
+               for c in columns]
+    ratios = {g: _row_worst([rel[c] / tols[g].value for c in columns if group[c] == g], len(theta))
+              for g in ("kinematics", "reactions")}
+    return checks, (theta, ratios["kinematics"], ratios["reactions"])
+
+
+def _row_worst(ratios: list[np.ndarray], n: int) -> np.ndarray:
+    """Per row, the largest of ``ratios`` (each ``(n,)``); NaN where none was compared."""
+    if not ratios:
+        return np.full(n, np.nan)
+    stacked = np.stack(ratios)
+    seen = ~np.isnan(stacked)
+    return np.where(seen.any(0), np.max(np.where(seen, stacked, -np.inf), axis=0), np.nan)
