@@ -1,93 +1,337 @@
-"""Forward dynamics of a one-degree-of-freedom linkage from its own inverse dynamics (generalized inertia).
+"""Forward dynamics of a one-degree-of-freedom linkage (RSSR, RCCC) from its own inverse dynamics.
 
-The drive torque the in-house engine returns for a given load (output-torque mode) is affine in the
-input acceleration and quadratic in its rate:
+The drive torque the in-house engine returns for a given output torque is affine in the input
+acceleration and quadratic in its rate:
 
 .. math:: \\tau(\\theta, \\dot\\theta, \\ddot\\theta) = I(\\theta)\\,\\ddot\\theta
           + C(\\theta)\\,\\dot\\theta^2 + Q(\\theta)
 
-so three inverse-dynamics solves per crank angle give the generalized inertia :math:`I`, the
-velocity coefficient :math:`C = \\tfrac12 I'` and the load term :math:`Q` (gravity and the given
-output torque), batched over a grid of angles.  Given a drive torque :math:`\\tau_d` the motion is
-:math:`\\ddot\\theta = (\\tau_d - C\\dot\\theta^2 - Q)/I`, integrated by ``scipy``'s DOP853 on periodic
-cubic splines of the coefficients (an RSSR case whose input turns fully).
+so three inverse-dynamics solves per input angle (rate 0 and acceleration 0, rate 1, acceleration 1)
+give the generalized inertia :math:`I` about the input axis, the velocity coefficient
+:math:`C = \\tfrac12 I'` and the load term :math:`Q` (gravity and the output torque), batched over a
+0.5 deg grid of a full turn (:data:`POINTS`), with the output link's rate per unit input rate
+:math:`G` (the output torque's work).  One function serves every mechanism: :func:`coefficients`
+takes the mechanism's analysis at given input states (:data:`MECHANISMS`).  Under a drive torque
+:math:`\\tau^A` (a number, an expression in ``t, psi, psidot`` or a function) and a viscous input
+bearing :math:`c_1` the motion is
+
+.. math:: \\ddot\\theta = (\\tau^A - c_1\\dot\\theta - C\\dot\\theta^2 - Q) / I
+
+integrated by ``scipy``'s ``solve_ivp`` on a periodic spline of the coefficients
+(:data:`SPLINE_DEGREE`), by the slider crank's integrator, budget and input checks
+(:mod:`dualmech.models.forward_dynamics`), together with the drive's and the output torque's work and
+the energy dissipated.  Along the result the in-house analysis gives the pose, rates, reactions and
+energies (``docs/conventions.md``, "Linkages", simulate).
+A linkage whose input does not turn fully is refused.
 """
 
 from __future__ import annotations
 
+import ast
+import math
 from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicSpline
+from scipy.interpolate import BSpline, make_interp_spline
 
 from dualmech.core.motion import CrankState
+from dualmech.core.reactions import kinetic_energy
 from dualmech.core.status import Status
-from dualmech.models.linkages.rssr import analyze_rssr
+from dualmech.core.table import write_csv
+from dualmech.models.expressions import LoadFunction
+from dualmech.models.forward_dynamics import (  # the slider crank's integrator, budget and checks, shared
+    CRANK_ANGLE,
+    CRANK_SPEED,
+    MAX_EVALUATIONS,
+    TIME_LIMIT,
+    _Budget,
+    _checked_settings,
+    _integrate,
+    as_load,
+)
+from dualmech.models.inputs import TORQUE, check_number
+from dualmech.models.linkages import rccc, rssr
+from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
+from dualmech.models.linkages.table import LinkageTable
+
+#: Input angles of the coefficient table over a turn: a 0.5 deg grid.
+POINTS = 721
+#: Degree of the periodic interpolating spline of the table (error ~h^8): at 0.5 deg it misses the
+#: coefficients by <= 9.4e-14 of the largest (RSSR), 7.6e-14 (RCCC), the table's own rounding, where a
+#: cubic one misses by 7.1e-9 and 8.3e-8 (measured at the midpoints against direct solves).
+SPLINE_DEGREE = 7
+#: Names of a load expression that mean the slider crank's slider; a linkage's drive torque may not use them.
+SLIDER_NAMES = ("s4", "s4dot")
+
+
+@dataclass(frozen=True)
+class Mechanism:
+    """How the forward dynamics reads one linkage: ``analyze(case, crank)`` the in-house analysis at given
+    input states (``.status``, ``.reactions``, ``.motions``), ``output_rate(analysis)`` the output link's
+    rate about its axis ``(n,)`` rad/s, ``table(analysis)`` its result table."""
+
+    analyze: Callable[[Any, CrankState], Any]
+    output_rate: Callable[[Any], np.ndarray]
+    table: Callable[[Any], LinkageTable]
+
+
+@dataclass(frozen=True)
+class _GivenStates:
+    """Stands for an RCCC case's ``motion``: :func:`~dualmech.models.linkages.rccc.analyze_rccc` reads its
+    input states from ``case.motion.state``, and takes no ``crank`` as the RSSR's does."""
+
+    crank: CrankState
+
+    def state(self, axial_shift: float, angles_deg: np.ndarray | None = None) -> CrankState:
+        return self.crank
+
+
+def _rccc_at(case: RcccCase, crank: CrankState) -> rccc.RcccAnalysis:
+    return rccc.analyze_rccc(replace(case, motion=_GivenStates(crank)))
+
+
+#: Each linkage's :class:`Mechanism`, by ``[mechanism] kind``.  The RCCC's output link turns at
+#: ``-theta4_dot`` about ``z4`` (``theta4`` is the ground's angle relative to it).
+MECHANISMS = {
+    "rssr": Mechanism(lambda case, crank: rssr.analyze_rssr(case, crank=crank), lambda an: an.phi_dot,
+                      rssr.to_table),
+    "rccc": Mechanism(_rccc_at, lambda an: -an.q_dot[:, 4], rccc.to_table),
+}
+
+
+def mechanism(case: Any) -> Mechanism:
+    """The :class:`Mechanism` of a checked linkage case (``ValueError`` for anything else)."""
+    kinds = {RssrCase: "rssr", RcccCase: "rccc"}
+    if type(case) not in kinds:
+        raise ValueError(f"forward dynamics: {type(case).__name__} is not a linkage case "
+                         "(RssrCase, RcccCase)")
+    return MECHANISMS[kinds[type(case)]]
+
+
+def loads(case: Any) -> tuple[float, float]:
+    """``(default drive torque, output torque)`` of a case: an RSSR case in drive-torque mode gives the
+    first (and no output torque), every other case its output torque (and no drive torque)."""
+    drive = getattr(case, "drive_torque", None)
+    return (0.0, float(case.output_torque)) if drive is None else (float(drive), 0.0)
+
+
+def inverse_case(case: Any) -> Any:
+    """``case`` with the output torque of :func:`loads` given and the drive torque solved (an RSSR case in
+    drive-torque mode is turned into output-torque mode)."""
+    return replace(case, drive_torque=None, output_torque=loads(case)[1]) if isinstance(case, RssrCase) \
+        else case
 
 
 @dataclass(frozen=True)
 class Coefficients:
-    """``theta`` ``(m,)`` rad (a full turn) and ``inertia``, ``velocity``, ``load`` there: the drive torque
-    is ``inertia * theta_ddot + velocity * theta_dot^2 + load``."""
+    """``theta`` ``(m,)`` rad (a full turn, both ends) and there ``inertia`` (F·L·s²), ``velocity``
+    (F·L·s²), ``load`` (F·L), ``ratio`` (the output link's rate per unit input rate): the drive torque is
+    ``inertia * theta_ddot + velocity * theta_dot^2 + load``."""
 
     theta: np.ndarray
     inertia: np.ndarray
     velocity: np.ndarray
     load: np.ndarray
+    ratio: np.ndarray
+
+    def stacked(self) -> np.ndarray:
+        """``(m, 4)``: inertia, velocity, load, ratio."""
+        return np.stack([self.inertia, self.velocity, self.load, self.ratio], axis=1)
+
+    def spline(self, step: int = 1) -> BSpline:
+        """The periodic spline (:data:`SPLINE_DEGREE`) of :meth:`stacked` on every ``step``-th angle."""
+        return make_interp_spline(self.theta[::step], self.stacked()[::step], k=SPLINE_DEGREE,
+                                  bc_type="periodic")
 
 
-def coefficients(case: RssrCase, points: int = 721) -> Coefficients:
-    """:class:`Coefficients` of ``case`` at ``points`` crank angles over a turn (output-torque mode: the
-    case's output torque and gravity are the load).  Raises ``ValueError`` if the linkage does not
-    assemble (or reaches an edge of assembly) somewhere on the turn: its input cannot turn fully."""
-    if case.mode != "output":
-        raise ValueError("coefficients: the drive torque is the unknown of the inverse dynamics here; give "
-                         f"loads.output_torque (got drive_torque = {case.drive_torque!r})")
+def coefficients(case: Any, points: int = POINTS, analyze: Mechanism | None = None) -> Coefficients:
+    """:class:`Coefficients` of ``case`` at ``points`` input angles over a turn, from three inverse-dynamics
+    solves each by ``analyze`` (default: the case's :class:`Mechanism`) of :func:`inverse_case`.
+
+    Raises ``ValueError`` if the linkage does not assemble (or reaches an edge of assembly) somewhere on
+    the turn: its input cannot turn fully."""
+    mech = mechanism(case) if analyze is None else analyze
     theta = np.linspace(0.0, 2 * np.pi, points)
     n = points
     rates = np.concatenate([np.zeros(n), np.ones(n), np.zeros(n)])
     accels = np.concatenate([np.zeros(n), np.zeros(n), np.ones(n)])
     zero = np.zeros(3 * n)
-    crank = CrankState(np.tile(theta, 3), zero, rates, zero, accels, zero)
-    an = analyze_rssr(case, crank=crank)
-    if not (an.status == Status.OK).all():
-        raise ValueError(f"coefficients: {case.name!r} does not turn fully (statuses "
-                         f"{sorted(set(an.status))}); forward dynamics needs a crank that does")
-    torque = an.reactions.moment["j1"][:, 2].reshape(3, n)
-    torque[:, -1] = torque[:, 0]  # 2 pi is 0: the same pose, equal to rounding
-    return Coefficients(theta, torque[2] - torque[0], torque[1] - torque[0], torque[0])
+    with np.errstate(all="ignore"):  # rows off the turn are refused below
+        an = mech.analyze(inverse_case(case), CrankState(np.tile(theta, 3), zero, rates, zero, accels, zero))
+    if not (an.status == Status.OK.value).all():
+        raise ValueError(f"simulate: {case.name!r} does not turn fully (statuses {sorted(set(an.status))} on "
+                         "the turn); the forward dynamics of a linkage needs an input that does")
+    torque = an.reactions.moment["j1"][:, 2].reshape(3, n).copy()
+    ratio = mech.output_rate(an)[n:2 * n].copy()
+    torque[:, -1], ratio[-1] = torque[:, 0], ratio[0]  # 2 pi is 0: the same pose, equal to rounding
+    return Coefficients(theta, torque[2] - torque[0], torque[1] - torque[0], torque[0], ratio)
 
 
-def simulate(case: RssrCase, drive_torque: float, times: np.ndarray,
-             coeffs: Coefficients | None = None) -> np.ndarray:
-    """The crank's motion under a constant ``drive_torque`` from the case's first angle and speed, at
-    ``times`` ``(m,)`` s (increasing, from 0): states ``(m, 2)`` (``theta1`` rad, ``theta1_dot`` rad/s),
-    DOP853 at ``rtol = atol = 1e-12``."""
+def interpolation_error(c: Coefficients) -> float:
+    """Estimated largest spline error of the table over its largest ``|coefficient|``: the spline on every
+    other angle misses the skipped ones by ``2^(k+1)`` times the full table's error (``h^(k+1)``); the
+    table's rounding (~1e-14) bounds it from below."""
+    data = c.stacked()
+    scale = np.maximum(np.abs(data).max(axis=0), np.finfo(float).tiny)
+    miss = (np.abs(c.spline(2)(c.theta[1::2]) - data[1::2]) / scale).max()
+    return float(miss / 2 ** (SPLINE_DEGREE + 1))
+
+
+@dataclass(frozen=True)
+class _EquationOfMotion:
+    """The right-hand side for ``y = (theta, theta_dot, W^A, W^O, D)``: the input angle and rate, the work
+    of the drive and of the output torque, and the energy the input bearing dissipated.  ``model(theta)``
+    ``(4, k)`` is the coefficients' interface of :func:`dualmech.models.forward_dynamics._integrate`."""
+
+    spline: BSpline
+    torque: LoadFunction
+    output_torque: float
+    damping: float
+
+    def model(self, theta: float | np.ndarray) -> np.ndarray:
+        return self.spline(np.mod(np.atleast_1d(theta), 2 * np.pi)).T
+
+    def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
+        theta, w = y[0], y[1]
+        inertia, velocity, load, ratio = self.model(theta)[:, 0]
+        ta = self.torque(t, theta, w, math.nan, math.nan)
+        acc = (ta - self.damping * w - velocity * w * w - load) / inertia
+        return np.array([w, acc, ta * w, self.output_torque * ratio * w, self.damping * w * w])
+
+
+def drive_load(torque: float | str | LoadFunction | None, default: float) -> LoadFunction:
+    """The drive torque as a function of ``(t, psi, psidot, s4, s4dot)`` (``s4``, ``s4dot`` are NaN: a
+    linkage has no slider): :func:`~dualmech.models.forward_dynamics.as_load`, and an expression that
+    names ``s4`` or ``s4dot`` is a one-line ``ValueError``."""
+    load = as_load(torque, default, "torque", TORQUE)
+    if isinstance(torque, str):
+        names = {n.id for n in ast.walk(ast.parse(torque.strip(), mode="eval")) if isinstance(n, ast.Name)}
+        used = [s for s in SLIDER_NAMES if s in names]
+        if used:
+            raise ValueError(f"torque: {torque.strip()!r} uses {', '.join(used)}, the slider crank's slider; "
+                             "a linkage's drive torque may use t, psi, psidot")
+    return load
+
+
+def simulate(case: Any, duration: float, torque: float | str | LoadFunction | None = None,
+             psi0: float | None = None, psidot0: float | None = None, damping: float = 0.0,
+             samples: int = 1001, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
+             coeffs: Coefficients | None = None, max_evaluations: int = MAX_EVALUATIONS,
+             time_limit: float = TIME_LIMIT) -> "LinkageSimulation":
+    """Integrate the input's equation of motion of a linkage case from ``t = 0`` to ``duration`` s.
+
+    ``torque``: the drive torque about ``+z`` on the input link (default: an RSSR case's ``drive_torque``,
+    else 0; :func:`drive_load`); the output torque is the case's (:func:`loads`).  ``psi0`` (rad),
+    ``psidot0`` (rad/s): the start, default the case's first angle and ``crank_rpm``; ``damping``: the
+    input bearing's viscous coefficient (F·L·s); ``samples`` equally spaced output times; ``method``,
+    ``rtol``, ``atol``, ``max_evaluations``, ``time_limit`` as for the slider crank
+    (:func:`dualmech.models.forward_dynamics.simulate`, same ranges); ``coeffs`` a table built before.
+
+    Raises
+    ------
+    ValueError
+        One line: an input out of range, an input that does not turn fully, a load that is not a finite
+        real number, the budget used up, or a motion that runs away.
+    """
+    duration, damping, _, rtol, atol, _ = _checked_settings(duration, damping, 0.0, rtol, atol, 1e-12,
+                                                             samples, method)
+    budget = _Budget(max_evaluations, time_limit)
+    default, output_torque = loads(case)
+    tau = drive_load(torque, default)
+    psi0 = float(np.radians(case.motion.angles_deg[0])) if psi0 is None else check_number("psi0", psi0,
+                                                                                          CRANK_ANGLE)
+    psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0, CRANK_SPEED)
     c = coefficients(case) if coeffs is None else coeffs
-    splines = [CubicSpline(c.theta, v, bc_type="periodic") for v in (c.inertia, c.velocity, c.load)]
-
-    def rhs(_: float, y: np.ndarray) -> list[float]:
-        angle = np.mod(y[0], 2 * np.pi)
-        inertia, velocity, load = (float(s(angle)) for s in splines)
-        return [y[1], (drive_torque - velocity * y[1] ** 2 - load) / inertia]
-
-    start = [np.radians(case.motion.angles_deg[0]), case.motion.speed]
-    sol = solve_ivp(rhs, (0.0, float(times[-1])), start, method="DOP853", t_eval=times, rtol=1e-12,
-                    atol=1e-12)
-    return sol.y.T
+    rhs = _EquationOfMotion(c.spline(), tau, output_torque, damping)
+    sol = _integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
+                     np.linspace(0.0, duration, int(samples)), method, rtol, atol)
+    info = {"method": method, "rtol": rtol, "atol": atol, "nfev": int(sol.nfev), "coefficients": "table",
+            "table_size": c.theta.shape[0], "interpolation_error": interpolation_error(c),
+            "message": sol.message}
+    return trajectory(case, rhs, sol.t, sol.y, info)
 
 
-def energy(case: RssrCase, theta: np.ndarray, theta_dot: np.ndarray) -> np.ndarray:
-    """Kinetic plus potential energy, ``sum(1/2 m v_G^2 + 1/2 omega · I omega - m g · G)`` of the three
-    links at the states ``(n,)``."""
+@dataclass(frozen=True)
+class LinkageSimulation:
+    """A simulated motion of a linkage at ``n`` output times; arrays ``(n,)``.
+
+    ``t`` s; ``psi``, ``psi_dot``, ``psi_ddot`` the input angle ``theta1`` (rad) and its rates;
+    ``torque`` the applied drive torque :math:`\\tau^A`; ``output_torque`` the case's (constant);
+    ``kinetic``, ``potential`` (:math:`V = -\\sum m_b g\\cdot c_b`, world origin) from the in-house motion;
+    ``work_drive``, ``work_output``, ``dissipated`` integrated with the ODE; ``table`` the mechanism's
+    result table along the motion (inverse dynamics with the simulated ``psi_ddot`` and the output
+    torque given: its ``drive_torque`` is ``torque - damping * psi_dot``); ``info`` integrator facts.
+    """
+
+    case: Any
+    t: np.ndarray
+    psi: np.ndarray
+    psi_dot: np.ndarray
+    psi_ddot: np.ndarray
+    torque: np.ndarray
+    output_torque: float
+    kinetic: np.ndarray
+    potential: np.ndarray
+    work_drive: np.ndarray
+    work_output: np.ndarray
+    dissipated: np.ndarray
+    table: LinkageTable
+    info: dict
+
+    def energy_residual(self) -> np.ndarray:
+        """Work-energy balance :math:`\\Delta(T + V) - (W^A + W^O - D)`, ``(n,)`` (zero when exact)."""
+        e = self.kinetic + self.potential
+        return (e - e[0]) - (self.work_drive + self.work_output - self.dissipated)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Output columns in CSV order: :data:`SIMULATION_COLUMNS`, then the mechanism's table columns after
+        ``theta1_deg`` (``docs/conventions.md``, "Linkages", simulate)."""
+        cols = {"t": self.t, "theta1_deg": np.degrees(self.psi), "psi": self.psi, "psi_dot": self.psi_dot,
+                "psi_ddot": self.psi_ddot, "torque_applied": self.torque,
+                "output_torque_applied": np.full(self.t.shape, self.output_torque),
+                "kinetic_energy": self.kinetic, "potential_energy": self.potential,
+                "work_drive": self.work_drive, "work_output": self.work_output, "dissipated": self.dissipated}
+        return cols | {k: v for k, v in self.table.columns.items() if k != "theta1_deg"}
+
+    def to_csv(self, path: str | Path | None = None) -> str:
+        """CSV text of :meth:`columns` plus ``status`` (:func:`~dualmech.core.table.write_csv`)."""
+        return write_csv(self.columns(), self.table.status, path)
+
+
+#: The first columns of :meth:`LinkageSimulation.columns` (then the table's, then ``status``).
+SIMULATION_COLUMNS: tuple[str, ...] = (
+    "t", "theta1_deg", "psi", "psi_dot", "psi_ddot", "torque_applied", "output_torque_applied",
+    "kinetic_energy", "potential_energy", "work_drive", "work_output", "dissipated",
+)
+
+
+def energies(case: Any, an: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Kinetic :math:`\\sum \\tfrac12 m v_G^2 + \\tfrac12\\omega\\cdot I_G\\omega` and potential
+    :math:`-\\sum m g\\cdot G` energy of the three links of an analysis ``an``, each ``(n,)``."""
+    kinetic = sum(kinetic_energy(b, m) for b, m in zip(case.bodies, an.motions))
+    potential = -sum(b.mass * m.com @ case.gravity for b, m in zip(case.bodies, an.motions))
+    return kinetic, potential
+
+
+def energy(case: Any, theta: np.ndarray, theta_dot: np.ndarray) -> np.ndarray:
+    """Kinetic plus potential energy of the links at the input states ``(n,)`` (:func:`energies`)."""
     zero = np.zeros_like(theta)
-    an = analyze_rssr(replace(case, gravity=np.zeros(3)),
-                      crank=CrankState(theta, zero, theta_dot, zero, zero, zero))
-    total = np.zeros_like(theta)
-    for body, m in zip(case.bodies, an.motions):
-        i_world = m.rotation @ body.inertia @ np.swapaxes(m.rotation, 1, 2)
-        total += 0.5 * body.mass * np.einsum("ni,ni->n", m.com_vel, m.com_vel)
-        total += 0.5 * np.einsum("ni,nij,nj->n", m.omega, i_world, m.omega) - body.mass * m.com @ case.gravity
-    return total
+    an = mechanism(case).analyze(inverse_case(case), CrankState(theta, zero, theta_dot, zero, zero, zero))
+    return sum(energies(case, an))
+
+
+def trajectory(case: Any, rhs: _EquationOfMotion, t: np.ndarray, y: np.ndarray,
+               info: dict) -> LinkageSimulation:
+    """The in-house pose, rates, reactions and energies along an integrated motion ``y`` ``(5, n)``."""
+    psi, w = y[0], y[1]
+    acc = np.array([rhs(ti, yi)[1] for ti, yi in zip(t, y.T)])
+    torque = np.array([rhs.torque(ti, p, v, math.nan, math.nan) for ti, p, v in zip(t, psi, w)])
+    zero = np.zeros_like(psi)
+    mech = mechanism(case)
+    an = mech.analyze(inverse_case(case), CrankState(psi, zero, w, zero, acc, zero))
+    kinetic, potential = energies(case, an)
+    return LinkageSimulation(case, t, psi, w, acc, torque, rhs.output_torque, kinetic, potential, y[2], y[3],
+                             y[4], mech.table(an), info)

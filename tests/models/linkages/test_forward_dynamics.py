@@ -1,5 +1,10 @@
-"""Forward dynamics of the RSSR from the in-house inverse dynamics (generalized inertia): energy is kept
-without torques, and MuJoCo's free simulation (no servo, the drive torque applied) follows it."""
+"""Forward dynamics of the RSSR and the RCCC from the in-house inverse dynamics (generalized inertia).
+
+Each check is shown failing on a deliberate fault: a wrong sign of ``C`` breaks the energy of free
+motion, a wrong sign of the output ratio the work-energy balance and the virtual work of the output
+torque, an inertia that took the wrong difference the finite-difference inertia.  MuJoCo's free
+simulation of the RSSR (no servo, the drive torque applied) follows it.
+"""
 
 from __future__ import annotations
 
@@ -9,30 +14,209 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from dualmech.core.motion import CrankState
+from dualmech.core.thresholds import Tolerance
 from dualmech.models.linkages import linkage_case
-from dualmech.models.linkages.forward_dynamics import Coefficients, coefficients, energy, simulate
-from dualmech.models.linkages.tolerances import LINKAGE_ENERGY, LINKAGE_SIM_FREE_ANGLE, LINKAGE_SIM_FREE_RATE
+from dualmech.models.linkages.forward_dynamics import (
+    Coefficients,
+    coefficients,
+    drive_load,
+    energy,
+    inverse_case,
+    mechanism,
+    simulate,
+)
+from dualmech.models.linkages.rssr_case import RssrCase
+from dualmech.models.linkages.tolerances import LINKAGE_SIM_FREE_ANGLE, LINKAGE_SIM_FREE_RATE
+
+KINDS = ("rssr", "rccc")
+#: Free motion (no torques, 1 s): peak-to-peak total energy over the peak kinetic energy.
+FREE_ENERGY = Tolerance(
+    1e-9, "DOP853's global error at rtol = atol = 1e-12 (it scales with rtol: 9.4e-8 at 1e-8, 1.4e-12 at "
+    "1e-13) on a table interpolated to ~1e-13; measured 2.8e-11 (RSSR), 3.5e-11 (RCCC); wrong sign of C: ~1")
+#: Work-energy balance under a drive torque, damping and the output torque: the largest
+#: |delta(T + V) - (W_drive + W_output - D)| over the largest energy or work.
+WORK_ENERGY = Tolerance(
+    1e-9, "the same integrator error as FREE_ENERGY (the works are integrated with the motion); measured "
+    "6.7e-12 (RSSR), 8.8e-12 (RCCC); a wrong sign of the output ratio: 0.58, 1.4")
+#: Generalized inertia against sum(m |dG/dtheta|^2 + w' I w) by central differences of the poses (h = 1e-5),
+#: relative to its peak.
+INERTIA_FINITE_DIFFERENCE = Tolerance(
+    1e-8, "truncation ~h^2 (measured 3.4e-6 at h = 1e-3, 3.4e-8 at 1e-4) plus rounding of the closed poses "
+    "~1e-15/h; measured 1.1e-10 (RSSR), 3.6e-10 (RCCC) at h = 1e-5")
+#: Generalized inertia against twice the kinetic energy at unit input rate, relative to its peak.
+INERTIA_KINETIC = Tolerance(
+    1e-12, "the same rates summed in two ways (Newton-Euler least squares, kinetic energy): round-off; "
+    "measured 3.0e-14 (RSSR), 1.8e-14 (RCCC)")
+#: C against half the derivative of the interpolated I, relative to max |C|.
+HALF_DERIVATIVE = Tolerance(
+    1e-9, "derivative of the degree-7 spline at 0.5 deg (error ~h^7) of a table rounded to ~1e-14; "
+    "measured 4.2e-12 (RSSR), 1.5e-12 (RCCC)")
+#: Q with the output torque T minus Q without it, against -T G, relative to |T| max |G|.
+OUTPUT_VIRTUAL_WORK = Tolerance(
+    1e-11, "an identity of the linear inverse dynamics: round-off; measured 1.0e-14 (RSSR), 7.1e-15 (RCCC)")
 
 
-def test_energy_is_kept_without_torques() -> None:
-    case = replace(linkage_case("rssr"), output_torque=0.0)
-    states = simulate(case, 0.0, np.linspace(0.0, 1.0, 201))
-    total = energy(case, states[:, 0], states[:, 1])
-    assert np.ptp(states[:, 0]) > 4.0  # it swings through most of a turn
-    assert_allclose(total, total[0], rtol=LINKAGE_ENERGY.value, atol=0)
+@pytest.fixture(scope="module", params=KINDS)
+def kind(request: pytest.FixtureRequest) -> str:
+    return request.param
+
+
+@pytest.fixture(scope="module")
+def free_case(kind: str):
+    """The bundled case without output torque (gravity kept)."""
+    return replace(linkage_case(kind), output_torque=0.0)
+
+
+@pytest.fixture(scope="module")
+def free_coeffs(free_case) -> Coefficients:
+    return coefficients(free_case)
+
+
+def _free_drift(case, coeffs: Coefficients) -> tuple[float, float]:
+    """Peak-to-peak kinetic plus potential energy over the peak kinetic energy, and the swing (rad), 1 s
+    without torques."""
+    sim = simulate(case, 1.0, torque=0.0, samples=201, coeffs=coeffs)
+    total = sim.kinetic + sim.potential
+    return float(np.ptp(total) / sim.kinetic.max()), float(np.ptp(sim.psi))
+
+
+def test_energy_is_kept_in_free_motion(free_case, free_coeffs) -> None:
+    drift, swing = _free_drift(free_case, free_coeffs)
+    assert swing > 3.0  # through half a turn and more: the whole range of I(theta) is visited
+    assert drift <= FREE_ENERGY.value
+
+
+def test_the_energy_check_sees_a_wrong_sign_of_c(free_case, free_coeffs) -> None:
+    """Deliberate fault: ``C`` with the wrong sign (the ``C theta_dot^2`` term added instead of
+    subtracted)."""
+    wrong = replace(free_coeffs, velocity=-free_coeffs.velocity)
+    assert _free_drift(free_case, wrong)[0] > 1e3 * FREE_ENERGY.value
+
+
+def _driven(case, coeffs: Coefficients | None = None):
+    """1 s under a drive torque law, input damping and the case's output torque."""
+    return simulate(case, 1.0, torque="0.5 + 0.1*sin(psi) - 0.02*psidot", damping=0.01, samples=201,
+                    coeffs=coeffs)
+
+
+def _work_energy(sim) -> float:
+    scale = max(np.abs(sim.kinetic).max(), np.abs(sim.work_drive).max(), np.abs(sim.work_output).max())
+    return float(np.abs(sim.energy_residual()).max() / scale)
+
+
+def test_work_energy_balance_under_a_drive_torque(kind: str) -> None:
+    sim = _driven(linkage_case(kind))
+    assert np.abs(sim.work_output).max() > 0.1 and np.abs(sim.dissipated).max() > 1e-3  # every term works
+    assert _work_energy(sim) <= WORK_ENERGY.value
+    # the inverse dynamics along the motion needs the motor torque less the bearing's damping
+    assert_allclose(sim.table.columns["drive_torque"], sim.torque - 0.01 * sim.psi_dot,
+                    atol=1e-9 * np.abs(sim.torque).max(), rtol=0)
+    assert (sim.table.status == "ok").all()
+
+
+def test_the_work_energy_check_sees_a_wrong_output_ratio(kind: str) -> None:
+    """Deliberate fault: the output link's rate with the wrong sign (its torque's work has the wrong sign)."""
+    case = linkage_case(kind)
+    c = coefficients(case)
+    assert _work_energy(_driven(case, replace(c, ratio=-c.ratio))) > 1e3 * WORK_ENERGY.value
+
+
+def _output_virtual_work(kind: str, c: Coefficients) -> float:
+    """Worst |Q(T) - Q(0) + T G| over |T| max |G|: the output torque's share of the load term is its
+    virtual work."""
+    torque = linkage_case(kind).output_torque
+    unloaded = coefficients(replace(linkage_case(kind), output_torque=0.0))
+    worst = np.abs(c.load - unloaded.load + torque * c.ratio).max()
+    return float(worst / abs(torque) / np.abs(c.ratio).max())
+
+
+def test_the_output_torque_does_virtual_work_through_the_output_ratio(kind: str) -> None:
+    c = coefficients(linkage_case(kind))
+    assert _output_virtual_work(kind, c) <= OUTPUT_VIRTUAL_WORK.value
+    assert _output_virtual_work(kind, replace(c, ratio=-c.ratio)) > 0.1  # deliberate fault: seen
+
+
+def _vee(skew: np.ndarray) -> np.ndarray:
+    return 0.5 * np.stack([skew[:, 2, 1] - skew[:, 1, 2], skew[:, 0, 2] - skew[:, 2, 0],
+                           skew[:, 1, 0] - skew[:, 0, 1]], axis=1)
+
+
+def finite_difference_inertia(case, theta: np.ndarray, h: float = 1e-5) -> np.ndarray:
+    """``sum(m |dG/dtheta|^2 + w' I_world w)`` ``(n,)`` from the poses at ``theta +- h`` alone (rates 0):
+    ``dG/dtheta`` and ``w^ = dR/dtheta R'`` by central differences.  The RSSR coupler's spin about its axis
+    is a gauge (``docs/conventions.md``, "RSSR"), so its ``w`` is taken normal to the axis."""
+    zero = np.zeros(2 * theta.size)
+    poses = CrankState(np.concatenate([theta + h, theta - h]), zero, zero, zero, zero, zero)
+    an = mechanism(case).analyze(inverse_case(case), poses)
+    n, total = theta.size, np.zeros(theta.size)
+    for k, (body, m) in enumerate(zip(case.bodies, an.motions)):
+        mid = 0.5 * (m.rotation[:n] + m.rotation[n:])
+        w = _vee((m.rotation[:n] - m.rotation[n:]) / (2 * h) @ np.swapaxes(mid, 1, 2))
+        if isinstance(case, RssrCase) and k == 1:
+            u = mid[:, :, 0] / np.linalg.norm(mid[:, :, 0], axis=1, keepdims=True)
+            w -= np.einsum("ni,ni->n", w, u)[:, None] * u
+        v = (m.com[:n] - m.com[n:]) / (2 * h)
+        total += body.mass * np.einsum("ni,ni->n", v, v) + np.einsum(
+            "ni,nij,nj->n", w, mid @ body.inertia @ np.swapaxes(mid, 1, 2), w)
+    return total
+
+
+def test_the_generalized_inertia_is_that_of_the_bodies(kind: str) -> None:
+    case = linkage_case(kind)
+    c = coefficients(case, 73)  # every 5 deg
+    theta, inertia = c.theta[:-1], c.inertia[:-1]
+    peak = inertia.max()
+    assert_allclose(finite_difference_inertia(case, theta), inertia,
+                    atol=INERTIA_FINITE_DIFFERENCE.value * peak, rtol=0)
+    kinetic = energy(case, theta, np.ones_like(theta)) - energy(case, theta, np.zeros_like(theta))
+    assert_allclose(2 * kinetic, inertia, atol=INERTIA_KINETIC.value * peak, rtol=0)
+
+
+def test_the_inertia_check_sees_a_wrong_difference(kind: str) -> None:
+    """Deliberate fault: the inertia taken as (unit acceleration) - (unit rate) instead of - (at rest)."""
+    case = linkage_case(kind)
+    c = coefficients(case, 73)
+    wrong = c.inertia[:-1] - c.velocity[:-1]
+    worst = np.abs(finite_difference_inertia(case, c.theta[:-1]) - wrong).max() / c.inertia.max()
+    assert worst > 1e3 * INERTIA_FINITE_DIFFERENCE.value
+
+
+def _half_derivative(c: Coefficients) -> float:
+    d_inertia = c.spline().derivative()(c.theta)[:, 0]
+    return float(np.abs(d_inertia / 2 - c.velocity).max() / np.abs(c.velocity).max())
+
+
+def test_c_is_half_the_derivative_of_the_inertia(free_coeffs: Coefficients) -> None:
+    assert _half_derivative(free_coeffs) <= HALF_DERIVATIVE.value
+    assert _half_derivative(replace(free_coeffs, velocity=-free_coeffs.velocity)) > 1.0  # fault: seen
+
+
+def test_a_linkage_whose_input_does_not_turn_is_refused() -> None:
+    case = linkage_case("rssr")
+    rocker = replace(case, geometry=replace(case.geometry, a1=0.3))
+    with pytest.raises(ValueError, match="does not turn fully"):
+        coefficients(rocker, 37)
+
+
+def test_a_drive_torque_may_not_name_the_slider() -> None:
+    with pytest.raises(ValueError, match="torque: '2[*]s4dot' uses s4dot, the slider crank's slider"):
+        drive_load("2*s4dot", 0.0)
+    assert drive_load("2*psidot + t", 0.0)(1.0, 0.0, 3.0, np.nan, np.nan) == 7.0
 
 
 def _free_run(coeffs: Coefficients | None = None) -> tuple[float, float]:
     """Worst angle error (rad) and rate error (over the peak rate) of MuJoCo's free simulation against the
     in-house forward dynamics (with ``coeffs`` if given), drive torque 0.3 N m, 0.5 s."""
     pytest.importorskip("mujoco")
-    from dualmech.models.linkages.mujoco_rssr_sim import simulate_rssr
+    from dualmech.validation.linkages.mujoco_rssr_sim import simulate_rssr
 
     case = linkage_case("rssr")
     sim = simulate_rssr(case, 2e-5, 0.5, 250, runin=0.0, drive_torque=0.3)
-    states = simulate(case, 0.3, sim["time"], coeffs)
-    return (float(np.abs(sim["theta1"] - states[:, 0]).max()),
-            float(np.abs(sim["theta1_dot"] - states[:, 1]).max() / np.abs(states[:, 1]).max()))
+    ours = simulate(case, float(sim["time"][-1]), torque=0.3, samples=len(sim["time"]), coeffs=coeffs)
+    assert_allclose(ours.t, sim["time"], rtol=0, atol=1e-12)
+    return (float(np.abs(sim["theta1"] - ours.psi).max()),
+            float(np.abs(sim["theta1_dot"] - ours.psi_dot).max() / np.abs(ours.psi_dot).max()))
 
 
 def test_mujoco_free_simulation_follows_the_in_house_forward_dynamics() -> None:
