@@ -12,11 +12,13 @@ import sys
 
 import click
 import numpy as np
+from click.core import ParameterSource
 
 from dualmech.cli.errors import one_line_errors
 from dualmech.models.case import load_case
 from dualmech.models.forward_dynamics import MAX_EVALUATIONS, TIME_LIMIT
 from dualmech.models.inputs import ANGLE_DEG, Range, show
+from dualmech.models.linkages import is_linkage
 
 #: Longest integer option text: beyond this many digits it is out of every range anyway.
 _MAX_INT_DIGITS = 18
@@ -43,14 +45,28 @@ def parse_count(option: str, text: str, low: int, high: int) -> int:
 
 def summarize_simulation(sim) -> str:
     """A few lines: span, final state, energy balance, integrator facts."""
-    e_scale = max(float(np.abs(sim.kinetic).max()), float(np.abs(sim.work_drive).max()), 1e-300)
+    return _summary(sim, f"slider S4: {np.nanmin(sim.s4):.6g} .. {np.nanmax(sim.s4):.6g}", (sim.work_drive,))
+
+
+def summarize_linkage(sim) -> str:
+    """The same for a linkage (:class:`~dualmech.models.linkages.forward_dynamics.LinkageSimulation`): the
+    output torque and its work in place of the slider."""
+    middle = (f"output torque {sim.output_torque:.6g} (the case's): work {sim.work_output[-1]:.6g}; "
+              f"dissipated {sim.dissipated[-1]:.6g}")
+    return _summary(sim, middle, (sim.work_drive, sim.work_output))
+
+
+def _summary(sim, middle: str, works: tuple[np.ndarray, ...]) -> str:
+    """Span, crank, ``middle``, the work-energy residual over the largest of the kinetic energy and
+    ``works``, the integrator."""
+    e_scale = max(float(np.abs(sim.kinetic).max()), *(float(np.abs(w).max()) for w in works), 1e-300)
     info = sim.info
     lines = [
         f"case {sim.case.name}: {len(sim.t)} samples over {sim.t[-1]:.6g} s",
         f"crank: {np.degrees(sim.psi[0]):.6g} -> {np.degrees(sim.psi[-1]):.6g} deg "
         f"({(sim.psi[-1] - sim.psi[0]) / (2 * np.pi):.4g} rev), "
         f"speed {sim.psi_dot[0]:.6g} -> {sim.psi_dot[-1]:.6g} rad/s",
-        f"slider S4: {np.nanmin(sim.s4):.6g} .. {np.nanmax(sim.s4):.6g}",
+        middle,
         f"work-energy residual: {np.abs(sim.energy_residual()).max() / e_scale:.3g} (relative to the energy "
         "scale)",
         f"integrator {info['method']} rtol={info['rtol']:g} atol={info['atol']:g}, {info['nfev']} "
@@ -94,22 +110,63 @@ def summarize_simulation(sim) -> str:
 def simulate(case: str, duration: str, torque: str | None, slider_load: str | None, psi0: str | None,
              psidot0: str | None, damping: str, slider_damping: str, samples: str, rtol: str, atol: str,
              method: str, max_evaluations: str, time_limit: str, output: str | None) -> None:
-    """Integrate the crank's equation of motion for CASE; write psi(t), S4(t) and the joint reactions."""
+    """Integrate the crank's equation of motion for CASE; write psi(t), S4(t) and the joint reactions.
+
+    A linkage case (``[mechanism] kind`` rssr or rccc) integrates its input's equation of motion under
+    --torque (an expression in t, psi, psidot) and the case's output torque, and writes its own columns
+    (docs/conventions.md, "Linkages"); --slider-load and --slider-damping do not apply to it."""
     from dualmech.models import forward_dynamics as fd
 
     psi0_deg = parse_number("--psi0", psi0, ANGLE_DEG)
-    sim = fd.simulate(
-        load_case(case), parse_number("--duration", duration, fd.DURATION), torque=torque,
-        slider_load=slider_load, psi0=None if psi0_deg is None else float(np.radians(psi0_deg)),
-        psidot0=parse_number("--psidot0", psidot0, fd.CRANK_SPEED),
-        damping=parse_number("--damping", damping, fd.DAMPING),
-        slider_damping=parse_number("--slider-damping", slider_damping, fd.DAMPING),
-        samples=parse_count("--samples", samples, 2, fd.MAX_SAMPLES), method=method,
-        rtol=parse_number("--rtol", rtol, fd.RTOL), atol=parse_number("--atol", atol, fd.ATOL),
-        max_evaluations=parse_count("--max-evaluations", max_evaluations, 1, 10**12),
-        time_limit=parse_number("--time-limit", time_limit, fd.TIME_BUDGET))
+    psi0_rad = None if psi0_deg is None else float(np.radians(psi0_deg))
+    if is_linkage(case):
+        _refuse_slider_options(case)
+        from dualmech.models.linkages import forward_dynamics as lfd
+        from dualmech.models.linkages import linkage_case
+
+        sim = lfd.simulate(linkage_case(case), torque=torque, psi0=psi0_rad, **_settings(
+            duration, psidot0, damping, None, samples, method, rtol, atol, max_evaluations, time_limit))
+        summary = summarize_linkage(sim)
+    else:
+        settings = _settings(duration, psidot0, damping, slider_damping, samples, method, rtol, atol,
+                             max_evaluations, time_limit)
+        sim = fd.simulate(load_case(case), torque=torque, slider_load=slider_load, psi0=psi0_rad, **settings)
+        summary = summarize_simulation(sim)
     if output:
         sim.to_csv(output)
     else:
         sys.stdout.write(sim.to_csv())
-    click.echo(summarize_simulation(sim), err=output is None)
+    click.echo(summary, err=output is None)
+
+
+def _settings(duration: str, psidot0: str | None, damping: str, slider_damping: str | None, samples: str,
+              method: str, rtol: str, atol: str, max_evaluations: str, time_limit: str) -> dict:
+    """The numeric options parsed in order, as keyword arguments of ``simulate`` (``slider_damping`` only if
+    given: a linkage has none); a one-line ValueError for a bad one."""
+    from dualmech.models import forward_dynamics as fd
+
+    settings = {"duration": parse_number("--duration", duration, fd.DURATION),
+                "psidot0": parse_number("--psidot0", psidot0, fd.CRANK_SPEED),
+                "damping": parse_number("--damping", damping, fd.DAMPING)}
+    if slider_damping is not None:
+        settings["slider_damping"] = parse_number("--slider-damping", slider_damping, fd.DAMPING)
+    return settings | {
+        "samples": parse_count("--samples", samples, 2, fd.MAX_SAMPLES), "method": method,
+        "rtol": parse_number("--rtol", rtol, fd.RTOL), "atol": parse_number("--atol", atol, fd.ATOL),
+        "max_evaluations": parse_count("--max-evaluations", max_evaluations, 1, 10**12),
+        "time_limit": parse_number("--time-limit", time_limit, fd.TIME_BUDGET)}
+
+
+#: Options of ``simulate`` that a linkage case refuses: it has no slider.
+SLIDER_OPTIONS = {"slider_load": "--slider-load", "slider_damping": "--slider-damping"}
+
+
+def _refuse_slider_options(case: str) -> None:
+    """A one-line ValueError if an option in :data:`SLIDER_OPTIONS` was given for the linkage ``case``."""
+    ctx = click.get_current_context()
+    given = [flag for name, flag in SLIDER_OPTIONS.items()
+             if ctx.get_parameter_source(name) is not ParameterSource.DEFAULT]
+    if given:
+        raise ValueError(f"{given[0]}: {case!r} is a linkage (no slider); its load is the case's "
+                         "loads.output_torque, its options --torque, --damping, --psi0, --psidot0 and the "
+                         "integrator's")
