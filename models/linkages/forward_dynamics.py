@@ -10,7 +10,7 @@ so three inverse-dynamics solves per input angle (rate 0 and acceleration 0, rat
 give the generalized inertia :math:`I` about the input axis, the velocity coefficient
 :math:`C = \\tfrac12 I'` and the load term :math:`Q` (gravity and the output torque), batched over a
 0.5 deg grid of a full turn (:data:`POINTS`), with the output link's rate per unit input rate
-:math:`G` (the output torque's work).  One function serves every mechanism: :func:`coefficients`
+:math:`r` (the output torque's work).  One function serves every mechanism: :func:`coefficients`
 takes the mechanism's analysis at given input states (:data:`MECHANISMS`).  Under a drive torque
 :math:`\\tau^A` (a number, an expression in ``t, psi, psidot`` or a function) and a viscous input
 bearing :math:`c_1` the motion is
