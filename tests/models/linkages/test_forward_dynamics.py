@@ -23,6 +23,7 @@ from dualmech.models.linkages.forward_dynamics import (
     drive_load,
     energy,
     inverse_case,
+    loads,
     mechanism,
     simulate,
 )
@@ -229,3 +230,14 @@ def test_the_check_sees_a_dropped_velocity_term() -> None:
     c = coefficients(linkage_case("rssr"))
     angle, rate = _free_run(replace(c, velocity=np.zeros_like(c.velocity)))
     assert angle > 10 * LINKAGE_SIM_FREE_ANGLE.value or rate > 10 * LINKAGE_SIM_FREE_RATE.value
+
+
+def test_an_rssr_case_in_drive_torque_mode_is_driven_by_its_torque() -> None:
+    """Its ``drive_torque`` is the default torque and no output torque acts: the inverse dynamics along the
+    motion (output torque 0 given) returns the applied torque."""
+    case = replace(linkage_case("rssr"), drive_torque=0.5, output_torque=None)
+    assert loads(case) == (0.5, 0.0)
+    sim = simulate(case, 0.2, samples=21)
+    assert (sim.torque == 0.5).all() and (sim.work_output == 0.0).all()
+    assert_allclose(sim.table.columns["drive_torque"], 0.5, rtol=0, atol=1e-9)
+    assert _work_energy(sim) <= WORK_ENERGY.value
