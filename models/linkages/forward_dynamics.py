@@ -171,13 +171,12 @@ def coefficients(case: Any, points: int = POINTS, analyze: Mechanism | None = No
 
 
 def interpolation_error(c: Coefficients) -> float:
-    """Estimated largest spline error of the table over its largest ``|coefficient|``: the spline on every
-    other angle misses the skipped ones by ``2^(k+1)`` times the full table's error (``h^(k+1)``); the
-    table's rounding (~1e-14) bounds it from below."""
+    """A bound on the spline's largest error over the largest ``|coefficient|``: how far the spline on every
+    other angle misses the skipped ones (the full table's error is smaller, by ``2^(k+1)`` down to the
+    table's rounding, ~1e-14).  Measured 9e-14 (RSSR), 3e-12 (RCCC) on the bundled cases."""
     data = c.stacked()
     scale = np.maximum(np.abs(data).max(axis=0), np.finfo(float).tiny)
-    miss = (np.abs(c.spline(2)(c.theta[1::2]) - data[1::2]) / scale).max()
-    return float(miss / 2 ** (SPLINE_DEGREE + 1))
+    return float((np.abs(c.spline(2)(c.theta[1::2]) - data[1::2]) / scale).max())
 
 
 @dataclass(frozen=True)

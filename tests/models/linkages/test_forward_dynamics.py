@@ -16,8 +16,9 @@ from numpy.testing import assert_allclose
 
 from dualmech.core.motion import CrankState
 from dualmech.core.thresholds import Tolerance
-from dualmech.models.linkages import linkage_case
+from dualmech.models.linkages import forward_dynamics, linkage_case
 from dualmech.models.linkages.forward_dynamics import (
+    POINTS,
     Coefficients,
     coefficients,
     drive_load,
@@ -53,6 +54,11 @@ INERTIA_KINETIC = Tolerance(
 HALF_DERIVATIVE = Tolerance(
     1e-9, "derivative of the degree-7 spline at 0.5 deg (error ~h^7) of a table rounded to ~1e-14; "
     "measured 4.2e-12 (RSSR), 1.5e-12 (RCCC)")
+#: The coefficient table's spline at the midpoints of its grid against direct solves there, relative to each
+#: coefficient's peak.
+SPLINE_MIDPOINTS = Tolerance(
+    1e-12, "a degree-7 spline on 0.5 deg (error ~h^8) down to the table's rounding; measured 9.4e-14 (RSSR), "
+    "7.6e-14 (RCCC); a cubic one misses by 7.1e-9, 8.3e-8")
 #: Q with the output torque T minus Q without it, against -T G, relative to |T| max |G|.
 OUTPUT_VIRTUAL_WORK = Tolerance(
     1e-11, "an identity of the linear inverse dynamics: round-off; measured 1.0e-14 (RSSR), 7.1e-15 (RCCC)")
@@ -241,3 +247,16 @@ def test_an_rssr_case_in_drive_torque_mode_is_driven_by_its_torque() -> None:
     assert (sim.torque == 0.5).all() and (sim.work_output == 0.0).all()
     assert_allclose(sim.table.columns["drive_torque"], 0.5, rtol=0, atol=1e-9)
     assert _work_energy(sim) <= WORK_ENERGY.value
+
+
+def _spline_midpoints(kind: str) -> float:
+    """Worst miss of the table's spline at its grid's midpoints (direct solves on the 0.25 deg grid)."""
+    c, fine = coefficients(linkage_case(kind)), coefficients(linkage_case(kind), 2 * POINTS - 1)
+    data = fine.stacked()
+    return float((np.abs(c.spline()(fine.theta[1::2]) - data[1::2]) / np.abs(data).max(axis=0)).max())
+
+
+def test_the_coefficient_spline_is_exact_to_rounding(kind: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    assert _spline_midpoints(kind) <= SPLINE_MIDPOINTS.value
+    monkeypatch.setattr(forward_dynamics, "SPLINE_DEGREE", 3)  # deliberate fault: a cubic spline
+    assert _spline_midpoints(kind) > 1e3 * SPLINE_MIDPOINTS.value
