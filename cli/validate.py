@@ -144,16 +144,22 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     """Run every case of MATRIX.toml (default: the thesis's study) on every engine and compare.
 
     Exits 1 when any judge disagrees with the reference beyond tolerance, an engine
-    fails, or (with --baseline) anything regressed.
+    fails, or (with --baseline) anything regressed.  The other linkages: `validate rssr`,
+    `validate rccc`, `validate linkages` (or a linkage case or matrix file; -o and --engines apply).
     """
     from dualmech.validation.api import open_run, run_and_compare
     from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline
     from dualmech.validation.executors import ClusterLost
     from dualmech.validation.junit import write_junit
+    from dualmech.validation.linkages.matrix import is_linkage_source
     from dualmech.validation.report import write_report
     from dualmech.validation.rundir import check_output_folder
     from dualmech.validation.runner import load_entries, timings
 
+    if is_linkage_source(matrix_file):  # rssr, rccc, linkages, a linkage case or matrix file
+        _validate_linkages(matrix_file, outdir, _engine_list(engines), {
+            "--resume": resume, "--scheduler": scheduler, "--junit": junit_file, "--baseline": baseline_file,
+            "--write-baseline": write_baseline_file, "--report-dir": report_dir})
     matrix, outdir = open_run(matrix_file, outdir, _engine_list(engines))
     baseline = read_baseline(baseline_file) if baseline_file else None  # fail early on a bad file
     if report_dir:
@@ -217,6 +223,74 @@ def _print_verdict(console, comparison, files, regressions: list, baseline_file:
         console.print(f"baseline written: {write_baseline_file}")
     if junit_file:
         console.print(f"JUnit: {junit_file}")
+
+
+# ------------------------------------------------------------------------ the other linkages (RSSR, RCCC)
+
+def _validate_linkages(source: str, outdir: str | None, engines: tuple[str, ...], refused: dict) -> None:
+    """``validate`` of a linkage case or matrix (:mod:`dualmech.validation.linkages`): run, compare, report,
+    print the table and the verdict, exit 0 (PASS) or 1 (FAIL)."""
+    import time
+    from pathlib import Path
+
+    from dualmech.validation.junit import describe
+    from dualmech.validation.linkages.matrix import load_linkage_matrix
+    from dualmech.validation.linkages.report import write_linkage_report
+    from dualmech.validation.linkages.run import run_linkages
+    from dualmech.validation.rundir import check_output_folder
+
+    given = next((flag for flag, value in refused.items() if value), None)
+    if given:
+        raise ValueError(f"{given}: not available for a linkage run ({source}); it takes -o, --engines, "
+                         "--jobs")
+    matrix = load_linkage_matrix(source)
+    matrix = matrix.with_engines(engines) if engines else matrix
+    folder = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
+    start = time.perf_counter()
+    run = run_linkages(matrix)
+    seconds = time.perf_counter() - start
+    files = write_linkage_report(run, folder, seconds)
+    console = summary_console(sys.stdout.isatty())
+    title = (f"{matrix.name}: {len(matrix.cases)} linkage cases, engines {', '.join(matrix.engines)} — "
+             f"solved and compared in {seconds:.1f} s")
+    console.print(_linkage_table(run, title))
+    failures = run.comparison.failures()
+    n = len(run.comparison.checks)
+    colour = {"PASS": "green", "FAIL": "red", "INCOMPLETE": "yellow"}[str(run.verdict)]
+    worst = "; ".join(f"{e} {c.ratio:.2g} ({c.case} {c.quantity})" for e, c in run.worst().items())
+    console.print(f"[{colour}]{run.verdict}[/]: {n - len(failures)} of {n} checks passed; worst ratio "
+                  f"(relative difference / tolerance): {worst}", highlight=False)
+    for c in failures[:SHOWN_FAILURES]:
+        console.print(f"  [red]✗[/] {describe(c)}", highlight=False)
+    if len(failures) > SHOWN_FAILURES:
+        console.print(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {files.markdown})")
+    console.print(f"report: {files.html} and {files.markdown}; summary {files.summary}")
+    sys.exit(exit_code(run.verdict, []))
+
+
+def _linkage_table(run, title: str):
+    """One row per linkage case, one column per judge: its worst ratio, or what failed; – not applicable."""
+    from rich.table import Table
+
+    table = Table(title=title, title_justify="left", pad_edge=False, show_edge=False)
+    for name in ("case", "kind", f"rows ({run.matrix.reference})", *run.matrix.judges):
+        table.add_column(name, no_wrap=True, justify="right" if name.startswith("rows") else "left")
+    for entry in run.matrix.cases:
+        ref = run.tables[entry.id].get(run.matrix.reference)
+        cells = []
+        for e in run.matrix.judges:
+            checks = run.comparison.for_engine(entry.id, e)
+            failed = [c for c in checks if not c.passed]
+            if not checks:
+                cells.append("[dim]–[/]")
+            elif failed:
+                more = f" +{len(failed) - 1}" if len(failed) > 1 else ""
+                cells.append(f"[red]✗ {failed[0].quantity}{more}[/]")
+            else:
+                cells.append(f"[green]✓[/] {max(c.ratio for c in checks):.1e}")
+        rows = "✗" if ref is None or isinstance(ref, str) else str(len(ref))
+        table.add_row(entry.id, entry.kind, rows, *cells)
+    return table
 
 
 def _cores() -> int:

@@ -1,0 +1,100 @@
+"""``dualmech validate rssr | rccc | linkages | FILE``: the linkage matrix format, the run folder, the report,
+the verdict line and the exit codes (0 pass, 1 fail, 2 bad input)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import pytest
+from click.testing import CliRunner
+
+from dualmech.cli import main
+from dualmech.models.linkages import CASES
+from dualmech.validation.exit_codes import EXIT_BAD_INPUT, EXIT_FAIL, EXIT_PASS
+from dualmech.validation.linkages import run as run_module
+from dualmech.validation.linkages.matrix import MatrixError, is_linkage_source, load_linkage_matrix
+
+pytest.importorskip("pinocchio")
+pytest.importorskip("mujoco")
+
+
+def test_which_sources_are_linkage_runs(tmp_path) -> None:
+    """Never raises: a slider-crank matrix, preset or a missing file is not one (the slider crank's reader
+    then says what is wrong)."""
+    matrix = tmp_path / "m.toml"
+    matrix.write_text('name = "m"\nlinkages = ["rssr"]\n')
+    for source, expected in (("rssr", True), ("rccc", True), ("linkages", True), (str(matrix), True),
+                             (str(CASES / "rccc.toml"), True), ("thesis-1991", False), ("joints", False),
+                             ("thesis/ideal", False), ("no-such", False), (None, False)):
+        assert is_linkage_source(source) is expected, source
+
+
+@pytest.mark.parametrize("text, words", [
+    ('name = "m"\nlinkages = ["rssr"]\nsweep = 1\n', "sweep: unknown linkage matrix key (valid: name,"),
+    ('name = "m"\nlinkages = []\n', "linkages: expected a list of 1 to 100 linkage cases"),
+    ('name = "m"\nlinkages = ["thesis/ideal"]\n', "linkages[0]: 'thesis/ideal' is not a linkage case"),
+    ('name = "m"\nlinkages = ["rssr", "rssr"]\n', "linkages: two cases are named 'rssr-crank-rocker'"),
+    ('name = "m"\nlinkages = ["rssr"]\nengines = ["dualmech", "adams"]\n', "engines: 'adams' is not an "),
+    ('name = "m"\nlinkages = ["rssr"]\nengines = ["dualmech"]\n', "engines: ['dualmech'] has no judge"),
+    ('name = "../x"\nlinkages = ["rssr"]\n', "name: '../x'"),
+])
+def test_bad_linkage_matrices_are_refused_in_one_line(tmp_path, text: str, words: str) -> None:
+    path = tmp_path / "m.toml"
+    path.write_text(text)
+    with pytest.raises(MatrixError) as err:
+        load_linkage_matrix(path)
+    assert words in str(err.value) and "\n" not in str(err.value), str(err.value)
+    result = CliRunner().invoke(main, ["validate", str(path), "-o", str(tmp_path / "run")])
+    assert result.exit_code == EXIT_BAD_INPUT and result.output.count("\n") == 1, result.output
+
+
+def test_a_matrix_file_names_cases_beside_it(tmp_path) -> None:
+    (tmp_path / "mine.toml").write_text((CASES / "rccc.toml").read_text().replace("rccc-example", "mine"))
+    path = tmp_path / "m.toml"
+    path.write_text('name = "m"\nlinkages = ["mine.toml", "rssr"]\nengines = ["dualmech", "mujoco"]\n')
+    matrix = load_linkage_matrix(path)
+    assert [c.id for c in matrix.cases] == ["mine", "rssr-crank-rocker"] and matrix.judges == ("mujoco",)
+
+
+def test_validate_rssr_passes_and_writes_its_report(tmp_path) -> None:
+    out = tmp_path / "run"
+    result = CliRunner().invoke(main, ["validate", "rssr", "-o", str(out)])
+    assert result.exit_code == EXIT_PASS, result.output
+    assert "PASS: 62 of 62 checks passed; worst ratio (relative difference / tolerance): pinocchio " \
+        in result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["verdict"] == "PASS" and set(summary["worst"]) == {"pinocchio", "mujoco", "mujoco-sim"}
+    assert (out / "figures" / "linkage-rssr-crank-rocker.png").stat().st_size > 10_000
+    markdown = (out / "report.md").read_text()
+    assert "| rssr-crank-rocker | rssr | mujoco-sim | 176 | pass | 9 |" in markdown
+    assert (out / "report.html").read_text().count("data:image/png;base64,") == 1
+    assert {p.name for p in (out / "tables" / "rssr-crank-rocker").iterdir()} == {
+        "dualmech.csv", "pinocchio.csv", "mujoco.csv", "mujoco-sim.csv"}
+    again = CliRunner().invoke(main, ["validate", "rssr", "-o", str(out), "--engines", "dualmech,pinocchio"])
+    assert again.exit_code == EXIT_PASS and "PASS: 27 of 27 checks passed" in again.output, again.output
+
+
+def test_validate_fails_with_exit_code_1_on_a_faulty_judge(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Deliberate fault: Pinocchio's output angle 1e-6 deg off on the RCCC."""
+    real = run_module.solve_case
+
+    def solve(name, kind, case):
+        table = real(name, kind, case)
+        if (name, kind) != ("pinocchio", "rccc"):
+            return table
+        return replace(table, columns={**table.columns, "theta4_deg": table.columns["theta4_deg"] + 1e-6})
+
+    monkeypatch.setattr(run_module, "solve_case", solve)
+    result = CliRunner().invoke(main, ["validate", "linkages", "-o", str(tmp_path / "run")])
+    assert result.exit_code == EXIT_FAIL, result.output
+    assert "FAIL: 130 of 131 checks passed" in result.output
+    assert "✗ rccc-example / pinocchio: theta4_deg: max rel" in result.output
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["n_failed"] == 1
+
+
+@pytest.mark.parametrize("flag", [["--junit", "x.xml"], ["--resume"], ["--baseline", "b.json"]])
+def test_options_of_the_slider_cranks_runs_are_refused(tmp_path, flag: list[str]) -> None:
+    result = CliRunner().invoke(main, ["validate", "rccc", "-o", str(tmp_path / "run"), *flag])
+    assert result.exit_code == EXIT_BAD_INPUT and result.output.count("\n") == 1, result.output
+    assert f"{flag[0]}: not available for a linkage run (rccc)" in result.output

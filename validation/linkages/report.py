@@ -1,0 +1,153 @@
+"""The report of a linkage run: ``summary.json``, ``report.md``, ``report.html`` (self-contained),
+``figures/<case>.png`` and every engine's table (``tables/<case>/<engine>.csv``) in the run folder.
+
+Per case one figure: the output angle against the input angle from every engine (the reference as a
+line, each judge as markers), and below it each judge's worst ratio of relative difference to tolerance
+per row (log scale; at most 1 passes).  The templates are ``validation/templates/linkages.*.j2``; the
+folder rules (a dualmech folder only, one writer at a time, a manifest of what was written) are those of
+:mod:`dualmech.validation.rundir`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dualmech.validation.linkages.run import SPECS, LinkageRun, write_tables
+from dualmech.validation.provenance import KEY_LIBRARIES, versions
+from dualmech.validation.report import Figure, environment, fig_to_png
+from dualmech.validation.report.plots import JUDGE_MARKERS, LOG_FLOOR
+from dualmech.validation.rundir import locked, record_files
+from dualmech.validation.runner import write_json_atomic
+
+#: The report's Jinja2 templates (beside the slider crank's).
+TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
+#: Format tag of a linkage run's ``summary.json`` (a dualmech folder marker, not a slider-crank baseline).
+SUMMARY_FORMAT = "dualmech-summary/linkages-1"
+
+
+@dataclass(frozen=True)
+class LinkageReport:
+    """What :func:`write_linkage_report` wrote."""
+
+    summary: Path
+    markdown: Path
+    html: Path
+    figures: tuple[Path, ...]
+    tables: tuple[Path, ...]
+
+
+def engine_rows(run: LinkageRun) -> list[dict]:
+    """One row per case and engine of the matrix: its verdict, checks, worst ratio and where, seconds."""
+    rows = []
+    for entry in run.matrix.cases:
+        solved = run.tables[entry.id]
+        for engine in run.matrix.engines:
+            checks = run.comparison.for_engine(entry.id, engine)
+            worst = max(checks, key=lambda c: (not c.passed, c.ratio), default=None)
+            table = solved.get(engine)
+            rows.append({
+                "case": entry.id, "kind": entry.kind, "engine": engine, "applies": engine in solved,
+                "reference": engine == run.matrix.reference, "rows": None if table is None or isinstance(
+                    table, str) else len(table),
+                "passed": all(c.passed for c in checks) if checks else None, "n_checks": len(checks),
+                "n_failed": sum(not c.passed for c in checks),
+                "ratio": None if worst is None else worst.ratio,
+                "quantity": None if worst is None else worst.quantity,
+                "at_deg": None if worst is None else worst.worst_theta_deg,
+                "seconds": run.seconds[entry.id].get(engine)})
+    return rows
+
+
+def linkage_summary(run: LinkageRun, seconds: float) -> dict:
+    """The JSON summary of a linkage run (``summary.json``): verdict, worst ratio per judge, every check."""
+    comparison = run.comparison
+    return {
+        "format": SUMMARY_FORMAT,
+        "matrix": run.matrix.name,
+        "description": run.matrix.description,
+        "reference": run.matrix.reference,
+        "engines": list(run.matrix.engines),
+        "verdict": str(run.verdict),
+        "passed": comparison.passed,
+        "n_checks": len(comparison.checks),
+        "n_failed": len(comparison.failures()),
+        "seconds": seconds,
+        "versions": versions(KEY_LIBRARIES),
+        "cases": [{"id": e.id, "kind": e.kind, "source": e.source, "engines": list(run.matrix.engines_of(e))}
+                  for e in run.matrix.cases],
+        "worst": {judge: {"case": c.case, "quantity": c.quantity, "ratio": c.ratio, "max_rel": c.max_rel,
+                          "tolerance": c.tolerance.name, "passed": c.passed}
+                  for judge, c in run.worst().items()},
+        "engine_rows": engine_rows(run),
+        "errors": comparison.errors,
+        "checks": [c.to_dict() for c in comparison.checks],
+    }
+
+
+def case_figure(run: LinkageRun, case_id: str, kind: str) -> Figure:
+    """The output angle from every engine, and each judge's worst ratio to tolerance per row."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    column = SPECS[kind].pose[0]
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7.0, 5.6), sharex=True)
+    colors = [plt.get_cmap("tab10")(i) for i in range(10)]
+    judges = [e for e in run.tables[case_id] if e != run.matrix.reference]
+    reference = run.tables[case_id].get(run.matrix.reference)
+    if reference is not None and not isinstance(reference, str):
+        top.plot(reference["theta1_deg"], reference[column], "-", color="black", lw=1.3,
+                 label=f"{run.matrix.reference} (reference)")
+    for j, engine in enumerate(judges):
+        table, style = run.tables[case_id][engine], dict(color=colors[j % 10], ms=4, ls="none", mfc="none")
+        if not isinstance(table, str):
+            top.plot(table["theta1_deg"], table[column], JUDGE_MARKERS[j % len(JUDGE_MARKERS)], label=engine,
+                     **style)
+        if engine in run.ratios[case_id]:
+            theta, kin, reac = run.ratios[case_id][engine]
+            worst = np.fmax(kin, reac)
+            bottom.semilogy(theta, np.clip(worst, LOG_FLOOR, None), JUDGE_MARKERS[j % len(JUDGE_MARKERS)],
+                            label=engine, **style)
+    bottom.axhline(1.0, color="#c62828", ls="--", lw=1.0, label="tolerance")
+    top.set_ylabel(f"{column}", fontsize=8)
+    top.set_title(f"{case_id}: output angle from every engine", fontsize=9)
+    bottom.set_ylabel("worst |judge - ref| / (scale x tol)", fontsize=8)
+    bottom.set_xlabel("theta1 (deg)", fontsize=8)
+    for ax in (top, bottom):
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    caption = (f"{column} against the input angle (the simulation at its own input states), and per row each "
+               "judge's worst ratio of relative difference to its tolerance (<= 1 passes)")
+    png = fig_to_png(fig)
+    return Figure(f"linkage-{case_id}", "linkage", case_id, f"{case_id}: output angle", caption, png)
+
+
+def write_linkage_report(run: LinkageRun, outdir: Path, seconds: float) -> LinkageReport:
+    """Write the run folder's tables, figures, ``summary.json``, ``report.md`` and ``report.html``."""
+    start = time.perf_counter()
+    with locked(outdir) as outdir:
+        tables = write_tables(run, outdir)
+        figures = [case_figure(run, e.id, e.kind) for e in run.matrix.cases]
+        (outdir / "figures").mkdir(exist_ok=True)
+        paths = [outdir / "figures" / f"{f.key}.png" for f in figures]
+        for f, p in zip(figures, paths):
+            p.write_bytes(f.png)
+        summary = linkage_summary(run, seconds)
+        context = {"s": summary, "figures": figures, "failures": run.comparison.failures()[:200],
+                   "checks": run.comparison.checks, "report_seconds": time.perf_counter() - start,
+                   "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
+        files = LinkageReport(outdir / "summary.json", outdir / "report.md", outdir / "report.html",
+                              tuple(paths), tuple(tables))
+        write_json_atomic(files.summary, summary, pretty=True)
+        for template, target, markdown in (("linkages.md.j2", files.markdown, True),
+                                           ("linkages.html.j2", files.html, False)):
+            target.write_text(environment(TEMPLATES, markdown).get_template(template).render(**context),
+                              encoding="utf-8")
+        record_files(outdir, [files.summary, files.markdown, files.html, *paths, *tables])
+    return files

@@ -1,0 +1,151 @@
+"""A linkage run: every case of a :class:`~dualmech.validation.linkages.matrix.LinkageMatrix` on every engine
+that solves it, compared by the gate (:mod:`~dualmech.validation.linkages.gate`), written to a run folder.
+
+The engines run in this process, one after the other (the bundled cases take ~1.5 s together).  The
+simulated judge's rows are its simulated input states, so it is compared with the in-house engine at those
+states (``analyze_rssr(case, crank=...)``); every other judge with the reference table itself.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dualmech.core.status import Status, is_status
+from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
+from dualmech.models.linkages.rssr import SPEC as RSSR_SPEC
+from dualmech.models.linkages.rssr import analyze_rssr, to_table
+from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.validation.compare import Check, Comparison, Verdict
+from dualmech.validation.linkages.engines import solve_case
+from dualmech.validation.linkages.gate import engine_check, judge_checks, reference_check
+from dualmech.validation.linkages.matrix import LinkageEntry, LinkageMatrix
+
+#: The table spec of each kind.
+SPECS: dict[str, TableSpec] = {"rssr": RSSR_SPEC, "rccc": RCCC_SPEC}
+
+
+@dataclass(frozen=True)
+class LinkageRun:
+    """A compared linkage run.
+
+    Attributes
+    ----------
+    matrix : LinkageMatrix
+    tables : dict
+        Case id -> engine -> its table, or the error text of an engine that raised.
+    references : dict
+        Case id -> judge -> the reference table it was compared with (the simulation's: at its states).
+    comparison : Comparison
+        Every check; ``dead_centres`` case -> engine -> rows; ``errors`` case -> engine -> message.
+    ratios : dict
+        Case id -> judge -> ``(theta1_deg, kinematic ratio, reaction ratio)`` per row, each ``(n,)``: the
+        worst ``r_i`` over its tolerance (NaN where nothing was compared).
+    seconds : dict
+        Case id -> engine -> wall time of its solve (s).
+    """
+
+    matrix: LinkageMatrix
+    tables: dict[str, dict[str, LinkageTable | str]]
+    references: dict[str, dict[str, LinkageTable]]
+    comparison: Comparison
+    ratios: dict[str, dict[str, tuple[np.ndarray, ...]]]
+    seconds: dict[str, dict[str, float]]
+
+    @property
+    def verdict(self) -> Verdict:
+        """``PASS``, ``FAIL`` or ``INCOMPLETE`` (:attr:`Comparison.verdict`)."""
+        return self.comparison.verdict
+
+    def worst(self) -> dict[str, Check]:
+        """Per judge, its check of the largest ratio to tolerance over every case (a failing one first)."""
+        out: dict[str, Check] = {}
+        for c in self.comparison.checks:
+            if c.engine == self.matrix.reference:
+                continue
+            best = out.get(c.engine)
+            if best is None or (not c.passed, c.ratio) > (not best.passed, best.ratio):
+                out[c.engine] = c
+        return out
+
+
+def _solve(entry: LinkageEntry, engine: str) -> tuple[LinkageTable | str, float]:
+    start = time.perf_counter()
+    try:
+        table: LinkageTable | str = solve_case(engine, entry.kind, entry.case)
+    except Exception as err:  # an engine's failure is a result of the run (a failing check), not a crash
+        table = f"{type(err).__name__}: {err}"
+    return table, time.perf_counter() - start
+
+
+def _reference_for(entry: LinkageEntry, reference: LinkageTable, judge: LinkageTable, name: str
+                   ) -> LinkageTable | str:
+    """The reference table ``judge`` is compared with: ``reference``, or for a judge whose rows are its own
+    input states (``meta["crank"]``) the in-house engine at those states."""
+    crank = judge.meta.get("crank")
+    if crank is None:
+        return reference
+    if name != "dualmech" or entry.kind != "rssr":
+        return f"not compared: {judge.engine}'s rows are its own input states, solved again by dualmech only"
+    return to_table(analyze_rssr(entry.case, crank=crank))
+
+
+def run_linkages(matrix: LinkageMatrix) -> LinkageRun:
+    """Solve every case of ``matrix`` on its engines and compare each judge with the reference."""
+    tables: dict[str, dict[str, LinkageTable | str]] = {}
+    seconds: dict[str, dict[str, float]] = {}
+    references: dict[str, dict[str, LinkageTable]] = {}
+    ratios: dict[str, dict[str, tuple[np.ndarray, ...]]] = {}
+    checks: list[Check] = []
+    for entry in matrix.cases:
+        solved = {e: _solve(entry, e) for e in matrix.engines_of(entry)}
+        tables[entry.id] = {e: t for e, (t, _) in solved.items()}
+        seconds[entry.id] = {e: s for e, (_, s) in solved.items()}
+        references[entry.id], ratios[entry.id] = {}, {}
+        checks += _compare_case(matrix, entry, tables[entry.id], references[entry.id], ratios[entry.id])
+    errors = {cid: {e: t for e, t in per.items() if isinstance(t, str)} for cid, per in tables.items()}
+    dead = {cid: {e: int(is_status(t.status, Status.DEAD_CENTRE).sum()) for e, t in per.items()
+                  if not isinstance(t, str)} for cid, per in tables.items()}
+    comparison = Comparison(tuple(checks), {}, dead, errors)
+    return LinkageRun(matrix, tables, references, comparison, ratios, seconds)
+
+
+def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, LinkageTable | str],
+                  references: dict[str, LinkageTable], ratios: dict[str, tuple[np.ndarray, ...]]
+                  ) -> list[Check]:
+    """The checks of one case: the reference's own, then every judge's (engine, status, columns)."""
+    name = matrix.reference
+    reference = tables[name]
+    judges = [e for e in tables if e != name]
+    if isinstance(reference, str):
+        return [engine_check(entry.id, name, reference)] + [
+            engine_check(entry.id, e, f"not compared: the reference {name} failed") for e in judges]
+    checks = [reference_check(entry.id, reference, SPECS[entry.kind])]
+    for e in judges:
+        table = tables[e]
+        ref = table if isinstance(table, str) else _reference_for(entry, reference, table, name)
+        if isinstance(ref, str):
+            checks.append(engine_check(entry.id, e, ref))
+            continue
+        references[e] = ref
+        found, rows = judge_checks(entry.id, ref, table, SPECS[entry.kind])
+        checks += found
+        if rows is not None:
+            ratios[e] = rows
+    return checks
+
+
+def write_tables(run: LinkageRun, outdir: Path) -> list[Path]:
+    """Every engine's table of every case as ``tables/<case>/<engine>.csv`` (full precision)."""
+    paths = []
+    for case_id, per in run.tables.items():
+        folder = outdir / "tables" / case_id
+        folder.mkdir(parents=True, exist_ok=True)
+        for engine, table in per.items():
+            if not isinstance(table, str):
+                paths.append(folder / f"{engine}.csv")
+                table.to_csv(paths[-1])
+    return paths
