@@ -122,7 +122,7 @@ class _Stopped(Exception):
         self.t, self.reason = t, reason
 
 
-class _Budget:
+class Budget:
     """Counts right-hand-side evaluations and wall time of one integration."""
 
     def __init__(self, max_evaluations: int, time_limit: float) -> None:
@@ -194,9 +194,9 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
         One line: an input out of range, a load that is not a finite real number,
         the budget used up, or a motion that runs away.
     """
-    duration, damping, slider_damping, rtol, atol, interpolation_tol = _checked_settings(
+    duration, damping, slider_damping, rtol, atol, interpolation_tol = checked_settings(
         duration, damping, slider_damping, rtol, atol, interpolation_tol, samples, method)
-    budget, loads = _Budget(max_evaluations, time_limit), case.loads
+    budget, loads = Budget(max_evaluations, time_limit), case.loads
     tau_a = as_load(torque, loads.drive_torque if loads.mode == "torque" else 0.0, "torque", TORQUE)
     force = as_load(slider_load, loads.slider_force if loads.mode == "force" else 0.0, "slider_load", FORCE)
     psi0 = (float(np.radians(case.motion.angles_deg[0])) if psi0 is None
@@ -204,14 +204,14 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
     psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0, CRANK_SPEED)
     model = coefficient_model(case, interpolation_tol) if model is None else model
     rhs = _EquationOfMotion(model, tau_a, force, damping, slider_damping)
-    sol = _integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
+    sol = integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
                      np.linspace(0.0, duration, int(samples)), method, rtol, atol)
     info = {"method": method, "rtol": rtol, "atol": atol, "nfev": int(sol.nfev), "coefficients": model.mode,
             "table_size": model.size, "interpolation_error": model.error, "message": sol.message}
     return _trajectory(case, rhs, sol.t, sol.y, info)
 
 
-def _checked_settings(duration: float, damping: float, slider_damping: float, rtol: float, atol: float,
+def checked_settings(duration: float, damping: float, slider_damping: float, rtol: float, atol: float,
                       interpolation_tol: float, samples: int, method: str) -> tuple[float, ...]:
     """The numbers of :func:`simulate` checked against their ranges (as floats, in order); a one-line
     ValueError unless each is in range, ``samples`` an integer and ``method`` a solve_ivp method."""
@@ -251,7 +251,7 @@ class _EquationOfMotion:
         return np.array([w, acc, ta * w, -f * s4dot, self.damping * w * w + self.slider_damping * s4dot**2])
 
 
-def _integrate(rhs: _EquationOfMotion, budget: _Budget, y0: np.ndarray, t_out: np.ndarray, method: str,
+def integrate(rhs: _EquationOfMotion, budget: Budget, y0: np.ndarray, t_out: np.ndarray, method: str,
                rtol: float, atol: float):
     """``solve_ivp`` of ``rhs`` from ``y0`` over ``t_out`` within ``budget`` (``atol`` scaled per state);
     a one-line ValueError where it stops early."""

@@ -46,10 +46,10 @@ from dualmech.models.forward_dynamics import (  # the slider crank's integrator,
     CRANK_SPEED,
     MAX_EVALUATIONS,
     TIME_LIMIT,
-    _Budget,
-    _checked_settings,
-    _integrate,
+    Budget,
     as_load,
+    checked_settings,
+    integrate,
 )
 from dualmech.models.inputs import TORQUE, check_number
 from dualmech.models.linkages import rccc, rssr
@@ -183,7 +183,7 @@ def interpolation_error(c: Coefficients) -> float:
 class _EquationOfMotion:
     """The right-hand side for ``y = (theta, theta_dot, W^A, W^O, D)``: the input angle and rate, the work
     of the drive and of the output torque, and the energy the input bearing dissipated.  ``model(theta)``
-    ``(4, k)`` is the coefficients' interface of :func:`dualmech.models.forward_dynamics._integrate`."""
+    ``(4, k)`` is the coefficients' interface of :func:`dualmech.models.forward_dynamics.integrate`."""
 
     spline: BSpline
     torque: LoadFunction
@@ -235,9 +235,9 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
         One line: an input out of range, an input that does not turn fully, a load that is not a finite
         real number, the budget used up, or a motion that runs away.
     """
-    duration, damping, _, rtol, atol, _ = _checked_settings(duration, damping, 0.0, rtol, atol, 1e-12,
+    duration, damping, _, rtol, atol, _ = checked_settings(duration, damping, 0.0, rtol, atol, 1e-12,
                                                              samples, method)
-    budget = _Budget(max_evaluations, time_limit)
+    budget = Budget(max_evaluations, time_limit)
     default, output_torque = loads(case)
     tau = drive_load(torque, default)
     psi0 = float(np.radians(case.motion.angles_deg[0])) if psi0 is None else check_number("psi0", psi0,
@@ -245,7 +245,7 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
     psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0, CRANK_SPEED)
     c = coefficients(case) if coeffs is None else coeffs
     rhs = _EquationOfMotion(c.spline(), tau, output_torque, damping)
-    sol = _integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
+    sol = integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
                      np.linspace(0.0, duration, int(samples)), method, rtol, atol)
     info = {"method": method, "rtol": rtol, "atol": atol, "nfev": int(sol.nfev), "coefficients": "table",
             "table_size": c.theta.shape[0], "interpolation_error": interpolation_error(c),

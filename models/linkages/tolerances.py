@@ -56,10 +56,6 @@ LINKAGE_SIM_RATE = Tolerance(
 LINKAGE_SIM_FORCE = Tolerance(
     1e-3, "O(dt) velocity lag and O(dt^2) gap; measured 3.3e-5 (2.7e-4 at dt = 1e-4; 2.6e-2 when the "
     "explicit qacc is taken for the input acceleration instead of the implicit step's)")
-#: Forward dynamics of the bundled RSSR without torques: total energy over 1 s, relative to its value.
-LINKAGE_ENERGY = Tolerance(
-    1e-8, "DOP853 at 1e-12 on cubic splines of the coefficients at 0.5 deg (interpolation error ~h^4 ~ "
-    "6e-9); measured 1.8e-9")
 #: MuJoCo's free simulation (drive torque 0.3 N m, dt = 2e-5 s) against the in-house forward dynamics:
 #: crank angle (rad) over 0.5 s.
 LINKAGE_SIM_FREE_ANGLE = Tolerance(
