@@ -1,15 +1,33 @@
-"""What the linkages' judges share: start estimates, the per-position driver, the table, the comparison.
+"""What the linkages' judges share: their starts, the per-position driver, the table, the comparison.
 
 A judge (``pinocchio_rssr``, ``mujoco_rssr``, ``pinocchio_rccc``, ``mujoco_rccc``) builds its own
 model from the case and answers one position at a time with its own Newton, rates and inverse
-dynamics (:class:`JudgeAnswer`).  Only the start estimate comes from the in-house closed form,
-moved by :data:`START_OFFSET` so that the judge's Newton, not the estimate, decides the pose.
+dynamics (:class:`JudgeAnswer`).  It shares nothing with the in-house solver but the case's
+description (geometry, bodies, loads, motion, the branch convention of ``docs/conventions.md``,
+"RSSR" / "RCCC") and the status rules (:func:`~dualmech.models.linkages.rssr.assembles` on a reach
+ratio, :func:`~dualmech.models.linkages.rssr.status_words`, ``settle``): no start, reach or pose of
+the in-house solver enters it.
+
+**Starts** (:func:`judge_positions`, as the slider crank's Pinocchio judge,
+:func:`~dualmech.validation.pinocchio_closure.close_positions`): a position continues from the judge's
+own closed pose at the previous position when that was accepted (converged and on the case's branch by
+the judge's own transmission sign, or at the assembly limit); the first position, one after a failure or
+a gap in assembly, and one the continuation did not close on the branch start crude
+(:func:`scan_starts`): one angle scanned over :data:`SCAN_POINTS` values of a mismatch the judge
+evaluates with its own model, and a grid point (never a root) of a sign-change bracket whose slope has
+the branch's sign.  RSSR: the output angle ``phi``, mismatch ``|P3(phi) - P2|^2 - a2^2``, slope sign
+``branch`` (its derivative is ``2 a2 a3 t4``), the coupler aimed from ``P2`` at ``P3(phi)``
+(:func:`coupler_start`).  RCCC: the output cylinder's angle (about ``z4``), mismatch ``z3·z2* - z3·z2``
+(``z2*`` the axis the prescribed input pose asks for: the cone condition), slope sign ``-branch``
+(its derivative is ``-det[z2*, z3, z4]``), then the coupler's and the input link's angles turned to
+``z2*`` and to the input's ``x`` (:func:`turn_to`), slides 0.  **Reach** from the judge's own
+placements: :func:`circle_reach` (RSSR), :func:`cone_reach` (RCCC).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -17,33 +35,32 @@ from scipy.spatial.transform import Rotation
 from dualmech.core.motion import CrankState
 from dualmech.core.status import Status, settle
 from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
-from dualmech.models.linkages.rccc import estimate, spherical_estimate
 from dualmech.models.linkages.rccc_case import RcccCase
-from dualmech.models.linkages.rssr import (
-    SPEC,
-    assembles,
-    closed_form_phi,
-    crank_pin,
-    output_pin,
-    status_words,
-)
+from dualmech.models.linkages.rssr import SPEC, assembles, status_words
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.linkages.table import LinkageTable, TableSpec
 
-#: The judges start Newton this far (rad) from the closed-form output angle: far enough that the
-#: answer is the judge's own (Newton takes 4-6 iterations), near enough to stay on the case's branch.
+#: Not used by the judges (their starts are their own, module docstring): the simulated judge
+#: (``mujoco_rssr_sim``) still assembles its initial state from the in-house closed form moved by this (rad).
 START_OFFSET = 0.1
 #: A judge's closure is converged when the gap between the two ball centres is below this times a2.
 JUDGE_CLOSURE_TOL = 1e-14
 #: Newton iterations a judge may take per position.
 JUDGE_MAX_ITER = 50
+#: Values of the scanned angle in a crude start (10 deg apart; a multiple of 4 for :func:`circle_reach`).
+SCAN_POINTS = 36
+#: Crude starts (sign-change brackets of the scan) tried at a position before the judge reports the last.
+MAX_CRUDE_STARTS = 4
+#: The status words of an accepted answer: a start for the next position.
+ACCEPTED = (Status.OK.value, Status.DEAD_CENTRE.value, Status.ASSEMBLY_LIMIT.value)
 
 
 @dataclass(frozen=True)
 class JudgeAnswer:
     """One position: ``converged`` closure, the output angle ``phi`` (rad), the transmissions
-    ``t1``, ``t4``, and ``values``: every column of :data:`~dualmech.models.linkages.rssr.COLUMNS`
-    but ``theta1_deg``, ``transmission_*``, ``residual``."""
+    ``t1``, ``t4``, the closure ``gap``, and ``values``: every column of the mechanism's table but
+    ``theta1_deg``, ``transmission_*``, ``residual``; ``state`` the judge's closed pose as a start for
+    the next position, ``iterations`` its Newton iterations."""
 
     converged: bool
     phi: float
@@ -51,21 +68,93 @@ class JudgeAnswer:
     t4: float
     gap: float
     values: dict[str, float]
+    state: Any = None
+    iterations: int = 0
 
 
-def judge_positions(name: str, engine: str, crank: CrankState, starts: np.ndarray, reach: np.ndarray,
-                    branch: int, torque_mode: bool, spec: TableSpec, length: float,
-                    position: Callable[[float, float, float, np.ndarray], JudgeAnswer]) -> LinkageTable:
-    """Run ``position(theta1, theta1_dot, theta1_ddot, starts[k])`` at every position ``k`` that
-    ``reach`` says assembles, and collect the common table: the same columns, status words
-    (:func:`~dualmech.models.linkages.rssr.status_words`) and settling as the in-house engine;
-    ``residual`` is the judge's closure gap over ``length``."""
+@dataclass(frozen=True)
+class JudgeLoop:
+    """A judge as :func:`judge_positions` drives it: ``reach(theta1)`` its reach ratio (``|rho| > 1``: no
+    assembly), ``crude(theta1)`` its crude starts, best first, ``position(theta1, theta1_dot, theta1_ddot,
+    start)`` its answer from a start (a crude one or a previous answer's ``state``)."""
+
+    reach: Callable[[float], float]
+    crude: Callable[[float], list]
+    position: Callable[[float, float, float, Any], JudgeAnswer]
+
+
+def scan_grid() -> np.ndarray:
+    """The scanned angles of a crude start, ``(SCAN_POINTS,)`` rad, from 0 in equal steps."""
+    return 2.0 * np.pi * np.arange(SCAN_POINTS) / SCAN_POINTS
+
+
+def scan_starts(grid: np.ndarray, mismatch: np.ndarray, slope: int) -> list[float]:
+    """Crude starts from a periodic ``mismatch`` ``(m,)`` at the angles ``grid`` ``(m,)`` (rad).
+
+    A bracket is a pair of neighbours (cyclically) where the mismatch changes sign; its start is the
+    one of the two with the smaller ``|mismatch|``: a grid point, not a root.  Brackets whose change
+    has the sign ``slope`` (``+1`` rising) come first, the others after; with no sign change, the
+    grid point of the smallest ``|mismatch|``.
+    """
+    below, nxt = mismatch < 0.0, np.roll(mismatch, -1)
+    rising = np.flatnonzero(below & (nxt >= 0.0))
+    falling = np.flatnonzero(~below & (nxt < 0.0))
+    brackets = np.concatenate([rising, falling] if slope > 0 else [falling, rising])
+    if brackets.size == 0:
+        return [float(grid[np.argmin(np.abs(mismatch))])]
+    ends = (brackets + 1) % grid.shape[0]
+    pick = np.where(np.abs(mismatch[brackets]) <= np.abs(mismatch[ends]), brackets, ends)
+    return [float(grid[i]) for i in pick]
+
+
+def accepted(answer: JudgeAnswer, branch: int, torque_mode: bool, length: float) -> bool:
+    """Whether ``answer``'s own status word (:func:`~dualmech.models.linkages.rssr.status_words`) is one of
+    :data:`ACCEPTED`: converged on the branch (the sign of its ``t4``), or at the assembly limit."""
+    word = status_words(np.array([answer.converged]), np.array([answer.t1]), np.array([answer.t4]), branch,
+                        torque_mode, np.array([answer.gap / length]))[0]
+    return word in ACCEPTED
+
+
+def judge_answer(loop: JudgeLoop, state: tuple[float, float, float], previous: Any, branch: int,
+                 torque_mode: bool, length: float) -> tuple[JudgeAnswer, bool, int]:
+    """The answer at one position (``state`` = theta1, its rate and acceleration): from ``previous`` (the
+    judge's closed pose at the previous position, or None), else or if that is not :func:`accepted` from
+    the crude starts in turn until one is.  Returns the answer, whether it came from a crude start, and
+    the Newton iterations of every attempt."""
+    iterations = 0
+    if previous is not None:
+        answer = loop.position(*state, previous)
+        iterations += answer.iterations
+        if accepted(answer, branch, torque_mode, length):
+            return answer, False, iterations
+    for start in loop.crude(state[0])[:MAX_CRUDE_STARTS]:
+        answer = loop.position(*state, start)
+        iterations += answer.iterations
+        if accepted(answer, branch, torque_mode, length):
+            break
+    return answer, True, iterations
+
+
+def judge_positions(name: str, engine: str, crank: CrankState, branch: int, torque_mode: bool,
+                    spec: TableSpec, length: float, loop: JudgeLoop) -> LinkageTable:
+    """Answer every position where the judge's reach assembles (:func:`judge_answer`, continuing from the
+    previous accepted pose; a gap restarts crude), and collect the common table: the same columns,
+    status words (:func:`~dualmech.models.linkages.rssr.status_words`) and settling as the in-house
+    engine; ``residual`` is the judge's closure gap over ``length``; ``meta["iterations"]`` ``(n,)`` the
+    Newton iterations and ``meta["crude"]`` ``(n,)`` whether the position started crude."""
     n = crank.theta.shape[0]
     cols = {c: np.full(n, np.nan) for c in spec.columns}
     converged, t1, t4 = np.zeros(n, dtype=bool), np.full(n, np.nan), np.full(n, np.nan)
-    for k in np.flatnonzero(reach):
+    reach = assembles(np.array([loop.reach(float(th)) for th in crank.theta]))
+    iterations, crude = np.zeros(n, dtype=int), np.zeros(n, dtype=bool)
+    previous = None
+    for k in range(n):
+        if not reach[k]:
+            previous = None
+            continue
         state = (float(crank.theta[k]), float(crank.theta_dot[k]), float(crank.theta_ddot[k]))
-        ans = position(*state, starts[k])
+        ans, crude[k], iterations[k] = judge_answer(loop, state, previous, branch, torque_mode, length)
+        previous = ans.state if accepted(ans, branch, torque_mode, length) else None
         converged[k], t1[k], t4[k] = ans.converged, ans.t1, ans.t4
         cols["residual"][k] = ans.gap / length
         for column, value in ans.values.items():
@@ -77,18 +166,40 @@ def judge_positions(name: str, engine: str, crank: CrankState, starts: np.ndarra
     status = status_words(converged, t1, t4, branch, torque_mode, cols["residual"])
     status[~reach] = Status.NO_ASSEMBLY.value
     status = settle(cols, status, spec.reactions, pose=spec.pose, rates=spec.rates)
-    return LinkageTable(engine, name, cols, status)
+    return LinkageTable(engine, name, cols, status, {"iterations": iterations, "crude": crude})
 
 
-def judge_table(case: RssrCase, engine: str,
+Pins = Callable[[float, float], tuple[np.ndarray, np.ndarray]]
+
+
+def circle_reach(pins: Pins, theta1: float, a2: float) -> float:
+    """The RSSR's reach ratio at ``theta1`` from the judge's own ``pins(theta1, phi) -> (P2, P3)``.
+
+    ``|P3(phi) - P2|^2 = K + A cos phi + B sin phi`` (the output pin's circle about ``Q4``), read at
+    ``phi = 0, pi/2, pi, 3 pi/2``; ``rho = (a2^2 - K) / sqrt(A^2 + B^2)``: the coupler reaches the
+    circle iff ``|rho| <= 1``.
+    """
+    p2 = pins(theta1, 0.0)[0]
+    f = np.array([np.sum((pins(theta1, phi)[1] - p2) ** 2) for phi in 0.5 * np.pi * np.arange(4)])
+    return float((a2**2 - f.mean()) / np.hypot(0.5 * (f[0] - f[2]), 0.5 * (f[1] - f[3])))
+
+
+def judge_table(case: RssrCase, engine: str, pins: Pins,
                 position: Callable[[float, float, float, float], JudgeAnswer]) -> LinkageTable:
-    """:func:`judge_positions` for an RSSR case, each position started :data:`START_OFFSET` from the
-    closed-form output angle."""
+    """:func:`judge_positions` for an RSSR case judged with ``pins(theta1, phi) -> (P2, P3)`` (the judge's
+    own model at the input angle ``theta1`` and the output angle ``phi``) and ``position(theta1,
+    theta1_dot, theta1_ddot, phi)`` (its answer from the output angle ``phi``, the coupler aimed at the
+    output pin): the crude starts scan ``|P3(phi) - P2|^2 - a2^2`` (module docstring)."""
+    a2, grid = case.geometry.a2, scan_grid()
+
+    def crude(theta1: float) -> list[float]:
+        p2 = pins(theta1, 0.0)[0]
+        span = np.array([np.sum((pins(theta1, phi)[1] - p2) ** 2) for phi in grid])
+        return scan_starts(grid, span - a2**2, case.branch)
+
     crank = case.motion.state(case.geometry.s1)
-    phi0, rho = closed_form_phi(case.geometry, crank.theta, case.branch)
-    return judge_positions(case.name, engine, crank, phi0 + START_OFFSET, assembles(rho), case.branch,
-                           case.mode == "torque", SPEC, case.geometry.a2,
-                           lambda th, w, wd, start: position(th, w, wd, float(start)))
+    loop = JudgeLoop(lambda theta1: circle_reach(pins, theta1, a2), crude, position)
+    return judge_positions(case.name, engine, crank, case.branch, case.mode == "torque", SPEC, a2, loop)
 
 
 def wrench_columns(f1: np.ndarray, m1_o: np.ndarray, f2: np.ndarray, f3: np.ndarray, f4: np.ndarray,
@@ -134,13 +245,10 @@ def motion_values(phi: float, phi_dot: float, phi_ddot: float, fit: float) -> di
             "phi4_ddot": float(phi_ddot), "dynamics_residual": fit}
 
 
-def coupler_start(case: RssrCase, theta1: float, phi: float) -> np.ndarray:
-    """The coupler's rotation relative to the input crank ``(3, 3)`` that points its x axis from ``P2`` at
-    the output pin of angle ``phi`` (a judge's start; the spin about that axis is arbitrary)."""
-    g = case.geometry
-    p2 = crank_pin(g, np.array([theta1]))[0]
-    u = output_pin(g, np.array([phi]))[0] - p2
-    u /= np.linalg.norm(u)
+def coupler_start(theta1: float, p2: np.ndarray, p3: np.ndarray) -> np.ndarray:
+    """The coupler's rotation relative to the input crank ``(3, 3)`` that points its x axis from ``p2`` at
+    ``p3`` (world points of the judge's own model; a start: the spin about that axis is arbitrary)."""
+    u = (p3 - p2) / np.linalg.norm(p3 - p2)
     v = np.cross([0.0, 0.0, 1.0] if abs(u[2]) < 0.9 else [1.0, 0.0, 0.0], u)
     v /= np.linalg.norm(v)
     c, s = np.cos(theta1), np.sin(theta1)
@@ -152,15 +260,61 @@ def min_norm_step(jac: np.ndarray, gap: np.ndarray) -> np.ndarray:
     return -jac.T @ np.linalg.solve(jac @ jac.T, gap)
 
 
-def rccc_judge_table(case: RcccCase, engine: str,
+Axes = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
+
+
+def turn_to(axis: np.ndarray, current: np.ndarray, target: np.ndarray) -> float:
+    """The angle (rad) about the unit ``axis`` that turns ``current`` nearest to ``target`` (their parts
+    normal to ``axis`` aligned); all ``(3,)``."""
+    normal = float(current @ target - (axis @ current) * (axis @ target))
+    return float(np.arctan2(axis @ np.cross(current, target), normal))
+
+
+def cone_reach(z2: np.ndarray, z3: np.ndarray, z4: np.ndarray, wanted: np.ndarray) -> float:
+    """The RCCC's reach: ``rho = |a w + b z4|^2`` with ``w`` = the axis ``wanted`` of the input cylinder, the
+    part of ``z3`` in the plane of ``w`` and ``z4`` that the cones ``z3·w = z3·z2``, ``z3·z4`` ask for (the
+    cosines read off the judge's own axes ``z2, z3, z4`` at any pose); ``rho > 1``: the cones miss."""
+    c23, c34, g = float(z3 @ z2), float(z3 @ z4), float(wanted @ z4)
+    return (c23**2 + c34**2 - 2.0 * g * c23 * c34) / (1.0 - g**2)
+
+
+def rccc_judge_table(case: RcccCase, engine: str, axes: Axes, wanted: Callable[[float], np.ndarray],
                      position: Callable[[float, float, float, np.ndarray], JudgeAnswer]) -> LinkageTable:
-    """:func:`judge_positions` for an RCCC case, each position started from the spherical estimate's
-    joint angles moved by :data:`START_OFFSET` (``start`` = theta2, s2, theta3, s3, theta4, s4)."""
+    """:func:`judge_positions` for an RCCC case judged with ``axes(q) -> (z2, z3, z4, x1)`` (the world axes
+    of the cylinders and the input link's x axis of the judge's own model at its coordinates ``q`` =
+    ``(-theta4, -s4, -theta3, -s3, -theta2, -s2)``), ``wanted(theta1) -> z2`` (the input cylinder's axis
+    that the prescribed input pose asks of it) and ``position(theta1, theta1_dot, theta1_ddot, q)`` (its
+    answer from ``q``): the crude starts scan ``q[0]`` (module docstring)."""
+    grid, zero = scan_grid(), np.zeros(6)
+
+    def reach(theta1: float) -> float:
+        return cone_reach(*axes(zero)[:3], wanted(theta1))
+
+    def crude(theta1: float) -> list[np.ndarray]:
+        z2w, x1w = wanted(theta1), np.array([np.cos(theta1), np.sin(theta1), 0.0])
+        turned = (axes(np.r_[angle, zero[1:]]) for angle in grid)
+        mismatch = np.array([float(z3 @ (z2w - z2)) for z2, z3, _, _ in turned])
+        starts = []
+        for angle in scan_starts(grid, mismatch, -case.branch):
+            q = np.r_[angle, zero[1:]]
+            z2, z3, _, _ = axes(q)
+            q[2] = turn_to(z3, z2, z2w)
+            z2, _, _, x1 = axes(q)
+            q[4] = turn_to(z2, x1, x1w)
+            starts.append(q)
+        return starts
+
     crank = case.motion.state(case.geometry.s1)
-    z3, rho = spherical_estimate(case.geometry, crank.theta, case.branch)
-    starts = estimate(case.geometry, crank.theta, z3).scalars + START_OFFSET * np.array([1, 0, 1, 0, 1, 0])
-    return judge_positions(case.name, engine, crank, starts, assembles(rho), case.branch, False, RCCC_SPEC,
-                           case.geometry.size, position)
+    loop = JudgeLoop(reach, crude, position)
+    return judge_positions(case.name, engine, crank, case.branch, False, RCCC_SPEC, case.geometry.size, loop)
+
+
+def cut_tolerance(size: float, q: np.ndarray) -> float:
+    """The largest cut gap (length) an RCCC judge's closure accepts at its coordinates ``q`` (slides at
+    ``q[1::2]``): :data:`JUDGE_CLOSURE_TOL` times ``size`` plus the slides' lengths, since a point placed at
+    slide ``s`` is computed to ~eps ``|s|`` (near the assembly limit the slides grow as ``1/t``: measured
+    gaps stalled at 1e-14 m with slides of 41 m in a linkage of size 0.45 m)."""
+    return JUDGE_CLOSURE_TOL * (size + float(np.abs(q[1::2]).sum()))
 
 
 def rotation_log(rot: np.ndarray) -> np.ndarray:

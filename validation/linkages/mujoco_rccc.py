@@ -18,11 +18,11 @@ import numpy as np
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.linkages.judges import (
-    JUDGE_CLOSURE_TOL,
     JUDGE_MAX_ITER,
     JudgeAnswer,
     cfrc_about,
     cut_efforts,
+    cut_tolerance,
     pose_error,
     rccc_judge_table,
     rccc_transmission,
@@ -60,15 +60,34 @@ def _error(mr: MjRccc, theta1: float, s1: float) -> tuple[np.ndarray, np.ndarray
     return pose_error(d.site_xmat[mr.site].reshape(3, 3), d.site_xpos[mr.site], theta1, s1), jac
 
 
-def _close(mr: MjRccc, theta1: float, case: RcccCase) -> tuple[bool, float]:
+def _axes(mr: MjRccc, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The cylinders' axes ``z2, z3, z4`` (the bodies' z) and the site's x axis at ``qpos = q``, world."""
+    m, d = mr.model, mr.data
+    d.qpos[:] = q
+    mujoco.mj_kinematics(m, d)
+    z2, z3, z4 = (d.xmat[b].reshape(3, 3)[:, 2].copy() for b in (mr.input, mr.coupler, mr.output))
+    return z2, z3, z4, d.site_xmat[mr.site].reshape(3, 3)[:, 0].copy()
+
+
+def _wanted(mr: MjRccc, theta1: float) -> np.ndarray:
+    """The axis ``z2`` of the input cylinder when the site has the prescribed axes ``Rz(theta1)``."""
+    at = np.empty(9)
+    mujoco.mju_quat2Mat(at, mr.model.site_quat[mr.site])  # the site in its body's (the input link's) frame
+    c, s = np.cos(theta1), np.sin(theta1)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ at.reshape(3, 3)[2]
+
+
+def _close(mr: MjRccc, theta1: float, case: RcccCase) -> tuple[bool, float, int]:
+    """Newton on the cut's pose error from ``qpos``; returns converged, the gap, the iterations."""
     size = case.geometry.size
-    for _ in range(JUDGE_MAX_ITER):
+    for it in range(JUDGE_MAX_ITER + 1):
         err, jac = _error(mr, theta1, case.geometry.s1)
         gap = max(np.linalg.norm(err[:3]), size * np.linalg.norm(err[3:]))
-        if gap <= JUDGE_CLOSURE_TOL * size:
-            return True, float(gap)
-        mujoco.mj_integratePos(mr.model, mr.data.qpos, np.linalg.solve(jac, err), 1.0)
-    return False, float(gap)
+        if gap <= cut_tolerance(size, mr.data.qpos):
+            return True, float(gap), it
+        if it < JUDGE_MAX_ITER:
+            mujoco.mj_integratePos(mr.model, mr.data.qpos, np.linalg.solve(jac, err), 1.0)
+    return False, float(gap), JUDGE_MAX_ITER
 
 
 def _point(mr: MjRccc, body: int, x: float) -> np.ndarray:
@@ -86,8 +105,8 @@ def _moved(mr: MjRccc, body: int, point: np.ndarray) -> tuple[np.ndarray, np.nda
 def _position(mr: MjRccc, case: RcccCase, theta1: float, w: float, wd: float, start: np.ndarray
               ) -> JudgeAnswer:
     g, m, d = case.geometry, mr.model, mr.data
-    d.qpos[:] = -np.array([start[4], start[5], start[2], start[3], start[0], start[1]])
-    ok, gap = _close(mr, theta1, case)
+    d.qpos[:] = start
+    ok, gap, iterations = _close(mr, theta1, case)
     _, jac = _error(mr, theta1, g.s1)
     d.qvel[:] = np.linalg.solve(jac, np.array([0.0, 0.0, 0.0, 0.0, 0.0, w]))
     mujoco.mj_forward(m, d)
@@ -110,10 +129,12 @@ def _position(mr: MjRccc, case: RcccCase, theta1: float, w: float, wd: float, st
                 "j3_f": -f3, "j3_m": -m3, "j4_f": f4, "j4_m": m4}
     z2, z3, z4 = (d.xmat[b].reshape(3, 3)[:, 2].copy() for b in (mr.input, mr.coupler, mr.output))
     values = rccc_values(d.qpos[:2], d.qvel[:2], qacc[:2], fit, wrenches, z4)
-    return JudgeAnswer(ok, float(-d.qpos[0]), np.nan, rccc_transmission(z2, z3, z4, case), gap, values)
+    return JudgeAnswer(ok, float(-d.qpos[0]), np.nan, rccc_transmission(z2, z3, z4, case), gap, values,
+                       d.qpos.copy(), iterations)
 
 
 def solve_mujoco_rccc(case: RcccCase) -> LinkageTable:
     """Every position of ``case`` judged by rigid MuJoCo, as the common table (engine ``"mujoco"``)."""
     mr = build(case)
-    return rccc_judge_table(case, "mujoco", lambda th, w, wd, start: _position(mr, case, th, w, wd, start))
+    return rccc_judge_table(case, "mujoco", lambda q: _axes(mr, q), lambda th: _wanted(mr, th),
+                            lambda th, w, wd, start: _position(mr, case, th, w, wd, start))

@@ -66,25 +66,34 @@ def _gap(mr: MjRssr) -> tuple[np.ndarray, np.ndarray]:
     return d.site_xpos[mr.pin] - d.site_xpos[mr.end], jp - je
 
 
-def _start(mr: MjRssr, case: RssrCase, theta1: float, phi: float) -> None:
+def _pins(mr: MjRssr, theta1: float, phi: float) -> tuple[np.ndarray, np.ndarray]:
+    """``P2`` (the coupler's origin) and ``P3`` (the site "output_pin") at the input angle ``theta1`` and
+    the output angle ``phi``, world (sets ``qpos``)."""
+    mr.data.qpos[:] = np.array([theta1, 1.0, 0.0, 0.0, 0.0, phi])
+    mujoco.mj_kinematics(mr.model, mr.data)
+    return mr.data.xpos[mr.coupler].copy(), mr.data.site_xpos[mr.pin].copy()
+
+
+def _start(mr: MjRssr, theta1: float, phi: float) -> None:
     """``qpos`` with the coupler pointed from ``P2`` at the output pin of angle ``phi``."""
     quat = np.empty(4)
-    mujoco.mju_mat2Quat(quat, coupler_start(case, theta1, phi).reshape(9))
+    mujoco.mju_mat2Quat(quat, coupler_start(theta1, *_pins(mr, theta1, phi)).reshape(9))
     mr.data.qpos[:] = np.concatenate([[theta1], quat, [phi]])
 
 
-def _close(mr: MjRssr, a2: float) -> tuple[bool, float]:
-    """Newton with minimum-norm steps on the coupler ball and the output hinge."""
+def _close(mr: MjRssr, a2: float) -> tuple[bool, float, int]:
+    """Newton with minimum-norm steps on the coupler ball and the output hinge; returns converged, the gap
+    and the iterations."""
     m, d = mr.model, mr.data
-    for _ in range(JUDGE_MAX_ITER):
+    for it in range(JUDGE_MAX_ITER):
         gap, jac = _gap(mr)
         if np.linalg.norm(gap) <= JUDGE_CLOSURE_TOL * a2:
-            return True, float(np.linalg.norm(gap))
+            return True, float(np.linalg.norm(gap)), it
         step = np.zeros(m.nv)
         step[1:] = min_norm_step(jac[:, 1:], gap)
         mujoco.mj_integratePos(m, d.qpos, step, 1.0)
     gap, _ = _gap(mr)
-    return False, float(np.linalg.norm(gap))
+    return False, float(np.linalg.norm(gap)), JUDGE_MAX_ITER
 
 
 def _rows(mr: MjRssr, jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -113,8 +122,8 @@ def _moved(mr: MjRssr, body: int, point: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def _position(mr: MjRssr, case: RssrCase, theta1: float, w: float, wd: float, phi: float) -> JudgeAnswer:
     g, m, d = case.geometry, mr.model, mr.data
-    _start(mr, case, theta1, phi)
-    ok, gap_norm = _close(mr, g.a2)
+    _start(mr, theta1, phi)
+    ok, gap_norm, iterations = _close(mr, g.a2)
     _, jac = _gap(mr)
     rows, u = _rows(mr, jac)
     d.qvel[:] = 0.0
@@ -135,10 +144,11 @@ def _position(mr: MjRssr, case: RssrCase, theta1: float, w: float, wd: float, ph
     values = wrench_columns(f1, m1, d.cfrc_int[mr.coupler, 3:].copy(), lam, f4, m4, g.k4)
     values.update(motion_values(d.qpos[5], d.qvel[4], qacc[4], fit))
     t1, t4 = transmissions(p2, p3, case)
-    return JudgeAnswer(ok, float(d.qpos[5]), t1, t4, gap_norm, values)
+    return JudgeAnswer(ok, float(d.qpos[5]), t1, t4, gap_norm, values, float(d.qpos[5]), iterations)
 
 
 def solve_mujoco(case: RssrCase) -> LinkageTable:
     """Every position of ``case`` judged by rigid MuJoCo, as the common table (engine ``"mujoco"``)."""
     mr = build(case)
-    return judge_table(case, "mujoco", lambda th, w, wd, phi: _position(mr, case, th, w, wd, phi))
+    return judge_table(case, "mujoco", lambda th, phi: _pins(mr, th, phi),
+                       lambda th, w, wd, phi: _position(mr, case, th, w, wd, phi))

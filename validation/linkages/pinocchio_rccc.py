@@ -25,10 +25,10 @@ import pinocchio as pin
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.linkages.judges import (
-    JUDGE_CLOSURE_TOL,
     JUDGE_MAX_ITER,
     JudgeAnswer,
     cut_efforts,
+    cut_tolerance,
     pose_error,
     rccc_judge_table,
     rccc_transmission,
@@ -88,23 +88,39 @@ def _error(pr: PinocchioRccc, q: np.ndarray, theta1: float, s1: float) -> tuple[
     return pose_error(placement.rotation, placement.translation, theta1, s1), jac
 
 
-def _close(pr: PinocchioRccc, q: np.ndarray, theta1: float, case: RcccCase) -> tuple[np.ndarray, bool, float]:
-    """Newton on the cut's pose error."""
+def _axes(pr: PinocchioRccc, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The cylinders' axes ``z2, z3, z4`` and the frame "input"'s x axis at ``q``, world."""
+    pin.framesForwardKinematics(pr.model, pr.data, q)
+    c4, c3, c2 = pr.joints
+    z2, z3, z4 = (pr.data.oMi[j].rotation[:, 2].copy() for j in (c2, c3, c4))
+    return z2, z3, z4, pr.data.oMf[pr.input_frame].rotation[:, 0].copy()
+
+
+def _wanted(pr: PinocchioRccc, theta1: float) -> np.ndarray:
+    """The axis ``z2`` of the input cylinder when the frame "input" has the prescribed axes ``Rz(theta1)``."""
+    c, s = np.cos(theta1), np.sin(theta1)
+    at = pr.model.frames[pr.input_frame].placement.rotation  # the frame in its joint's (C2's) frame
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ at[2]
+
+
+def _close(pr: PinocchioRccc, q: np.ndarray, theta1: float, case: RcccCase
+           ) -> tuple[np.ndarray, bool, float, int]:
+    """Newton on the cut's pose error; returns ``q``, converged, the gap and the iterations."""
     size = case.geometry.size
-    for _ in range(JUDGE_MAX_ITER):
+    for it in range(JUDGE_MAX_ITER + 1):
         err, jac = _error(pr, q, theta1, case.geometry.s1)
         gap = max(np.linalg.norm(err[:3]), size * np.linalg.norm(err[3:]))
-        if gap <= JUDGE_CLOSURE_TOL * size:
-            return q, True, float(gap)
-        q = pin.integrate(pr.model, q, np.linalg.solve(jac, err))
-    return q, False, float(gap)
+        if gap <= cut_tolerance(size, q):
+            return q, True, float(gap), it
+        if it < JUDGE_MAX_ITER:
+            q = pin.integrate(pr.model, q, np.linalg.solve(jac, err))
+    return q, False, float(gap), JUDGE_MAX_ITER
 
 
 def _position(pr: PinocchioRccc, case: RcccCase, theta1: float, w: float, wd: float,
               start: np.ndarray) -> JudgeAnswer:
     model, data = pr.model, pr.data
-    q0 = -np.array([start[4], start[5], start[2], start[3], start[0], start[1]])
-    q, ok, gap = _close(pr, q0, theta1, case)
+    q, ok, gap, iterations = _close(pr, np.array(start, dtype=float), theta1, case)
     _, jac = _error(pr, q, theta1, case.geometry.s1)
     v = np.linalg.solve(jac, np.array([0.0, 0.0, 0.0, 0.0, 0.0, w]))  # the input turns about z, origin fixed
     pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
@@ -125,10 +141,12 @@ def _position(pr: PinocchioRccc, case: RcccCase, theta1: float, w: float, wd: fl
                 "j4_m": f0[0][3:] - np.cross(ground, f0[0][:3])}
     z2, z3, z4 = (data.oMi[j].rotation[:, 2] for j in (pr.joints[2], pr.joints[1], pr.joints[0]))
     t = rccc_transmission(z2, z3, z4, case)
-    return JudgeAnswer(ok, float(-q[0]), np.nan, t, gap, rccc_values(q, v, a, fit, wrenches, z4))
+    return JudgeAnswer(ok, float(-q[0]), np.nan, t, gap, rccc_values(q, v, a, fit, wrenches, z4), q.copy(),
+                       iterations)
 
 
 def solve_pinocchio_rccc(case: RcccCase) -> LinkageTable:
     """Every position of ``case`` judged by Pinocchio, as the common table (engine ``"pinocchio"``)."""
     pr = build_model(case)
-    return rccc_judge_table(case, "pinocchio", lambda th, w, wd, start: _position(pr, case, th, w, wd, start))
+    return rccc_judge_table(case, "pinocchio", lambda q: _axes(pr, q), lambda th: _wanted(pr, th),
+                            lambda th, w, wd, start: _position(pr, case, th, w, wd, start))

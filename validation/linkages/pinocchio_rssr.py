@@ -84,9 +84,18 @@ def build_model(case: RssrCase) -> PinocchioRssr:
     return PinocchioRssr(model, model.createData(), constraint, crank, coupler, output, end, pin_frame)
 
 
-def _start(pr: PinocchioRssr, case: RssrCase, theta1: float, phi: float) -> np.ndarray:
+def _pins(pr: PinocchioRssr, theta1: float, phi: float) -> tuple[np.ndarray, np.ndarray]:
+    """``P2`` (the coupler's joint) and ``P3`` (the frame "output_pin") at the input angle ``theta1`` and the
+    output angle ``phi``, world."""
+    q = pin.neutral(pr.model)
+    q[0], q[5] = theta1, phi
+    pin.framesForwardKinematics(pr.model, pr.data, q)
+    return pr.data.oMi[pr.coupler].translation.copy(), pr.data.oMf[pr.pin].translation.copy()
+
+
+def _start(pr: PinocchioRssr, theta1: float, phi: float) -> np.ndarray:
     """``q`` with the coupler pointed from ``P2`` at the output pin of angle ``phi``."""
-    quat = pin.Quaternion(coupler_start(case, theta1, phi)).coeffs()
+    quat = pin.Quaternion(coupler_start(theta1, *_pins(pr, theta1, phi))).coeffs()
     return np.concatenate([[theta1], quat, [phi]])
 
 
@@ -101,17 +110,18 @@ def _kinematics(pr: PinocchioRssr, q: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return gap, jac
 
 
-def _close(pr: PinocchioRssr, q: np.ndarray, a2: float) -> tuple[np.ndarray, bool, float]:
-    """Newton with minimum-norm steps on the free coordinates (coupler, phi4)."""
-    for _ in range(JUDGE_MAX_ITER):
+def _close(pr: PinocchioRssr, q: np.ndarray, a2: float) -> tuple[np.ndarray, bool, float, int]:
+    """Newton with minimum-norm steps on the free coordinates (coupler, phi4); returns ``q``, converged,
+    the gap and the iterations."""
+    for it in range(JUDGE_MAX_ITER):
         gap, jac = _kinematics(pr, q)
         if np.linalg.norm(gap) <= JUDGE_CLOSURE_TOL * a2:
-            return q, True, float(np.linalg.norm(gap))
+            return q, True, float(np.linalg.norm(gap)), it
         step = np.zeros(pr.model.nv)
         step[1:] = min_norm_step(jac[:, 1:], gap)
         q = pin.integrate(pr.model, q, step)
     gap, _ = _kinematics(pr, q)
-    return q, False, float(np.linalg.norm(gap))
+    return q, False, float(np.linalg.norm(gap)), JUDGE_MAX_ITER
 
 
 def _rate_rows(pr: PinocchioRssr, jac: np.ndarray) -> np.ndarray:
@@ -123,7 +133,7 @@ def _rate_rows(pr: PinocchioRssr, jac: np.ndarray) -> np.ndarray:
 def _position(pr: PinocchioRssr, case: RssrCase, theta1: float, w: float, wd: float,
               phi: float) -> JudgeAnswer:
     g, model, data = case.geometry, pr.model, pr.data
-    q, ok, gap_norm = _close(pr, _start(pr, case, theta1, phi), g.a2)
+    q, ok, gap_norm, iterations = _close(pr, _start(pr, theta1, phi), g.a2)
     _, jac = _kinematics(pr, q)
     rows = _rate_rows(pr, jac)
     v = np.zeros(model.nv)
@@ -146,10 +156,11 @@ def _position(pr: PinocchioRssr, case: RssrCase, theta1: float, w: float, wd: fl
     t1, t4 = transmissions(p2, p3, case)
     values = wrench_columns(w1[:3], w1[3:], w2[:3], -lam, w4[:3], w4[3:] - np.cross(g.foot, w4[:3]), g.k4)
     values.update(motion_values(q[5], v[4], a[4], fit))
-    return JudgeAnswer(ok, float(q[5]), t1, t4, gap_norm, values)
+    return JudgeAnswer(ok, float(q[5]), t1, t4, gap_norm, values, float(q[5]), iterations)
 
 
 def solve_pinocchio(case: RssrCase) -> LinkageTable:
     """Every position of ``case`` judged by Pinocchio, as the common table (engine ``"pinocchio"``)."""
     pr = build_model(case)
-    return judge_table(case, "pinocchio", lambda th, w, wd, phi: _position(pr, case, th, w, wd, phi))
+    return judge_table(case, "pinocchio", lambda th, phi: _pins(pr, th, phi),
+                       lambda th, w, wd, phi: _position(pr, case, th, w, wd, phi))
