@@ -184,12 +184,12 @@ def circle_reach(pins: Pins, theta1: float, a2: float) -> float:
     return float((a2**2 - f.mean()) / np.hypot(0.5 * (f[0] - f[2]), 0.5 * (f[1] - f[3])))
 
 
-def judge_table(case: RssrCase, engine: str, pins: Pins,
-                position: Callable[[float, float, float, float], JudgeAnswer]) -> LinkageTable:
-    """:func:`judge_positions` for an RSSR case judged with ``pins(theta1, phi) -> (P2, P3)`` (the judge's
-    own model at the input angle ``theta1`` and the output angle ``phi``) and ``position(theta1,
-    theta1_dot, theta1_ddot, phi)`` (its answer from the output angle ``phi``, the coupler aimed at the
-    output pin): the crude starts scan ``|P3(phi) - P2|^2 - a2^2`` (module docstring)."""
+def rssr_loop(case: RssrCase, pins: Pins, position: Callable[[float, float, float, float], JudgeAnswer]
+              ) -> JudgeLoop:
+    """An RSSR judge with ``pins(theta1, phi) -> (P2, P3)`` (its own model at the input angle ``theta1`` and
+    the output angle ``phi``) and ``position(theta1, theta1_dot, theta1_ddot, phi)`` (its answer from the
+    output angle ``phi``, the coupler aimed at the output pin): the crude starts scan
+    ``|P3(phi) - P2|^2 - a2^2`` (module docstring), the reach is :func:`circle_reach`."""
     a2, grid = case.geometry.a2, scan_grid()
 
     def crude(theta1: float) -> list[float]:
@@ -197,9 +197,15 @@ def judge_table(case: RssrCase, engine: str, pins: Pins,
         span = np.array([np.sum((pins(theta1, phi)[1] - p2) ** 2) for phi in grid])
         return scan_starts(grid, span - a2**2, case.branch)
 
+    return JudgeLoop(lambda theta1: circle_reach(pins, theta1, a2), crude, position)
+
+
+def judge_table(case: RssrCase, engine: str, pins: Pins,
+                position: Callable[[float, float, float, float], JudgeAnswer]) -> LinkageTable:
+    """:func:`judge_positions` for an RSSR case judged by :func:`rssr_loop` of ``pins`` and ``position``."""
     crank = case.motion.state(case.geometry.s1)
-    loop = JudgeLoop(lambda theta1: circle_reach(pins, theta1, a2), crude, position)
-    return judge_positions(case.name, engine, crank, case.branch, case.mode == "torque", SPEC, a2, loop)
+    return judge_positions(case.name, engine, crank, case.branch, case.mode == "torque", SPEC,
+                           case.geometry.a2, rssr_loop(case, pins, position))
 
 
 def wrench_columns(f1: np.ndarray, m1_o: np.ndarray, f2: np.ndarray, f3: np.ndarray, f4: np.ndarray,

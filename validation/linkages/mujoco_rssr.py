@@ -24,10 +24,12 @@ from dualmech.validation.linkages.judges import (
     JudgeAnswer,
     cfrc_about,
     coupler_start,
+    judge_answer,
     judge_table,
     loop_efforts,
     min_norm_step,
     motion_values,
+    rssr_loop,
     transmissions,
     wrench_columns,
 )
@@ -145,6 +147,14 @@ def _position(mr: MjRssr, case: RssrCase, theta1: float, w: float, wd: float, ph
     values.update(motion_values(d.qpos[5], d.qvel[4], qacc[4], fit))
     t1, t4 = transmissions(p2, p3, case)
     return JudgeAnswer(ok, float(d.qpos[5]), t1, t4, gap_norm, values, float(d.qpos[5]), iterations)
+
+
+def assemble(mr: MjRssr, case: RssrCase, theta1: float, w: float, wd: float) -> JudgeAnswer:
+    """The rigid judge's answer at one input state from its own crude start (no continuation, nothing of the
+    in-house solver), leaving ``qpos``, ``qvel`` assembled: e.g. a simulation's initial state."""
+    loop = rssr_loop(case, lambda th, phi: _pins(mr, th, phi),
+                     lambda th, th_dot, th_ddot, phi: _position(mr, case, th, th_dot, th_ddot, phi))
+    return judge_answer(loop, (theta1, w, wd), None, case.branch, case.mode == "torque", case.geometry.a2)[0]
 
 
 def solve_mujoco(case: RssrCase) -> LinkageTable:
