@@ -75,6 +75,11 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
         raise ValueError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
     if judge_samples < 0:
         raise ValueError(f"judge-samples: expected 0 or more designs, got {judge_samples!r}")
+    if method != "mc" and not study.case.joints.is_default:
+        j = study.case.joints
+        raise ValueError(f"method: {method!r} needs the exact sensitivities, which cover the default joints "
+                         f"only (cylindrical crank, ball-ball rod), not crank = {j.crank!r}, rod_slider = "
+                         f"{j.rod_slider!r} (valid: --method mc)")
     outdir = Path(outdir)
     timing: dict = {}
     x = samples = None
