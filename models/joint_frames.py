@@ -7,7 +7,7 @@ columns    quantity                                    frame axes (world compone
 =========  ==========================================  ===============================  ==========
 1F1, 1T1   ground on crank                             {1}: x, y, z                     O
 2F2        rod on crank, at P2 (= -j2)                 {2}: i = (c1, s1, 0), j = (-s1, c1, 0), k = z    --
-3F3        slider on rod, at P3 (= -j3)                {3}: i = u, j = z x u / |z x u|, k = i x j        --
+3F3, 3T3   slider on rod, at P3 (= -j3, -j3_m)         {3}: i = u, j = z x u / |z x u|, k = i x j        --
 4F4, 4T4   ground on slider                            {4}: i = x, j = (0, c a4, -s a4), k = k4         P3
 =========  ==========================================  ===============================  ==========
 
@@ -29,7 +29,7 @@ JOINT_FRAME_COLUMNS: tuple[str, ...] = (
     "theta1_deg",
     "1F1i", "1F1j", "1F1k", "1T1i", "1T1j", "1T1k",
     "2F2i", "2F2j", "2F2k",
-    "3F3i", "3F3j", "3F3k",
+    "3F3i", "3F3j", "3F3k", "3T3i", "3T3j", "3T3k",
     "4F4i", "4F4j", "4F4k", "4T4i", "4T4j", "4T4k",
 )
 
@@ -46,9 +46,8 @@ def joint_frame_columns(case: Case, table: ResultTable) -> dict[str, np.ndarray]
     c1, s1 = np.cos(th), np.sin(th)
     zero = np.zeros_like(th)
     p2 = np.stack([g.crank_length * c1, g.crank_length * s1, table["S1"]], 1)
-    a = g.slider_twist
-    k4 = np.array([0.0, np.sin(a), np.cos(a)])
-    p3 = np.array([-g.slider_offset, 0.0, 0.0]) - table["S4"][:, None] * k4
+    a, k4 = g.slider_twist, g.k4
+    p3 = g.foot - table["S4"][:, None] * k4
     u = (p3 - p2) / g.rod_length
     j3 = np.cross([0.0, 0.0, 1.0], u)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -64,6 +63,7 @@ def joint_frame_columns(case: Case, table: ResultTable) -> dict[str, np.ndarray]
         "1F1": _vec(table, "j1_f"), "1T1": _vec(table, "j1_m"),
         "2F2": np.einsum("nij,nj->ni", frames["2"], -_vec(table, "j2_f")),
         "3F3": np.einsum("nij,nj->ni", frames["3"], -_vec(table, "j3_f")),
+        "3T3": np.einsum("nij,nj->ni", frames["3"], -_vec(table, "j3_m")),  # a universal joint's; else 0
         "4F4": np.einsum("nij,nj->ni", frames["4"], _vec(table, "j4_f")),
         "4T4": np.einsum("nij,nj->ni", frames["4"], _vec(table, "j4_m")),
     }
