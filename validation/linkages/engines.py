@@ -25,23 +25,25 @@ ENGINES: dict[str, dict[str, str]] = {
                   "rccc": "dualmech.validation.linkages.pinocchio_rccc:solve_pinocchio_rccc"},
     "mujoco": {"rssr": "dualmech.validation.linkages.mujoco_rssr:solve_mujoco",
                "rccc": "dualmech.validation.linkages.mujoco_rccc:solve_mujoco_rccc"},
-    "mujoco-sim": {"rssr": "dualmech.validation.linkages.mujoco_rssr_sim:solve_mujoco_sim"},
+    "mujoco-sim": {"rssr": "dualmech.validation.linkages.mujoco_rssr_sim:solve_mujoco_sim",
+                   "rccc": "dualmech.validation.linkages.mujoco_rccc_sim:solve_mujoco_sim_rccc"},
 }
 
 
 def solves(engine: str, kind: str, case: Any) -> bool:
     """Whether ``engine`` solves ``case`` of ``kind``: the kind is registered under it, and for the
-    simulation (a servo drives the input) the case gives the output torque."""
+    simulation (a servo drives the input) the case gives the output torque (an RCCC case always does: its
+    drive torque is always solved; an RSSR case in output-torque mode)."""
     if kind not in ENGINES.get(engine, {}):
         return False
-    return engine != "mujoco-sim" or getattr(case, "mode", "") == "output"
+    return engine != "mujoco-sim" or kind == "rccc" or getattr(case, "mode", "") == "output"
 
 
 def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> LinkageTable:
     """Solve every crank position of a linkage case (a TOML file, a bundled case ``"rssr"`` / ``"rccc"`` or a
     parsed dict) with ``engine``: ``"dualmech"`` (the in-house dual-number method), ``"pinocchio"``,
-    ``"mujoco"`` (the rigid judges) or ``"mujoco-sim"`` (the RSSR simulated, output-torque cases: its rows
-    are the simulated input states).
+    ``"mujoco"`` (the rigid judges) or ``"mujoco-sim"`` (MuJoCo's simulation of an RCCC case or an RSSR case
+    in output-torque mode: its rows are the simulated input states).
 
     Raises
     ------
