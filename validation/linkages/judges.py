@@ -12,22 +12,25 @@ the in-house solver enters it.
 :func:`~dualmech.validation.pinocchio_closure.close_positions`): a position continues from the judge's
 own closed pose at the previous position when that was accepted (converged and on the case's branch by
 the judge's own transmission sign, or at the assembly limit); the first position, one after a failure or
-a gap in assembly, and one the continuation did not close on the branch start crude
-(:func:`scan_starts`): one angle scanned over :data:`SCAN_POINTS` values of a mismatch the judge
-evaluates with its own model, and a grid point (never a root) of a sign-change bracket whose slope has
-the branch's sign.  RSSR: the output angle ``phi``, mismatch ``|P3(phi) - P2|^2 - a2^2``, slope sign
-``branch`` (its derivative is ``2 a2 a3 t4``), the coupler aimed from ``P2`` at ``P3(phi)``
-(:func:`coupler_start`).  RCCC: the output cylinder's angle (about ``z4``), mismatch ``z3·z2* - z3·z2``
-(``z2*`` the axis the prescribed input pose asks for: the cone condition), slope sign ``-branch``
-(its derivative is ``-det[z2*, z3, z4]``), then the coupler's and the input link's angles turned to
-``z2*`` and to the input's ``x`` (:func:`turn_to`), slides 0.  **Reach** from the judge's own
-placements: :func:`circle_reach` (RSSR), :func:`cone_reach` (RCCC).
+a gap in assembly, and one the continuation did not close on the branch start crude: one angle scanned
+over :data:`SCAN_POINTS` values of a mismatch the judge evaluates with its own model, started at a grid
+point (never a root) next to the root whose slope has the branch's sign, on the far side from the other
+root (:func:`scan_starts`); the next grid points are tried if the judge's Newton does not close on the
+branch from it (:func:`judge_answer`).  RSSR: the output angle ``phi``, mismatch ``|P3(phi) - P2|^2 -
+a2^2``, slope sign ``branch`` (its derivative is ``2 a2 a3 t4``), the coupler aimed from ``P2`` at
+``P3(phi)`` (:func:`coupler_start`).  RCCC: the output cylinder's angle (about ``z4``), mismatch
+``z3·z2* - z3·z2`` (``z2*`` the axis the prescribed input pose asks for: the cone condition), slope sign
+``-branch`` (its derivative is ``-det[z2*, z3, z4]``), then the coupler's and the input link's angles
+turned to ``z2*`` and to the input's ``x`` (:func:`turn_to`), slides 0.  **Reach** from the judge's own
+placements: :func:`circle_reach` (RSSR), :func:`cone_reach` (RCCC).  Tests patch every in-house start
+function to a wrong answer and see the judges' tables unchanged bit for bit
+(``tests/validation/linkages/test_judge_independence.py``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -47,9 +50,10 @@ START_OFFSET = 0.1
 JUDGE_CLOSURE_TOL = 1e-14
 #: Newton iterations a judge may take per position.
 JUDGE_MAX_ITER = 50
-#: Values of the scanned angle in a crude start (10 deg apart; a multiple of 4 for :func:`circle_reach`).
+#: Values of the scanned angle in a crude start (10 deg apart).
 SCAN_POINTS = 36
-#: Crude starts (sign-change brackets of the scan) tried at a position before the judge reports the last.
+#: Crude starts (grid points of the scan, :func:`scan_starts`) tried at a position before the judge reports
+#: its best answer.
 MAX_CRUDE_STARTS = 4
 #: The status words of an accepted answer: a start for the next position.
 ACCEPTED = (Status.OK.value, Status.DEAD_CENTRE.value, Status.ASSEMBLY_LIMIT.value)
@@ -89,50 +93,68 @@ def scan_grid() -> np.ndarray:
 
 
 def scan_starts(grid: np.ndarray, mismatch: np.ndarray, slope: int) -> list[float]:
-    """Crude starts from a periodic ``mismatch`` ``(m,)`` at the angles ``grid`` ``(m,)`` (rad).
+    """Crude starts from a periodic ``mismatch`` ``(m,)`` at the angles ``grid`` ``(m,)`` (rad): grid points,
+    never roots.
 
-    A bracket is a pair of neighbours (cyclically) where the mismatch changes sign; its start is the
-    one of the two with the smaller ``|mismatch|``: a grid point, not a root.  Brackets whose change
-    has the sign ``slope`` (``+1`` rising) come first, the others after; with no sign change, the
-    grid point of the smallest ``|mismatch|``.
+    The mismatch has two roots a turn (a circle meets a sphere, a cone meets a cone): the one where it
+    changes sign as ``slope`` (``+1`` rising) is wanted.  A start is taken on the longer of the two arcs
+    between the roots, next to the root, so that Newton meets that root first, not the other one across
+    the shorter arc (which near the assembly limit may be narrower than the grid step): of a bracket (two
+    neighbours, cyclically, of opposite signs) the end with the sign most grid points have; with no sign
+    change on the grid (both roots between two neighbours), the neighbour of the point of the smallest
+    ``|mismatch|`` on the wanted root's outer side.  Order: the wanted root's start, then the other
+    root's, then the ends on the shorter arc.
     """
-    below, nxt = mismatch < 0.0, np.roll(mismatch, -1)
-    rising = np.flatnonzero(below & (nxt >= 0.0))
-    falling = np.flatnonzero(~below & (nxt < 0.0))
-    brackets = np.concatenate([rising, falling] if slope > 0 else [falling, rising])
-    if brackets.size == 0:
-        return [float(grid[np.argmin(np.abs(mismatch))])]
-    ends = (brackets + 1) % grid.shape[0]
-    pick = np.where(np.abs(mismatch[brackets]) <= np.abs(mismatch[ends]), brackets, ends)
-    return [float(grid[i]) for i in pick]
+    m = grid.shape[0]
+    below = mismatch < 0.0
+    after = np.roll(below, -1)
+    rising, falling = np.flatnonzero(below & ~after), np.flatnonzero(~below & after)
+    if rising.size + falling.size == 0:
+        i = int(np.argmin(np.abs(mismatch)))
+        side = slope if mismatch[i] >= 0.0 else -slope
+        return [float(grid[(i + side) % m]), float(grid[(i - side) % m])]
+    negative_longer = 2 * int(below.sum()) >= m  # a rising bracket's outer end: its low one, if so
+    pairs = [(rising, True), (falling, False)][::1 if slope > 0 else -1]
+    order = [(int(lo) + int(up != negative_longer)) % m for brackets, up in pairs for lo in brackets]
+    order += [(int(lo) + k) % m for lo in np.concatenate([rising, falling]) for k in (0, 1)]
+    return [float(grid[i]) for i in dict.fromkeys(order)]
 
 
-def accepted(answer: JudgeAnswer, branch: int, torque_mode: bool, length: float) -> bool:
-    """Whether ``answer``'s own status word (:func:`~dualmech.models.linkages.rssr.status_words`) is one of
-    :data:`ACCEPTED`: converged on the branch (the sign of its ``t4``), or at the assembly limit."""
+def rank(answer: JudgeAnswer, branch: int, torque_mode: bool, length: float) -> int:
+    """How good ``answer`` is by its own status word (:func:`~dualmech.models.linkages.rssr.status_words`):
+    2 accepted (:data:`ACCEPTED`) on the branch (``sign(t4) = branch``), 1 accepted at the assembly limit
+    with the other sign, 0 not accepted."""
     word = status_words(np.array([answer.converged]), np.array([answer.t1]), np.array([answer.t4]), branch,
                         torque_mode, np.array([answer.gap / length]))[0]
-    return word in ACCEPTED
+    if word not in ACCEPTED:
+        return 0
+    return 2 if np.sign(answer.t4) == branch else 1
 
 
 def judge_answer(loop: JudgeLoop, state: tuple[float, float, float], previous: Any, branch: int,
                  torque_mode: bool, length: float) -> tuple[JudgeAnswer, bool, int]:
     """The answer at one position (``state`` = theta1, its rate and acceleration): from ``previous`` (the
-    judge's closed pose at the previous position, or None), else or if that is not :func:`accepted` from
-    the crude starts in turn until one is.  Returns the answer, whether it came from a crude start, and
-    the Newton iterations of every attempt."""
-    iterations = 0
-    if previous is not None:
-        answer = loop.position(*state, previous)
-        iterations += answer.iterations
-        if accepted(answer, branch, torque_mode, length):
-            return answer, False, iterations
-    for start in loop.crude(state[0])[:MAX_CRUDE_STARTS]:
+    judge's closed pose at the previous position, or None), else or if that is not on the branch
+    (:func:`rank` 2) from the crude starts in turn until one is; with none on it, the first of the best
+    :func:`rank`.  Returns the answer, whether it came from a crude start, and the Newton iterations of
+    every attempt."""
+    iterations, best = 0, None
+
+    def attempts() -> Iterator[tuple[bool, Any]]:
+        if previous is not None:
+            yield False, previous
+        for start in loop.crude(state[0])[:MAX_CRUDE_STARTS]:
+            yield True, start
+
+    for crude, start in attempts():
         answer = loop.position(*state, start)
         iterations += answer.iterations
-        if accepted(answer, branch, torque_mode, length):
+        score = rank(answer, branch, torque_mode, length)
+        if best is None or score > best[0]:
+            best = (score, answer, crude)
+        if score == 2:
             break
-    return answer, True, iterations
+    return best[1], best[2], iterations
 
 
 def judge_positions(name: str, engine: str, crank: CrankState, branch: int, torque_mode: bool,
@@ -154,7 +176,7 @@ def judge_positions(name: str, engine: str, crank: CrankState, branch: int, torq
             continue
         state = (float(crank.theta[k]), float(crank.theta_dot[k]), float(crank.theta_ddot[k]))
         ans, crude[k], iterations[k] = judge_answer(loop, state, previous, branch, torque_mode, length)
-        previous = ans.state if accepted(ans, branch, torque_mode, length) else None
+        previous = ans.state if rank(ans, branch, torque_mode, length) else None
         converged[k], t1[k], t4[k] = ans.converged, ans.t1, ans.t4
         cols["residual"][k] = ans.gap / length
         for column, value in ans.values.items():

@@ -40,15 +40,15 @@ JUDGES = {"rssr": {"pinocchio": solve_pinocchio, "mujoco": solve_mujoco},
           "rccc": {"pinocchio": solve_pinocchio_rccc, "mujoco": solve_mujoco_rccc}}
 
 
-def _rssr(branch: int | None = None, seed: int | None = None):
-    data = bundled() if seed is None else random_rssr(np.random.default_rng(seed), "output", step=10.0)
+def _rssr(branch: int | None = None, seed: int | None = None, step: float = 10.0):
+    data = bundled() if seed is None else random_rssr(np.random.default_rng(seed), "output", step=step)
     if branch is not None:
         data["mechanism"]["branch"] = branch
     return rssr_from_dict(data)
 
 
-def _rccc(branch: int | None = None, seed: int | None = None):
-    data = read_linkage("rccc") if seed is None else random_rccc(np.random.default_rng(seed))
+def _rccc(branch: int | None = None, seed: int | None = None, step: float = 10.0):
+    data = read_linkage("rccc") if seed is None else random_rccc(np.random.default_rng(seed), step=step)
     if branch is not None:
         data["mechanism"]["branch"] = branch
     return rccc_from_dict(data)
@@ -221,17 +221,38 @@ def _restarts(table) -> tuple[np.ndarray, np.ndarray]:
     return table.meta["crude"], expected
 
 
-@pytest.mark.parametrize("kind, case", [("rssr", _rssr(seed=11)), ("rccc", _rccc(seed=4)),
-                                        ("rccc", _rccc(seed=7))], ids=["rssr-11", "rccc-4", "rccc-7"])
+#: Cases with no_assembly ranges; RSSR 124 and RCCC 111 (5 deg steps) restart next to the assembly limit
+#: (|t| 0.026 and 0.066), where the two roots of the scanned mismatch lie within one grid step (RCCC 111: no
+#: sign change on the grid at all).
+GAP_CASES = {"rssr-11": ("rssr", _rssr(seed=11)), "rssr-124": ("rssr", _rssr(seed=124, step=5.0)),
+             "rccc-4": ("rccc", _rccc(seed=4)), "rccc-7": ("rccc", _rccc(seed=7)),
+             "rccc-111": ("rccc", _rccc(seed=111, step=5.0))}
+
+
+@pytest.mark.parametrize("name", GAP_CASES)
 @pytest.mark.parametrize("judge", ["pinocchio", "mujoco"])
-def test_a_gap_in_assembly_restarts_the_judge(kind: str, case, judge: str) -> None:
-    """Cases with no_assembly ranges: crude exactly at the first row and after each gap (continuation
-    elsewhere), and the table agrees with the in-house engine on both sides of the gap."""
+def test_a_gap_in_assembly_restarts_the_judge(name: str, judge: str) -> None:
+    """Crude exactly at the first row and after each gap (continuation elsewhere), and the table agrees with
+    the in-house engine on both sides of the gap."""
+    kind, case = GAP_CASES[name]
     table = JUDGES[kind][judge](case)
     crude, expected = _restarts(table)
     assert expected[1:].any()  # the case has a gap inside its range
     assert_array_equal(crude, expected)
     _agrees(kind, case, table)
+
+
+@pytest.mark.parametrize("name", ["rssr-124", "rccc-111"])
+def test_a_start_between_close_roots_is_seen(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Deliberate fault: crude starts at the grid point of the smallest |mismatch| (between the two roots
+    near the assembly limit); the restart next to the limit closes on the other branch."""
+    def nearest(grid, mismatch, slope):
+        return [float(grid[np.argmin(np.abs(mismatch))])]
+
+    monkeypatch.setattr(judges, "scan_starts", nearest)
+    kind, case = GAP_CASES[name]
+    with pytest.raises(AssertionError):
+        _agrees(kind, case, JUDGES[kind]["pinocchio"](case))
 
 
 def test_continuing_across_a_gap_is_seen(monkeypatch: pytest.MonkeyPatch) -> None:
