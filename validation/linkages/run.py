@@ -3,7 +3,9 @@ that solves it, compared by the gate (:mod:`~dualmech.validation.linkages.gate`)
 
 The engines run in this process, one after the other (the bundled cases take ~1.5 s together).  The
 simulated judge's rows are its simulated input states, so it is compared with the in-house engine at those
-states (``analyze_rssr(case, crank=...)``); every other judge with the reference table itself.
+states (the mechanism's ``analyze(case, crank)`` of
+:data:`~dualmech.models.linkages.forward_dynamics.MECHANISMS`); every other judge with the reference table
+itself.
 """
 
 from __future__ import annotations
@@ -15,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from dualmech.core.status import Status, is_status
+from dualmech.models.linkages.forward_dynamics import MECHANISMS
 from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
 from dualmech.models.linkages.rssr import SPEC as RSSR_SPEC
-from dualmech.models.linkages.rssr import analyze_rssr, to_table
 from dualmech.models.linkages.table import LinkageTable, TableSpec
 from dualmech.validation.compare import Check, Comparison, Verdict
 from dualmech.validation.linkages.engines import solve_case
@@ -88,9 +90,10 @@ def _reference_for(entry: LinkageEntry, reference: LinkageTable, judge: LinkageT
     crank = judge.meta.get("crank")
     if crank is None:
         return reference
-    if name != "dualmech" or entry.kind != "rssr":
+    if name != "dualmech":
         return f"not compared: {judge.engine}'s rows are its own input states, solved again by dualmech only"
-    return to_table(analyze_rssr(entry.case, crank=crank))
+    mechanism = MECHANISMS[entry.kind]
+    return mechanism.table(mechanism.analyze(entry.case, crank))
 
 
 def run_linkages(matrix: LinkageMatrix) -> LinkageRun:

@@ -38,8 +38,8 @@ def test_the_bundled_linkages_pass_against_every_judge(bundled_run) -> None:
     run = bundled_run
     assert str(run.verdict) == "PASS", [c for c in run.comparison.failures()]
     judged = {(c.case, c.engine) for c in run.comparison.checks}
-    assert judged == {("rssr-crank-rocker", e) for e in ("dualmech", "pinocchio", "mujoco", "mujoco-sim")} | {
-        ("rccc-example", e) for e in ("dualmech", "pinocchio", "mujoco")}
+    assert judged == {(case, e) for case in ("rssr-crank-rocker", "rccc-example")
+                      for e in ("dualmech", "pinocchio", "mujoco", "mujoco-sim")}
     for case, spec in (("rssr-crank-rocker", RSSR_SPEC), ("rccc-example", RCCC_SPEC)):
         for judge in ("pinocchio", "mujoco"):
             compared = {c.quantity for c in run.comparison.for_engine(case, judge)}
@@ -49,7 +49,7 @@ def test_the_bundled_linkages_pass_against_every_judge(bundled_run) -> None:
     worst = run.worst()
     assert set(worst) == {"pinocchio", "mujoco", "mujoco-sim"}
     assert worst["pinocchio"].ratio < 1e-3 and worst["mujoco"].ratio < 1e-3  # measured 3.9e-5, 4.1e-5
-    assert worst["mujoco-sim"].ratio < 1.0  # measured 0.23 (phi4_dot: semi-implicit Euler's lag)
+    assert worst["mujoco-sim"].ratio < 1.0  # measured 0.23 (RSSR phi4_dot), 0.20 (RCCC s4_dot): Euler's lag
 
 
 def test_the_tolerances_are_the_slider_cranks_per_judge() -> None:

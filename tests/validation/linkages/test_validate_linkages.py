@@ -88,7 +88,7 @@ def test_validate_fails_with_exit_code_1_on_a_faulty_judge(tmp_path, monkeypatch
     monkeypatch.setattr(run_module, "solve_case", solve)
     result = CliRunner().invoke(main, ["validate", "linkages", "-o", str(tmp_path / "run")])
     assert result.exit_code == EXIT_FAIL, result.output
-    assert "FAIL: 130 of 131 checks passed" in result.output
+    assert "FAIL: 145 of 146 checks passed" in result.output
     assert "✗ rccc-example / pinocchio: theta4_deg: max rel" in result.output
     assert json.loads((tmp_path / "run" / "summary.json").read_text())["n_failed"] == 1
 
