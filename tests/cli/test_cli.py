@@ -125,10 +125,10 @@ def test_solve_dispatches_other_linkages_to_their_solver(tmp_path, name):
 
 
 @pytest.mark.parametrize(
-    "name, args", [("rssr", ["-o", "x.parquet"]), ("rccc", ["--engine", "mujoco-sim"]),
+    "name, args", [("rssr", ["-o", "x.parquet"]), ("rccc", ["--frames", "joint", "-o", "x.csv"]),
                    ("rssr", ["--frames", "joint", "-o", "x.csv"])]
 )
 def test_solve_refuses_what_a_linkage_cannot_give(tmp_path, name, args):
-    # the RSSR's simulation exists (validation/linkages/mujoco_rssr_sim.py), the RCCC's does not
+    # a linkage's table is CSV in world frames (the joint-frame table is the slider crank's thesis notation)
     result = CliRunner().invoke(main, ["solve", name, *args])
     assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
