@@ -13,6 +13,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any
 
+from dualmech.core.status import Status, is_status
 from dualmech.models.inputs import CaseError, show
 from dualmech.models.linkages import linkage_case, linkage_kind, read_linkage
 from dualmech.models.linkages.table import LinkageTable
@@ -32,11 +33,16 @@ ENGINES: dict[str, dict[str, str]] = {
 
 def solves(engine: str, kind: str, case: Any) -> bool:
     """Whether ``engine`` solves ``case`` of ``kind``: the kind is registered under it, and for the
-    simulation (a servo drives the input) the case gives the output torque (an RCCC case always does: its
-    drive torque is always solved; an RSSR case in output-torque mode)."""
+    simulation (a servo drives the input through the case's angles) the case gives the output torque (an
+    RCCC case always does: its drive torque is always solved; an RSSR case in output-torque mode) and its
+    loop closes (``ok``) at every one of those angles: a trajectory cannot pass where it does not (the
+    in-house status words decide that, as they decide which rows every judge is compared on)."""
     if kind not in ENGINES.get(engine, {}):
         return False
-    return engine != "mujoco-sim" or kind == "rccc" or getattr(case, "mode", "") == "output"
+    if engine != "mujoco-sim":
+        return True
+    given = kind == "rccc" or getattr(case, "mode", "") == "output"
+    return given and bool(is_status(solve_case("dualmech", kind, case).status, Status.OK).all())
 
 
 def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> LinkageTable:
@@ -57,8 +63,8 @@ def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> Linkag
     kind = linkage_kind(data)
     if not solves(engine, kind, case):
         valid = [e for e in ENGINES if solves(e, kind, case)]
-        why = "; its input is servo-driven: the case must give loads.output_torque" if kind in ENGINES[
-            engine] else ""
+        why = ("; its input is servo-driven through every angle of the case: the case must give "
+               "loads.output_torque and its loop close at all of them") if kind in ENGINES[engine] else ""
         raise CaseError(f"engine: {show(engine)} does not solve this {kind.upper()} case (valid: "
                         f"{', '.join(valid)}{why})")
     return solve_case(engine, kind, case)

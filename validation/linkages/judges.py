@@ -43,9 +43,6 @@ from dualmech.models.linkages.rssr import SPEC, assembles, status_words
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.linkages.table import LinkageTable, TableSpec
 
-#: Not used by the judges (their starts are their own, module docstring): the simulated judge
-#: (``mujoco_rssr_sim``) still assembles its initial state from the in-house closed form moved by this (rad).
-START_OFFSET = 0.1
 #: A judge's closure is converged when the gap between the two ball centres is below this times a2.
 JUDGE_CLOSURE_TOL = 1e-14
 #: Newton iterations a judge may take per position.

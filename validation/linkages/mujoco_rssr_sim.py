@@ -18,12 +18,12 @@ import numpy as np
 
 from dualmech.core.motion import CrankState
 from dualmech.core.status import Status
-from dualmech.models.linkages.rssr import SPEC, closed_form_phi
+from dualmech.models.linkages.rssr import SPEC
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.linkages.table import LinkageTable
-from dualmech.validation.linkages.judges import START_OFFSET, transmissions
+from dualmech.validation.linkages.judges import transmissions
 from dualmech.validation.linkages.mjcf_rssr import rssr_mjcf
-from dualmech.validation.linkages.mujoco_rssr import MjRssr, _position, build
+from dualmech.validation.linkages.mujoco_rssr import MjRssr, assemble, build
 
 #: Servo natural frequency times the time step (the crank's own inertia; stable explicitly below 1).
 SERVO_BANDWIDTH = 0.5
@@ -74,8 +74,7 @@ def simulate_rssr(case: RssrCase, timestep: float, duration: float, every: int,
     m, d = mr.model, mr.data
     theta0 = math.radians(float(case.motion.angles_deg[0]))
     w0, acc = case.motion.speed, case.motion.accel
-    phi0 = closed_form_phi(case.geometry, np.array([theta0]), case.branch)[0][0]
-    _position(mr, case, theta0, w0, acc, phi0 + START_OFFSET)  # the rigid judge assembles qpos, qvel
+    assemble(mr, case, theta0, w0, acc)  # the rigid judge's own crude start and Newton: qpos, qvel
     d.time = 0.0
     d.qfrc_applied[:] = 0.0
     d.qfrc_applied[4] = case.output_torque  # the ground's moment on the output crank about +k4 (joint 4)
