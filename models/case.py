@@ -281,8 +281,11 @@ def case_from_dict(data: dict) -> Case:
     """
     if not isinstance(data, dict):
         raise CaseError(f"case: expected a table, got {show(data)}")
+    mechanism = data.get("mechanism", {})
+    kind = mechanism.get("kind", SLIDER_CRANK) if isinstance(mechanism, dict) else None
+    if isinstance(kind, str):
+        _slider_crank(kind)  # first: another mechanism's keys are not this format's unknown keys
     _check_keys(data)
-    _slider_crank(data.get("mechanism", {}).get("kind", SLIDER_CRANK))
     geom = _geometry(data["geometry"])
     motion, bodies = _motion(data["motion"]), bodies_from_table(data.get("bodies", {}), geom)
     _check_proportions(geom, motion)

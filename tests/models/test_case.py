@@ -69,6 +69,8 @@ def test_presets_cover_the_thesis_example():
      ["mechanism.kind", "'four-bar'", "slider-crank, rssr"]),
     (lambda d: d.update(mechanism={"kind": 4}), ["mechanism.kind", "4", "string"]),
     (lambda d: d.update(mechanism={"type": "rssr"}), ["mechanism.type", "unknown", "kind"]),
+    (lambda d: d.update(mechanism={"kind": "RSSR"}, geometry={"input_crank": 0.1}),
+     ["'RSSR'", "valid: slider"]),  # the kind is named before another format's keys are called unknown
 ])
 def test_bad_input_is_one_line_naming_key_and_value(edit, words):
     data = _base()
