@@ -11,8 +11,9 @@ lists whole cases (``docs/matrix-format.md``, "Linkage matrices")::
     reference = "dualmech"           # optional; default dualmech
 
 Each engine solves the cases it can (:func:`~dualmech.validation.linkages.engines.solves`: the
-simulation only a case that gives the output torque and closes at every angle); the tolerances are the slider crank's defaults per
-judge (:data:`~dualmech.validation.matrix.tolerances.DEFAULT_TOLERANCES`), not set here.  A linkage
+simulation only a case that gives the output torque and closes at every angle); the tolerances are
+the slider crank's defaults per judge (:data:`~dualmech.validation.matrix.tolerances.DEFAULT_TOLERANCES`),
+not set here.  A linkage
 case given to ``dualmech validate`` instead of a matrix is the matrix of that case on every engine.
 """
 
