@@ -106,7 +106,7 @@ def load_linkage_matrix(source: str | Path) -> LinkageMatrix:
         One line naming the key, the value and what would be valid.
     """
     if is_linkage(source):
-        entry = _entry(source, None, "case")
+        entry = _entry(str(source), None, "case")  # a Path as well as its text (the Python API)
         return LinkageMatrix(entry.id, f"one linkage case: {entry.case.name}", str(source), tuple(ENGINES),
                              "dualmech", (entry,))
     path = _matrix_file(source)

@@ -33,7 +33,7 @@ def test_the_simulation_solves_only_cases_that_close_at_every_angle(tmp_path) ->
 
 
 def test_a_partly_assembling_case_passes_on_the_rigid_judges(tmp_path, monkeypatch) -> None:
-    run = run_linkages(load_linkage_matrix(str(_partial(tmp_path))))
+    run = run_linkages(load_linkage_matrix(_partial(tmp_path)))  # a Path, as the Python API allows
     assert run.comparison.verdict == "PASS"
     judged = {c.engine for c in run.comparison.checks if c.n_compared}
     assert {"pinocchio", "mujoco"} <= judged and "mujoco-sim" not in judged
