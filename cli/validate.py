@@ -230,26 +230,15 @@ def _print_verdict(console, comparison, files, regressions: list, baseline_file:
 def _validate_linkages(source: str, outdir: str | None, engines: tuple[str, ...], refused: dict) -> None:
     """``validate`` of a linkage case or matrix (:mod:`dualmech.validation.linkages`): run, compare, report,
     print the table and the verdict, exit 0 (PASS) or 1 (FAIL)."""
-    import time
-    from pathlib import Path
-
+    from dualmech.validation.api import run_linkage_validation
     from dualmech.validation.junit import describe
-    from dualmech.validation.linkages.matrix import load_linkage_matrix
-    from dualmech.validation.linkages.report import write_linkage_report
-    from dualmech.validation.linkages.run import run_linkages
-    from dualmech.validation.rundir import check_output_folder
 
     given = next((flag for flag, value in refused.items() if value), None)
     if given:
         raise ValueError(f"{given}: not available for a linkage run ({source}); it takes -o, --engines, "
                          "--jobs")
-    matrix = load_linkage_matrix(source)
-    matrix = matrix.with_engines(engines) if engines else matrix
-    folder = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
-    start = time.perf_counter()
-    run = run_linkages(matrix)
-    seconds = time.perf_counter() - start
-    files = write_linkage_report(run, folder, seconds)
+    run, files, seconds = run_linkage_validation(source, outdir, engines)
+    matrix = run.matrix
     console = summary_console(sys.stdout.isatty())
     title = (f"{matrix.name}: {len(matrix.cases)} linkage cases, engines {', '.join(matrix.engines)} — "
              f"solved and compared in {seconds:.1f} s")

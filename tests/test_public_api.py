@@ -143,3 +143,25 @@ def test_a_missing_dataframe_library_is_named_in_one_line(table: ResultTable, mo
     with pytest.raises(ImportError, match=rf"^ResultTable\.{method}: needs {package}, which is not installed "
                                           rf"\(pip install {package}\)$"):
         getattr(table, method)()
+
+
+def test_validate_linkages_is_the_linkage_gate_from_python(tmp_path, monkeypatch) -> None:
+    pytest.importorskip("pinocchio")
+    run = dualmech.validation.validate_linkages("rssr", tmp_path / "run", engines=["dualmech", "pinocchio"])
+    assert run.verdict == "PASS" and (tmp_path / "run" / "summary.json").is_file()
+    assert set(run.tables["rssr-crank-rocker"]) == {"dualmech", "pinocchio"}
+    # the same gate fails when the judge's answer is off (a deliberate fault: the output angle 1e-6 deg off)
+    from dualmech.validation.linkages import engines
+
+    real = engines.solve_case
+
+    def shifted(engine, kind, case):
+        table = real(engine, kind, case)
+        if engine == "pinocchio":
+            table.columns["phi4_deg"] += 1e-6
+        return table
+
+    monkeypatch.setattr(engines, "solve_case", shifted)
+    monkeypatch.setattr("dualmech.validation.linkages.run.solve_case", shifted)
+    assert dualmech.validation.validate_linkages("rssr", tmp_path / "bad", engines=["dualmech", "pinocchio"]
+                                                 ).verdict == "FAIL"

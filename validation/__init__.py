@@ -19,7 +19,7 @@ from __future__ import annotations
 from importlib import import_module
 from typing import Any
 
-__all__ = ["ENGINES", "ValidationRun", "solve", "validate"]
+__all__ = ["ENGINES", "ValidationRun", "solve", "validate", "validate_linkages"]
 
 #: public name -> the module that defines it
 _HOMES: dict[str, str] = {
@@ -27,6 +27,7 @@ _HOMES: dict[str, str] = {
     "ValidationRun": "dualmech.validation.api",
     "solve": "dualmech.validation.api",
     "validate": "dualmech.validation.api",
+    "validate_linkages": "dualmech.validation.api",
 }
 
 

@@ -28,6 +28,8 @@ from dualmech.validation.engines import run_engine
 
 if TYPE_CHECKING:
     from dualmech.validation.compare import Comparison, Verdict
+    from dualmech.validation.linkages.report import LinkageReport
+    from dualmech.validation.linkages.run import LinkageRun
     from dualmech.validation.matrix import Matrix
     from dualmech.validation.report.render import ReportFiles
     from dualmech.validation.runner import ProgressCallback, RunOutcome
@@ -158,3 +160,47 @@ def validate(source: str | Path | None = None, outdir: str | Path | None = None,
     """
     matrix, folder = open_run(source, outdir, engines)
     return run_and_compare(matrix, folder, jobs=jobs, resume=resume, scheduler=scheduler)
+
+
+def run_linkage_validation(source: str | Path = "linkages", outdir: str | Path | None = None,
+                           engines: Sequence[str] = ()) -> tuple[LinkageRun, LinkageReport, float]:
+    """``dualmech validate`` of the other linkages: solve, compare, write the report; the run, its files and
+    the seconds spent solving and comparing (the command line prints them)."""
+    import time
+
+    from dualmech.validation.linkages.matrix import load_linkage_matrix
+    from dualmech.validation.linkages.report import write_linkage_report
+    from dualmech.validation.linkages.run import run_linkages
+    from dualmech.validation.rundir import check_output_folder
+
+    matrix = load_linkage_matrix(source)
+    matrix = matrix.with_engines(tuple(engines)) if engines else matrix
+    folder = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
+    start = time.perf_counter()
+    run = run_linkages(matrix)
+    seconds = time.perf_counter() - start
+    return run, write_linkage_report(run, folder, seconds), seconds
+
+
+def validate_linkages(source: str | Path = "linkages", outdir: str | Path | None = None, *,
+                      engines: Sequence[str] = ()) -> LinkageRun:
+    """Validate the RSSR and RCCC linkages as ``dualmech validate linkages`` does (without its console).
+
+    Parameters
+    ----------
+    source : str or pathlib.Path
+        ``"linkages"`` (the bundled linkage matrix), ``"rssr"``, ``"rccc"``, a linkage case file or a
+        linkage matrix file (``docs/matrix-format.md``, "Linkage matrices").
+    outdir : str or pathlib.Path, optional
+        Run directory for ``summary.json`` and the report (new, empty, or an earlier dualmech run);
+        default ``runs/<matrix name>``.
+    engines : sequence of str, optional
+        Run only these engines (the reference, ``dualmech``, among them).
+
+    Returns
+    -------
+    LinkageRun
+        ``.verdict`` (``PASS``/``FAIL``/``INCOMPLETE``), ``.comparison``, ``.tables`` (case -> engine ->
+        its :class:`~dualmech.models.linkages.table.LinkageTable`), ``.worst()`` per judge.
+    """
+    return run_linkage_validation(source, outdir, engines)[0]
