@@ -41,8 +41,32 @@ MOMENT_COLUMNS: tuple[str, ...] = tuple(
 
 
 @dataclass(frozen=True)
-class ResultTable:
-    """Columns of one engine's answer for one case.
+class ColumnTable:
+    """Named ``(n,)`` columns of one engine's answer for one case, with one status word per row: what
+    :class:`ResultTable` (the slider crank) and the other linkages' ``LinkageTable`` share."""
+
+    engine: str
+    case: str
+    columns: dict[str, np.ndarray]
+    status: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        n = self.status.shape[0]
+        for name, col in self.columns.items():
+            if col.shape != (n,):
+                raise ValueError(f"columns[{name!r}]: expected shape ({n},), got {col.shape}")
+
+    def __len__(self) -> int:
+        return self.status.shape[0]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.status if name == "status" else self.columns[name]
+
+
+@dataclass(frozen=True)
+class ResultTable(ColumnTable):
+    """Columns of one engine's answer for one slider-crank case.
 
     Attributes
     ----------
@@ -59,26 +83,11 @@ class ResultTable:
         Engine-specific facts (versions, iterations, timings) for reports.
     """
 
-    engine: str
-    case: str
-    columns: dict[str, np.ndarray]
-    status: np.ndarray
-    meta: dict = field(default_factory=dict)
-
     def __post_init__(self) -> None:
         missing = [c for c in NUMERIC_COLUMNS if c not in self.columns]
         if missing:
             raise ValueError(f"columns: missing {missing}")
-        n = self.status.shape[0]
-        for name, col in self.columns.items():
-            if col.shape != (n,):
-                raise ValueError(f"columns[{name!r}]: expected shape ({n},), got {col.shape}")
-
-    def __len__(self) -> int:
-        return self.status.shape[0]
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        return self.status if name == "status" else self.columns[name]
+        super().__post_init__()
 
     def to_numpy(self) -> np.ndarray:
         """The table as one numpy structured array, shape ``(n,)``, fields :data:`COLUMNS` in order.

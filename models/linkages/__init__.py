@@ -8,6 +8,7 @@ The judges of these linkages (Pinocchio, MuJoCo) live in :mod:`dualmech.validati
 
 from __future__ import annotations
 
+from importlib import import_module
 from pathlib import Path
 from typing import Any
 
@@ -17,8 +18,18 @@ from dualmech.models.inputs import CaseError, show
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.models.toml_input import read_toml
 
+#: ``[mechanism] kind`` -> its case reader and its in-house solver, ``(module, function)`` in this package.
+_HOMES: dict[str, tuple[tuple[str, str], tuple[str, str]]] = {
+    "rssr": (("rssr_case", "rssr_from_dict"), ("rssr", "solve_rssr")),
+    "rccc": (("rccc_case", "rccc_from_dict"), ("rccc", "solve_rccc")),
+}
 #: ``[mechanism] kind`` values this package solves.
-KINDS = ("rssr", "rccc")
+KINDS = tuple(_HOMES)
+
+
+def _function(home: tuple[str, str]) -> Any:
+    module, name = home
+    return getattr(import_module(f"dualmech.models.linkages.{module}"), name)
 #: The bundled linkage cases (``<stem>.toml``; to join ``models/cases/linkages/`` once ``load_case`` reads
 #: ``[mechanism] kind``, as the slider crank's presets there are all read by it).
 CASES = Path(__file__).resolve().parent / "cases"
@@ -71,14 +82,8 @@ def linkage_case(source: str | Path | dict) -> Any:
     """
     data = read_linkage(source)
     kind = linkage_kind(data)
-    if kind == "rssr":
-        from dualmech.models.linkages.rssr_case import rssr_from_dict
-
-        return rssr_from_dict(data)
-    if kind == "rccc":
-        from dualmech.models.linkages.rccc_case import rccc_from_dict
-
-        return rccc_from_dict(data)
+    if kind in _HOMES:
+        return _function(_HOMES[kind][0])(data)
     raise CaseError(f"mechanism.kind: {show(kind)} is not a linkage dualmech solves here "
                     f"(valid: {', '.join(KINDS)})")
 
@@ -95,14 +100,8 @@ def solve_linkage(source: str | Path | dict) -> LinkageTable:
         One line, for any invalid input (including a ``kind`` not in :data:`KINDS`).
     """
     data = read_linkage(source)
-    case = linkage_case(data)
-    if linkage_kind(data) == "rssr":
-        from dualmech.models.linkages.rssr import solve_rssr
-
-        return solve_rssr(case)
-    from dualmech.models.linkages.rccc import solve_rccc
-
-    return solve_rccc(case)
+    case = linkage_case(data)  # first: an unknown kind is a one-line CaseError
+    return _function(_HOMES[linkage_kind(data)][1])(case)
 
 
 def summary(table: LinkageTable) -> str:

@@ -21,10 +21,10 @@ from dualmech.models.inputs import (
     POSITIVE_LENGTH,
     POSITIVE_MASS,
     CaseError,
+    check_keys,
     check_number,
     check_text,
     check_vector,
-    key_text,
     show,
 )
 
@@ -32,28 +32,18 @@ from dualmech.models.inputs import (
 BODY_KEYS = ("mass", "radius", "com", "inertia")
 
 
-def _refuse_unknown(section: str, table: dict, valid: Any) -> None:
-    """The first key of ``table`` not in ``valid``, as one line naming it and every valid key (to become
-    ``models.inputs.check_keys`` once that lands)."""
-    for key in table:
-        if key not in valid:
-            where = f"{section}.{key_text(key)}" if section else key_text(key)
-            kind = "valid" if section else "valid top-level keys"
-            raise CaseError(f"{where}: unknown key ({kind}: {', '.join(sorted(valid))})")
-
-
 def check_tables(data: dict, schema: dict[str, dict[str, bool]]) -> None:
     """Unknown, missing and mistyped keys of the top level and of every table of ``schema`` (key ->
     whether it is required)."""
     top = {"name", "units", "description", *schema}
-    _refuse_unknown("", data, top)
+    check_keys("", data, top)
     if "name" not in data:
         raise CaseError("name: required key missing")
     for section, keys in schema.items():
         table = data.get(section)
         if not isinstance(table, dict):
             raise CaseError(f"{section}: expected a table, got {show(table)}")
-        _refuse_unknown(section, table, keys)
+        check_keys(section, table, keys)
         for key, required in keys.items():
             if required and key not in table:
                 raise CaseError(f"{section}.{key}: required key missing")
@@ -66,9 +56,7 @@ def link_body(link: str, b: Any, length: float, axisymmetric: bool = False) -> B
     key = f"bodies.{link}"
     if not isinstance(b, dict):
         raise CaseError(f"{key}: expected a table, got {show(b)}")
-    for k in b:
-        if k not in BODY_KEYS:
-            raise CaseError(f"{key}.{key_text(k)}: unknown key (valid: {', '.join(BODY_KEYS)})")
+    check_keys(key, b, BODY_KEYS)
     if "mass" not in b:
         raise CaseError(f"{key}.mass: required key missing")
     mass = check_number(f"{key}.mass", b["mass"], POSITIVE_MASS)

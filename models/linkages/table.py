@@ -7,13 +7,13 @@ with the mechanism's own columns (``docs/conventions.md``, "RSSR"): the slider c
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from dualmech.core.table import write_csv
+from dualmech.core.table import ColumnTable, write_csv
 
 
 class TableSpec(NamedTuple):
@@ -59,30 +59,12 @@ class TableSpec(NamedTuple):
 
 
 @dataclass(frozen=True)
-class LinkageTable:
+class LinkageTable(ColumnTable):
     """Columns of one engine's answer for one linkage case.
 
     ``columns`` name -> ``(n,)`` float arrays in the mechanism's column order; ``status``
     ``(n,)`` status words (:mod:`dualmech.core.status`); ``meta`` engine facts.
     """
-
-    engine: str
-    case: str
-    columns: dict[str, np.ndarray]
-    status: np.ndarray
-    meta: dict = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        n = self.status.shape[0]
-        for name, col in self.columns.items():
-            if col.shape != (n,):
-                raise ValueError(f"columns[{name!r}]: expected shape ({n},), got {col.shape}")
-
-    def __len__(self) -> int:
-        return self.status.shape[0]
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        return self.status if name == "status" else self.columns[name]
 
     def to_csv(self, path: str | Path | None = None) -> str:
         """CSV text of every column (full precision), then ``status``; written to ``path`` if given."""

@@ -18,12 +18,12 @@ from dualmech.models.inputs import CaseError
 from dualmech.models.linkages import read_linkage, solve_linkage
 from dualmech.models.linkages.rccc import SPEC, analyze_rccc, estimate, spherical_estimate, to_table
 from dualmech.models.linkages.rccc_case import RcccCase, rccc_from_dict
-from dualmech.models.linkages.tolerances import (
+from tests.models.linkages.cases import random_rccc
+from tests.tolerances import (
     LINKAGE_CLOSED_FORM,
     LINKAGE_FINITE_DIFFERENCE,
     LINKAGE_POWER_BALANCE,
 )
-from tests.models.linkages.cases import random_rccc
 
 
 def _bundled() -> RcccCase:

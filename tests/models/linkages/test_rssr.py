@@ -16,13 +16,13 @@ from dualmech.models.linkages import dynamics as dynamics_module
 from dualmech.models.linkages import rssr as rssr_module
 from dualmech.models.linkages.rssr import analyze_rssr, closed_form_phi, crank_pin, output_pin, to_table
 from dualmech.models.linkages.rssr_case import RssrCase, rssr_from_dict
-from dualmech.models.linkages.tolerances import (
+from tests.models.linkages.cases import bundled, random_rssr
+from tests.tolerances import (
     LINKAGE_CLOSED_FORM,
     LINKAGE_DYNAMICS_RESIDUAL,
     LINKAGE_FINITE_DIFFERENCE,
     LINKAGE_POWER_BALANCE,
 )
-from tests.models.linkages.cases import bundled, random_rssr
 
 
 def _wrap(d: np.ndarray) -> np.ndarray:

@@ -16,9 +16,9 @@ from dualmech.models.linkages import dynamics as dynamics_module
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rccc import SPEC, analyze_rccc, to_table
 from dualmech.models.linkages.rccc_case import RcccCase, rccc_from_dict
-from dualmech.models.linkages.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
 from dualmech.validation.linkages.gate import worst
 from tests.models.linkages.cases import random_rccc
+from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
 
 
 def _bundled() -> RcccCase:

@@ -12,7 +12,7 @@ from numpy.testing import assert_allclose
 
 from dualmech.models.linkages import linkage_case
 from dualmech.models.linkages.forward_dynamics import Coefficients, coefficients, simulate
-from dualmech.models.linkages.tolerances import LINKAGE_SIM_FREE_ANGLE, LINKAGE_SIM_FREE_RATE
+from tests.tolerances import LINKAGE_SIM_FREE_ANGLE, LINKAGE_SIM_FREE_RATE
 
 pytest.importorskip("mujoco")
 

@@ -11,8 +11,8 @@ from numpy.testing import assert_allclose
 
 from dualmech.models.linkages.rssr import analyze_rssr, to_table
 from dualmech.models.linkages.rssr_case import RssrCase, rssr_from_dict
-from dualmech.models.linkages.tolerances import LINKAGE_SIM_ANGLE, LINKAGE_SIM_FORCE, LINKAGE_SIM_RATE
 from tests.models.linkages.cases import bundled
+from tests.tolerances import LINKAGE_SIM_ANGLE, LINKAGE_SIM_FORCE, LINKAGE_SIM_RATE
 
 pytest.importorskip("mujoco")
 
