@@ -242,18 +242,24 @@ def analyze_positions(
     return Chunk(dict(zip(OUT_COLUMNS, out.T)), status, iters, dyn)
 
 
-def iter_chunks(case: Case, chunk_positions: int) -> Iterator[Chunk]:
+def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1) -> Iterator[Chunk]:
     """The positions of one case in chunks of ``chunk_positions`` (rounded up to a multiple of
-    :data:`WARM_CHAIN`, so that no chain of warm starts straddles two chunks), one output buffer reused.
+    :data:`WARM_CHAIN`, so that no chain of warm starts straddles two chunks), in ``buffers`` output
+    buffers reused in turn: chunk ``k`` is written into buffer ``k % buffers``, so a consumer may still
+    read a chunk (write it to a file on another thread) while the next ``buffers - 1`` are computed.
 
-    Memory stays bounded by the chunk, however many positions the case has.
+    Memory stays bounded by ``buffers`` chunks, however many positions the case has.
     """
+    if buffers < 1:
+        raise ValueError(f"buffers: expected at least 1, got {buffers}")
     angles = np.asarray(case.motion.angles_deg, dtype=float)
     chunk_positions = chain_aligned(chunk_positions)
-    buffer = np.empty((min(chunk_positions, max(1, angles.size)), len(OUT_COLUMNS)))
-    for lo in range(0, angles.size, chunk_positions):
+    rows = min(chunk_positions, max(1, angles.size))
+    chunks = -(-angles.size // chunk_positions)
+    pool = [np.empty((rows, len(OUT_COLUMNS))) for _ in range(max(1, min(buffers, chunks)))]
+    for k, lo in enumerate(range(0, angles.size, chunk_positions)):
         crank = case.motion.state(case.geometry.crank_axial_shift, angles[lo : lo + chunk_positions])
-        yield analyze_chunk([case], [crank], buffer)
+        yield analyze_chunk([case], [crank], pool[k % len(pool)])
 
 
 def to_table(case: Case, chunk: Chunk) -> ResultTable:

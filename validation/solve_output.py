@@ -1,23 +1,28 @@
 """The output of ``dualmech solve``: the table as CSV or Parquet, long in-house cases streamed chunk by chunk.
 
 A case of more than :data:`STREAM_POSITIONS` crank positions solved by the in-house engine
-never exists whole in memory: the compiled kernel analyses it chunk by chunk into one
-reused buffer (:func:`~dualmech.models.slider_crank_kernel.iter_chunks`) and each chunk
-goes to the file at once (a Parquet row group, or CSV rows), so memory is bounded by the
-chunk.  Its summary then gives what can be gathered on the way: status counts, stroke,
-worst closure residual and the ``no_assembly`` ranges (the design peaks need the table:
-load the Parquet file).
+never exists whole in memory: the compiled kernel analyses it chunk by chunk into two
+buffers used in turn (:func:`~dualmech.models.slider_crank_kernel.iter_chunks`) and each chunk
+goes to the file (a Parquet row group, or CSV rows) on a writer thread while the kernel computes
+the next, so memory is bounded by two chunks (and the writer's buffer).  Its summary then
+gives what can be gathered on the way: status counts, stroke, worst closure residual and the
+``no_assembly`` ranges (the design peaks need the table: load the Parquet file).
 """
 
 from __future__ import annotations
 
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Iterable
 
 import numpy as np
 
 from dualmech.core.status import STATUSES
 from dualmech.core.table import ParquetWriter, ResultTable, write_parquet
 from dualmech.models.case import Case
+
+if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
+    from dualmech.models.slider_crank_kernel import Chunk
 
 #: Cases longer than this stream to their file (one chunk of the kernel each).
 STREAM_POSITIONS = 100_000
@@ -77,21 +82,48 @@ class _Tally:
         return "\n".join(lines + messages)
 
 
+def _pipelined(chunks: Iterable[Chunk], sink: Callable[[int, Chunk], None]) -> None:
+    """``sink(k, chunk)`` for every chunk in order, on a writer thread while the next chunk is computed.
+
+    One chunk at most is being written: chunk ``k + 1`` is handed over once chunk ``k`` is written, and
+    only then is chunk ``k + 2`` computed, so two kernel buffers used in turn suffice
+    (:func:`~dualmech.models.slider_crank_kernel.iter_chunks` with ``buffers=2``).  An exception of
+    ``sink`` is raised here (when the next chunk is ready, or at the end); on any exception, an
+    interrupt too, the write in flight is finished first, so the caller may then close the file with
+    every finished chunk in it.
+    """
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="dualmech-writer") as writer:
+        pending: Future | None = None
+        for k, chunk in enumerate(chunks):
+            if pending is not None:
+                pending.result()
+            pending = writer.submit(sink, k, chunk)
+        if pending is not None:
+            pending.result()
+
+
 def stream_solve(case: Case, path: str | Path) -> str:
-    """Solve ``case`` with the compiled in-house engine chunk by chunk into ``path``; return the summary."""
+    """Solve ``case`` with the compiled in-house engine chunk by chunk into ``path``; return the summary.
+
+    Each chunk is written (and tallied) on a writer thread while the kernel computes the next
+    (:func:`_pipelined`): memory is two chunks of the kernel's rows and the writer's buffer.
+    """
     from dualmech.models.slider_crank import no_assembly_message, no_assembly_ranges
     from dualmech.models.slider_crank_kernel import CHUNK_POSITIONS, iter_chunks, to_table
 
     parquet = output_format(path) == ".parquet"
     tally = _Tally()
     with ParquetWriter(path) if parquet else Path(path).open("w") as out:
-        for k, chunk in enumerate(iter_chunks(case, CHUNK_POSITIONS)):
+
+        def sink(k: int, chunk: Chunk) -> None:
             tally.add(chunk.columns, chunk.status)
             if parquet:
                 out.write(chunk.columns, chunk.status)
-                continue
+                return
             text = to_table(case, chunk).to_csv()
             out.write(text if k == 0 else text.split("\n", 1)[1])
+
+        _pipelined(iter_chunks(case, CHUNK_POSITIONS, buffers=2), sink)
     theta = np.asarray(case.motion.angles_deg, dtype=float)
     ranges = no_assembly_ranges(theta, np.concatenate(tally.no_assembly))
     return tally.text(case, no_assembly_message(ranges))

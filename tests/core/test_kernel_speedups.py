@@ -60,3 +60,22 @@ def test_warm_starts_take_fewer_iterations() -> None:
         case.with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 3.0}})
     )
     assert fine.meta["iterations"].mean() < 0.8 * coarse.meta["iterations"].mean()
+
+
+def test_chunks_take_their_buffers_in_turn() -> None:
+    """With ``buffers=2`` chunk ``k + 1`` is computed into the other buffer (the pipelined solve still
+    writes chunk ``k``), chunk ``k + 2`` into chunk ``k``'s (memory stays two chunks), with the same
+    bits as one buffer reused.  (With the one buffer of before, chunks ``k`` and ``k + 1`` share it.)"""
+    grid = {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 0.25}}
+    case = load_case("a4-30-s1-3.5").with_values(grid)
+    one = [{k: v.copy() for k, v in c.columns.items()} for c in slider_crank_kernel.iter_chunks(case, 200)]
+    two = [dict(c.columns) for c in slider_crank_kernel.iter_chunks(case, 200, buffers=2)]
+    assert len(two) == len(one) == 8
+    s4 = [c["S4"] for c in two]
+    assert all(not np.shares_memory(a, b) for a, b in zip(s4, s4[1:]))
+    assert all(np.shares_memory(a, b) for a, b in zip(s4, s4[2:]))
+    for k, (a, b) in enumerate(zip(one, slider_crank_kernel.iter_chunks(case, 200, buffers=2))):
+        for name, col in a.items():
+            assert_allclose(b.columns[name], col, rtol=0, atol=0, equal_nan=True, err_msg=f"{k} {name}")
+    with pytest.raises(ValueError, match="buffers: expected at least 1, got 0"):
+        next(slider_crank_kernel.iter_chunks(case, 200, buffers=0))
