@@ -51,7 +51,7 @@ def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir:
     from dualmech.models.case import load_case
     from dualmech.models.tolerance.spec import load_spec
     from dualmech.models.tolerance.study import StudyInput
-    from dualmech.validation.tolerance_report import write_tolerance_report
+    from dualmech.validation.tolerance_report import FigureDrawing, write_tolerance_report
     from dualmech.validation.tolerance_study import run_study
 
     if jobs < 1:
@@ -59,8 +59,13 @@ def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir:
     if seed < 0:
         raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
     study = StudyInput(load_case(case), load_spec(spec_file), n, seed)
-    summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples)
-    files = write_tolerance_report(Path(outdir), summary, x, samples)
+    # the figures are drawn by a worker process while this one runs the judges' spot checks
+    drawing = FigureDrawing(parallel=judge_samples > 0)
+    try:
+        summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples, drawing)
+        files = write_tolerance_report(Path(outdir), summary, x, samples, drawing.collect())
+    finally:
+        drawing.close()
     _print_summary(summary)
     click.echo(f"wrote {', '.join(str(Path(outdir) / f) for f in files)}")
     failed = [s for s in summary["judges"] if not s["passed"]]

@@ -2,17 +2,23 @@
 
 The study's parts live in :mod:`dualmech.models.tolerance` (sampling, batched solving of a chunk,
 its storage and resumption: :mod:`~dualmech.models.tolerance.study`; sensitivities; statistics).
-This module runs them: the chunks in this process, in a process pool (``jobs``) or on a Dask
-cluster (``scheduler``) through :func:`dualmech.validation.executors.execute`, each stored as it
-finishes; then the exact sensitivities and their check, the judges' spot checks
-(:mod:`~dualmech.validation.tolerance_judges`) and ``DIR/summary.json`` with the library versions.
+This module runs them: the chunks in this process (:data:`IN_FLIGHT` at once, so that the kernel's
+threads solve one chunk while this process reduces, stores and writes another), in a process pool
+(``jobs``) or on a Dask cluster (``scheduler``) through :func:`dualmech.validation.executors.execute`,
+each stored as it finishes and streamed into the samples files in design order; then the exact
+sensitivities and their check, the judges' spot checks (:mod:`~dualmech.validation.tolerance_judges`)
+and ``DIR/summary.json`` with the library versions.  The report's figures, which need only the samples
+and the statistics, may be drawn meanwhile (:class:`~dualmech.validation.tolerance_report.FigureDrawing`).
 """
 
 from __future__ import annotations
 
 import json
 import time
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -25,52 +31,96 @@ from dualmech.models.tolerance.sampling import judge_picks, n_chunks
 from dualmech.models.tolerance.spec import design_case, nominal_values
 from dualmech.models.tolerance.study import (
     METHODS,
+    SampleStream,
     StudyInput,
     finite_json,
-    gather,
     prepare,
     solve_chunk,
     store_chunk,
-    write_samples,
 )
 from dualmech.models.tolerance.summary import summarize
 from dualmech.validation.executors import execute
 from dualmech.validation.provenance import versions
 from dualmech.validation.tolerance_judges import candidates, run_spot_checks
+from dualmech.validation.tolerance_report import FigureDrawing
+
+#: Chunks solved at once in this process (``jobs = 1``): the kernel releases the GIL, so while its
+#: threads work on one chunk's positions this thread reduces, stores and writes another, and the
+#: kernel's threads always have a next block queued.  Results are the same bits for any value.
+IN_FLIGHT = 2
 
 
-def run_chunks(outdir: Path, study: StudyInput, todo: list[int], jobs: int, scheduler: str | None) -> int:
-    """Solve the chunks ``todo``, storing each as it finishes; returns how many ran."""
+def in_process(calls: list[tuple], leftovers: list[dict]) -> Iterator[dict]:
+    """:func:`solve_chunk` on every call in this process, :data:`IN_FLIGHT` at once; yields in call order.
+
+    The first chunk runs alone (the kernel's thread pool and compiled code are set up once).  Chunks
+    that finished but were not yielded when the generator is closed early are appended to ``leftovers``.
+    """
+    if not calls:
+        return
+    yield solve_chunk(*calls[0])
+    with ThreadPoolExecutor(IN_FLIGHT, thread_name_prefix="dualmech-chunk") as pool:
+        queued = deque(pool.submit(solve_chunk, *call) for call in calls[1:1 + IN_FLIGHT])
+        later = iter(calls[1 + IN_FLIGHT:])
+        try:
+            while queued:
+                entry = queued.popleft().result()
+                call = next(later, None)
+                if call is not None:
+                    queued.append(pool.submit(solve_chunk, *call))
+                yield entry
+        finally:
+            for fut in queued:
+                fut.cancel()
+            leftovers.extend(f.result() for f in queued if not f.cancelled() and f.exception() is None)
+
+
+def run_chunks(outdir: Path, study: StudyInput, todo: list[int], jobs: int, scheduler: str | None,
+               stream: SampleStream | None = None) -> int:
+    """Solve the chunks ``todo``, storing each as it finishes (and handing it to ``stream``); how many ran."""
     calls = [(study.case.raw, study.spec.to_dict(), study.n, study.seed, c) for c in todo]
     leftovers: list[dict] = []
+    if jobs <= 1 and not scheduler:
+        entries = in_process(calls, leftovers)
+    else:
+        entries = execute(solve_chunk, calls, jobs, scheduler, leftovers)
     done = 0
     try:
-        for entry in execute(solve_chunk, calls, jobs, scheduler, leftovers):
+        for entry in entries:
             store_chunk(outdir, entry)
+            if stream is not None:
+                stream.add(entry["index"], entry["x"], entry["outputs"])
             done += 1
     finally:
+        entries.close()
         for entry in leftovers:
             store_chunk(outdir, entry)
     return done
 
 
-def monte_carlo(outdir: Path, study: StudyInput, jobs: int, scheduler: str | None) -> dict:
-    """Run (or resume) the Monte Carlo part; returns timing facts."""
-    todo = prepare(outdir, study)
-    start = time.perf_counter()
-    ran = run_chunks(outdir, study, todo, jobs, scheduler)
-    solve_s = time.perf_counter() - start
-    files = write_samples(outdir, study)
-    return {"chunks_run": ran, "chunks_resumed": n_chunks(study.n) - len(todo), "solve_s": solve_s,
-            "files": files}
+def monte_carlo(outdir: Path, study: StudyInput, jobs: int, scheduler: str | None,
+                figures: FigureDrawing | None = None) -> tuple[dict, np.ndarray, dict[str, np.ndarray]]:
+    """Run (or resume) the Monte Carlo part: (timing facts, key values ``(n, k)``, outputs ``(n,)``).
 
-
-def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, scheduler: str | None = None,
-              judge_samples: int = 5) -> tuple[dict, np.ndarray | None, dict[str, np.ndarray] | None]:
-    """The whole study (module docstring): returns the summary (also in ``DIR/summary.json``) and the samples.
-
-    Sampled key values ``(n, k)`` and outputs are ``None`` for ``method = "linear"``.
+    ``figures`` is warmed once the folder is accepted (its worker starts while the chunks are solved).
     """
+    todo = prepare(outdir, study)
+    if figures is not None:
+        figures.warm()
+    start = time.perf_counter()
+    stream = SampleStream(outdir, study, set(range(n_chunks(study.n))) - set(todo))
+    try:
+        ran = run_chunks(outdir, study, todo, jobs, scheduler, stream)
+        files, x, samples = stream.finish()
+    except BaseException:
+        stream.abort()
+        raise
+    solve_s = time.perf_counter() - start
+    return ({"chunks_run": ran, "chunks_resumed": n_chunks(study.n) - len(todo), "solve_s": solve_s,
+             "files": files}, x, samples)
+
+
+def _check_inputs(study: StudyInput, method: str, judge_samples: int) -> None:
     if method not in METHODS:
         raise ValueError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
     if judge_samples < 0:
@@ -80,12 +130,23 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
         raise ValueError(f"method: {method!r} needs the exact sensitivities, which cover the default joints "
                          f"only (cylindrical crank, ball-ball rod), not crank = {j.crank!r}, rod_slider = "
                          f"{j.rod_slider!r} (valid: --method mc)")
+
+
+def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, scheduler: str | None = None,
+              judge_samples: int = 5, figures: FigureDrawing | None = None,
+              ) -> tuple[dict, np.ndarray | None, dict[str, np.ndarray] | None]:
+    """The whole study (module docstring): returns the summary (also in ``DIR/summary.json``) and the samples.
+
+    Sampled key values ``(n, k)`` and outputs are ``None`` for ``method = "linear"``.  ``figures``: started
+    (:meth:`~dualmech.validation.tolerance_report.FigureDrawing.start`) once the statistics are known,
+    before the spot checks.
+    """
+    _check_inputs(study, method, judge_samples)
     outdir = Path(outdir)
     timing: dict = {}
     x = samples = None
     if method != "linear":
-        timing = monte_carlo(outdir, study, jobs, scheduler)
-        x, samples = gather(outdir, study)
+        timing, x, samples = monte_carlo(outdir, study, jobs, scheduler, figures)
     else:
         outdir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
@@ -97,6 +158,8 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
     check = check_sensitivities(study.case, study.spec, sens).to_dict() if sens is not None else None
     timing["sensitivity_s"] = time.perf_counter() - start
     stats = summarize(study.spec, nominal, x, samples, sens)
+    if figures is not None:
+        figures.start(finite_json({**stats, "keys": list(study.spec.keys)}), samples)
     if samples is not None:
         picks = judge_picks(judge_samples, study.seed, candidates(samples["status"]))
         designs = [design_case(study.case, study.spec, x[i], design_name(int(i))) for i in picks]

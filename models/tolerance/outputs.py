@@ -106,40 +106,75 @@ def _where_finite(mask: np.ndarray, values: np.ndarray) -> np.ndarray:
     return np.where(mask & np.isfinite(values), values, -np.inf)
 
 
+_IS_ASSEMBLED = np.isin(np.arange(len(STATUSES)), _ASSEMBLED)
+_IS_FAILED = np.isin(np.arange(len(STATUSES)), _FAILED)
+
+
+def _masked_max(mask: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Per design (row) the largest of ``values`` where ``mask`` and finite, else -inf, ``(d,)``."""
+    return np.where(mask & np.isfinite(values), values, -np.inf).max(axis=1)
+
+
+def block_extremes(columns: Mapping[str, np.ndarray], codes: np.ndarray, mode: str) -> dict[str, np.ndarray]:
+    """Per design, the extremes a block of positions gives each output, ``(d,)`` each.
+
+    ``stroke`` -> its largest and smallest assembled S4 (``stroke_min``); a vector's peak -> the largest
+    *squared* magnitude ``x**2 + y**2 + z**2`` (the square root is monotone, so the root of this maximum is
+    bit for bit the largest magnitude, one root per design instead of one per position); the solved
+    load -> its largest ``|value|``.  Masked as :func:`candidate_values` (``-inf``/``+inf`` where none).
+    """
+    assembled = _IS_ASSEMBLED[codes] & np.isfinite(columns["S4"])
+    ok = codes == _OK
+    s4 = columns["S4"]
+    out = {"stroke": np.where(assembled, s4, -np.inf).max(axis=1),
+           "stroke_min": np.where(assembled, s4, np.inf).min(axis=1)}
+    for name, prefix in FORCES + MOMENTS:
+        x, y, z = (columns[f"{prefix}{a}"] for a in "xyz")
+        squared = np.square(x)
+        squared += np.square(y)
+        squared += np.square(z)
+        out[name] = _masked_max(ok, squared)
+    name, column = SOLVED_LOAD[mode]
+    out[name] = _masked_max(ok, np.abs(columns[column]))
+    return out
+
+
 class DesignReduction:
     """Every output of ``m`` designs, reduced block by block over their positions (batched numpy).
 
     :meth:`add` takes a block of whole designs ``first .. first + d - 1`` at some of their
     positions; after every position of every design was added once, :meth:`result` gives
-    what :func:`design_outputs` gives for their tables.
+    what :func:`design_outputs` gives for their tables.  Vector peaks are kept squared
+    (:func:`block_extremes`) until :meth:`result`.
     """
 
     def __init__(self, m: int, mode: str) -> None:
         self.mode = mode
-        self.extremes = {name: [np.full(m, -np.inf)] for name in output_names(mode)}
-        self.extremes["stroke"].append(np.full(m, np.inf))
+        self.extremes = {name: np.full(m, -np.inf) for name in output_names(mode)}
+        self.extremes["stroke_min"] = np.full(m, np.inf)
         self.counts = {k: np.zeros(m, dtype=np.int64) for k in ("positions", "assembled", "dead", "failed")}
 
     def add(self, first: int, columns: Mapping[str, np.ndarray], codes: np.ndarray) -> None:
         """Fold in designs ``first ..`` at a block of positions: ``columns`` and ``codes`` ``(d, q)``."""
         rows = slice(first, first + codes.shape[0])
-        for name, values in candidate_values(columns, codes, self.mode).items():
-            best = self.extremes[name]
-            best[0][rows] = np.maximum(best[0][rows], values[0].max(axis=1))
-            if len(values) > 1:
-                best[1][rows] = np.minimum(best[1][rows], values[1].min(axis=1))
+        for name, values in block_extremes(columns, codes, self.mode).items():
+            fold = np.minimum if name == "stroke_min" else np.maximum
+            fold(self.extremes[name][rows], values, out=self.extremes[name][rows])
         self.counts["positions"][rows] += codes.shape[1]
-        self.counts["assembled"][rows] += np.isin(codes, _ASSEMBLED).sum(axis=1)
+        self.counts["assembled"][rows] += _IS_ASSEMBLED[codes].sum(axis=1)
         self.counts["dead"][rows] += (codes == _DEAD).sum(axis=1)
-        self.counts["failed"][rows] += np.isin(codes, _FAILED).sum(axis=1)
+        self.counts["failed"][rows] += _IS_FAILED[codes].sum(axis=1)
 
     def result(self) -> dict[str, np.ndarray]:
         """Every output, count and the status, arrays ``(m,)`` (module docstring)."""
-        hi, lo = self.extremes["stroke"]
+        hi, lo = self.extremes["stroke"], self.extremes["stroke_min"]
         out = {"stroke": np.where(np.isfinite(hi) & np.isfinite(lo), hi - lo, np.nan)}
+        vectors = {name for name, _ in FORCES + MOMENTS}
         for name in output_names(self.mode)[1:]:
-            peak = self.extremes[name][0]
-            out[name] = np.where(np.isfinite(peak), peak, np.nan)
+            peak = self.extremes[name]
+            found = np.isfinite(peak)
+            out[name] = np.full(peak.shape, np.nan)
+            out[name][found] = np.sqrt(peak[found]) if name in vectors else peak[found]
         frac = self.counts["assembled"] / self.counts["positions"]
         out["assembled_fraction"] = frac
         out["dead_centres"] = self.counts["dead"].copy()

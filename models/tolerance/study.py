@@ -7,9 +7,10 @@ designs are solved together as the compiled kernel's arrays, in blocks of bounde
 reduced per design (:mod:`~dualmech.models.tolerance.designs`).  A finished chunk is stored at once as
 ``DIR/chunks/chunk-NNNNNN.npz`` (written to a temporary name, then renamed), so an interrupted
 study resumes where it stopped; ``DIR/study.json`` names the case, SPEC, ``n`` and seed, and a
-folder holding another study is refused.  At the end the chunks are streamed, in design order,
+folder holding another study is refused.  As the chunks finish they are streamed, in design order,
 into ``DIR/samples.csv`` (and ``DIR/samples.parquet`` when pyarrow is installed, one row group
-per chunk) and summarised into ``DIR/summary.json``.
+per chunk) by :class:`SampleStream`, while the next chunks are solved; the study then summarises
+them into ``DIR/summary.json``.
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
 
 import numpy as np
 
@@ -102,36 +102,76 @@ def prepare(outdir: Path, study: StudyInput) -> list[int]:
     return [c for c in range(n_chunks(study.n)) if not _chunk_path(outdir, c).exists()]
 
 
-def iter_chunks(outdir: Path, n: int) -> Iterator[tuple[int, np.ndarray, dict[str, np.ndarray]]]:
-    """Stored chunks in design order: (first design index, x ``(m, k)``, outputs)."""
-    for c in range(n_chunks(n)):
-        x, out = _load(outdir, c)
-        yield chunk_bounds(n, c)[0], x, out
-
-
 def columns(spec: Spec, mode: str) -> list[str]:
     """The columns of ``samples.csv`` (``docs/conventions.md``, "Tolerance analysis")."""
     return ["design", *spec.keys, "status", *COUNTS, *output_names(mode)]
 
 
-def write_samples(outdir: Path, study: StudyInput) -> list[str]:
-    """Stream the stored chunks into ``samples.csv`` (and ``samples.parquet``); the files written."""
-    mode = study.case.loads.mode
-    names = columns(study.spec, mode)
-    written = ["samples.csv"]
-    writer = _parquet_writer(outdir, names, len(study.spec.keys))
-    with (outdir / "samples.csv").open("w", newline="") as fh:
-        out = csv.writer(fh, lineterminator="\n")
-        out.writerow(names)
-        for first, x, res in iter_chunks(outdir, study.n):
-            cols = {"design": np.arange(first, first + x.shape[0]), **dict(zip(study.spec.keys, x.T)), **res}
-            out.writerows(zip(*(_cells(cols[c]) for c in names)))
-            if writer is not None:
-                writer.write_table(_arrow_table(cols, names))
-    if writer is not None:
-        writer.close()
-        written.append("samples.parquet")
-    return written
+class SampleStream:
+    """Chunks, in whatever order they finish, into ``samples.csv`` and ``samples.parquet`` in design order.
+
+    :meth:`add` takes a finished chunk; every chunk whose predecessors are all in is written at once
+    (so the files grow while the next chunks are solved), a chunk stored by an earlier run
+    (``resumed``) read from ``DIR/chunks/`` when its turn comes.  The files are written under
+    temporary names and renamed by :meth:`finish`, which returns every design's key values ``(n, k)``
+    and outputs ``(n,)``; :meth:`abort` removes them.  Parquet (when pyarrow is installed) has one
+    row group per chunk, dictionary encoding for the status words only.
+    """
+
+    def __init__(self, outdir: Path, study: StudyInput, resumed: set[int]) -> None:
+        self.outdir, self.study, self.resumed = outdir, study, resumed
+        self.names = columns(study.spec, study.case.loads.mode)
+        self.pending: dict[int, tuple[np.ndarray, dict[str, np.ndarray]]] = {}
+        self.parts: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []
+        self._csv = (outdir / "samples.csv.tmp").open("w", newline="")
+        self._rows = csv.writer(self._csv, lineterminator="\n")
+        self._rows.writerow(self.names)
+        self._parquet = _parquet_writer(outdir / "samples.parquet.tmp", self.names)
+
+    def add(self, index: int, x: np.ndarray, outputs: dict[str, np.ndarray]) -> None:
+        """Take chunk ``index`` (a :func:`solve_chunk` result's parts); write every chunk now in order."""
+        self.pending[index] = (x, outputs)
+        self._drain(stored=self.resumed)
+
+    def _drain(self, stored: set[int] | None) -> None:
+        """Write chunks in order while the next is pending or stored (``None``: every chunk is stored)."""
+        while len(self.parts) < n_chunks(self.study.n):
+            c = len(self.parts)
+            if c in self.pending:
+                part = self.pending.pop(c)
+            elif stored is None or c in stored:
+                part = _load(self.outdir, c)
+            else:
+                return
+            self._write(chunk_bounds(self.study.n, c)[0], *part)
+            self.parts.append(part)
+
+    def _write(self, first: int, x: np.ndarray, res: dict[str, np.ndarray]) -> None:
+        cols = {"design": np.arange(first, first + x.shape[0]), **dict(zip(self.study.spec.keys, x.T)), **res}
+        self._rows.writerows(zip(*(_cells(cols[c]) for c in self.names)))
+        if self._parquet is not None:
+            self._parquet.write_table(_arrow_table(cols, self.names))
+
+    def finish(self) -> tuple[list[str], np.ndarray, dict[str, np.ndarray]]:
+        """Write the chunks not yet written (from ``DIR/chunks/``), rename the files; (files, x, outputs)."""
+        self._drain(stored=None)
+        written = ["samples.csv"]
+        self._csv.close()
+        os.replace(self.outdir / "samples.csv.tmp", self.outdir / "samples.csv")
+        if self._parquet is not None:
+            self._parquet.close()
+            os.replace(self.outdir / "samples.parquet.tmp", self.outdir / "samples.parquet")
+            written.append("samples.parquet")
+        xs, outs = zip(*self.parts)
+        return written, np.concatenate(xs), {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+
+    def abort(self) -> None:
+        """Close and remove the unfinished files."""
+        self._csv.close()
+        if self._parquet is not None:
+            self._parquet.close()
+        for name in ("samples.csv.tmp", "samples.parquet.tmp"):
+            (self.outdir / name).unlink(missing_ok=True)
 
 
 def _cells(column: np.ndarray) -> list[str]:
@@ -140,7 +180,7 @@ def _cells(column: np.ndarray) -> list[str]:
     return list(map(repr if np.asarray(column).dtype.kind == "f" else str, values))
 
 
-def _parquet_writer(outdir: Path, names: list[str], k: int):
+def _parquet_writer(path: Path, names: list[str]):
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
@@ -149,22 +189,13 @@ def _parquet_writer(outdir: Path, names: list[str], k: int):
     types = {"design": pa.int64(), "status": pa.string(), "dead_centres": pa.int64(),
              "failed_positions": pa.int64()}
     schema = pa.schema([(c, types.get(c, pa.float64())) for c in names])
-    return pq.ParquetWriter(str(outdir / "samples.parquet"), schema)
+    return pq.ParquetWriter(str(path), schema, use_dictionary=["status"])
 
 
 def _arrow_table(cols: dict, names: list[str]):
     import pyarrow as pa
 
     return pa.table({c: np.asarray(cols[c], dtype=str if c == "status" else None) for c in names})
-
-
-def gather(outdir: Path, study: StudyInput) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """Every design's key values ``(n, k)`` and outputs ``(n,)`` from the stored chunks."""
-    xs, parts = [], []
-    for _, x, out in iter_chunks(outdir, study.n):
-        xs.append(x)
-        parts.append(out)
-    return np.concatenate(xs), {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 def finite_json(obj: object) -> object:
