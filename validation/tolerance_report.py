@@ -57,6 +57,13 @@ def _png(fig: Any) -> bytes:
 
 def histogram_figure(name: str, values: np.ndarray, nominal: float | None, p99: float | None) -> Figure:
     """Histogram of one output over the ``ok`` designs, nominal and p99 as vertical lines."""
+    fig = histogram_plot(name, values, nominal, p99)
+    n = int(np.isfinite(values).sum())
+    return Figure(f"hist-{name}", "histogram", name, name, f"{name}: {n} fully assembling designs", _png(fig))
+
+
+def histogram_plot(name: str, values: np.ndarray, nominal: float | None, p99: float | None) -> Any:
+    """The matplotlib figure of :func:`histogram_figure` (not drawn)."""
     fig, ax = _pyplot().subplots(figsize=(4.2, 2.8), dpi=DPI)
     fig.subplots_adjust(**HIST_MARGINS)
     v = values[np.isfinite(values)]
@@ -73,8 +80,7 @@ def histogram_figure(name: str, values: np.ndarray, nominal: float | None, p99: 
     ax.set_ylabel("designs", fontsize=8)
     ax.tick_params(labelsize=7)
     ax.legend(fontsize=7)
-    return Figure(f"hist-{name}", "histogram", name, name, f"{name}: {v.size} fully assembling designs",
-                  _png(fig))
+    return fig
 
 
 def _key_width(fig: Any, keys: list[str]) -> float:
@@ -89,6 +95,12 @@ def _key_width(fig: Any, keys: list[str]) -> float:
 
 def tornado_figure(name: str, keys: list[str], sobol: dict | None, linear: dict | None) -> Figure:
     """Horizontal bars: each key's share of the variance of ``name`` (Sobol first order, linear share)."""
+    fig = tornado_plot(name, keys, sobol, linear)
+    return Figure(f"tornado-{name}", "tornado", name, name, f"{name}: share of variance per key", _png(fig))
+
+
+def tornado_plot(name: str, keys: list[str], sobol: dict | None, linear: dict | None) -> Any:
+    """The matplotlib figure of :func:`tornado_figure` (not drawn)."""
     width, height = 5.0, 0.45 * len(keys) + 1.0
     fig, ax = _pyplot().subplots(figsize=(width, height), dpi=DPI)
     left = min(0.6, (_key_width(fig, keys) + TORNADO_KEY_PAD) / width)
@@ -106,7 +118,7 @@ def tornado_figure(name: str, keys: list[str], sobol: dict | None, linear: dict 
     ax.set_title(name, fontsize=9)
     ax.invert_yaxis()
     ax.legend(fontsize=7)
-    return Figure(f"tornado-{name}", "tornado", name, name, f"{name}: share of variance per key", _png(fig))
+    return fig
 
 
 def figure_jobs(summary: dict, samples: dict[str, np.ndarray] | None) -> list[tuple]:
