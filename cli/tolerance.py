@@ -48,22 +48,26 @@ def _print_summary(summary: dict) -> None:
 def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir: str, jobs: int,
               scheduler: str | None, judge_samples: int) -> None:
     """Tolerance study of CASE: Monte Carlo of SPEC and exact sensitivities, judged and reported."""
-    from dualmech.models.case import load_case
-    from dualmech.models.tolerance.spec import load_spec
-    from dualmech.models.tolerance.study import StudyInput
-    from dualmech.validation.tolerance_report import FigureDrawing, write_tolerance_report
-    from dualmech.validation.tolerance_study import run_study
+    from dualmech.validation.tolerance_report import FigureDrawing
 
     if jobs < 1:
         raise ValueError(f"jobs: expected 1 or more processes, got {jobs!r}")
     if seed < 0:
         raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
-    study = StudyInput(load_case(case), load_spec(spec_file), n, seed)
-    # the figures are drawn by a worker process while this one runs the judges' spot checks
+    # the figures are drawn by a worker process while this one runs the judges' spot checks; started
+    # first, it imports its libraries while this process imports the solver's and reads the inputs
     drawing = FigureDrawing(parallel=judge_samples > 0)
+    drawing.warm()
     try:
+        from dualmech.models.case import load_case
+        from dualmech.models.tolerance.spec import load_spec
+        from dualmech.models.tolerance.study import StudyInput
+        from dualmech.validation.tolerance_report import write_tolerance_report
+        from dualmech.validation.tolerance_study import run_study
+
+        study = StudyInput(load_case(case), load_spec(spec_file), n, seed)
         summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples, drawing)
-        files = write_tolerance_report(Path(outdir), summary, x, samples, drawing.collect())
+        files = write_tolerance_report(Path(outdir), summary, x, samples, drawing)
     finally:
         drawing.close()
     _print_summary(summary)

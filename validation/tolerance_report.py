@@ -17,13 +17,14 @@ from __future__ import annotations
 
 import io
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from dualmech.models.tolerance.outputs import DesignStatus
-from dualmech.validation.report import Figure
-from dualmech.validation.report import environment as _environment
+
+if TYPE_CHECKING:
+    from dualmech.validation.report import Figure
 
 TEMPLATES = Path(__file__).parent / "templates"
 #: Histogram bins (at most; fewer for small studies).
@@ -57,6 +58,8 @@ def _png(fig: Any) -> bytes:
 
 def histogram_figure(name: str, values: np.ndarray, nominal: float | None, p99: float | None) -> Figure:
     """Histogram of one output over the ``ok`` designs, nominal and p99 as vertical lines."""
+    from dualmech.validation.report import Figure  # here: a command starts its figure worker sooner
+
     fig = histogram_plot(name, values, nominal, p99)
     n = int(np.isfinite(values).sum())
     return Figure(f"hist-{name}", "histogram", name, name, f"{name}: {n} fully assembling designs", _png(fig))
@@ -95,6 +98,8 @@ def _key_width(fig: Any, keys: list[str]) -> float:
 
 def tornado_figure(name: str, keys: list[str], sobol: dict | None, linear: dict | None) -> Figure:
     """Horizontal bars: each key's share of the variance of ``name`` (Sobol first order, linear share)."""
+    from dualmech.validation.report import Figure
+
     fig = tornado_plot(name, keys, sobol, linear)
     return Figure(f"tornado-{name}", "tornado", name, name, f"{name}: share of variance per key", _png(fig))
 
@@ -201,21 +206,26 @@ class FigureDrawing:
 
 def write_tolerance_report(outdir: Path, summary: dict, x: np.ndarray | None,
                            samples: dict[str, np.ndarray] | None,
-                           figures: list[Figure] | None = None) -> list[str]:
+                           figures: FigureDrawing | list[Figure] | None = None) -> list[str]:
     """Write ``report.html``, ``report.md`` and ``figures/*.png`` into ``outdir``; return those files.
 
-    ``figures``: already drawn (:class:`FigureDrawing`); by default drawn here from ``summary`` and
-    ``samples``.
+    ``figures``: already drawn, or being drawn (:class:`FigureDrawing`: collected once the templates are
+    loaded); by default drawn here from ``summary`` and ``samples``.
     """
+    from dualmech.validation.report import environment
+
+    templates = [(environment(TEMPLATES, markdown).get_template(template), target)
+                 for template, target, markdown in (("tolerance.html.j2", "report.html", False),
+                                                    ("tolerance.md.j2", "report.md", True))]
     if figures is None:
         figures = draw_figures(figure_jobs(summary, samples))
+    elif isinstance(figures, FigureDrawing):
+        figures = figures.collect()
     figdir = outdir / "figures"
     figdir.mkdir(parents=True, exist_ok=True)
     for f in figures:
         (figdir / f"{f.key}.png").write_bytes(f.png)
     context = {"s": summary, "figures": figures, "names": list(summary["nominal"])}
-    for template, target, markdown in (("tolerance.html.j2", "report.html", False),
-                                       ("tolerance.md.j2", "report.md", True)):
-        text = _environment(TEMPLATES, markdown).get_template(template).render(**context)
-        (outdir / target).write_text(text)
+    for template, target in templates:
+        (outdir / target).write_text(template.render(**context))
     return ["summary.json", "report.html", "report.md"] + [f"figures/{f.key}.png" for f in figures]
