@@ -24,7 +24,7 @@ from numba import njit
 from dualmech.core.kernel import depends_on_kernel
 from dualmech.core.kernel.closure_nb import NO_ASSEMBLY, NOT_CONVERGED, OK, ClosureTols, Work, newton, retract
 from dualmech.core.kernel.dfp_nb import solve_closure
-from dualmech.core.kernel.dual_nb import ALLOC, JIT, copy, tmul
+from dualmech.core.kernel.dual_nb import ALLOC, INLINE, JIT, copy, tmul
 from dualmech.core.kernel.loop_nb import FlatLoop, closure_residual, evaluate, frame_origin, length_scale
 
 depends_on_kernel(__file__)
@@ -197,7 +197,7 @@ def continuation(fl: FlatLoop, rules: Rules, g: tuple, x: np.ndarray, vals: np.n
     return True
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def warm_start(
     fl: FlatLoop, rules: Rules, g: tuple, step: float, w: Work, sc: Scratch
 ) -> tuple[bool, int, float]:
@@ -248,7 +248,7 @@ def close_reachable(fl: FlatLoop, rules: Rules, g: tuple, w: Work, sc: Scratch) 
         else:
             status = codes[4]
         set_values(rules.vidx, g, vals)
-        evaluate(fl, vals, x, w.frames, w.lines)
+        evaluate(fl, vals, x, w.frames, w.lines, w.turns)
         residual = closure_residual(w.frames, length_scale(fl, vals))
     return status, iters, residual
 
@@ -262,11 +262,12 @@ def pins(
     vals: np.ndarray,
     frames: np.ndarray,
     lines: np.ndarray,
+    turns: np.ndarray,
     fresh: bool,
 ) -> tuple:
     """Evaluate the loop at ``x`` (into ``frames``, ``lines``; not if ``fresh``: they hold it already, as
     after an accepted :func:`warm_start`) and give the ball centres ``P2``, ``P3``."""
     if not fresh:
         set_values(vidx, g, vals)
-        evaluate(fl, vals, x, frames, lines)
+        evaluate(fl, vals, x, frames, lines, turns)
     return frame_origin(frames, 0), frame_origin(frames, 1)

@@ -21,7 +21,7 @@ from numba import njit
 
 from dualmech.core.kernel import depends_on_kernel
 from dualmech.core.kernel.closure_nb import Work
-from dualmech.core.kernel.dual_nb import JIT, cross, dot
+from dualmech.core.kernel.dual_nb import INLINE, JIT, cross, dot
 from dualmech.core.kernel.dynamics_nb import required_wrench
 from dualmech.core.kernel.rates_nb import solve_rates
 from dualmech.core.kernel.universal_nb import universal_motion
@@ -191,7 +191,7 @@ def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, j3m, f4, m4o, v) -> flo
     return max(f_err / f_scale, m_err / m_scale)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _dynamics(
     rules: Rules,
     g: tuple,
@@ -265,7 +265,7 @@ def _settle(rules: Rules, status: int, col: np.ndarray) -> int:
     return status
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _close(
     fl, rules: Rules, crank: np.ndarray, i: int, g: tuple, warm: bool, w: Work, sc: Scratch
 ) -> tuple[int, int, float, bool]:
@@ -283,7 +283,7 @@ def _close(
     return word, it + more, residual, False
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _position(
     i: int,
     fl,
@@ -320,7 +320,7 @@ def _position(
     cond = math.sqrt(1.0 - min(rho, 1.0) ** 2)
     if closed:
         k4_t = slider_line(g)[1]
-        p2_t, p3_t = pins(fl, rules.vidx, g, sc.x[0], sc.vals, w.frames, w.lines, accepted)
+        p2_t, p3_t = pins(fl, rules.vidx, g, sc.x[0], sc.vals, w.frames, w.lines, w.turns, accepted)
         for k in range(3):
             k4[k], p2[k], p3[k] = k4_t[k], p2_t[k], p3_t[k]
         rod = (p3[0] - p2[0], p3[1] - p2[1], p3[2] - p2[2])

@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from dualmech.core import closure
-from dualmech.core.kernel.dual_nb import ALLOC, JIT, copy, tmul, trodrigues
+from dualmech.core.kernel.dual_nb import ALLOC, INLINE, JIT, copy, tmul, trodrigues
 from dualmech.core.kernel.linalg_nb import least_squares
 from dualmech.core.kernel.loop_nb import (
     FlatLoop,
@@ -74,7 +74,7 @@ class Work(NamedTuple):
 
     frames: np.ndarray  # (R, 2, 3, 3)
     lines: np.ndarray  # (M, 2, 3)
-    tmp: np.ndarray  # (3, 2, 3, 3)
+    turns: np.ndarray  # (R, 3, 20): the last evaluation's joint factors (loop_nb.evaluate)
     mat: np.ndarray  # (6 + G, K)
     gauge: np.ndarray  # (G, M)
     axes: np.ndarray  # (G, 3)
@@ -99,7 +99,8 @@ class Work(NamedTuple):
     cum: np.ndarray  # (M + 1, 2, 3): running sums of the screws' motions
     twists: np.ndarray  # (R, 2, 3): link twists
     accels: np.ndarray  # (R, 2, 3): link accelerations
-    svd: np.ndarray  # (3, K, K): the pseudo-inverse's scratch (linalg_nb.least_squares)
+    svd: np.ndarray  # (3, K, K): the pseudo-inverse's scratch (linalg_nb.factorize)
+    piv: np.ndarray  # (K,) int: LU pivot rows (linalg_nb.factorize)
 
 
 def make_work(fl: FlatLoop) -> Work:
@@ -113,7 +114,7 @@ def _make_work(fl: FlatLoop, s: int) -> Work:
     return Work(
         np.zeros((r, 2, 3, 3)),
         np.zeros((m, 2, 3)),
-        np.zeros((3, 2, 3, 3)),
+        np.full((r, 3, 20), np.nan),
         np.zeros((6 + g, k)),
         np.zeros((g, m)),
         np.zeros((g, 3)),
@@ -139,16 +140,15 @@ def _make_work(fl: FlatLoop, s: int) -> Work:
         np.zeros((r, 2, 3)),
         np.zeros((r, 2, 3)),
         np.zeros((3, k, k)),
+        np.zeros(k, dtype=np.int64),
     )
 
 
-@njit(**JIT)
-def residual_at(
-    fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, lines: np.ndarray
-) -> float:
-    """Evaluate the loop at ``x`` (into ``frames``, ``lines``) and return its closure residual."""
-    evaluate(fl, vals, x, frames, lines)
-    return closure_residual(frames, length_scale(fl, vals))
+@njit(**INLINE)
+def residual_at(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, w: "Work") -> float:
+    """Evaluate the loop at ``x`` (into ``w.frames``, ``w.lines``) and return its closure residual."""
+    evaluate(fl, vals, x, w.frames, w.lines, w.turns)
+    return closure_residual(w.frames, length_scale(fl, vals))
 
 
 @njit(**JIT)
@@ -166,7 +166,7 @@ def retract(n_scalar: int, x: np.ndarray, step: np.ndarray, scale: float, out: n
             out[o + i] = new[i]
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def newton_step(
     fl: FlatLoop,
     vals: np.ndarray,
@@ -179,6 +179,7 @@ def newton_step(
     sq: np.ndarray,
     rhs: np.ndarray,
     svd: np.ndarray,
+    piv: np.ndarray,
     step: np.ndarray,
 ) -> None:
     """``step``: screws times step = minus the closure error, with the spin gauge (eq. 11, 23a).
@@ -201,10 +202,10 @@ def newton_step(
         )
     rows = 6 + fl.gauges.size
     err[6:rows] = 0.0
-    least_squares(mat, err[:rows], step, sq, rhs, svd)
+    least_squares(mat, err[:rows], step, sq, rhs, svd, piv)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work) -> tuple[int, float]:
     """Newton with step halving from ``x`` (updated in place); returns (iterations, residual).
 
@@ -219,7 +220,7 @@ def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: 
     step[:] = 0.0
     base_res, stalls, halvings, iters, residual, active = math.inf, 0, 0, 0, math.inf, True
     for _ in range(tols.max_newton + 1):
-        res = residual_at(fl, vals, x, frames, lines)
+        res = residual_at(fl, vals, x, w)
         residual = res
         done = res <= tols.closure
         if res > base_res and halvings < 6 and not done:
@@ -234,7 +235,7 @@ def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: 
         if (not improved and res <= tols.rounding) or stalls >= 3:
             active = False
             break
-        newton_step(fl, vals, frames, lines, mat, gauge, axes, err, sq, rhs, w.svd, step)
+        newton_step(fl, vals, frames, lines, mat, gauge, axes, err, sq, rhs, w.svd, w.piv, step)
         copy(x, base)
         base_res, halvings = res, 0
         retract(k0, x, step, 1.0, x)

@@ -37,7 +37,7 @@ def objective(
     """DFP objective at ``x``: returns (f, stationarity cosine, closure residual); ``grad`` ``(K,)``
     gets the gradient and ``w.jac`` the Jacobian with the gauge rows below it
     (:func:`dualmech.core.closure._objective`)."""
-    res = residual_at(fl, vals, x, w.frames, w.lines)
+    res = residual_at(fl, vals, x, w)
     scale = length_scale(fl, vals)
     b = w.frames[-1]
     r = w.res18

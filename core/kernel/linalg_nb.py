@@ -90,9 +90,9 @@ def _sweep(u: np.ndarray, v: np.ndarray) -> bool:
     return turned
 
 
-@njit(**JIT)
-def _normal_system(a: np.ndarray, b: np.ndarray, sq: np.ndarray, rhs: np.ndarray) -> None:
-    """``sq``, ``rhs`` = ``a``, ``b`` for a square ``a``, else the normal equations ``aᵀa``, ``aᵀb``."""
+@njit(**INLINE)
+def _normal_matrix(a: np.ndarray, sq: np.ndarray) -> None:
+    """``sq`` = ``a`` for a square ``a``, else the normal matrix ``aᵀa``."""
     m, k = a.shape
     for i in range(k):
         for j in range(k):
@@ -102,6 +102,13 @@ def _normal_system(a: np.ndarray, b: np.ndarray, sq: np.ndarray, rhs: np.ndarray
                 sq[i, j] = 0.0
                 for r in range(m):
                     sq[i, j] += a[r, i] * a[r, j]
+
+
+@njit(**INLINE)
+def _normal_rhs(a: np.ndarray, b: np.ndarray, rhs: np.ndarray) -> None:
+    """``rhs`` = ``b`` for a square ``a``, else ``aᵀb``."""
+    m, k = a.shape
+    for i in range(k):
         if m == k:
             rhs[i] = b[i]
         else:
@@ -111,51 +118,105 @@ def _normal_system(a: np.ndarray, b: np.ndarray, sq: np.ndarray, rhs: np.ndarray
 
 
 @njit(**JIT)
-def least_squares(
-    a: np.ndarray, b: np.ndarray, out: np.ndarray, sq: np.ndarray, rhs: np.ndarray, svd: np.ndarray
-) -> None:
-    """``a x = b`` in the least-squares sense (thesis eq. 23a, :func:`dualmech.core.closure.least_squares`).
+def factorize(a: np.ndarray, sq: np.ndarray, svd: np.ndarray, piv: np.ndarray) -> bool:
+    """Factor ``a`` ``(m, k)``, ``m >= k``, for :func:`solve_factored` (thesis eq. 23a): the system itself if
+    square, else its normal matrix, by LU with partial pivoting into ``sq`` and ``piv`` ``(k,)``; where a
+    pivot is exactly zero, the pseudo-inverse into ``svd[0]`` instead.  Returns whether LU succeeded.
 
-    ``a`` ``(m, k)``, ``m >= k``: square systems directly, otherwise the normal equations;
-    LU with partial pivoting, the pseudo-inverse where a pivot is exactly zero.
-    ``sq`` ``(k, k)``, ``rhs`` ``(k,)``, ``svd`` ``(3, k, k)``: scratch.
+    One factorization serves any number of right-hand sides (the rates and the accelerations share
+    their matrix).  ``svd`` ``(3, k, k)``: scratch.
     """
-    _normal_system(a, b, sq, rhs)
-    if _lu_solve(sq, rhs, out):
+    _normal_matrix(a, sq)
+    if _lu_factor(sq, piv):
+        return True
+    _normal_matrix(a, sq)  # the elimination overwrote it
+    pseudo_inverse(sq, svd[0], svd[1], svd[2])
+    return False
+
+
+@njit(**JIT)
+def solve_factored(
+    a: np.ndarray,
+    b: np.ndarray,
+    out: np.ndarray,
+    sq: np.ndarray,
+    rhs: np.ndarray,
+    svd: np.ndarray,
+    piv: np.ndarray,
+    lu: bool,
+) -> None:
+    """``a x = b`` in the least-squares sense into ``out``, with the factors of :func:`factorize` (``lu``:
+    what it returned); ``rhs`` ``(k,)``: scratch."""
+    _normal_rhs(a, b, rhs)
+    if lu:
+        _lu_apply(sq, piv, rhs, out)
         return
-    _normal_system(a, b, sq, rhs)  # the elimination overwrote them
-    pinv = svd[0]
-    pseudo_inverse(sq, pinv, svd[1], svd[2])
-    k = out.size
+    pinv, k = svd[0], out.size
     for i in range(k):
         out[i] = 0.0
         for j in range(k):
             out[i] += pinv[i, j] * rhs[j]
 
 
+@njit(**JIT)
+def least_squares(
+    a: np.ndarray,
+    b: np.ndarray,
+    out: np.ndarray,
+    sq: np.ndarray,
+    rhs: np.ndarray,
+    svd: np.ndarray,
+    piv: np.ndarray,
+) -> None:
+    """``a x = b`` in the least-squares sense (thesis eq. 23a, :func:`dualmech.core.closure.least_squares`).
+
+    ``a`` ``(m, k)``, ``m >= k``: square systems directly, otherwise the normal equations;
+    LU with partial pivoting, the pseudo-inverse where a pivot is exactly zero
+    (:func:`factorize`, :func:`solve_factored`).  ``sq`` ``(k, k)``, ``rhs`` ``(k,)``,
+    ``svd`` ``(3, k, k)``, ``piv`` ``(k,)`` int: scratch.
+    """
+    solve_factored(a, b, out, sq, rhs, svd, piv, factorize(a, sq, svd, piv))
+
+
 @njit(**INLINE)
-def _lu_solve(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:
-    """Gaussian elimination with partial pivoting, in place on ``a`` and ``b``; False at a zero pivot."""
+def _lu_factor(a: np.ndarray, piv: np.ndarray) -> bool:
+    """Gaussian elimination with partial pivoting, in place: ``U`` on and above the diagonal, each step's
+    multipliers below it, the pivot rows in ``piv``; False at a zero pivot.  Rows swap from the pivot
+    column on: the multipliers stay where their step wrote them, so that :func:`_lu_apply` repeats the
+    elimination of a right-hand side operation for operation."""
     k = a.shape[0]
     for c in range(k):
         p = c
         for r in range(c + 1, k):
             if abs(a[r, c]) > abs(a[p, c]):
                 p = r
+        piv[c] = p
         if a[p, c] == 0.0:
             return False
         if p != c:
-            for j in range(k):
+            for j in range(c, k):
                 a[c, j], a[p, j] = a[p, j], a[c, j]
-            b[c], b[p] = b[p], b[c]
         for r in range(c + 1, k):
             f = a[r, c] / a[c, c]
+            a[r, c] = f
             for j in range(c + 1, k):
                 a[r, j] -= f * a[c, j]
-            b[r] -= f * b[c]
+    return True
+
+
+@njit(**INLINE)
+def _lu_apply(a: np.ndarray, piv: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """Solve with the factors of :func:`_lu_factor`: ``b`` (overwritten) through the row swaps and
+    multipliers, then back substitution into ``out``."""
+    k = a.shape[0]
+    for c in range(k):
+        p = piv[c]
+        if p != c:
+            b[c], b[p] = b[p], b[c]
+        for r in range(c + 1, k):
+            b[r] -= a[r, c] * b[c]
     for c in range(k - 1, -1, -1):
         s = b[c]
         for j in range(c + 1, k):
             s -= a[c, j] * out[j]
         out[c] = s / a[c, c]
-    return True

@@ -13,12 +13,13 @@ spherical row's rotation matrix, row-major (9 numbers).
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.dual_nb import INLINE, JIT, tadd, tmul, trotation
+from dualmech.core.kernel.dual_nb import INLINE, JIT, tadd, tmul, trotation, trotation_cs
 from dualmech.core.loop import Loop, Var
 
 #: Kind of a table entry: a constant, a value of ``vals`` (input or parameter), an unknown of ``x``.
@@ -122,16 +123,41 @@ def state_size(fl: FlatLoop) -> int:
 
 
 @njit(**INLINE)
+def _same(a: float, b: float) -> bool:
+    """``a`` and ``b`` are the same number, down to the sign of a zero."""
+    return a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
+
+
+@njit(**INLINE)
+def _factors(turns: np.ndarray, i: int, stage: int, axis: int, angle: float, slide: float) -> tuple:
+    """:func:`~dualmech.core.kernel.dual_nb.trotation` of ``angle``, ``slide``, remembered in
+    ``turns[i, stage]`` (the angle, the slide, then the two 9-tuples): a turn that did not change since
+    the last evaluation (an input or parameter, during the Newton iterations of a position) costs no
+    trigonometry."""
+    m = turns[i, stage]
+    if _same(m[0], angle) and _same(m[1], slide):
+        return (m[2], m[3], m[4], m[5], m[6], m[7], m[8], m[9], m[10]), (
+            m[11], m[12], m[13], m[14], m[15], m[16], m[17], m[18], m[19],
+        )
+    f_re, f_du = trotation(axis, angle, slide)
+    m[0], m[1] = angle, slide
+    for k in range(9):
+        m[2 + k], m[11 + k] = f_re[k], f_du[k]
+    return f_re, f_du
+
+
+@njit(**INLINE)
 def _turn(
-    axis: int, angle: float, slide: float, no_angle: bool, no_slide: bool, pre_re: tuple, pre_du: tuple
+    axis: int, angle: float, slide: float, no_angle: bool, no_slide: bool, pre_re: tuple, pre_du: tuple,
+    turns: np.ndarray, i: int, stage: int,
 ) -> tuple:
     """``pre @ rot_axis(angle + eps slide)`` on 9-tuples, skipping what constant zeros make needless
-    (as :func:`dualmech.core.loop._turn`)."""
+    (as :func:`dualmech.core.loop._turn`); the factors from :func:`_factors`."""
     if no_angle and no_slide:
         return pre_re, pre_du
-    f_re, f_du = trotation(axis, angle, slide)
     if no_angle:
-        return pre_re, tadd(pre_du, tmul(pre_re, f_du))
+        return pre_re, tadd(pre_du, tmul(pre_re, trotation_cs(axis, 1.0, 0.0, slide)[1]))
+    f_re, f_du = _factors(turns, i, stage, axis, angle, slide)
     if no_slide:
         return tmul(pre_re, f_re), tmul(pre_du, f_re)
     return tmul(pre_re, f_re), tadd(tmul(pre_re, f_du), tmul(pre_du, f_re))
@@ -151,11 +177,14 @@ def _zero(table: np.ndarray, const: np.ndarray, i: int, f: int) -> bool:
 
 
 @njit(**JIT)
-def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, lines: np.ndarray) -> None:
+def evaluate(
+    fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, lines: np.ndarray, turns: np.ndarray
+) -> None:
     """Frames ``(R, 2, 3, 3)`` (``frames[i] = T_1 ... T_i``, the last is the loop product B, eq. 18)
     and screw lines ``(M, 2, 3)`` at one position (:func:`dualmech.core.loop.evaluate`).
 
-    The running product is a pair of 9-tuples (registers); no array is handed to a helper.
+    The running product is a pair of 9-tuples (registers).  ``turns`` ``(R, 3, 20)``: the factors of
+    the last evaluation (:func:`_factors`; any content is valid, NaN to start).
     """
     table, const = fl.table, fl.const
     pre_re = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
@@ -199,15 +228,9 @@ def evaluate(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, frames: np.ndarray, 
                         lines[m, 0, r] = 0.0 if slide else pre_re[3 * r + axis]
                         lines[m, 1, r] = pre_re[3 * r + axis] if slide else pre_du[3 * r + axis]
                     m += 1
-            pre_re, pre_du = _turn(
-                axis,
-                v[fa],
-                0.0 if fs < 0 else v[fs],
-                _zero(table, const, i, fa),
-                fs < 0 or _zero(table, const, i, fs),
-                pre_re,
-                pre_du,
-            )
+            no_angle, no_slide = _zero(table, const, i, fa), fs < 0 or _zero(table, const, i, fs)
+            slide = 0.0 if fs < 0 else v[fs]
+            pre_re, pre_du = _turn(axis, v[fa], slide, no_angle, no_slide, pre_re, pre_du, turns, i, stage)
         for r in range(9):
             frames[i, 0, r // 3, r % 3] = pre_re[r]
             frames[i, 1, r // 3, r % 3] = pre_du[r]

@@ -14,8 +14,8 @@ import numpy as np
 from numba import njit
 
 from dualmech.core.kernel.closure_nb import Work
-from dualmech.core.kernel.dual_nb import JIT
-from dualmech.core.kernel.linalg_nb import least_squares
+from dualmech.core.kernel.dual_nb import INLINE, JIT
+from dualmech.core.kernel.linalg_nb import factorize, solve_factored
 from dualmech.core.kernel.loop_nb import FlatLoop, screw_matrix
 
 
@@ -79,7 +79,7 @@ def _transport(
             transport[j, 1, i] = (a[0, i1] * b1i2 - a[0, i2] * b1i1) + (a[1, i1] * b0i2 - a[1, i2] * b0i1)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def solve_rates(fl: FlatLoop, vdot: np.ndarray, vddot: np.ndarray, w: Work) -> None:
     """Rates and accelerations of the loop evaluated in ``w`` (closed), for input rates ``vdot``
     and accelerations ``vddot`` (indexed like ``vals``, parameters 0).  Fills ``w.q_dot``,
@@ -97,13 +97,14 @@ def solve_rates(fl: FlatLoop, vdot: np.ndarray, vddot: np.ndarray, w: Work) -> N
     rows = err[: 6 + gauges.size]
     screw_matrix(fl, w.frames, lines, 1.0, mat, gauge, axes)
     _rhs(screws, gauges, lines, gauge, axes, vdot, q_dot, rate, transport, False, err)
-    least_squares(mat, rows, q_dot, w.sq, w.rhs, w.svd)
+    lu = factorize(mat, w.sq, w.svd, w.piv)  # one factorization for the rates and the accelerations
+    solve_factored(mat, rows, q_dot, w.sq, w.rhs, w.svd, w.piv, lu)
     for j in range(screws.shape[0]):
         if screws[j, 2] >= 0:
             rate[j] = q_dot[screws[j, 2]]
     _transport(screws, lines, rate, w.cum, transport)
     _rhs(screws, gauges, lines, gauge, axes, vddot, q_ddot, acc, transport, True, err)
-    least_squares(mat, rows, q_ddot, w.sq, w.rhs, w.svd)
+    solve_factored(mat, rows, q_ddot, w.sq, w.rhs, w.svd, w.piv, lu)
     for j in range(screws.shape[0]):
         if screws[j, 2] >= 0:
             acc[j] = q_ddot[screws[j, 2]]

@@ -79,3 +79,27 @@ def test_chunks_take_their_buffers_in_turn() -> None:
             assert_allclose(b.columns[name], col, rtol=0, atol=0, equal_nan=True, err_msg=f"{k} {name}")
     with pytest.raises(ValueError, match="buffers: expected at least 1, got 0"):
         next(slider_crank_kernel.iter_chunks(case, 200, buffers=0))
+
+
+def test_remembered_turns_are_fresh_turns() -> None:
+    """The joint factors remembered from the last evaluation (``Work.turns``) are reused only for the
+    same angle and slide: after an evaluation of another design (same twist, other slider offset), the
+    loop evaluates to the same bits as with nothing remembered."""
+    from dualmech.core.kernel.closure_nb import make_work
+    from dualmech.core.kernel.loop_nb import evaluate, flatten, value_names
+    from dualmech.models.slider_crank_loop import LOOP
+
+    fl, names = flatten(LOOP), value_names(LOOP)
+    x = np.concatenate([[40.0], np.eye(3).ravel(), np.eye(3).ravel()])
+
+    def frames(values: dict[str, float], turns: np.ndarray) -> np.ndarray:
+        w = make_work(fl)
+        vals = np.array([values[n] for n in names])
+        evaluate(fl, vals, x, w.frames, w.lines, turns)
+        return w.frames.copy()
+
+    design = {"theta1": 0.3, "S1": 2.0, "a1": 12.0, "a2": 50.0, "a4": 10.0, "alpha4": 4.7}
+    other = {**design, "a4": 30.0, "S1": 3.0}  # the same angles, other slides
+    turns = np.full((len(LOOP.rows), 3, 20), np.nan)
+    frames(other, turns)
+    assert_allclose(frames(design, turns), frames(design, np.full_like(turns, np.nan)), rtol=0, atol=0)
