@@ -101,6 +101,37 @@ def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
                                   initializer=worker_init)
 
 
+_SHARED: dict[int, cf.ProcessPoolExecutor] = {}
+
+
+def shared_pool(jobs: int) -> cf.ProcessPoolExecutor:
+    """This process's pool of ``jobs`` workers (:func:`process_pool`), started at its first use and kept.
+
+    A run and its report use the same workers: they are spawned and import their libraries once.
+    A pool that broke or was ended (:func:`end_shared_pool`) is replaced; the workers end with
+    this process (or :func:`end_shared_pool`).
+    """
+    pool = _SHARED.get(jobs)
+    if pool is None or getattr(pool, "_broken", False) or getattr(pool, "_shutdown_thread", False):
+        pool = _SHARED[jobs] = process_pool(jobs)
+    return pool
+
+
+def end_shared_pool(jobs: int | None = None, *, wait: bool = True) -> None:
+    """End the shared pool of ``jobs`` workers (default: every shared pool); running tasks are cancelled
+    (``wait=False``: the workers are terminated at once)."""
+    for n in [jobs] if jobs is not None else list(_SHARED):
+        pool = _SHARED.pop(n, None)
+        if pool is None:
+            continue
+        pool.shutdown(wait=False, cancel_futures=True)
+        if wait:
+            pool.shutdown(wait=True)
+        else:
+            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                proc.terminate()
+
+
 def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
     return [f.result() for f in futures
             if f not in handed and f.done() and not f.cancelled() and f.exception() is None]
@@ -109,7 +140,7 @@ def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
 def _on_pool(
     task: Callable[..., dict], calls: list[tuple], jobs: int, leftovers: list[dict]
 ) -> Iterator[dict]:
-    pool = process_pool(jobs)
+    pool = shared_pool(jobs)
     futures = [pool.submit(task, *call) for call in calls]
     handed: set[Any] = set()
     try:
@@ -118,11 +149,12 @@ def _on_pool(
             # only once the caller has come back for more: an entry is stored twice, never lost
             handed.add(fut)
     finally:
-        pool.shutdown(wait=False, cancel_futures=True)
-        cf.wait([f for f in futures if not f.cancelled()], timeout=INTERRUPT_GRACE_S)
-        leftovers.extend(_finished(futures, handed))
-        for proc in list((getattr(pool, "_processes", None) or {}).values()):  # do not wait any longer
-            proc.terminate()
+        if len(handed) < len(futures):  # interrupted: end the workers (a finished run keeps them)
+            for fut in futures:
+                fut.cancel()
+            cf.wait([f for f in futures if not f.cancelled()], timeout=INTERRUPT_GRACE_S)
+            leftovers.extend(_finished(futures, handed))
+            end_shared_pool(jobs, wait=False)  # do not wait any longer
 
 
 def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,

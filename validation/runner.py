@@ -55,6 +55,10 @@ RUN_FILE = "run.json"
 LOG_FILE = "run.log"
 CASE_FORMAT = "dualmech-case/2"
 
+#: Rough cost of one case per engine (thesis cases, CPU s x 10): tasks go to the workers longest first, so
+#: that a run does not end with one worker on a long task and the other idle (an engine not listed: 1).
+ENGINE_COST = {"mujoco-sim": 5.0, "mujoco": 1.0, "pinocchio": 0.3, "dualmech": 0.3}
+
 #: ``progress(done, total, label)``, called after each finished (case, engine).
 ProgressCallback = Callable[[int, int, str], None]
 
@@ -87,14 +91,19 @@ def write_json_atomic(path: Path, data: Any, *, pretty: bool = False) -> None:
     ``pretty``: sorted keys, one value per line, so that a change shows as a readable diff
     (for files people review: baselines, summaries).
     """
-    path = Path(path)
+    # json.dumps, not json.dump: dump always encodes in pure Python, dumps in C (without indent)
+    text = json.dumps(data, allow_nan=True, default=_jsonable,
+                      **({"indent": 1, "sort_keys": True} if pretty else {}))
+    write_text_durable(Path(path), text + ("\n" if pretty else ""))
+
+
+def write_text_durable(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (a temporary file, fsync, :func:`os.replace`)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         with tmp.open("w") as fh:
-            json.dump(data, fh, allow_nan=True, default=_jsonable,
-                      **({"indent": 1, "sort_keys": True} if pretty else {}))
-            fh.write("\n" if pretty else "")
+            fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -130,6 +139,29 @@ def table_from_dict(d: dict) -> ResultTable:
         {c: np.asarray(d["columns"][c], dtype=float) for c in NUMERIC_COLUMNS},
         np.asarray(d["status"], dtype=object), d.get("meta", {}),
     )
+
+
+class CaseFileText:
+    """The text of one case file, kept up to date as its engines finish.
+
+    Each entry is encoded once (a case file is rewritten as each of its engines finishes);
+    the text is what ``json.dumps`` gives for ``{"format", "id", "fingerprint", "raw", "engines"}``,
+    the engines in ``engines`` order.
+    """
+
+    def __init__(self, case_id: str, raw: dict, engines: tuple[str, ...], kept: dict[str, dict]) -> None:
+        head = {"format": CASE_FORMAT, "id": case_id, "fingerprint": case_fingerprint(raw), "raw": raw}
+        self._head = json.dumps(head, allow_nan=True, default=_jsonable)[:-1]  # without its closing brace
+        self._engines = tuple(engines)
+        self.entries: dict[str, dict] = dict(kept)
+        self._texts = {e: json.dumps(v, allow_nan=True, default=_jsonable) for e, v in kept.items()}
+
+    def add(self, entry: dict) -> str:
+        """Take ``entry`` (its engine's, replacing any earlier one); return the file's text."""
+        self.entries[entry["engine"]] = entry
+        self._texts[entry["engine"]] = json.dumps(entry, allow_nan=True, default=_jsonable)
+        body = ", ".join(f"{json.dumps(k)}: {self._texts[k]}" for k in self._engines if k in self.entries)
+        return f'{self._head}, "engines": {{{body}}}}}'
 
 
 def case_file(outdir: Path, case_id: str) -> Path:
@@ -330,26 +362,17 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
     write_json_atomic(outdir / RUN_FILE, info)
     record_files(outdir, [RUN_FILE])
 
-    done_entries: dict[str, dict] = {cid: dict(kept[cid]) for cid in raws}
+    files = {cid: CaseFileText(cid, raws[cid], matrix.engines, kept[cid]) for cid in raws}
     calls = [(cid, raws[cid], e, registry[e]) for cid, e in tasks]
+    calls.sort(key=lambda call: -ENGINE_COST.get(call[2], 1.0))  # the longest first (stable)
 
     def store(entry: dict) -> None:
         """Write the entry's case file at once (a case whose other engines are still running is partial)."""
-        cid, e = entry["case"], entry["engine"]
-        done_entries[cid][e] = entry
+        cid = entry["case"]
         if entry.get("error"):
             _log_failure(outdir, entry)
         path = case_file(outdir, cid)
-        write_json_atomic(
-            path,
-            {
-                "format": CASE_FORMAT,
-                "id": cid,
-                "fingerprint": case_fingerprint(raws[cid]),
-                "raw": raws[cid],
-                "engines": {k: done_entries[cid][k] for k in matrix.engines if k in done_entries[cid]},
-            },
-        )
+        write_text_durable(path, files[cid].add(entry))
         record_files(outdir, [path])
 
     leftovers: list[dict] = []
@@ -367,11 +390,8 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
     seconds = time.perf_counter() - start
     info.update(seconds=seconds, ran=len(calls), skipped=sum(len(v) for v in kept.values()))
     write_json_atomic(outdir / RUN_FILE, info)
-    results = {
-        cid: {e: entry_result(v) for e, v in entries.items()}
-        for cid, entries in done_entries.items()
-        if entries
-    }
+    results = {cid: {e: entry_result(v) for e, v in f.entries.items()} for cid, f in files.items()
+               if f.entries}
     return RunOutcome(results, len(calls), info["skipped"], seconds)
 
 
