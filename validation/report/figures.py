@@ -1,19 +1,21 @@
 """Which figures a report draws, and drawing them in processes.
 
 :func:`figure_specs` plans every figure of a run (what to draw and from which tables);
-:func:`render_figures` draws them with :mod:`~dualmech.validation.report.plots`, in ``jobs`` processes.
+:func:`start_figures` starts drawing them with :mod:`~dualmech.validation.report.plots` in the run's worker
+processes (:func:`render_figures`: and waits for them).
 """
 
 from __future__ import annotations
 
-import contextlib
+import concurrent.futures as cf
 import re
+from typing import Any
 
 import numpy as np
 
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation.compare import STROKE, Comparison
-from dualmech.validation.executors import process_pool
+from dualmech.validation.executors import shared_pool
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.report.plots import Figure, difference_figure, heatmap_figure, sweep_figure
 from dualmech.validation.runner import ProgressCallback
@@ -166,11 +168,43 @@ def _file_key(text: str) -> str:
 
 
 _FIGURE_FUNCTIONS = {"sweep": sweep_figure, "difference": difference_figure, "heatmap": heatmap_figure}
+#: Kinds of figure from the slowest to draw to the fastest.
+_RENDER_ORDER = ("difference", "heatmap", "sweep")
 
 
 def _render(job: tuple[str, tuple]) -> bytes:
     name, args = job
     return _FIGURE_FUNCTIONS[name](*args)
+
+
+class PendingFigures:
+    """Figures being drawn (:func:`start_figures`); :meth:`collect` waits for them."""
+
+    def __init__(self, specs: list[FigureSpec], rendered: list[Any]) -> None:
+        self.specs, self._rendered = specs, rendered
+
+    def collect(self, progress: ProgressCallback | None = None) -> list[Figure]:
+        """Every figure in plan order; ``progress(done, total, key)`` after each."""
+        pngs: list[bytes] = []
+        for spec, job in zip(self.specs, self._rendered):
+            pngs.append(job.result() if isinstance(job, cf.Future) else _render(job))
+            if progress is not None:
+                progress(len(pngs), len(self.specs), spec[0])
+        return [Figure(*spec[:5], png) for spec, png in zip(self.specs, pngs)]
+
+
+def start_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: int = 1) -> PendingFigures:
+    """Plan every figure of the report and start drawing them in the ``jobs`` workers of the shared pool
+    (:func:`~dualmech.validation.executors.shared_pool`, the run's own); with ``jobs = 1`` they are
+    drawn by :meth:`PendingFigures.collect`, in this process."""
+    specs = figure_specs(matrix, results, comparison)
+    if jobs <= 1 or len(specs) <= 1:
+        return PendingFigures(specs, [spec[5] for spec in specs])
+    pool = shared_pool(jobs)
+    # the slowest kinds first, so that no worker is left with a long one at the end
+    order = sorted(range(len(specs)), key=lambda i: _RENDER_ORDER.index(specs[i][5][0]))
+    futures: dict[int, cf.Future] = {i: pool.submit(_render, specs[i][5]) for i in order}
+    return PendingFigures(specs, [futures[i] for i in range(len(specs))])
 
 
 def render_figures(
@@ -184,17 +218,4 @@ def render_figures(
 
     ``progress(done, total, key)`` is called after each figure.
     """
-    specs = figure_specs(matrix, results, comparison)
-    jobs_list = [spec[5] for spec in specs]
-    pngs: list[bytes] = []
-    with contextlib.ExitStack() as stack:
-        if jobs > 1 and len(specs) > 1:
-            pool = stack.enter_context(process_pool(jobs))
-            rendered = pool.map(_render, jobs_list, chunksize=max(1, len(specs) // (4 * jobs)))
-        else:
-            rendered = map(_render, jobs_list)
-        for spec, png in zip(specs, rendered):
-            pngs.append(png)
-            if progress is not None:
-                progress(len(pngs), len(specs), spec[0])
-    return [Figure(*spec[:5], png) for spec, png in zip(specs, pngs)]
+    return start_figures(matrix, results, comparison, jobs).collect(progress)

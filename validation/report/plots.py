@@ -35,6 +35,12 @@ LOG_FLOOR = 1e-17
 #: or its size below this fraction of the case's largest value of the same dimension (round-off of zero).
 FLAT_RELATIVE = 1e-9
 JUDGE_MARKERS = ("o", "x", "+", "s", "^", "v", "d")
+#: Panel titles sit at the top of their axes (matplotlib would otherwise measure every tick label of
+#: the panel at each draw to see whether an offset text is in the way; a panel's title is short and
+#: centred, its offset text at the left edge).
+TITLE_Y = 1.0
+#: Crank-angle ticks of every panel (deg).
+CRANK_TICKS = (0, 90, 180, 270, 360)
 
 
 @dataclass(frozen=True)
@@ -53,12 +59,28 @@ class Figure:
         return "data:image/png;base64," + base64.b64encode(self.png).decode("ascii")
 
 
-def fig_to_png(fig: Any) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80, bbox_inches="tight", pad_inches=0.1)  # nothing cut off
-    import matplotlib.pyplot as plt
+#: Resolution of every report figure (dots per inch).
+DPI = 80
 
-    plt.close(fig)
+
+def new_figure(figsize: tuple[float, float]) -> Any:
+    """A bare Agg figure (no pyplot: no figure manager to create and close; the caller keeps no reference)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure as MplFigure
+
+    fig = MplFigure(figsize=figsize, dpi=DPI)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def fig_to_png(fig: Any) -> bytes:
+    """The figure as PNG bytes, drawn once.
+
+    Every figure sets its own margins (in inches, ``subplots_adjust``) so that nothing is cut off;
+    ``bbox_inches="tight"`` would draw each figure twice (once to measure it).
+    """
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=DPI)
     return buf.getvalue()
 
 
@@ -135,29 +157,26 @@ def sweep_figure(
     cases : list of (legend label, {engine: table})
         The sweep's cases, base case first.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib import colormaps
 
     nrows, ncols = grid
     n_labels = len(cases) * (1 + len(judges))
     legend_in = 0.16 * math.ceil(n_labels / 4) + 0.15
-    fig, axes = plt.subplots(
-        nrows, ncols, figsize=(4.2 * ncols + 0.8, 2.9 * nrows + 0.9 + legend_in), squeeze=False
-    )
-    colors = ["black"] + [plt.get_cmap("tab10")(i) for i in range(10)]
+    fig = new_figure((4.2 * ncols + 0.8, 2.9 * nrows + 0.9 + legend_in))
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    colors = ["black"] + [colormaps["tab10"](i) for i in range(10)]
     for ax, col in zip(axes.flat, columns):
         _sweep_panel(ax, col, cases, reference, judges, torque, units, colors)
     for ax in list(axes.flat)[len(columns) :]:
         ax.axis("off")
     handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.suptitle(title, fontsize=11)
+    suptitle = fig.suptitle(title, fontsize=11)
     height = fig.get_figheight()
     legend_in = 0.16 * math.ceil(len(labels) / 4) + 0.15
-    fig.legend(
+    legend = fig.legend(
         handles, labels, loc="lower center", ncol=min(4, max(1, len(labels))), fontsize=7, frameon=False
     )
+    _widen_to_fit(fig, (suptitle, legend))
     # fixed margins (inches -> figure fraction): tight_layout would cost a full extra draw
     fig.subplots_adjust(
         left=0.7 / fig.get_figwidth(),
@@ -168,6 +187,15 @@ def sweep_figure(
         wspace=0.22,
     )
     return fig_to_png(fig)
+
+
+def _widen_to_fit(fig: Any, artists: tuple[Any, ...], pad_in: float = 0.2) -> None:
+    """Widen ``fig`` to the widest of ``artists`` (a legend, a title: their size is set in points) plus
+    ``pad_in`` inches, so that nothing is cut off the saved image (one panel and many legend entries)."""
+    renderer = fig.canvas.get_renderer()
+    need = max(a.get_window_extent(renderer).width for a in artists) / fig.dpi + pad_in
+    if need > fig.get_figwidth():
+        fig.set_figwidth(need)
 
 
 def _sweep_panel(
@@ -223,9 +251,9 @@ def _sweep_panel(
 
 def _frame(ax: Any, column: str, units: str) -> None:
     """Title, axis labels with units, plain tick labels (no offset or scientific multiplier) of one panel."""
-    ax.set_title(column, fontsize=10)
+    ax.set_title(column, fontsize=10, y=TITLE_Y)
     ax.set_xlim(0, 360)
-    ax.set_xticks(range(0, 361, 90))
+    ax.set_xticks(CRANK_TICKS)
     ax.grid(True, alpha=0.3)
     ax.set_xlabel("crank angle theta1 [deg]", fontsize=8)
     ax.set_ylabel(axis_label(column, units), fontsize=8)
@@ -247,14 +275,12 @@ def difference_figure(
     tolerances : (float, float)
         Kinematic and reaction tolerance (drawn as dashed lines; the strictest if they vary).
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib import colormaps
 
     modes = list(rows)
-    fig, axes = plt.subplots(len(modes), 2, figsize=(12, 3.2 * len(modes) + 0.6), squeeze=False, sharey=True)
-    cmap = plt.get_cmap("tab20")
+    fig = new_figure((12, 3.2 * len(modes) + 0.6))
+    axes = fig.subplots(len(modes), 2, squeeze=False, sharey=True)
+    cmap = colormaps["tab20"]
     for m, mode in enumerate(modes):
         for k, (what, tol) in enumerate((("kinematics", tolerances[0]), ("reactions", tolerances[1]))):
             ax = axes[m, k]
@@ -265,8 +291,8 @@ def difference_figure(
             ax.axhline(tol, color="red", ls="--", lw=1.0, label="tolerance")
             ax.set_yscale("log")
             ax.set_xlim(0, 360)
-            ax.set_xticks(range(0, 361, 90))
-            ax.set_title(f"{mode} mode: {what} (worst column per row)", fontsize=10)
+            ax.set_xticks(CRANK_TICKS)
+            ax.set_title(f"{mode} mode: {what} (worst column per row)", fontsize=10, y=TITLE_Y)
             ax.set_xlabel("crank angle theta1 [deg]", fontsize=8)
             ax.grid(True, which="major", alpha=0.3)
             ax.tick_params(labelsize=8)
@@ -291,22 +317,20 @@ def heatmap_figure(
 
     ``values`` and ``failed`` have shape ``(len(cases), len(quantities))``; NaN = not compared.
     """
-    import matplotlib
+    from matplotlib.patches import Rectangle
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(0.36 * len(quantities) + 4.0, 0.3 * len(cases) + 2.2))
+    fig = new_figure((0.36 * len(quantities) + 4.0, 0.3 * len(cases) + 2.2))
+    ax = fig.subplots()
     with np.errstate(divide="ignore", invalid="ignore"):
         logv = np.log10(np.maximum(values, LOG_FLOOR))
     im = ax.imshow(np.ma.masked_invalid(logv), cmap="viridis", aspect="auto", vmin=-17, vmax=0)
     for i, j in zip(*np.nonzero(failed)):
-        ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, ec="red", lw=2))
+        ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, ec="red", lw=2))
         ax.text(j, i, "✗", ha="center", va="center", color="red", fontsize=8)
     ax.set_xticks(range(len(quantities)), quantities, rotation=70, fontsize=7)
     ax.set_yticks(range(len(cases)), cases, fontsize=7)
     fig.colorbar(im, ax=ax, label="log10 max relative difference")
-    ax.set_title(f"{engine}: worst relative difference per case and quantity", fontsize=10)
+    ax.set_title(f"{engine}: worst relative difference per case and quantity", fontsize=10, y=TITLE_Y)
     w, h = fig.get_figwidth(), fig.get_figheight()
     fig.subplots_adjust(left=1.9 / w, right=1 - 0.2 / w, top=1 - 0.4 / h, bottom=1.1 / h)
     return fig_to_png(fig)

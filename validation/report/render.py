@@ -19,7 +19,7 @@ from dualmech.validation import derived, runner
 from dualmech.validation.compare import Check, Comparison, compare_run
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.provenance import key_versions
-from dualmech.validation.report.figures import render_figures
+from dualmech.validation.report.figures import start_figures
 from dualmech.validation.report.plots import Figure
 from dualmech.validation.report.sections import (
     balancing_figure,
@@ -148,15 +148,15 @@ def write_report(
     if comparison is None:
         comparison = compare_run(matrix, results)
     with locked(outdir if outdir is not None else rundir) as outdir:
-        figures = _section(
-            "figures", render_figures, matrix, results, comparison, jobs=jobs, progress=progress
-        )
+        # the workers draw the figures while this process computes the sections beside them
+        pending = _section("figures", start_figures, matrix, results, comparison, jobs=jobs)
         balance = _section("balancing", derived.balancing, matrix)
         balance_figure = _section("balancing", balancing_figure, balance)
-        figures = [*figures, *([balance_figure] if balance_figure is not None else [])]
         find = (
             _section("findings", derived.findings) if matrix.of_thesis else None
         )  # about the thesis's mechanism only
+        figures = _section("figures", pending.collect, progress)
+        figures = [*figures, *([balance_figure] if balance_figure is not None else [])]
         paths = _write_figures(outdir, figures)
         context = _context(matrix, run, results, comparison, figures)
         context.update(

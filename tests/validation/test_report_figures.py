@@ -1,0 +1,101 @@
+"""The report's figures (validation/report/figures.py, plots.py): drawn once each, in the run's workers,
+in plan order, nothing cut off."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+
+import pytest
+
+from dualmech.validation import executors
+from dualmech.validation.compare import compare_run
+from dualmech.validation.report import figures, plots
+
+
+def _specs(matrix, results):
+    return figures.figure_specs(matrix, results, compare_run(matrix, results))
+
+
+def test_figures_drawn_in_workers_come_back_in_plan_order(matrix, results):
+    """Why: the figures are now handed to the run's workers slowest kind first and collected while this
+    process computes the other sections; the report must list them in the plan's order, each the same PNG
+    as drawn here."""
+    comparison = compare_run(matrix, results)
+    here = figures.start_figures(matrix, results, comparison, jobs=1).collect()
+    try:
+        there = figures.start_figures(matrix, results, comparison, jobs=2).collect()
+    finally:
+        executors.end_shared_pool()
+    assert [f.key for f in here] == [s[0] for s in figures.figure_specs(matrix, results, comparison)]
+    assert {s[5][0] for s in figures.figure_specs(matrix, results, comparison)} == set(figures._RENDER_ORDER)
+    assert [f.key for f in there] == [f.key for f in here]
+    assert [f.png for f in there] == [f.png for f in here]
+
+
+def test_figures_collected_as_they_finish_are_seen(matrix, results, monkeypatch):
+    """The fault the test above must see: the figures listed in the order the workers finished them."""
+    comparison = compare_run(matrix, results)
+
+    def as_finished(self, progress=None):
+        futures = {job: spec for spec, job in zip(self.specs, self._rendered)}
+        return [plots.Figure(*futures[f][:5], f.result()) for f in cf.as_completed(futures)]
+
+    monkeypatch.setattr(figures.PendingFigures, "collect", as_finished)
+    try:
+        there = figures.start_figures(matrix, results, comparison, jobs=2).collect()
+    finally:
+        executors.end_shared_pool()
+    assert [f.key for f in there] != [s[0] for s in figures.figure_specs(matrix, results, comparison)]
+
+
+def _cut_off(fig) -> list[str]:
+    """Visible texts of a drawn figure that reach beyond its canvas (by more than a pixel)."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    width, height = fig.canvas.get_width_height()
+    out = []
+    for text in fig.findobj(lambda a: hasattr(a, "get_text") and hasattr(a, "get_window_extent")):
+        if not text.get_visible() or not text.get_text():
+            continue
+        box = text.get_window_extent(renderer)
+        if box.x0 < -1 or box.y0 < -1 or box.x1 > width + 1 or box.y1 > height + 1:
+            out.append(text.get_text())
+    return out
+
+
+def _drawn(matrix, results, monkeypatch) -> dict:
+    """One figure of each kind, as matplotlib figures."""
+    kept = {}
+    monkeypatch.setattr(plots, "fig_to_png", lambda fig: kept.setdefault("fig", fig) and b"")
+    out = {}
+    for spec in _specs(matrix, results):
+        kind = spec[5][0]
+        if kind not in out:
+            kept.clear()
+            figures._render(spec[5])
+            out[kind] = kept["fig"]
+    return out
+
+
+def test_no_text_is_cut_off(matrix, results, monkeypatch):
+    """Why: figures are saved whole (no tight bounding box: it drew each figure twice), so their fixed
+    margins must hold every title, label, tick label and legend entry."""
+    drawn = _drawn(matrix, results, monkeypatch)
+    assert set(drawn) == {"sweep", "difference", "heatmap"}
+    for kind, fig in drawn.items():
+        assert not _cut_off(fig), kind
+
+
+@pytest.mark.parametrize("margin", ["left", "bottom"])
+def test_a_margin_too_small_is_seen(matrix, results, monkeypatch, margin):
+    """The fault the test above must see: a figure whose margin leaves its labels outside the canvas."""
+    from matplotlib.figure import Figure
+
+    real = Figure.subplots_adjust
+
+    def no_margin(self, *args, **kwargs):
+        real(self, *args, **{**kwargs, margin: 0.0})
+
+    monkeypatch.setattr(Figure, "subplots_adjust", no_margin)
+    drawn = _drawn(matrix, results, monkeypatch)
+    assert all(_cut_off(fig) for fig in drawn.values())
