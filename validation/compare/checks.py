@@ -18,6 +18,8 @@ from dualmech.validation.compare.differences import (
     relative_differences,
     row_differences,
     rows_given,
+    status_mask,
+    status_memo,
     stroke,
     unit_scales,
 )
@@ -188,8 +190,8 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
     theta = reference["theta1_deg"]
     rows = compared_rows(reference, judge, quantity)
     if quantity in POSE_COLUMNS and tol.value > 0:
-        limit = is_status(reference.status, Status.ASSEMBLY_LIMIT) | is_status(
-            judge.status, Status.ASSEMBLY_LIMIT
+        limit = status_mask(reference.status, (Status.ASSEMBLY_LIMIT,)) | status_mask(
+            judge.status, (Status.ASSEMBLY_LIMIT,)
         )
         rel = np.where(limit, rel * tol.value / max(tol.value, ASSEMBLY_LIMIT_POSE.value), rel)
     infinite = rows & np.isinf(rel)
@@ -306,6 +308,12 @@ def compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]
         engine raised.  A case or engine missing from ``results`` gives failing
         ``incomplete`` checks (an unfinished run is never a pass).
     """
+    with status_memo():  # each table's status masks computed once, not once per quantity
+        return _compare_run(matrix, results)
+
+
+def _compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> Comparison:
+    """:func:`compare_run`'s work."""
     checks: list[Check] = []
     strokes: dict[str, dict[str, float]] = {}
     dead: dict[str, dict[str, int]] = {}

@@ -5,7 +5,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import warnings
+from typing import Iterable, Iterator
 
 import numpy as np
 
@@ -39,9 +41,43 @@ def given_under(quantity: str) -> frozenset[str]:
     return frozenset({Status.OK})
 
 
+#: Status masks already computed, while :func:`status_memo` is active: (id of the words, allowed) ->
+#: (the words, their mask).  The words are kept, so their id is not reused while the memo lives.
+_MEMO: dict[tuple[int, frozenset[str]], tuple[np.ndarray, np.ndarray]] | None = None
+
+
+@contextlib.contextmanager
+def status_memo() -> Iterator[None]:
+    """Within the block, :func:`status_mask` computes each mask once per status array and set of words.
+
+    For a comparison, whose tables do not change while it runs (a run's tables are compared
+    quantity by quantity, and each quantity asks again which rows each table gives).
+    """
+    global _MEMO
+    outer = _MEMO
+    _MEMO = {} if outer is None else outer
+    try:
+        yield
+    finally:
+        _MEMO = outer
+
+
+def status_mask(words: np.ndarray, allowed: Iterable[str]) -> np.ndarray:
+    """:func:`~dualmech.core.status.is_status` of ``words`` (shape ``(n,)``), memoized inside
+    :func:`status_memo`; a new array every call."""
+    allowed = frozenset(str(a) for a in allowed)
+    if _MEMO is None:
+        return is_status(words, *allowed)
+    key = (id(words), allowed)
+    hit = _MEMO.get(key)
+    if hit is None or hit[0] is not words:
+        hit = _MEMO[key] = (words, is_status(words, *allowed))
+    return hit[1].copy()
+
+
 def rows_given(table: ResultTable, quantity: str) -> np.ndarray:
     """Rows, shape ``(n,)`` bool, where ``table``'s status says ``quantity`` is given."""
-    return is_status(table.status, *given_under(quantity))
+    return status_mask(table.status, given_under(quantity))
 
 
 def engine_failures(table: ResultTable, quantities: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -49,7 +85,7 @@ def engine_failures(table: ResultTable, quantities: tuple[str, ...]) -> tuple[np
 
     Returns ``(failed_status, non_finite)``.
     """
-    failed = ~is_status(table.status, *VERDICTS)
+    failed = ~status_mask(table.status, VERDICTS)
     non_finite = np.zeros(len(table), dtype=bool)
     for q in (*POSE_COLUMNS, *quantities):
         non_finite |= rows_given(table, q) & ~np.isfinite(table[q])
