@@ -188,3 +188,56 @@ def test_benchmark_reports_cost_per_position():
     assert report["engine"] == "mujoco-sim" and report["positions"] == 6
     assert report["steps"] == 2 * (runin_steps(settings) + 50 * 128 + 1)  # torque mode: two runs
     assert report["us_per_position"] > 0 and report["us_per_step"] > 0
+
+
+def _short_case():
+    case = load_case("thesis/a4-30-s1-3").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 40.0, "step": 10.0}})
+    return with_loads(case, drive_torque=None, slider_force=-300.0)
+
+
+def _simulated(case) -> dict:
+    rows, settings = prepare(case)
+    return simulate(case, float(case.loads.slider_force), settings, rows)
+
+
+def test_skipping_collision_detection_changes_no_bit():
+    """Why: MuJoCo tested the drawn geoms for contacts at every step (~9 % of a step) though none can touch;
+    with collision detection off the simulation is the same, bit for bit."""
+    import dualmech.validation.mujoco_sim as sim
+
+    case = _short_case()
+    skipped = _simulated(case)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sim, "skip_collisions", lambda model: None)
+        kept = _simulated(case)
+    for name, values in kept.items():
+        np.testing.assert_array_equal(skipped[name], values, err_msg=name)
+
+
+def test_a_skip_that_changes_the_physics_is_seen(monkeypatch):
+    """The fault the test above must see: switching off more than collisions (here the loop's connect)."""
+    import dualmech.validation.mujoco_sim as sim
+
+    case = _short_case()
+    reference = _simulated(case)
+
+    def too_much(model):
+        model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EQUALITY
+
+    monkeypatch.setattr(sim, "skip_collisions", too_much)
+    broken = _simulated(case)
+    assert not all(np.array_equal(reference[k], broken[k], equal_nan=True) for k in reference)
+
+
+@pytest.mark.parametrize("contype, conaffinity, skipped", [(0, 0, True), (1, 0, True), (0, 1, True),
+                                                             (1, 1, False)])
+def test_collisions_stay_on_when_two_geoms_could_touch(contype, conaffinity, skipped):
+    from dualmech.validation.mujoco_sim import skip_collisions
+
+    model = mujoco.MjModel.from_xml_string(f"""<mujoco><worldbody>
+      <geom type="sphere" size="1" contype="{contype}" conaffinity="{conaffinity}"/>
+      <body pos="0 0 3"><freejoint/><geom type="sphere" size="1" contype="{contype}"
+        conaffinity="{conaffinity}"/></body></worldbody></mujoco>""")
+    skip_collisions(model)
+    assert bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT) is skipped
