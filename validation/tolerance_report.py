@@ -192,12 +192,13 @@ class FigureDrawing:
         return figures
 
     def close(self) -> None:
-        """End the worker: when idle once the figures were collected, else at once (the study stopped)."""
+        """End the worker: once the figures were collected it exits by itself (not waited for: it tears
+        down while this process writes and prints; the interpreter joins it at exit), else at once."""
         if self._pool is None:
             return
         pool, self._pool = self._pool, None
         if self._collected:
-            pool.shutdown(wait=True)
+            pool.shutdown(wait=False)
             return
         pool.shutdown(wait=False, cancel_futures=True)
         for proc in list((getattr(pool, "_processes", None) or {}).values()):
