@@ -99,3 +99,49 @@ def test_a_margin_too_small_is_seen(matrix, results, monkeypatch, margin):
     monkeypatch.setattr(Figure, "subplots_adjust", no_margin)
     drawn = _drawn(matrix, results, monkeypatch)
     assert all(_cut_off(fig) for fig in drawn.values())
+
+
+def _failed_report(small, tmp_path, monkeypatch) -> list:
+    """A report whose balancing section fails while the workers draw its figures; its figure jobs."""
+    from dualmech.validation import derived
+    from dualmech.validation.matrix import load_matrix
+    from dualmech.validation.report import ReportError, write_report
+    from dualmech.validation.runner import run_matrix
+
+    from .test_validate import FAKE_REGISTRY
+
+    run_matrix(load_matrix(small), tmp_path / "run", jobs=1, registry=FAKE_REGISTRY)
+    started = []
+
+    def start(*args, **kwargs):
+        started.append(figures.start_figures(*args, **kwargs))
+        return started[-1]
+
+    monkeypatch.setattr("dualmech.validation.report.render.start_figures", start)
+
+    def broken(matrix):
+        raise RuntimeError("balancing broke")
+
+    monkeypatch.setattr(derived, "balancing", broken)
+    try:
+        with pytest.raises(ReportError, match="balancing"):
+            write_report(tmp_path / "run", None, jobs=2)
+        jobs = list(started[0]._rendered)
+        cf.wait([j for j in jobs if not j.cancelled()], timeout=60)
+    finally:
+        executors.end_shared_pool()
+    return jobs
+
+
+def test_a_failed_report_drops_the_figures_not_started(small, tmp_path, monkeypatch):
+    """Why: the figures are drawn while this process builds the other sections; when one of those fails,
+    the workers must not go on drawing a report that will not be written."""
+    jobs = _failed_report(small, tmp_path, monkeypatch)
+    assert len(jobs) > 4 and any(j.cancelled() for j in jobs)
+
+
+def test_a_failed_report_that_draws_on_is_seen(small, tmp_path, monkeypatch):
+    """The fault the test above must see: the figures left to draw after the failure."""
+    monkeypatch.setattr(figures.PendingFigures, "cancel", lambda self: None)
+    jobs = _failed_report(small, tmp_path, monkeypatch)
+    assert not any(j.cancelled() for j in jobs)

@@ -192,6 +192,12 @@ class PendingFigures:
                 progress(len(pngs), len(self.specs), spec[0])
         return [Figure(*spec[:5], png) for spec, png in zip(self.specs, pngs)]
 
+    def cancel(self) -> None:
+        """Drop the figures not started yet (the report failed elsewhere)."""
+        for job in self._rendered:
+            if isinstance(job, cf.Future):
+                job.cancel()
+
 
 def start_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: int = 1) -> PendingFigures:
     """Plan every figure of the report and start drawing them in the ``jobs`` workers of the shared pool

@@ -150,12 +150,13 @@ def write_report(
     with locked(outdir if outdir is not None else rundir) as outdir:
         # the workers draw the figures while this process computes the sections beside them
         pending = _section("figures", start_figures, matrix, results, comparison, jobs=jobs)
-        balance = _section("balancing", derived.balancing, matrix)
-        balance_figure = _section("balancing", balancing_figure, balance)
-        find = (
-            _section("findings", derived.findings) if matrix.of_thesis else None
-        )  # about the thesis's mechanism only
-        figures = _section("figures", pending.collect, progress)
+        try:
+            balance = _section("balancing", derived.balancing, matrix)
+            balance_figure = _section("balancing", balancing_figure, balance)
+            find = _section("findings", derived.findings) if matrix.of_thesis else None  # the thesis's only
+            figures = _section("figures", pending.collect, progress)
+        finally:
+            pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
         figures = [*figures, *([balance_figure] if balance_figure is not None else [])]
         paths = _write_figures(outdir, figures)
         context = _context(matrix, run, results, comparison, figures)
