@@ -253,7 +253,7 @@ def close_reachable(fl: FlatLoop, rules: Rules, g: tuple, w: Work, sc: Scratch) 
     return status, iters, residual
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def pins(
     fl: FlatLoop,
     vidx: np.ndarray,

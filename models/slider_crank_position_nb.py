@@ -79,7 +79,7 @@ N_REACT = 23
 WARM_SPAN = math.radians(2.0)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _rod_force(
     need: np.ndarray,
     p2: np.ndarray,
@@ -122,7 +122,7 @@ def _rod_force(
     return (torque - tau0) / lever if math.isfinite(torque) else (s0 - load) / dot(u, k4)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _reactions(
     need: np.ndarray,
     p2: np.ndarray,
@@ -164,7 +164,7 @@ def _reactions(
     return _newton_euler_residual(need, p2, p3, j1f, j1m, j2, j3, j3m, j4f, j4mo, v[13:16])
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, j3m, f4, m4o, v) -> float:
     """Largest violation of the 18 equations (:func:`dualmech.core.reactions._newton_euler_residual`)."""
     t2, t3 = v[0], v[1]
@@ -244,7 +244,7 @@ def _dynamics(
     return _reactions(need, p2, p3, k4, torque, load, axis, sc.wide[:16], col[_REACT : _REACT + N_REACT])
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _settle(rules: Rules, status: int, col: np.ndarray) -> int:
     """``not_finite`` where a given column is not finite, then NaN where the word does not give it
     (:func:`dualmech.core.status.settle`)."""

@@ -17,10 +17,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.dual_nb import JIT, cross, matvec
+from dualmech.core.kernel.dual_nb import INLINE, JIT, cross, matvec
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def required_wrench(
     mass: float,
     com_body: np.ndarray,

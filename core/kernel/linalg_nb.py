@@ -117,7 +117,7 @@ def _normal_rhs(a: np.ndarray, b: np.ndarray, rhs: np.ndarray) -> None:
                 rhs[i] += a[r, i] * b[r]
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def factorize(a: np.ndarray, sq: np.ndarray, svd: np.ndarray, piv: np.ndarray) -> bool:
     """Factor ``a`` ``(m, k)``, ``m >= k``, for :func:`solve_factored` (thesis eq. 23a): the system itself if
     square, else its normal matrix, by LU with partial pivoting into ``sq`` and ``piv`` ``(k,)``; where a
@@ -134,7 +134,7 @@ def factorize(a: np.ndarray, sq: np.ndarray, svd: np.ndarray, piv: np.ndarray) -
     return False
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def solve_factored(
     a: np.ndarray,
     b: np.ndarray,

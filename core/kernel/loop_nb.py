@@ -269,7 +269,7 @@ def frame_origin(frames: np.ndarray, i: int) -> tuple:
     return 0.5 * (m21 - m12), 0.5 * (m02 - m20), 0.5 * (m10 - m01)
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def screw_matrix(
     fl: FlatLoop,
     frames: np.ndarray,

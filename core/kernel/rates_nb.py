@@ -14,12 +14,12 @@ import numpy as np
 from numba import njit
 
 from dualmech.core.kernel.closure_nb import Work
-from dualmech.core.kernel.dual_nb import INLINE, JIT
+from dualmech.core.kernel.dual_nb import INLINE
 from dualmech.core.kernel.linalg_nb import factorize, solve_factored
 from dualmech.core.kernel.loop_nb import FlatLoop, screw_matrix
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _rhs(
     screws: np.ndarray,
     gauges: np.ndarray,
@@ -55,7 +55,7 @@ def _rhs(
                 )
 
 
-@njit(**JIT)
+@njit(**INLINE)
 def _transport(
     screws: np.ndarray, lines: np.ndarray, rates: np.ndarray, cum: np.ndarray, transport: np.ndarray
 ) -> None:
