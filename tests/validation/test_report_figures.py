@@ -66,7 +66,7 @@ def _cut_off(fig) -> list[str]:
 def _drawn(matrix, results, monkeypatch) -> dict:
     """One figure of each kind, as matplotlib figures."""
     kept = {}
-    monkeypatch.setattr(plots, "fig_to_png", lambda fig: kept.setdefault("fig", fig) and b"")
+    monkeypatch.setattr(plots, "fig_to_png", lambda fig, **kwargs: kept.setdefault("fig", fig) and b"")
     out = {}
     for spec in _specs(matrix, results):
         kind = spec[5][0]
@@ -145,3 +145,42 @@ def test_a_failed_report_that_draws_on_is_seen(small, tmp_path, monkeypatch):
     monkeypatch.setattr(figures.PendingFigures, "cancel", lambda self: None)
     jobs = _failed_report(small, tmp_path, monkeypatch)
     assert not any(j.cancelled() for j in jobs)
+
+
+def _png_width(png: bytes) -> int:
+    return int.from_bytes(png[16:20], "big")  # the IHDR chunk's width
+
+
+def _crops_and_closes() -> tuple[int, int, bool]:
+    """(tight width, untight width, pyplot still holds the figures) of a figure with a label beyond it."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    widths = []
+    for tight in (True, False):
+        fig = plt.figure(figsize=(4.0, 3.0))
+        fig.add_subplot().plot([0.0, 1.0])
+        fig.text(1.2, 0.5, "beyond the right edge")
+        widths.append(_png_width(plots.fig_to_png(fig, tight=tight)))
+    return widths[0], widths[1], bool(plt.get_fignums())
+
+
+def test_other_reports_keep_their_cropped_figures():
+    """Why: the report's own figures are no longer cropped (that drew them twice); the linkage report's
+    pyplot figures still are by default, and are still closed."""
+    tight, untight, open_figures = _crops_and_closes()
+    assert untight == 4 * plots.DPI and tight > untight
+    assert not open_figures
+
+
+def test_a_crop_that_is_ignored_is_seen(monkeypatch):
+    """The fault the test above must see: ``bbox_inches`` dropped whatever the caller asks."""
+    from matplotlib.figure import Figure
+
+    real = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, bbox_inches=None, pad_inches=None, **k:
+                        real(self, *a, **k))
+    tight, untight, _ = _crops_and_closes()
+    assert tight == untight

@@ -73,14 +73,19 @@ def new_figure(figsize: tuple[float, float]) -> Any:
     return fig
 
 
-def fig_to_png(fig: Any) -> bytes:
-    """The figure as PNG bytes, drawn once.
+def fig_to_png(fig: Any, *, tight: bool = True) -> bytes:
+    """The figure as PNG bytes; a pyplot figure is closed.
 
-    Every figure sets its own margins (in inches, ``subplots_adjust``) so that nothing is cut off;
-    ``bbox_inches="tight"`` would draw each figure twice (once to measure it).
+    ``tight``: crop to the drawn artists (``bbox_inches="tight"``: nothing cut off, but the figure is drawn
+    twice, once to measure it).  The report's own figures set their margins in inches and pass
+    ``tight=False``: drawn once.
     """
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI)
+    fig.savefig(buf, format="png", dpi=DPI, **({"bbox_inches": "tight", "pad_inches": 0.1} if tight else {}))
+    if fig.canvas.manager is not None:  # made by pyplot, which keeps it until closed
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
     return buf.getvalue()
 
 
@@ -186,7 +191,7 @@ def sweep_figure(
         hspace=0.55,
         wspace=0.22,
     )
-    return fig_to_png(fig)
+    return fig_to_png(fig, tight=False)
 
 
 def _widen_to_fit(fig: Any, artists: tuple[Any, ...], pad_in: float = 0.2) -> None:
@@ -307,7 +312,7 @@ def difference_figure(
         hspace=0.45,
         wspace=0.08,
     )
-    return fig_to_png(fig)
+    return fig_to_png(fig, tight=False)
 
 
 def heatmap_figure(
@@ -333,4 +338,4 @@ def heatmap_figure(
     ax.set_title(f"{engine}: worst relative difference per case and quantity", fontsize=10, y=TITLE_Y)
     w, h = fig.get_figwidth(), fig.get_figheight()
     fig.subplots_adjust(left=1.9 / w, right=1 - 0.2 / w, top=1 - 0.4 / h, bottom=1.1 / h)
-    return fig_to_png(fig)
+    return fig_to_png(fig, tight=False)
