@@ -124,11 +124,12 @@ def end_shared_pool(jobs: int | None = None, *, wait: bool = True) -> None:
         pool = _SHARED.pop(n, None)
         if pool is None:
             continue
+        workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
         pool.shutdown(wait=False, cancel_futures=True)
         if wait:
             pool.shutdown(wait=True)
         else:
-            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+            for proc in workers:
                 proc.terminate()
 
 

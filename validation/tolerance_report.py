@@ -200,8 +200,9 @@ class FigureDrawing:
         if self._collected:
             pool.shutdown(wait=False)
             return
+        workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
         pool.shutdown(wait=False, cancel_futures=True)
-        for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        for proc in workers:
             proc.terminate()
 
 

@@ -168,3 +168,20 @@ def test_a_run_that_ends_its_pool_is_seen(small, tmp_path, monkeypatch):
         assert not _pool_pids(2)
     finally:
         executors.end_shared_pool()
+
+
+def test_an_interrupted_run_ends_its_busy_workers_at_once():
+    """``end_shared_pool(wait=False)`` (what an interrupted run calls) ends a worker still busy with its
+    task by a signal, not after the task (``shutdown`` forgets the pool's processes: they are taken
+    first; taken after, none was ended and the 60 s task below ran on)."""
+    from dualmech.validation import executors
+
+    executors.end_shared_pool()
+    pool = executors.shared_pool(1)
+    pool.submit(time.sleep, 60)
+    workers = list(pool._processes.values())
+    assert workers
+    executors.end_shared_pool(1, wait=False)
+    for proc in workers:
+        proc.join(timeout=20)
+        assert not proc.is_alive() and proc.exitcode is not None and proc.exitcode < 0, proc.exitcode

@@ -84,6 +84,7 @@ def test_a_drawing_never_started_or_collected_is_refused_and_its_worker_ended():
     drawing.warm()
     processes = list(drawing._pool._processes.values()) if drawing._pool._processes else []
     drawing.close()  # the study stopped before its figures were collected: the worker is ended at once
-    for proc in processes:
+    assert processes
+    for proc in processes:  # ended by close (a signal), not after finishing its import of matplotlib
         proc.join(timeout=30)
-        assert not proc.is_alive()
+        assert not proc.is_alive() and proc.exitcode is not None and proc.exitcode < 0, proc.exitcode
