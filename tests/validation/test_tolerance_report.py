@@ -73,7 +73,7 @@ def test_the_worker_process_draws_the_same_figures_as_this_one():
                                       "tornado-peak_j1_force"]
     assert [f.png for f in drawn] == [f.png for f in here]
     # the comparison sees a difference in the samples drawn (its deliberate fault)
-    other = draw_figures(figure_jobs(_summary(), _samples(scale=1.001)))
+    other = draw_figures(figure_jobs(_summary(), _samples(scale=1.05)))  # 0.1 %: the same pixels
     assert [f.png for f in drawn][:2] != [f.png for f in other][:2]
 
 
