@@ -81,6 +81,16 @@ def needed_columns(mode: str) -> tuple[str, ...]:
     return ("S4",) + vectors + (SOLVED_LOAD[mode][1],)
 
 
+#: Status code -> whether the row assembles (is failed): lookup tables, cheaper than ``np.isin`` per block.
+_IS_ASSEMBLED = np.isin(np.arange(len(STATUSES)), _ASSEMBLED)
+_IS_FAILED = np.isin(np.arange(len(STATUSES)), _FAILED)
+
+
+def _assembled(columns: Mapping[str, np.ndarray], codes: np.ndarray) -> np.ndarray:
+    """Rows that assemble with a finite S4: the rows of the stroke."""
+    return _IS_ASSEMBLED[codes] & np.isfinite(columns["S4"])
+
+
 def candidate_values(columns: Mapping[str, np.ndarray], codes: np.ndarray,
                      mode: str) -> dict[str, tuple[np.ndarray, ...]]:
     """Per output, the values it is the extreme of, ``(designs, positions)`` each, masked.
@@ -89,7 +99,7 @@ def candidate_values(columns: Mapping[str, np.ndarray], codes: np.ndarray,
     (its magnitude where the row is ``ok`` and it is finite, else -inf,).  ``columns``
     ``(designs, positions)`` in the units of the columns; ``codes`` the rows' status codes.
     """
-    assembled = np.isin(codes, _ASSEMBLED) & np.isfinite(columns["S4"])
+    assembled = _assembled(columns, codes)
     ok = codes == _OK
     out: dict[str, tuple[np.ndarray, ...]] = {
         "stroke": (np.where(assembled, columns["S4"], -np.inf), np.where(assembled, columns["S4"], np.inf))}
@@ -106,13 +116,9 @@ def _where_finite(mask: np.ndarray, values: np.ndarray) -> np.ndarray:
     return np.where(mask & np.isfinite(values), values, -np.inf)
 
 
-_IS_ASSEMBLED = np.isin(np.arange(len(STATUSES)), _ASSEMBLED)
-_IS_FAILED = np.isin(np.arange(len(STATUSES)), _FAILED)
-
-
 def _masked_max(mask: np.ndarray, values: np.ndarray) -> np.ndarray:
     """Per design (row) the largest of ``values`` where ``mask`` and finite, else -inf, ``(d,)``."""
-    return np.where(mask & np.isfinite(values), values, -np.inf).max(axis=1)
+    return _where_finite(mask, values).max(axis=1)
 
 
 def block_extremes(columns: Mapping[str, np.ndarray], codes: np.ndarray, mode: str) -> dict[str, np.ndarray]:
@@ -123,7 +129,7 @@ def block_extremes(columns: Mapping[str, np.ndarray], codes: np.ndarray, mode: s
     bit for bit the largest magnitude, one root per design instead of one per position); the solved
     load -> its largest ``|value|``.  Masked as :func:`candidate_values` (``-inf``/``+inf`` where none).
     """
-    assembled = _IS_ASSEMBLED[codes] & np.isfinite(columns["S4"])
+    assembled = _assembled(columns, codes)
     ok = codes == _OK
     s4 = columns["S4"]
     out = {"stroke": np.where(assembled, s4, -np.inf).max(axis=1),
