@@ -87,9 +87,11 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Iterator
 
 import mujoco
 import numpy as np
+from mujoco import rollout
 
 from dualmech.core.assembly import edge_status
 from dualmech.core.status import Status, flag_joint_lock, settle
@@ -171,8 +173,8 @@ def simulate(case: Case, slider_load: float, settings: MjcfSettings, rows: np.nd
     ``rows`` and ``steps_per_degree``).  Returns raw columns, shape (n,) each: the
     numeric columns but ``theta1_deg``, plus ``theta_lag`` (simulated minus
     prescribed crank angle, rad).  Rows not simulated, of a run that cannot be
-    assembled at its start, or of a run MuJoCo flags unstable
-    (``mjWARN_BADQACC``), are NaN (``not_converged`` in :func:`solve_case`).
+    assembled at its start, or of a run in which MuJoCo warns (it blew up:
+    ``mjWARN_BADQACC``, ...), are NaN (``not_converged`` in :func:`solve_case`).
     """
     plan = schedule(case, steps_per_degree, rows, runin_steps(settings))
     if settings.timestep != plan.timestep:
@@ -187,29 +189,56 @@ def simulate(case: Case, slider_load: float, settings: MjcfSettings, rows: np.nd
     gains = velocity_gains(m)
     n = case.motion.angles_deg.shape[0]
     out = {k: np.full(n, np.nan) for k in (*(c for c in NUMERIC_COLUMNS if c != "theta1_deg"), "theta_lag")}
-    for (run_rows, steps), anchor in zip(plan.runs, plan.anchors):
-        times = (np.arange(int(steps[-1]) + 1) - plan.runin) * plan.timestep
-        theta, theta_dot, s, s_dot = reference(case, anchor, times)
-        mujoco.mj_resetData(m, d)
-        status, _, _, _ = rigid.assembled_state(lp, (theta[0], s[0], theta_dot[0], s_dot[0]), warm=False)
-        if status != Status.OK:
-            continue
-        ctrl = np.stack([theta + kv[0] / kp[0] * theta_dot, s + kv[-1] / kp[-1] * s_dot,
-                         np.full(times.shape, slider_load)], -1)[:, [*range(servos), 2]]
-        read = dict(zip(steps.tolist(), run_rows.tolist()))
-        for k in range(times.shape[0]):
-            d.ctrl[:] = ctrl[k]
-            if k in read:
+    with rollout.Rollout(nthread=0) as roller:
+        for (run_rows, steps), anchor in zip(plan.runs, plan.anchors):
+            times = (np.arange(int(steps[-1]) + 1) - plan.runin) * plan.timestep
+            theta, theta_dot, s, s_dot = reference(case, anchor, times)
+            mujoco.mj_resetData(m, d)
+            status, _, _, _ = rigid.assembled_state(lp, (theta[0], s[0], theta_dot[0], s_dot[0]), warm=False)
+            if status != Status.OK:
+                continue
+            ctrl = np.stack([theta + kv[0] / kp[0] * theta_dot, s + kv[-1] / kp[-1] * s_dot,
+                             np.full(times.shape, slider_load)], -1)[:, [*range(servos), 2]]
+            for i, k in enumerate(stepped(m, d, ctrl, steps, roller)):
                 mujoco.mj_forward(m, d)
                 values = read_state(lp, gains)
                 values["theta_lag"] = values.pop("theta") - theta[k]
                 for name, value in values.items():
-                    out[name][read[k]] = value
-            mujoco.mj_step(m, d)
-        if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:  # MuJoCo blew up (and reset itself)
-            for name in out:
-                out[name][run_rows] = np.nan
+                    out[name][run_rows[i]] = value
+            if d.warning.number.any():  # MuJoCo blew up (mjWARN_BADQACC, ...): rows not trusted
+                for name in out:
+                    out[name][run_rows] = np.nan
     return out
+
+
+def stepped(model: mujoco.MjModel, data: mujoco.MjData, ctrl: np.ndarray, reads: np.ndarray,
+            roller: rollout.Rollout) -> Iterator[int]:
+    """Step ``data`` under ``ctrl`` (shape (k, nu): step ``i`` runs with ``ctrl[i]``), pausing at ``reads``.
+
+    Yields each step of ``reads`` (increasing, < k) with ``data`` as it is before that step, its
+    control set: the caller reads the state there (``mj_forward`` and what follows it; nothing they
+    write enters a step).  The steps in between run in MuJoCo's ``rollout`` (C, no Python a step), each
+    stretch from the full physics state and the constraint solver's warm start (``qacc_warmstart``)
+    that ``data`` holds: the same steps as ``mj_step`` in a Python loop, bit for bit.  Ends after the
+    last step, or early after a stretch in which MuJoCo warned (``rollout`` then stops stepping; the
+    warnings stay in ``data.warning``, which each stretch clears first).
+    """
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty((1, mujoco.mj_stateSize(model, spec)))
+    warm = np.empty((1, model.nv))
+    done = 0
+    for k in (*reads.tolist(), ctrl.shape[0]):
+        if k > done:
+            mujoco.mj_getState(model, data, state[0], spec)
+            warm[0] = data.qacc_warmstart
+            roller.rollout([model], [data], state, ctrl[None, done:k], skip_checks=True, nstep=k - done,
+                           initial_warmstart=warm)
+            if data.warning.number.any():
+                return
+        done = k
+        if k < ctrl.shape[0]:
+            data.ctrl[:] = ctrl[k]
+            yield k
 
 
 def skip_collisions(model: mujoco.MjModel) -> None:
