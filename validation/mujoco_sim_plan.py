@@ -22,6 +22,7 @@ from dualmech.models.mjcf import (
     default_timestep,
 )
 from dualmech.validation import mujoco_engine as rigid
+from dualmech.validation.mujoco_dynamics import rate_rows, solve_rates
 
 #: Fewest steps simulated before the first row of a run; more if the servos' slow pole needs them.
 SIM_RUNIN_STEPS = 128
@@ -135,18 +136,26 @@ def survey(case: Case) -> Survey:
     mass = np.empty((lp.model.nv, lp.model.nv))
     warm = False
     for i in range(n):
-        for k, rates in enumerate(((1.0, 0.0), (0.0, 1.0))[:lp.crank_dofs.size]):
-            word, _, _, c = rigid.assembled_state(lp, (float(st.theta[i]), float(st.s[i]), *rates), warm)
-            if k == 0:
-                word = flag_joint_lock(np.array([word]), c, case.joints.universal)[0]
-                status[i], s4[i], condition[i] = word, lp.data.qpos[lp.qadr[3]], c
-            if word != Status.OK:
-                break
-            mujoco.mj_fullM(lp.model, lp.data, mass)
-            v = lp.data.qvel
-            high[k] = max(high[k], float(v @ mass @ v))
+        word, _, _, c = rigid.assembled_state(lp, (float(st.theta[i]), float(st.s[i]), 1.0, 0.0), warm)
+        word = flag_joint_lock(np.array([word]), c, case.joints.universal)[0]
+        status[i], s4[i], condition[i] = word, lp.data.qpos[lp.qadr[3]], c
         warm = word == Status.OK
+        if warm:
+            mujoco.mj_fullM(lp.model, lp.data, mass)
+            for k, v in enumerate(_unit_rates(lp)):
+                high[k] = max(high[k], float(v @ mass @ v))
     return Survey(status, s4, condition, (high[0], high[1]))
+
+
+def _unit_rates(lp: rigid.MjLoop) -> list[np.ndarray]:
+    """The mechanism's velocity for a unit rate of each crank joint (the other held) at the closed pose, (nv,)
+    each: ``qvel`` as :func:`~dualmech.validation.mujoco_engine.assembled_state` left it for the crank
+    angle, the same rate rows for the axial joint."""
+    rates = [lp.data.qvel.copy()]
+    if lp.crank_dofs.size == 2:
+        rows, _ = rate_rows(lp)
+        rates.append(solve_rates(lp, rows, np.array([0.0, 1.0]), np.zeros(rows.shape[0])))
+    return rates
 
 
 def runin_steps(settings: MjcfSettings) -> int:

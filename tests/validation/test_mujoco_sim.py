@@ -241,3 +241,22 @@ def test_collisions_stay_on_when_two_geoms_could_touch(contype, conaffinity, ski
         conaffinity="{conaffinity}"/></body></worldbody></mujoco>""")
     skip_collisions(model)
     assert bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_CONTACT) is skipped
+
+
+def test_survey_takes_both_unit_rates_at_one_closed_pose():
+    """Why: the survey closed the loop a second time for the axial servo's unit rate; both rates now come from
+    one closure.  They are the rigid path's own rates for that crank state (to round-off: its second closure
+    may polish the pose once more)."""
+    from dualmech.validation import mujoco_engine as rigid
+    from dualmech.validation.mujoco_sim_plan import _unit_rates
+
+    case = load_case("thesis/a4-30-s1-6")  # a cylindrical crank: two servos
+    lp = rigid.build(case)
+    st = case.motion.state(case.geometry.crank_axial_shift)
+    for i in (0, 97, 200, 333):
+        crank = (float(st.theta[i]), float(st.s[i]))
+        assert rigid.assembled_state(lp, (*crank, 1.0, 0.0), warm=False)[0] == "ok"
+        rates = _unit_rates(lp)
+        for k, known in enumerate(((1.0, 0.0), (0.0, 1.0))):
+            assert rigid.assembled_state(lp, (*crank, *known), warm=True)[0] == "ok"
+            np.testing.assert_allclose(rates[k], lp.data.qvel, rtol=1e-12, atol=1e-12)
