@@ -87,7 +87,7 @@ def edge_status(status: np.ndarray, closed: np.ndarray, rho: np.ndarray, conditi
         ``c`` per row, NaN at ``no_assembly`` rows.
     """
     out = np.asarray(status, dtype=object).copy()
-    geometric = np.sqrt(1.0 - np.minimum(rho, 1.0) ** 2)
+    geometric = np.sqrt(1.0 - np.minimum(np.real(rho), 1.0) ** 2)  # real: a status, not differentiated
     c = np.where(closed, condition, geometric)
     beyond = rho > 1.0 + reach_tol
     out[~beyond & is_status(out, Status.NO_ASSEMBLY)] = Status.NOT_CONVERGED.value

@@ -80,7 +80,7 @@ class ClosureResult:
 def _gauge_block(chain, loop: Loop) -> np.ndarray:
     """Spin-gauge rows over the tangent step, ``(n, g, k)``."""
     rows, _ = gauge_rows(chain, loop)
-    gauge = np.zeros(rows.shape[:2] + (loop.n_unknown,))
+    gauge = np.zeros(rows.shape[:2] + (loop.n_unknown,), rows.dtype)
     for j, s in enumerate(chain.screws):
         if s.var[0] == "unknown":
             gauge[:, :, s.var[1]] = rows[:, :, j]
@@ -109,8 +109,26 @@ def _newton_step(chain, loop: Loop) -> np.ndarray:
     err = closure_error(chain, loop)
     if loop.spin_gauges:
         jac = np.concatenate([jac, _gauge_block(chain, loop)], axis=1)
-        err = np.concatenate([err, np.zeros((err.shape[0], len(loop.spin_gauges)))], axis=1)
+        err = np.concatenate([err, np.zeros((err.shape[0], len(loop.spin_gauges)), err.dtype)], axis=1)
     return least_squares(jac, -err)
+
+
+def polish(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState, steps: int = 2) -> LoopState:
+    """``steps`` full Newton steps (eq. 11, 23a) from a closed ``state``, without step control.
+
+    Every operation of a step is analytic in the inputs: the loop product, the screws, the closure
+    error, the least-squares solve (an LU factorization; not the DFP fallback's pseudo-inverse) and
+    the retraction (:func:`~dualmech.core.loop.rodrigues`).  With complex inputs :math:`p + ih\\,\\delta p`
+    and the real closed state :math:`x(p)`, a step therefore lands on
+    :math:`x(p) + ih\\,x'(p)\\delta p` to first order in ``h``: the implicit function theorem,
+    :math:`x' = -J_x^{-1} g_p`, evaluated by the solver's own Newton step.  The imaginary part of a
+    step is off by the real closure error times :math:`h` (~1e-15 relative at a closed state); the
+    second step removes even that.  Used by the tolerance study's sensitivities
+    (:mod:`dualmech.models.tolerance.sensitivity`).
+    """
+    for _ in range(steps):
+        state = state.retract(_newton_step(evaluate(loop, inputs, state), loop), loop)
+    return state
 
 
 def _newton(loop, inputs, state, active, iters, residual, max_iter):

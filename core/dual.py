@@ -39,7 +39,8 @@ class Dual:
     @staticmethod
     def of(re: np.ndarray | float, du: np.ndarray | float = 0.0) -> "Dual":
         """Build from a primary and a dual part, broadcasting them to one shape."""
-        re_arr, du_arr = np.broadcast_arrays(np.asarray(re, dtype=float), np.asarray(du, dtype=float))
+        kind = scalar_type(re, du)
+        re_arr, du_arr = np.broadcast_arrays(np.asarray(re, dtype=kind), np.asarray(du, dtype=kind))
         return Dual(re_arr, du_arr)
 
     @property
@@ -96,6 +97,28 @@ class Dual:
         return np.concatenate([self.re, self.du], axis=-1)
 
 
+# -- the scalar field --------------------------------------------------------------
+
+def scalar_type(*values: np.ndarray | float | complex) -> np.dtype:
+    """float64, or complex128 where any of ``values`` is complex.
+
+    The numpy core computes over either: complex numbers carry the complex-step derivatives of the
+    tolerance study (:mod:`dualmech.models.tolerance.sensitivity`) through the solver's own code, so
+    every array the core creates takes the type of its inputs, and every function it applies is
+    analytic where a derivative passes (:func:`norm`, not ``numpy.linalg.norm``).
+    """
+    return np.result_type(*values, np.float64)
+
+
+def norm(v: np.ndarray, axis: int = -1, keepdims: bool = False) -> np.ndarray:
+    """Euclidean length :math:`\\sqrt{v\\cdot v}` along ``axis``.
+
+    The same sum of squares as ``numpy.linalg.norm`` for real ``v``, but analytic in ``v`` (no
+    conjugate, no modulus), so a complex step passes through it (:func:`scalar_type`).
+    """
+    return np.sqrt(np.add.reduce(v * v, axis=axis, keepdims=keepdims))
+
+
 # -- dual functions (Taylor expansion: f(a + eps b) = f(a) + eps b f'(a)) ----------
 
 def dsin(x: Dual) -> Dual:
@@ -135,7 +158,8 @@ def ddot(a: Dual, b: Dual) -> Dual:
 def _rotation(axis: int, angle: Dual) -> Dual:
     c, s = dcos(angle), dsin(angle)
     shape = angle.shape + (3, 3)
-    re, du = np.zeros(shape), np.zeros(shape)
+    kind = scalar_type(c.re, c.du)
+    re, du = np.zeros(shape, kind), np.zeros(shape, kind)
     i, j = [(1, 2), (2, 0), (0, 1)][axis]
     re[..., axis, axis] = 1.0
     re[..., i, i] = c.re
@@ -183,7 +207,7 @@ def origin(m: Dual) -> np.ndarray:
 
 def skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrix :math:`[v]_\\times` of ``v`` ``(..., 3)``, shape ``(..., 3, 3)``."""
-    out = np.zeros(v.shape + (3,))
+    out = np.zeros(v.shape + (3,), scalar_type(v))
     out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
     out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
     out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dualmech.core.dual import scalar_type
+
 
 @dataclass(frozen=True)
 class BodyInertia:
@@ -33,11 +35,11 @@ class BodyInertia:
     inertia: np.ndarray
 
     def __post_init__(self) -> None:
-        com = np.asarray(self.com, dtype=float).reshape(3)
-        inertia = np.asarray(self.inertia, dtype=float).reshape(3, 3)
+        com = np.asarray(self.com, dtype=scalar_type(self.com)).reshape(3)
+        inertia = np.asarray(self.inertia, dtype=scalar_type(self.inertia)).reshape(3, 3)
         object.__setattr__(self, "com", com)
         object.__setattr__(self, "inertia", inertia)
-        if not (np.isfinite(self.mass) and self.mass > 0):
+        if not (np.isfinite(self.mass) and np.real(self.mass) > 0):  # real part: a complex step (dual.py)
             raise ValueError(f"mass: expected a finite positive number, got {self.mass!r}")
         # every check relative to the tensor's own size: no absolute floor, so no unit decides a verdict
         if not np.allclose(inertia, inertia.T, rtol=0, atol=1e-12 * np.abs(inertia).max()):

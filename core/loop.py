@@ -29,7 +29,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from dualmech.core.dual import Dual, from_pose, identity, origin, rot_x, rot_y, rot_z, skew, vee
+from dualmech.core.dual import (
+    Dual,
+    from_pose,
+    identity,
+    norm,
+    origin,
+    rot_x,
+    rot_y,
+    rot_z,
+    scalar_type,
+    skew,
+    vee,
+)
 
 _FIELDS = ("theta", "s", "eta", "alpha", "a")
 
@@ -165,11 +177,11 @@ class LoopState:
 
 def rodrigues(w: np.ndarray) -> np.ndarray:
     """Rotation matrix :math:`\\exp([w]_\\times)` for rotation vectors ``w`` ``(..., 3)``."""
-    angle = np.linalg.norm(w, axis=-1)[..., None, None]
-    small = angle < 1e-8
-    safe = np.where(small, 1.0, angle)
-    a = np.where(small, 1.0 - angle**2 / 6.0, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - angle**2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
+    squared = np.add.reduce(w * w, axis=-1)[..., None, None]  # analytic in w (dual.scalar_type)
+    small = np.abs(squared) < 1e-16
+    safe = np.sqrt(np.where(small, 1.0, squared))
+    a = np.where(small, 1.0 - squared / 6.0, np.sin(safe) / safe)
+    b = np.where(small, 0.5 - squared / 24.0, (1.0 - np.cos(safe)) / safe**2)
     k = skew(w)
     return np.eye(3) + a * k + b * (k @ k)
 
@@ -316,7 +328,7 @@ def screw_jacobian(chain: Chain, loop: Loop) -> np.ndarray:
     which keeps Newton quadratic.  Dual rows are divided by the length scale.
     """
     n = chain.closure.re.shape[0]
-    jac = np.zeros((n, 6, loop.n_unknown))
+    jac = np.zeros((n, 6, loop.n_unknown), scalar_type(chain.closure.re, chain.closure.du))
     for s in chain.screws:
         if s.var[0] == "unknown":
             jac[:, :3, s.var[1]] = s.line.re
@@ -334,13 +346,14 @@ def gauge_rows(chain: Chain, loop: Loop) -> tuple[np.ndarray, np.ndarray]:
     gauged row to the next one).
     """
     n = chain.closure.re.shape[0]
-    rows = np.zeros((n, len(loop.spin_gauges), len(chain.screws)))
-    axes = np.zeros((n, len(loop.spin_gauges), 3))
+    kind = scalar_type(chain.closure.re, chain.closure.du)
+    rows = np.zeros((n, len(loop.spin_gauges), len(chain.screws)), kind)
+    axes = np.zeros((n, len(loop.spin_gauges), 3), kind)
     for g, r in enumerate(loop.spin_gauges):
         start = origin(chain.frames[r - 1]) if r > 0 else np.zeros((n, 3))
         end = origin(chain.frames[r])
         u = end - start
-        u /= np.linalg.norm(u, axis=-1, keepdims=True)
+        u /= norm(u, keepdims=True)
         axes[:, g] = u
         for j, s in enumerate(chain.screws):
             if s.row <= r:

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dualmech.core.dual import scalar_type
+
 
 @dataclass(frozen=True)
 class CrankState:
@@ -75,8 +77,8 @@ class CrankMotion:
         deg = self.angles_deg if angles_deg is None else np.asarray(angles_deg, dtype=float)
         theta = np.radians(deg)
         n = theta.shape[0]
-        # numpy floats: overflow gives inf, not an error
-        w, wd = np.float64(self.speed), np.float64(self.accel)
+        # numpy scalars: overflow gives inf, not an error
+        w, wd = (np.asarray(v, dtype=scalar_type(v))[()] for v in (self.speed, self.accel))
         return self.at(axial_shift, theta, np.full(n, w), np.full(n, wd))
 
     def at(self, axial_shift: float, theta: np.ndarray, theta_dot: np.ndarray,
@@ -87,9 +89,9 @@ class CrankMotion:
         broadcastable to ``theta``'s shape); the one home of the axial law
         :math:`S_1(\theta_1)` (module docstring) and its rates.
         """
-        theta = np.asarray(theta, dtype=float)
-        w = np.broadcast_to(np.asarray(theta_dot, dtype=float), theta.shape).copy()
-        wd = np.broadcast_to(np.asarray(theta_ddot, dtype=float), theta.shape).copy()
+        theta = np.asarray(theta, dtype=scalar_type(theta))
+        w = np.broadcast_to(np.asarray(theta_dot, dtype=scalar_type(theta_dot)), theta.shape).copy()
+        wd = np.broadcast_to(np.asarray(theta_ddot, dtype=scalar_type(theta_ddot)), theta.shape).copy()
         amp, cyc = self.axial_amplitude, self.axial_cycles
         phase = cyc * theta
         s = axial_shift + amp * np.sin(phase)

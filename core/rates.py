@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dualmech.core.closure import least_squares
-from dualmech.core.dual import Dual, dcross
+from dualmech.core.dual import Dual, dcross, scalar_type
 from dualmech.core.loop import Chain, Loop, gauge_rows
 
 
@@ -57,8 +57,9 @@ def _rate_matrix(chain: Chain, loop: Loop) -> tuple[np.ndarray, np.ndarray]:
     ``(n, g, m)``."""
     n = chain.closure.re.shape[0]
     g = len(loop.spin_gauges)
-    mat = np.zeros((n, 6 + g, loop.n_unknown))
-    rows, _ = gauge_rows(chain, loop) if g else (np.zeros((n, 0, len(chain.screws))), None)
+    kind = scalar_type(chain.closure.re, chain.closure.du)
+    mat = np.zeros((n, 6 + g, loop.n_unknown), kind)
+    rows, _ = gauge_rows(chain, loop) if g else (np.zeros((n, 0, len(chain.screws)), kind), None)
     for j, s in enumerate(chain.screws):
         if s.var[0] == "unknown":
             mat[:, :3, s.var[1]] = s.line.re
@@ -75,7 +76,7 @@ def _screw_values(chain: Chain, known: dict[str, np.ndarray], unknown: np.ndarra
 
 def _motion_sum(chain: Chain, values: np.ndarray, upto_row: int | None = None) -> Dual:
     """:math:`\\sum_j \\hat s_j x_j` over the screws of rows ``<= upto_row`` (all if None)."""
-    re = np.zeros(values.shape[:1] + (3,))
+    re = np.zeros(values.shape[:1] + (3,), scalar_type(values, *(s.line.re for s in chain.screws)))
     du = np.zeros_like(re)
     for j, s in enumerate(chain.screws):
         if upto_row is None or s.row <= upto_row:

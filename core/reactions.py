@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dualmech.core.dual import Dual
+from dualmech.core.dual import Dual, norm, scalar_type
 from dualmech.core.inertia import BodyInertia, MassArrays
 
 Body = BodyInertia | MassArrays
@@ -63,7 +63,7 @@ class BodyMotion:
 
 def _mass(body: Body) -> np.ndarray:
     """Mass broadcastable against ``(n, 3)`` arrays."""
-    return np.asarray(body.mass, dtype=float)[..., None]
+    return np.asarray(body.mass, dtype=scalar_type(body.mass))[..., None]
 
 
 def _world_inertia(body: Body, rotation: np.ndarray) -> np.ndarray:
@@ -170,8 +170,8 @@ def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, 
     gives ``inf``/``nan``; callers flag those positions.
     """
     n = p2.shape[0]
-    torque = np.broadcast_to(np.asarray(drive_torque, dtype=float), (n,))
-    load = np.broadcast_to(np.asarray(slider_load, dtype=float), (n,))
+    torque = np.broadcast_to(np.asarray(drive_torque, dtype=scalar_type(drive_torque)), (n,))
+    load = np.broadcast_to(np.asarray(slider_load, dtype=scalar_type(slider_load)), (n,))
     torque_mode = np.isfinite(torque)
     if np.any(torque_mode == np.isfinite(load)):
         raise ValueError("solve_reactions: at every position give exactly one of drive_torque / slider_load")
@@ -181,7 +181,7 @@ def solve_reactions(bodies: tuple[Body, Body, Body], motions: tuple[BodyMotion, 
     # D'Alembert: what the joints must supply to each body, f + eps m_O
     need = [momentum_rate(b, m) - w for b, m, w in zip(bodies, motions, weights)]
     d = p3 - p2
-    a2 = np.linalg.norm(d, axis=1, keepdims=True)
+    a2 = norm(d, axis=1, keepdims=True)
     u = d / a2
     # rod moments about P2: -(P3 - P2) x j3 = K2, hence the part of j3 across the rod
     k2 = need[1].du - np.cross(p2, need[1].re)

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dualmech.core.dual import Dual
+from dualmech.core.dual import Dual, norm
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -46,7 +46,7 @@ def joint_axes(u: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ``u`` ``(n, 3)`` the link's unit vector, ``k`` ``(n, 3)`` the fixed unit axis.
     """
     a = np.cross(u, k)
-    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    a /= norm(a, axis=1, keepdims=True)
     return a, np.cross(a, k)
 
 

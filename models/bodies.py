@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from dualmech.core.dual import scalar_type
 from dualmech.core.inertia import BodyInertia, solid_cube, solid_cylinder_x
 from dualmech.models.inputs import (
     INERTIA,
@@ -21,6 +22,7 @@ from dualmech.models.inputs import (
     POSITIVE_LENGTH,
     POSITIVE_MASS,
     CaseError,
+    NumberReader,
     check_keys,
     check_number,
     check_vector,
@@ -40,7 +42,7 @@ def _tensor(key: str, value: object) -> np.ndarray:
     raise CaseError(f"{key}: expected 3 principal moments or a 3x3 array, got {show(value)}")
 
 
-def _mass_per_volume(b: dict) -> float | None:
+def _mass_per_volume(b: dict, number: NumberReader) -> float | None:
     has_density = "density" in b
     has_weight = "weight_density" in b or "gravity_constant" in b
     if has_density and has_weight:
@@ -48,25 +50,25 @@ def _mass_per_volume(b: dict) -> float | None:
             "bodies.density: give either density or weight_density with gravity_constant, not both"
         )
     if has_density:
-        return check_number("bodies.density", b["density"], POSITIVE_DENSITY)
+        return number("bodies.density", b["density"], POSITIVE_DENSITY)
     if has_weight:
         for key in ("weight_density", "gravity_constant"):
             if key not in b:
                 raise CaseError(f"bodies.{key}: required with the other weight-based key")
-        w = check_number("bodies.weight_density", b["weight_density"], POSITIVE_DENSITY)
-        g = check_number("bodies.gravity_constant", b["gravity_constant"], POSITIVE_ACCELERATION)
+        w = number("bodies.weight_density", b["weight_density"], POSITIVE_DENSITY)
+        g = number("bodies.gravity_constant", b["gravity_constant"], POSITIVE_ACCELERATION)
         return w / g
     return None
 
 
-def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
+def _body(name: str, b: dict, geom: Geometry, rho: float | None, number: NumberReader) -> BodyInertia:
     """Mass properties of one body: the default shape, then any explicit overrides."""
     explicit = b.get(name, {})
     check_keys(f"bodies.{name}", explicit, _BODY_KEYS)
     shape_key = {"crank": "crank_radius", "rod": "rod_radius", "slider": "slider_side"}[name]
     default = None
     if shape_key in b and rho is not None:
-        size = check_number(f"bodies.{shape_key}", b[shape_key], POSITIVE_LENGTH)
+        size = number(f"bodies.{shape_key}", b[shape_key], POSITIVE_LENGTH)
         if name == "crank":
             m = rho * math.pi * size**2 * geom.crank_length
             default = (m, [geom.crank_length / 2, 0, 0], solid_cylinder_x(m, geom.crank_length, size))
@@ -85,12 +87,12 @@ def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
             f"(density, or weight_density and gravity_constant), or bodies.{name}.{missing[0]}"
         )
     mass = (
-        check_number(f"bodies.{name}.mass", explicit["mass"], POSITIVE_MASS)
+        number(f"bodies.{name}.mass", explicit["mass"], POSITIVE_MASS)
         if "mass" in explicit
         else default[0]
     )
     com = (check_vector(f"bodies.{name}.com", explicit["com"], LENGTH) if "com" in explicit
-           else np.array(default[1], float))
+           else np.array(default[1], scalar_type(*default[1])))
     inertia = _tensor(f"bodies.{name}.inertia", explicit["inertia"]) if "inertia" in explicit else default[2]
     if "inertia" not in explicit and "mass" in explicit and default is not None:
         inertia = inertia * (mass / default[0])  # same shape, new mass
@@ -106,7 +108,7 @@ def _body(name: str, b: dict, geom: Geometry, rho: float | None) -> BodyInertia:
 def check_rod_axisymmetric(rod: BodyInertia) -> None:
     """Two ball joints leave the rod's spin free: its mass must not care about that spin."""
     scale = float(np.abs(rod.inertia).max())  # relative tests: the verdict must not depend on the unit system
-    off_axis = np.hypot(rod.com[1], rod.com[2])
+    off_axis = np.hypot(*np.abs(rod.com[1:]))  # abs: a complex step (models/case.py, case_numbers)
     if off_axis > 1e-12 * float(np.linalg.norm(rod.com)):
         raise CaseError(
             f"bodies.rod.com: {rod.com.tolist()} is off the rod axis; two ball joints leave the "
@@ -120,7 +122,10 @@ def check_rod_axisymmetric(rod: BodyInertia) -> None:
         )
 
 
-def bodies_from_table(b: dict, geom: Geometry) -> Bodies:
-    """The :class:`Bodies` of a ``[bodies]`` table (checked), for the case's geometry."""
-    rho = _mass_per_volume(b)
-    return Bodies(*(_body(name, b, geom, rho) for name in ("crank", "rod", "slider")))
+def bodies_from_table(b: dict, geom: Geometry, number: NumberReader = check_number) -> Bodies:
+    """The :class:`Bodies` of a ``[bodies]`` table (checked), for the case's geometry.
+
+    ``number`` reads each scalar (:data:`~dualmech.models.inputs.NumberReader`).
+    """
+    rho = _mass_per_volume(b, number)
+    return Bodies(*(_body(name, b, geom, rho, number) for name in ("crank", "rod", "slider")))

@@ -40,6 +40,7 @@ from dualmech.models.inputs import (
     POSITIVE_LENGTH,
     TORQUE,
     CaseError,
+    NumberReader,
     check_keys,
     check_number,
     check_text,
@@ -179,12 +180,12 @@ def _check_keys(data: dict) -> None:
 
 # ----------------------------------------------------------------------------- sections
 
-def _geometry(g: dict) -> Geometry:
-    a1 = check_number("geometry.crank_length", g["crank_length"], POSITIVE_LENGTH)
-    a2 = check_number("geometry.rod_length", g["rod_length"], POSITIVE_LENGTH)
-    a4 = check_number("geometry.slider_offset", g["slider_offset"], LENGTH)
-    alpha = check_number("geometry.slider_twist_deg", g["slider_twist_deg"], ANGLE_DEG)
-    s1 = check_number("geometry.crank_axial_shift", g["crank_axial_shift"], LENGTH)
+def _geometry(g: dict, number: NumberReader = check_number) -> Geometry:
+    a1 = number("geometry.crank_length", g["crank_length"], POSITIVE_LENGTH)
+    a2 = number("geometry.rod_length", g["rod_length"], POSITIVE_LENGTH)
+    a4 = number("geometry.slider_offset", g["slider_offset"], LENGTH)
+    alpha = number("geometry.slider_twist_deg", g["slider_twist_deg"], ANGLE_DEG)
+    s1 = number("geometry.crank_axial_shift", g["crank_axial_shift"], LENGTH)
     return Geometry(a1, a2, a4, alpha, s1)
 
 
@@ -223,18 +224,18 @@ def _angles(spec: dict) -> np.ndarray:
     return start + step * np.arange(count)
 
 
-def _motion(m: dict) -> CrankMotion:
-    rpm = check_number("motion.crank_rpm", m["crank_rpm"], CRANK_RPM)
+def _motion(m: dict, number: NumberReader = check_number) -> CrankMotion:
+    rpm = number("motion.crank_rpm", m["crank_rpm"], CRANK_RPM)
     return CrankMotion(
         angles_deg=_angles(m.get("angles_deg", {})),
         speed=2.0 * math.pi * rpm / 60.0,
-        accel=check_number("motion.crank_accel", m.get("crank_accel", 0.0), CRANK_ACCEL),
-        axial_amplitude=check_number("motion.axial_amplitude", m.get("axial_amplitude", 0.0), LENGTH),
-        axial_cycles=check_number("motion.axial_cycles", m.get("axial_cycles", 0.0), AXIAL_CYCLES),
+        accel=number("motion.crank_accel", m.get("crank_accel", 0.0), CRANK_ACCEL),
+        axial_amplitude=number("motion.axial_amplitude", m.get("axial_amplitude", 0.0), LENGTH),
+        axial_cycles=number("motion.axial_cycles", m.get("axial_cycles", 0.0), AXIAL_CYCLES),
     )
 
 
-def _loads(ld: dict) -> Loads:
+def _loads(ld: dict, number: NumberReader = check_number) -> Loads:
     torque = ld.get("drive_torque")
     force = ld.get("slider_force")
     if (torque is None) == (force is None):
@@ -242,8 +243,8 @@ def _loads(ld: dict) -> Loads:
         raise CaseError(f"loads: got {got} of drive_torque / slider_force; give exactly one")
     gravity = check_vector("loads.gravity", ld.get("gravity", [0.0, 0.0, 0.0]), ACCELERATION)
     return Loads(
-        drive_torque=None if torque is None else check_number("loads.drive_torque", torque, TORQUE),
-        slider_force=None if force is None else check_number("loads.slider_force", force, FORCE),
+        drive_torque=None if torque is None else number("loads.drive_torque", torque, TORQUE),
+        slider_force=None if force is None else number("loads.slider_force", force, FORCE),
         gravity=gravity,
     )
 
@@ -271,6 +272,21 @@ def _check_proportions(g: Geometry, m: CrankMotion) -> None:
 
 # ----------------------------------------------------------------------------- public
 
+def case_numbers(data: dict,
+                 number: NumberReader = check_number) -> tuple[Geometry, CrankMotion, Bodies, Loads]:
+    """The numeric parts of a case table (keys known to be valid): geometry, motion, bodies, loads.
+
+    Every scalar is read by ``number`` (:data:`~dualmech.models.inputs.NumberReader`): the checked
+    float for :func:`case_from_dict`; the tolerance study's sensitivities read the checked float plus
+    an imaginary step on the varied key, so the case's derived numbers (the speed from the rpm, the
+    bodies' mass properties from their shapes) carry its derivative by the same code
+    (:mod:`dualmech.models.tolerance.sensitivity`).
+    """
+    geom = _geometry(data["geometry"], number)
+    motion, bodies = _motion(data["motion"], number), bodies_from_table(data.get("bodies", {}), geom, number)
+    return geom, motion, bodies, _loads(data.get("loads", {}), number)
+
+
 def case_from_dict(data: dict) -> Case:
     """Validate a parsed case table and build the :class:`Case`.
 
@@ -286,10 +302,8 @@ def case_from_dict(data: dict) -> Case:
     if isinstance(kind, str):
         _slider_crank(kind)  # first: another mechanism's keys are not this format's unknown keys
     _check_keys(data)
-    geom = _geometry(data["geometry"])
-    motion, bodies = _motion(data["motion"]), bodies_from_table(data.get("bodies", {}), geom)
+    geom, motion, bodies, loads = case_numbers(data)
     _check_proportions(geom, motion)
-    loads = _loads(data.get("loads", {}))
     joints = _joints(data.get("joints", {}), motion)
     units = data.get("units", "consistent")
     if units not in KNOWN_UNITS:

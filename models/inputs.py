@@ -13,7 +13,7 @@ import math
 import reprlib
 import unicodedata
 from dataclasses import dataclass
-from typing import Any, Collection, Mapping
+from typing import Any, Callable, Collection, Mapping
 
 import numpy as np
 
@@ -152,6 +152,12 @@ def check_keys(section: str, table: Mapping[Any, Any], valid: Collection[str],
 def check_number(key: str, value: Any, limits: Range) -> float:
     """``value`` as a float within ``limits``, else a one-line :class:`CaseError` naming ``key``."""
     return limits.check(key, value)
+
+
+#: How a case's numeric parts read a scalar of the case file: ``(key, value, limits) -> number``.
+#: :func:`check_number` for a case; the tolerance study's sensitivities read the checked number plus
+#: an imaginary step on one key (:func:`dualmech.models.case.case_numbers`).
+NumberReader = Callable[[str, Any, Range], float]
 
 
 def check_text(key: str, value: Any, max_chars: int) -> str:

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dualmech.core.dual import scalar_type
 from dualmech.core.inertia import BodyInertia
 
 
@@ -25,7 +26,7 @@ def slider_line(offset: float | np.ndarray, twist: float | np.ndarray) -> tuple[
     """``F`` and ``k4`` of the slider line, each ``(..., 3)`` for ``offset`` ``a4`` and ``twist`` ``alpha4``
     (radians) of shape ``(...)``: ``F = (-a4, 0, 0)``, ``k4 = (0, sin alpha4, cos alpha4)`` (thesis Table 1,
     row 4; ``docs/conventions.md``)."""
-    offset, twist = np.asarray(offset, dtype=float), np.asarray(twist, dtype=float)
+    offset, twist = np.asarray(offset, dtype=scalar_type(offset)), np.asarray(twist, dtype=scalar_type(twist))
     zero = np.zeros(np.broadcast_shapes(offset.shape, twist.shape))
     return (np.stack([-offset + zero, zero, zero], -1),
             np.stack([zero, np.sin(twist) + zero, np.cos(twist) + zero], -1))
@@ -49,7 +50,7 @@ class Geometry:
     @property
     def slider_twist(self) -> float:
         """alpha4 in radians."""
-        return math.radians(self.slider_twist_deg)
+        return self.slider_twist_deg * (math.pi / 180.0)  # math.radians' product, for a complex step too
 
     @property
     def foot(self) -> np.ndarray:

@@ -19,7 +19,7 @@ import numpy as np
 from dualmech.core.assembly import closure_condition, edge_status
 from dualmech.core.dual import Dual, origin
 from dualmech.core.inertia import MassArrays
-from dualmech.core.loop import evaluate
+from dualmech.core.loop import LoopState, evaluate
 from dualmech.core.motion import CrankState
 from dualmech.core.rates import Rates, solve_rates
 from dualmech.core.reactions import BodyMotion, Reactions, body_motion, solve_reactions
@@ -91,8 +91,21 @@ def _rod_motion(rotation: np.ndarray, twist: Dual, accel: Dual, p2: np.ndarray, 
 
 def _analyze_batch(cases: Sequence[Case], cranks: Sequence[CrankState]) -> list[Analysis]:
     batch = Batch.of(cases, cranks)
+    return analyze_closed(cases, cranks, batch, close_loop(batch))
+
+
+def analyze_closed(cases: Sequence[Case], cranks: Sequence[CrankState], batch: Batch,
+                   closed: tuple[LoopState, np.ndarray, np.ndarray, np.ndarray]) -> list[Analysis]:
+    """Everything after the loop closure, for the positions of ``batch`` (``Batch.of(cases, cranks)``).
+
+    ``closed`` is ``(state, status, iterations, residual)`` as
+    :func:`~dualmech.models.slider_crank_closure.close_loop` returns them.  Every step is numpy over
+    the positions, generic in the scalar type (:func:`dualmech.core.dual.scalar_type`): the tolerance
+    study passes complex cases and a state polished in complex arithmetic
+    (:func:`dualmech.core.closure.polish`) to take derivatives through this code.
+    """
     counts = [len(c) for c in cranks]
-    state, status, iters, residual = close_loop(batch)
+    state, status, iters, residual = closed
     chain = evaluate(LOOP, batch.inputs(), state)
     c = batch.crank
     rates = solve_rates(chain, LOOP, {"theta1": c.theta_dot, "S1": c.s_dot},

@@ -125,11 +125,6 @@ def _check_inputs(study: StudyInput, method: str, judge_samples: int) -> None:
         raise ValueError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
     if judge_samples < 0:
         raise ValueError(f"judge-samples: expected 0 or more designs, got {judge_samples!r}")
-    if method != "mc" and not study.case.joints.is_default:
-        j = study.case.joints
-        raise ValueError(f"method: {method!r} needs the exact sensitivities, which cover the default joints "
-                         f"only (cylindrical crank, ball-ball rod), not crank = {j.crank!r}, rod_slider = "
-                         f"{j.rod_slider!r} (valid: --method mc)")
 
 
 def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, scheduler: str | None = None,
