@@ -24,7 +24,7 @@ import numpy as np
 from dualmech.core.kernel.closure_nb import Work, make_work
 from dualmech.core.kernel.loop_nb import FlatLoop, flatten
 from dualmech.core.motion import CrankState
-from dualmech.core.status import STATUSES
+from dualmech.core.status import STATUSES, Status
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
 from dualmech.models.case import Case
 from dualmech.models.slider_crank_nb import (
@@ -141,6 +141,8 @@ def _setup() -> tuple[FlatLoop, Rules]:
 
 #: Status words by code (:data:`dualmech.core.status.STATUSES`), for turning codes into words.
 WORDS = np.array(STATUSES, dtype=object)
+#: The code of ``no_assembly``.
+NO_ASSEMBLY = STATUSES.index(Status.NO_ASSEMBLY)
 
 
 @dataclass(frozen=True)
@@ -262,46 +264,44 @@ def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1) -> Iterator[
         yield analyze_chunk([case], [crank], pool[k % len(pool)])
 
 
-def to_table(case: Case, chunk: Chunk) -> ResultTable:
-    """The common result table of one case's :class:`Chunk` (columns copied out of the buffer)."""
-    from dualmech.models.slider_crank import status_messages
+def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
+    """The common result table of one case's :class:`Chunk`; ``copy``: columns copied out of the buffer
+    (``False`` where the chunk's arrays are the table's to keep)."""
+    from dualmech.models.slider_crank import no_assembly_message, no_assembly_ranges
 
-    cols = {c: chunk.columns[c].copy() for c in NUMERIC_COLUMNS}
-    status = chunk.words()
+    cols = {c: chunk.columns[c].copy() if copy else chunk.columns[c] for c in NUMERIC_COLUMNS}
     meta = {
-        "iterations": chunk.iterations.copy(),
-        "dynamics_residual": chunk.dynamics_residual.copy(),
-        "messages": status_messages(cols["theta1_deg"], status),
+        "iterations": chunk.iterations.copy() if copy else chunk.iterations,
+        "dynamics_residual": chunk.dynamics_residual.copy() if copy else chunk.dynamics_residual,
+        "messages": no_assembly_message(no_assembly_ranges(cols["theta1_deg"], chunk.status == NO_ASSEMBLY)),
     }
-    return ResultTable("dualmech", case.name, cols, status, meta)
+    return ResultTable("dualmech", case.name, cols, chunk.words(), meta)
 
 
 def solve_cases(cases: Sequence[Case], chunk_positions: int = CHUNK_POSITIONS) -> list[ResultTable]:
-    """The result table of every case, cases batched together in chunks of about ``chunk_positions``."""
+    """The result table of every case, cases batched together in chunks of about ``chunk_positions``.
+
+    Each chunk's columns are copied once, into one contiguous ``(columns, n)`` array whose rows the
+    chunk's tables share (not copied again per case and column).
+    """
     tables: list[ResultTable] = []
     group: list[Case] = []
+    size = 0
     for i, case in enumerate(cases):
         group.append(case)
-        size = sum(len(c.motion.angles_deg) for c in group)
-        if size >= chunk_positions or i == len(cases) - 1:
-            chunk = analyze_chunk(group, [c.motion.state(c.geometry.crank_axial_shift) for c in group])
-            start = 0
-            for c in group:
-                n = len(c.motion.angles_deg)
-                part = slice(start, start + n)
-                tables.append(
-                    to_table(
-                        c,
-                        Chunk(
-                            {k: v[part] for k, v in chunk.columns.items()},
-                            chunk.status[part],
-                            chunk.iterations[part],
-                            chunk.dynamics_residual[part],
-                        ),
-                    )
-                )
-                start += n
-            group = []
+        size += len(case.motion.angles_deg)
+        if size < chunk_positions and i < len(cases) - 1:
+            continue
+        chunk = analyze_chunk(group, [c.motion.state(c.geometry.crank_axial_shift) for c in group])
+        columns = np.array([chunk.columns[c] for c in NUMERIC_COLUMNS])
+        start = 0
+        for c in group:
+            part = slice(start, start + len(c.motion.angles_deg))
+            start = part.stop
+            own = Chunk(dict(zip(NUMERIC_COLUMNS, columns[:, part])), chunk.status[part],
+                        chunk.iterations[part], chunk.dynamics_residual[part])
+            tables.append(to_table(c, own, copy=False))
+        group, size = [], 0
     return tables
 
 
