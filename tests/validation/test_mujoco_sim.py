@@ -230,6 +230,65 @@ def test_a_skip_that_changes_the_physics_is_seen(monkeypatch):
     assert not all(np.array_equal(reference[k], broken[k], equal_nan=True) for k in reference)
 
 
+def _universal_case():
+    from tests.validation.test_joint_variant_judges import variant_case
+
+    case = variant_case("thesis/a4-30-s1-3.5", (("crank", "revolute"), ("rod_slider", "universal")), "force")
+    return case.with_values({"motion.angles_deg": {"start": 0.0, "stop": 40.0, "step": 10.0}})
+
+
+@pytest.mark.parametrize("case", [_short_case(), _universal_case()], ids=["ball", "universal"])
+def test_skipping_island_discovery_changes_no_bit(case):
+    """Why: MuJoCo grouped the constraint rows into islands at every step (~11 % of a step), though the
+    loop's connect is the only constraint: one island; without the grouping the simulation is the same, bit
+    for bit (the fault this must see: test_a_skip_that_changes_the_physics_is_seen, with the islands')."""
+    import dualmech.validation.mujoco_sim as sim
+
+    skipped = _simulated(case)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sim, "skip_islands", lambda model: None)
+        kept = _simulated(case)
+    for name, values in kept.items():
+        np.testing.assert_array_equal(skipped[name], values, err_msg=name)
+
+
+def test_an_island_skip_that_changes_the_physics_is_seen(monkeypatch):
+    import dualmech.validation.mujoco_sim as sim
+
+    case = _short_case()
+    reference = _simulated(case)
+
+    def too_much(model):
+        model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_ISLAND | mujoco.mjtDisableBit.mjDSBL_WARMSTART
+
+    monkeypatch.setattr(sim, "skip_islands", too_much)
+    broken = _simulated(case)
+    assert not all(np.array_equal(reference[k], broken[k], equal_nan=True) for k in reference)
+
+
+@pytest.mark.parametrize("extra, skipped", [("", True), ('<joint name="b" type="hinge"/>', True),
+                                            ('<joint name="b" type="hinge" range="-1 1" limited="true"/>',
+                                             False),
+                                            ('<joint name="b" type="hinge" frictionloss="1"/>', False)])
+def test_islands_stay_on_when_two_constraints_could_be_active(extra, skipped):
+    from dualmech.validation.mujoco_sim import skip_collisions, skip_islands
+
+    model = mujoco.MjModel.from_xml_string(f"""<mujoco><worldbody>
+      <body name="a"><joint type="hinge"/><geom type="sphere" size="1" contype="0" conaffinity="0"/></body>
+      <body name="c" pos="0 0 3"><joint type="hinge"/>{extra}<geom type="sphere" size="1" contype="0"
+        conaffinity="0"/></body></worldbody>
+      <equality><connect body1="a" body2="c" anchor="0 0 1"/></equality></mujoco>""")
+    skip_collisions(model)
+    skip_islands(model)
+    assert bool(model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ISLAND) is skipped
+    touching = mujoco.MjModel.from_xml_string("""<mujoco><worldbody>
+      <geom type="sphere" size="1"/><body pos="0 0 3"><freejoint/><geom type="sphere" size="1"/></body>
+      </worldbody></mujoco>""")
+    skip_collisions(touching)  # two geoms that can touch: contacts stay on, and so do islands
+    skip_islands(touching)
+    assert not touching.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_ISLAND
+
+
 @pytest.mark.parametrize("contype, conaffinity, skipped", [(0, 0, True), (1, 0, True), (0, 1, True),
                                                              (1, 1, False)])
 def test_collisions_stay_on_when_two_geoms_could_touch(contype, conaffinity, skipped):
