@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from dualmech.core.status import Status, flag_joint_lock, is_status
+from dualmech.core.status import Status, flag_joint_lock, is_status, joint_locked
 from dualmech.models.case import Case
 from dualmech.models.mjcf import (
     STEPS_PER_DEGREE,
@@ -137,13 +137,13 @@ def survey(case: Case) -> Survey:
     warm = False
     for i in range(n):
         word, _, _, c = rigid.assembled_state(lp, (float(st.theta[i]), float(st.s[i]), 1.0, 0.0), warm)
-        word = flag_joint_lock(np.array([word]), c, case.joints.universal)[0]
         status[i], s4[i], condition[i] = word, lp.data.qpos[lp.qadr[3]], c
-        warm = word == Status.OK
+        warm = word == Status.OK and not joint_locked(c, case.joints.universal)  # its flag below
         if warm:
             mujoco.mj_fullM(lp.model, lp.data, mass)
             for k, v in enumerate(_unit_rates(lp)):
                 high[k] = max(high[k], float(v @ mass @ v))
+    status = flag_joint_lock(status, condition, case.joints.universal)
     return Survey(status, s4, condition, (high[0], high[1]))
 
 

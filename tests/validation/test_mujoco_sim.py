@@ -319,3 +319,18 @@ def test_survey_takes_both_unit_rates_at_one_closed_pose():
         for k, known in enumerate(((1.0, 0.0), (0.0, 1.0))):
             assert rigid.assembled_state(lp, (*crank, *known), warm=True)[0] == "ok"
             np.testing.assert_allclose(rates[k], lp.data.qvel, rtol=1e-12, atol=1e-12)
+
+
+def test_survey_flags_the_universal_joint_lock_as_the_rigid_path_does():
+    """The survey's words (flagged once, after the loop) mark the same joint_lock rows as the rigid path."""
+    import tomllib
+
+    from dualmech.models.case import case_from_dict
+    from dualmech.validation import mujoco_engine as rigid
+    from dualmech.validation.mujoco_sim_plan import survey
+    from tests.validation.test_joint_variants_matrix import LOCK_CASE
+
+    case = case_from_dict(tomllib.loads(LOCK_CASE))
+    locked = rigid.solve_case(case).status == "joint_lock"
+    assert locked.any()
+    np.testing.assert_array_equal(survey(case).status == "joint_lock", locked)
