@@ -4,7 +4,9 @@ in plan order, nothing cut off."""
 from __future__ import annotations
 
 import concurrent.futures as cf
+from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from dualmech.validation import executors
@@ -199,3 +201,65 @@ def test_a_crop_that_is_ignored_is_seen(monkeypatch):
                         real(self, *a, **k))
     tight, untight, _ = _crops_and_closes()
     assert tight == untight
+
+
+def _without_values(matrix, results, column: str = "j2_fx") -> dict:
+    """``results`` with ``column`` NaN in every torque-mode table (a panel with no value to set its range)."""
+    torque = {mc.id for mc in matrix.cases if mc.mode == "torque"}
+    nan = {column: np.full(len(next(iter(results.values()))["dualmech"]), np.nan)}
+    return {cid: {e: replace(t, columns={**t.columns, **nan}) if cid in torque else t for e, t in per.items()}
+            for cid, per in results.items()}
+
+
+def _reused_and_new(matrix, results) -> tuple[list[bytes], list[bytes]]:
+    """Every figure drawn in plan order and then in reverse on the figures this process keeps per kind, and
+    each drawn on a new figure."""
+    specs = _specs(matrix, results)
+    plots._SKELETONS.clear()
+    reused = [figures._render(s[5]) for s in specs]
+    reused += [figures._render(s[5]) for s in reversed(specs)][::-1]
+    assert len(plots._SKELETONS) < len(specs)  # kinds were shared: the check below compares reuses
+    new = []
+    for s in specs:
+        plots._SKELETONS.clear()
+        new.append(figures._render(s[5]))
+    plots._SKELETONS.clear()
+    return reused, new + new
+
+
+@pytest.mark.parametrize("data", ["as solved", "a panel without values"])
+def test_a_reused_figure_draws_what_a_new_one_draws(matrix, results, data):
+    """Why: a process draws each figure on the one it kept from the last figure of the same kind (the axes,
+    ticks and labels are made once), its data replaced; whatever was drawn there before (another sweep's
+    curves and limits, a flat panel without ticks, legends) must leave no trace. Both orders: the small
+    matrix's joint-3 figure has a flat panel in force mode, not in torque mode; without values, joint 2's
+    first panel autoscales in torque mode and has set limits in force mode."""
+    if data != "as solved":
+        results = _without_values(matrix, results)
+    reused, new = _reused_and_new(matrix, results)
+    assert reused == new
+
+
+@pytest.mark.parametrize("fault", ["data kept", "ticks of a flat panel kept", "limits kept"])
+def test_a_reused_figure_with_traces_is_seen(matrix, results, monkeypatch, fault):
+    """The faults the test above must see: the last figure's data left in place; a panel's locator left as
+    the flat panel before it set it (no ticks); the y limits of the last figure kept where none are set."""
+    if fault == "data kept":
+        monkeypatch.setattr(plots, "_empty", lambda fig: None)
+    elif fault == "ticks of a flat panel kept":
+        from matplotlib.axis import Axis
+        from matplotlib.ticker import FixedLocator
+
+        real = Axis.set_major_locator
+
+        def kept_flat(self, locator):
+            now = self.get_major_locator()
+            if not (isinstance(now, FixedLocator) and len(now.locs) == 0):
+                real(self, locator)
+
+        monkeypatch.setattr(Axis, "set_major_locator", kept_flat)
+    else:
+        monkeypatch.setattr(plots, "_autoscale_y", lambda ax: None)
+        results = _without_values(matrix, results)
+    reused, new = _reused_and_new(matrix, results)
+    assert reused != new
