@@ -65,6 +65,16 @@ def _energy_along(case, an, h=1e-5):
     return out, 2 * h / case.motion.speed
 
 
+def _energy_rate(case, an, h=1e-5):
+    """dK/dt by central differences at h and h/2 combined by Richardson's extrapolation (truncation ~h^4):
+    near a universal joint's lock band the spin rate's higher derivatives are large, and one central
+    difference's h^2 truncation reached 1.8e-7 of the power (seed 4049, closure condition 0.99993)."""
+    def central(step):
+        (k_minus, k_plus), dt = _energy_along(case, an, step)
+        return (k_plus - k_minus) / dt
+    return (4.0 * central(h / 2) - central(h)) / 3.0
+
+
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 2**31), mode=st.sampled_from(["torque", "force"]),
        rod_slider=st.sampled_from(["ball", "universal"]))
@@ -83,8 +93,7 @@ def test_power_balance(seed, mode, rod_slider):
     )
     p_slider = r.slider_load * -an.rates.q_dot[:, 0]  # slider velocity is -S4_dot k4
     p_gravity = sum(b.mass * (m.com_vel @ case.loads.gravity) for b, m in zip(_bodies(case), an.motions))
-    (k_minus, k_plus), dt = _energy_along(case, an)
-    dk_dt = (k_plus - k_minus) / dt
+    dk_dt = _energy_rate(case, an)
     scale = np.abs(np.stack([p_joint1, p_slider, p_gravity, dk_dt])[:, ok]).max()
     assert_allclose((p_joint1 + p_slider + p_gravity)[ok], dk_dt[ok], rtol=0,
                     atol=ENERGY_RATE_BY_DIFFERENCE * scale)
