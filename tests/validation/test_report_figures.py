@@ -11,7 +11,7 @@ import pytest
 
 from dualmech.validation import executors
 from dualmech.validation.compare import compare_run
-from dualmech.validation.report import figures, plots
+from dualmech.validation.report import canvas, figures, plots
 
 
 def _specs(matrix, results):
@@ -180,7 +180,7 @@ def _crops_and_closes() -> tuple[int, int, bool]:
         fig = plt.figure(figsize=(4.0, 3.0))
         fig.add_subplot().plot([0.0, 1.0])
         fig.text(1.2, 0.5, "beyond the right edge")
-        widths.append(_png_width(plots.fig_to_png(fig, tight=tight)))
+        widths.append(_png_width(canvas.fig_to_png(fig, tight=tight)))
     return widths[0], widths[1], bool(plt.get_fignums())
 
 
@@ -188,7 +188,7 @@ def test_other_reports_keep_their_cropped_figures():
     """Why: the report's own figures are no longer cropped (that drew them twice); the linkage report's
     pyplot figures still are by default, and are still closed."""
     tight, untight, open_figures = _crops_and_closes()
-    assert untight == 4 * plots.DPI and tight > untight
+    assert untight == 4 * canvas.DPI and tight > untight
     assert not open_figures
 
 
@@ -215,15 +215,15 @@ def _reused_and_new(matrix, results) -> tuple[list[bytes], list[bytes]]:
     """Every figure drawn in plan order and then in reverse on the figures this process keeps per kind, and
     each drawn on a new figure."""
     specs = _specs(matrix, results)
-    plots._SKELETONS.clear()
+    canvas._SKELETONS.clear()
     reused = [figures._render(s[5]) for s in specs]
     reused += [figures._render(s[5]) for s in reversed(specs)][::-1]
-    assert len(plots._SKELETONS) < len(specs)  # kinds were shared: the check below compares reuses
+    assert len(canvas._SKELETONS) < len(specs)  # kinds were shared: the check below compares reuses
     new = []
     for s in specs:
-        plots._SKELETONS.clear()
+        canvas._SKELETONS.clear()
         new.append(figures._render(s[5]))
-    plots._SKELETONS.clear()
+    canvas._SKELETONS.clear()
     return reused, new + new
 
 
@@ -245,7 +245,7 @@ def test_a_reused_figure_with_traces_is_seen(matrix, results, monkeypatch, fault
     """The faults the test above must see: the last figure's data left in place; a panel's locator left as
     the flat panel before it set it (no ticks); the y limits of the last figure kept where none are set."""
     if fault == "data kept":
-        monkeypatch.setattr(plots, "_empty", lambda fig: None)
+        monkeypatch.setattr(canvas, "_empty", lambda fig: None)
     elif fault == "ticks of a flat panel kept":
         from matplotlib.axis import Axis
         from matplotlib.ticker import FixedLocator
@@ -259,7 +259,7 @@ def test_a_reused_figure_with_traces_is_seen(matrix, results, monkeypatch, fault
 
         monkeypatch.setattr(Axis, "set_major_locator", kept_flat)
     else:
-        monkeypatch.setattr(plots, "_autoscale_y", lambda ax: None)
+        monkeypatch.setattr(canvas, "_autoscale_y", lambda ax: None)
         results = _without_values(matrix, results)
     reused, new = _reused_and_new(matrix, results)
     assert reused != new

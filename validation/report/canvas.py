@@ -1,0 +1,88 @@
+"""The report's figures as matplotlib objects: made bare (Agg, no pyplot), kept per kind for the next
+figure of that kind, and encoded as PNG bytes.
+
+:func:`skeleton` is what makes the report's figures cheap: a figure's axes, ticks, titles and labels cost
+more to make than its data, and a report draws the same kinds of figure many times (the thesis report:
+six kinds of sweep figure, six of each), so each process makes them once per kind and replaces the data.
+"""
+
+from __future__ import annotations
+
+import io
+from typing import Any, Callable
+
+#: Resolution of every report figure (dots per inch).
+DPI = 80
+#: zlib level of the PNG files (Pillow's default is 6): the same pixels, encoded in ~35 % less time for ~4 %
+#: more bytes (the thesis report's 43 figures: 0.92 -> 0.59 s of CPU, 4.26 -> 4.42 MB).
+PNG_COMPRESS_LEVEL = 1
+
+
+def new_figure(figsize: tuple[float, float]) -> Any:
+    """A bare Agg figure (no pyplot: no figure manager to create and close; the caller keeps no reference)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure as MplFigure
+
+    fig = MplFigure(figsize=figsize, dpi=DPI)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+#: This process's report figures kept for the next figure of the same kind (:func:`skeleton`).
+_SKELETONS: dict[tuple, Any] = {}
+
+
+def skeleton(key: tuple, figsize: tuple[float, float], build: Callable[[Any], None]) -> Any:
+    """A figure of ``figsize`` inches, ``build(fig)`` applied and no data in it.
+
+    ``build`` makes what depends on ``key`` alone (axes, panel titles, axis labels, ticks, scales); it runs
+    at the first figure of ``key`` in this process, and the next one gets the same figure back, its data
+    removed (:func:`_empty`): the axes and their tick machinery, most of a figure's cost to make, are made
+    once per kind instead of once per figure.  The caller sets everything else each time (data, limits of
+    autoscaled axes, legends, suptitle, margins).
+    """
+    fig = _SKELETONS.get(key)
+    if fig is None:
+        fig = _SKELETONS[key] = new_figure(figsize)
+        build(fig)
+    else:
+        _empty(fig)
+        fig.set_size_inches(figsize)  # the last figure of the kind may have been of another size
+    return fig
+
+
+def _empty(fig: Any) -> None:
+    """Remove what a report figure drew on its skeleton (lines, texts, legends); y axes autoscale again."""
+    for legend in list(fig.legends):
+        legend.remove()
+    for ax in fig.axes:
+        for artist in (*ax.lines, *ax.texts):
+            artist.remove()
+        if ax.legend_ is not None:
+            ax.legend_.remove()
+        _autoscale_y(ax)
+
+
+def _autoscale_y(ax: Any) -> None:
+    """Let the y limits of ``ax`` come from its data again, as on a new axes: no data limits, the view's
+    y interval of a new axes (unit box: unset, so no data gives matplotlib's default range), autoscaled."""
+    ax.relim()
+    ax.viewLim.intervaly = (0.0, 1.0)
+    ax.set_autoscaley_on(True)
+
+
+def fig_to_png(fig: Any, *, tight: bool = True) -> bytes:
+    """The figure as PNG bytes; a pyplot figure is closed.
+
+    ``tight``: crop to the drawn artists (``bbox_inches="tight"``: nothing cut off, but the figure is drawn
+    twice, once to measure it).  The report's own figures set their margins in inches and pass
+    ``tight=False``: drawn once.
+    """
+    buf = io.BytesIO()
+    crop = {"bbox_inches": "tight", "pad_inches": 0.1} if tight else {}
+    fig.savefig(buf, format="png", dpi=DPI, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL}, **crop)
+    if fig.canvas.manager is not None:  # made by pyplot, which keeps it until closed
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return buf.getvalue()
