@@ -17,6 +17,7 @@ from dualmech.validation.provenance import case_fingerprint
 from dualmech.validation.runner import CASE_FORMAT, CaseFileText, run_matrix
 
 from .test_validate import FAKE_REGISTRY, FAKES, ROOT
+from .worker_exits import exit_code
 
 
 def _children(pid: int) -> set[int]:
@@ -183,5 +184,5 @@ def test_an_interrupted_run_ends_its_busy_workers_at_once():
     assert workers
     executors.end_shared_pool(1, wait=False)
     for proc in workers:
-        proc.join(timeout=20)
-        assert not proc.is_alive() and proc.exitcode is not None and proc.exitcode < 0, proc.exitcode
+        code = exit_code(proc, timeout=20)
+        assert code is not None and code < 0, code

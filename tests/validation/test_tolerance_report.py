@@ -7,6 +7,8 @@ import pytest
 import dualmech.validation.tolerance_report as report
 from dualmech.validation.tolerance_report import FigureDrawing, draw_figures, figure_jobs
 
+from .worker_exits import exit_code
+
 #: The longest keys a SPEC may vary (docs/conventions.md, "Tolerance analysis").
 LONG_KEYS = ["geometry.crank_axial_shift", "geometry.slider_twist_deg", "motion.axial_amplitude",
              "bodies.weight_density", "bodies.slider.mass"]
@@ -86,5 +88,5 @@ def test_a_drawing_never_started_or_collected_is_refused_and_its_worker_ended():
     drawing.close()  # the study stopped before its figures were collected: the worker is ended at once
     assert processes
     for proc in processes:  # ended by close (a signal), not after finishing its import of matplotlib
-        proc.join(timeout=30)
-        assert not proc.is_alive() and proc.exitcode is not None and proc.exitcode < 0, proc.exitcode
+        code = exit_code(proc, timeout=30)
+        assert code is not None and code < 0, code
