@@ -126,13 +126,14 @@ def mjcf(case: str, output: str) -> None:
 
 
 @click.command()
-@click.option("--cases", default=1000, show_default=True, help="Random cases of 360 positions for the "
-                                                               "in-house solver.")
-@click.option("--judge-cases", default=5, show_default=True, help="How many of them the judges solve (they "
-                                                                  "are slower).")
-@click.option("--big", default=2_000_000, show_default=True,
+@click.option("--cases", type=click.IntRange(min=1), default=1000, show_default=True,
+              help="Random cases of 360 positions for the in-house solver.")
+@click.option("--judge-cases", type=click.IntRange(min=0), default=5, show_default=True,
+              help="How many of them the judges solve (they are slower; 0: skip the judges).")
+@click.option("--big", type=click.IntRange(min=0), default=2_000_000, show_default=True,
               help="Positions of one case solved into Parquet, streamed (0: skip).")
-@click.option("--repeats", default=3, show_default=True, help="Runs per figure (the median is quoted).")
+@click.option("--repeats", type=click.IntRange(min=1), default=3, show_default=True,
+              help="Runs per figure (the median is quoted).")
 @one_line_errors
 def benchmark(cases: int, judge_cases: int, big: int, repeats: int) -> None:
     """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, in one run

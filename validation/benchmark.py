@@ -219,7 +219,7 @@ def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000,
     if big:
         rows.append(time_solve_parquet(big, repeats))
     judges = bench[:judge_cases]
-    for timer in (time_pinocchio, time_mujoco):
+    for timer in (time_pinocchio, time_mujoco) if judges else ():
         try:
             rows.append(timer(judges, repeats))
         except ImportError:

@@ -132,3 +132,15 @@ def test_solve_refuses_what_a_linkage_cannot_give(tmp_path, name, args):
     # a linkage's table is CSV in world frames (the joint-frame table is the slider crank's thesis notation)
     result = CliRunner().invoke(main, ["solve", name, *args])
     assert result.exit_code == 2 and result.output.count("\n") == 1, result.output
+
+
+def test_benchmark_can_skip_the_judges_and_refuses_empty_runs():
+    """``--judge-cases 0`` (and ``--big 0``) skip those rows; it divided by zero before.  No cases or no
+    repeats is a usage error (exit 2)."""
+    result = CliRunner().invoke(main, ["benchmark", "--cases", "2", "--judge-cases", "0", "--big", "0",
+                                       "--repeats", "1"])
+    assert result.exit_code == 0, result.output
+    assert "yardstick" in result.output
+    assert "Pinocchio" not in result.output and "Parquet" not in result.output
+    for option in ("--cases", "--repeats"):
+        assert CliRunner().invoke(main, ["benchmark", option, "0"]).exit_code == 2
