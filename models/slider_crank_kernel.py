@@ -278,59 +278,30 @@ def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
     return ResultTable("dualmech", case.name, cols, chunk.words(), meta)
 
 
-def _groups(cases: Sequence[Case], chunk_positions: int) -> Iterator[list[Case]]:
-    """Consecutive cases in groups of at least ``chunk_positions`` positions (the last one fewer)."""
-    group: list[Case] = []
-    size = 0
-    for case in cases:
-        group.append(case)
-        size += len(case.motion.angles_deg)
-        if size >= chunk_positions:
-            yield group
-            group, size = [], 0
-    if group:
-        yield group
-
-
-def _chunk_tables(group: list[Case], chunk: Chunk) -> list[ResultTable]:
-    """The result tables of the cases of one chunk; the chunk's columns are copied once, into one
-    contiguous ``(columns, n)`` array whose rows the tables share."""
-    columns = np.array([chunk.columns[c] for c in NUMERIC_COLUMNS])
-    tables, start = [], 0
-    for c in group:
-        part = slice(start, start + len(c.motion.angles_deg))
-        start = part.stop
-        own = Chunk(dict(zip(NUMERIC_COLUMNS, columns[:, part])), chunk.status[part],
-                    chunk.iterations[part], chunk.dynamics_residual[part])
-        tables.append(to_table(c, own, copy=False))
-    return tables
-
-
-@lru_cache(maxsize=1)
-def _driver() -> ThreadPoolExecutor:
-    """One thread that runs a chunk's kernel (which waits on :func:`_pool`) while the caller builds tables."""
-    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="dualmech-chunks")
-
-
-os.register_at_fork(after_in_child=_driver.cache_clear)
-
-
 def solve_cases(cases: Sequence[Case], chunk_positions: int = CHUNK_POSITIONS) -> list[ResultTable]:
     """The result table of every case, cases batched together in chunks of about ``chunk_positions``.
 
-    Chunk ``k + 1`` is computed (the kernel releases the GIL) while the tables of chunk ``k`` are built
-    in Python; every chunk, hence every bit, is the same as computed one after the other.
+    Each chunk's columns are copied once, into one contiguous ``(columns, n)`` array whose rows the
+    chunk's tables share (not copied again per case and column).
     """
     tables: list[ResultTable] = []
-    done: tuple[list[Case], Chunk] | None = None
-    for group in _groups(cases, chunk_positions):
-        running = _driver().submit(analyze_chunk, group,
-                                   [c.motion.state(c.geometry.crank_axial_shift) for c in group])
-        if done is not None:
-            tables += _chunk_tables(*done)
-        done = (group, running.result())
-    if done is not None:
-        tables += _chunk_tables(*done)
+    group: list[Case] = []
+    size = 0
+    for i, case in enumerate(cases):
+        group.append(case)
+        size += len(case.motion.angles_deg)
+        if size < chunk_positions and i < len(cases) - 1:
+            continue
+        chunk = analyze_chunk(group, [c.motion.state(c.geometry.crank_axial_shift) for c in group])
+        columns = np.array([chunk.columns[c] for c in NUMERIC_COLUMNS])
+        start = 0
+        for c in group:
+            part = slice(start, start + len(c.motion.angles_deg))
+            start = part.stop
+            own = Chunk(dict(zip(NUMERIC_COLUMNS, columns[:, part])), chunk.status[part],
+                        chunk.iterations[part], chunk.dynamics_residual[part])
+            tables.append(to_table(c, own, copy=False))
+        group, size = [], 0
     return tables
 
 

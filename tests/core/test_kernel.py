@@ -207,8 +207,8 @@ def test_many_cases_in_one_chunk_equal_one_at_a_time() -> None:
         start += n
 
 
-def test_many_cases_in_pipelined_chunks_are_each_case_alone() -> None:
-    """``solve_cases`` (chunks of several cases, chunk k+1 computed while chunk k's tables are built) gives
+def test_many_cases_in_chunks_are_each_case_alone() -> None:
+    """``solve_cases`` (chunks of several cases, their columns copied once and shared by their tables) gives
     every case's table bit for bit as ``solve_case`` alone: the same columns, statuses and messages."""
     cases = [BASE.with_values({"geometry.slider_offset": a4, "geometry.crank_axial_shift": s1,
                                "motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": step}})
