@@ -1,9 +1,9 @@
 r"""Every study's exact sensitivities checked against central differences of the compiled solver.
 
-The exact derivatives (:mod:`~dualmech.models.tolerance.sensitivity`) restate the equations
-downstream of the closure, because the solver's own code runs in float64 only (compiled kernel,
-numpy core); their values are tied to the solver's at the nominal design.  This check ties
-their derivatives too, on every run: each output is evaluated by
+The exact derivatives (:mod:`~dualmech.models.tolerance.sensitivity`) go through the numpy
+solver's own code in complex arithmetic; their values are tied to the compiled solver's at the
+nominal design.  This check ties their derivatives to the compiled solver too, on every run: each
+output is evaluated by
 :func:`~dualmech.models.slider_crank_kernel.analyze_positions` (through
 :func:`~dualmech.models.tolerance.designs.design_arrays`, the study's own path) at the crank
 angle(s) its derivative is taken at, for the nominal design with one key moved by ``+-h`` and
