@@ -76,7 +76,7 @@ def _screw_values(chain: Chain, known: dict[str, np.ndarray], unknown: np.ndarra
 
 def _motion_sum(chain: Chain, values: np.ndarray, upto_row: int | None = None) -> Dual:
     """:math:`\\sum_j \\hat s_j x_j` over the screws of rows ``<= upto_row`` (all if None)."""
-    re = np.zeros(values.shape[:1] + (3,), scalar_type(values, *(s.line.re for s in chain.screws)))
+    re = np.zeros(values.shape[:1] + (3,), scalar_type(values, chain.closure.re, chain.closure.du))
     du = np.zeros_like(re)
     for j, s in enumerate(chain.screws):
         if upto_row is None or s.row <= upto_row:

@@ -208,13 +208,14 @@ def to_table(an: Analysis) -> ResultTable:
     cols = {c: np.array(cols[c], dtype=float) for c in NUMERIC_COLUMNS}
     status = settle(cols, an.status, REACTION_COLUMNS)
     meta = {"iterations": an.iterations, "dynamics_residual": r.residual,
-            "messages": status_messages(cols["theta1_deg"], status)}
+            "messages": status_messages(cols["theta1_deg"], status == Status.NO_ASSEMBLY)}
     return ResultTable("dualmech", an.case.name, cols, status, meta)
 
 
-def status_messages(theta_deg: np.ndarray, status: np.ndarray) -> list[str]:
-    """The in-house engine's messages about a case's rows: where it cannot assemble, ``(n,)`` arrays in."""
-    return no_assembly_message(no_assembly_ranges(theta_deg, status == Status.NO_ASSEMBLY))
+def status_messages(theta_deg: np.ndarray, no_assembly: np.ndarray) -> list[str]:
+    """The in-house engine's messages about a case's rows: where it cannot assemble (``no_assembly``, a
+    ``(n,)`` mask of the rows whose status is ``no_assembly``)."""
+    return no_assembly_message(no_assembly_ranges(theta_deg, no_assembly))
 
 
 def no_assembly_message(ranges: list[tuple[float, float]]) -> list[str]:

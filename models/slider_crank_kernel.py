@@ -267,13 +267,13 @@ def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1) -> Iterator[
 def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
     """The common result table of one case's :class:`Chunk`; ``copy``: columns copied out of the buffer
     (``False`` where the chunk's arrays are the table's to keep)."""
-    from dualmech.models.slider_crank import no_assembly_message, no_assembly_ranges
+    from dualmech.models.slider_crank import status_messages
 
     cols = {c: chunk.columns[c].copy() if copy else chunk.columns[c] for c in NUMERIC_COLUMNS}
     meta = {
         "iterations": chunk.iterations.copy() if copy else chunk.iterations,
         "dynamics_residual": chunk.dynamics_residual.copy() if copy else chunk.dynamics_residual,
-        "messages": no_assembly_message(no_assembly_ranges(cols["theta1_deg"], chunk.status == NO_ASSEMBLY)),
+        "messages": status_messages(cols["theta1_deg"], chunk.status == NO_ASSEMBLY),
     }
     return ResultTable("dualmech", case.name, cols, chunk.words(), meta)
 

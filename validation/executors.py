@@ -118,19 +118,23 @@ def shared_pool(jobs: int) -> cf.ProcessPoolExecutor:
 
 
 def end_shared_pool(jobs: int | None = None, *, wait: bool = True) -> None:
-    """End the shared pool of ``jobs`` workers (default: every shared pool); running tasks are cancelled
-    (``wait=False``: the workers are terminated at once)."""
+    """End the shared pool of ``jobs`` workers (default: every shared pool) by :func:`end_pool`."""
     for n in [jobs] if jobs is not None else list(_SHARED):
         pool = _SHARED.pop(n, None)
-        if pool is None:
-            continue
-        workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
-        pool.shutdown(wait=False, cancel_futures=True)
-        if wait:
-            pool.shutdown(wait=True)
-        else:
-            for proc in workers:
-                proc.terminate()
+        if pool is not None:
+            end_pool(pool, wait=wait)
+
+
+def end_pool(pool: cf.ProcessPoolExecutor, *, wait: bool = True) -> None:
+    """End ``pool``: tasks not started are cancelled; ``wait``: the running ones finish first, else the
+    workers are terminated at once (by a signal)."""
+    workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
+    pool.shutdown(wait=False, cancel_futures=True)
+    if wait:
+        pool.shutdown(wait=True)
+    else:
+        for proc in workers:
+            proc.terminate()
 
 
 def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:

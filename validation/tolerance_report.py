@@ -200,10 +200,9 @@ class FigureDrawing:
         if self._collected:
             pool.shutdown(wait=False)
             return
-        workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
-        pool.shutdown(wait=False, cancel_futures=True)
-        for proc in workers:
-            proc.terminate()
+        from dualmech.validation.executors import end_pool
+
+        end_pool(pool, wait=False)
 
 
 def write_tolerance_report(outdir: Path, summary: dict, x: np.ndarray | None,

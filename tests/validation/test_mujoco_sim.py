@@ -201,35 +201,6 @@ def _simulated(case) -> dict:
     return simulate(case, float(case.loads.slider_force), settings, rows)
 
 
-def test_skipping_collision_detection_changes_no_bit():
-    """Why: MuJoCo tested the drawn geoms for contacts at every step (~9 % of a step) though none can touch;
-    with collision detection off the simulation is the same, bit for bit."""
-    import dualmech.validation.mujoco_sim as sim
-
-    case = _short_case()
-    skipped = _simulated(case)
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(sim, "skip_collisions", lambda model: None)
-        kept = _simulated(case)
-    for name, values in kept.items():
-        np.testing.assert_array_equal(skipped[name], values, err_msg=name)
-
-
-def test_a_skip_that_changes_the_physics_is_seen(monkeypatch):
-    """The fault the test above must see: switching off more than collisions (here the loop's connect)."""
-    import dualmech.validation.mujoco_sim as sim
-
-    case = _short_case()
-    reference = _simulated(case)
-
-    def too_much(model):
-        model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EQUALITY
-
-    monkeypatch.setattr(sim, "skip_collisions", too_much)
-    broken = _simulated(case)
-    assert not all(np.array_equal(reference[k], broken[k], equal_nan=True) for k in reference)
-
-
 def _universal_case():
     from tests.validation.test_joint_variant_judges import variant_case
 
@@ -237,31 +208,43 @@ def _universal_case():
     return case.with_values({"motion.angles_deg": {"start": 0.0, "stop": 40.0, "step": 10.0}})
 
 
+#: The skips of mujoco_sim that must leave the simulation bit for bit, each with a fault of its kind (more
+#: switched off than the skip may).  Why each: collision detection tested the drawn geoms for contacts at
+#: every step (~9 % of a step) though none can touch; island discovery grouped the constraint rows at every
+#: step (~11 %) though the loop's connect is the only constraint, one island.
+TOO_MUCH = {
+    "skip_collisions": mujoco.mjtDisableBit.mjDSBL_EQUALITY,
+    "skip_islands": mujoco.mjtDisableBit.mjDSBL_ISLAND | mujoco.mjtDisableBit.mjDSBL_WARMSTART,
+}
+
+
 @pytest.mark.parametrize("case", [_short_case(), _universal_case()], ids=["ball", "universal"])
-def test_skipping_island_discovery_changes_no_bit(case):
-    """Why: MuJoCo grouped the constraint rows into islands at every step (~11 % of a step), though the
-    loop's connect is the only constraint: one island; without the grouping the simulation is the same, bit
-    for bit (the fault this must see: test_a_skip_that_changes_the_physics_is_seen, with the islands')."""
+@pytest.mark.parametrize("skip", list(TOO_MUCH))
+def test_a_skip_changes_no_bit(skip, case):
+    """Why each skip (TOO_MUCH): without the work it saves the simulation is the same, bit for bit (the fault
+    this must see: test_a_skip_that_changes_the_physics_is_seen)."""
     import dualmech.validation.mujoco_sim as sim
 
     skipped = _simulated(case)
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(sim, "skip_islands", lambda model: None)
+        mp.setattr(sim, skip, lambda model: None)
         kept = _simulated(case)
     for name, values in kept.items():
         np.testing.assert_array_equal(skipped[name], values, err_msg=name)
 
 
-def test_an_island_skip_that_changes_the_physics_is_seen(monkeypatch):
+@pytest.mark.parametrize("skip", list(TOO_MUCH))
+def test_a_skip_that_changes_the_physics_is_seen(skip, monkeypatch):
+    """The fault the test above must see: a skip that switches off more than it may (TOO_MUCH)."""
     import dualmech.validation.mujoco_sim as sim
 
     case = _short_case()
     reference = _simulated(case)
 
     def too_much(model):
-        model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_ISLAND | mujoco.mjtDisableBit.mjDSBL_WARMSTART
+        model.opt.disableflags |= TOO_MUCH[skip]
 
-    monkeypatch.setattr(sim, "skip_islands", too_much)
+    monkeypatch.setattr(sim, skip, too_much)
     broken = _simulated(case)
     assert not all(np.array_equal(reference[k], broken[k], equal_nan=True) for k in reference)
 
