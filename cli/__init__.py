@@ -17,6 +17,7 @@ from dualmech.cli.simulate import simulate
 from dualmech.cli.solve import benchmark, case_path, cases, mjcf, solve
 from dualmech.cli.tolerance import tolerance
 from dualmech.cli.validate import report, validate
+from dualmech.validation.executors import end_all_pools
 
 #: Every subcommand of ``dualmech``, by module: one case (cases, case-path, solve, mjcf, benchmark),
 #: forward dynamics, the tolerance study, the validation run and its report, the mutation selftest.
@@ -27,8 +28,10 @@ COMMANDS: tuple[click.Command, ...] = (
 
 @click.group()
 @click.version_option(package_name="dualmech")
-def main() -> None:
+@click.pass_context
+def main(ctx: click.Context) -> None:
     """Dual-number solver for the generalized slider crank, judged by Pinocchio and MuJoCo."""
+    ctx.call_on_close(end_all_pools)  # bounded: the interpreter's exit would join workers without a limit
 
 
 for _command in COMMANDS:

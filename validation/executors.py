@@ -13,19 +13,28 @@ behind:
 * **A lost cluster.**  The Dask backend checks the scheduler and its workers every
   :data:`DASK_POLL_S` seconds while it waits; a lost scheduler, or no worker for
   :data:`DASK_NO_WORKER_S` seconds, ends the run with :class:`ClusterLost`.
+* **Done.**  A finished run keeps its pool for the report and the next run; a command
+  ends every pool when it is done (:func:`end_all_pools`), waiting
+  :data:`EXIT_GRACE_S` seconds at most for the workers to exit.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import math
 import os
 import re
 import time
+import weakref
 from typing import Any, Callable, Iterator
 
 #: How long (s) an interrupted run waits for its running tasks before it ends them.
 INTERRUPT_GRACE_S = 2.0
+#: How long (s) a finished command waits for its pools' workers to exit before it ends them by a signal.
+EXIT_GRACE_S = 10.0
+#: How long (s) a worker ended by SIGTERM has before SIGKILL.
+KILL_AFTER_S = 2.0
 #: How often (s) the Dask backend checks that its scheduler and workers are still there.
 DASK_POLL_S = 2.0
 #: How long (s) a Dask run waits without any worker before it gives up.
@@ -94,13 +103,18 @@ def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
     state (OpenMP, workqueue) that a forked child inherits and can deadlock on.  Not
     ``forkserver`` either: its server outlives a killed run.  A spawned worker starts
     from nothing, ends with this process and leaves SIGINT to it (:func:`worker_init`).
+    Every pool made here is ended by :func:`end_all_pools`.
     """
     import multiprocessing
 
-    return cf.ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
+    pool = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
                                   initializer=worker_init)
+    _POOLS.add(pool)
+    return pool
 
 
+#: Every pool :func:`process_pool` made that is still referenced somewhere.
+_POOLS: weakref.WeakSet[cf.ProcessPoolExecutor] = weakref.WeakSet()
 _SHARED: dict[int, cf.ProcessPoolExecutor] = {}
 
 
@@ -109,7 +123,7 @@ def shared_pool(jobs: int) -> cf.ProcessPoolExecutor:
 
     A run and its report use the same workers: they are spawned and import their libraries once.
     A pool that broke or was ended (:func:`end_shared_pool`) is replaced; the workers end with
-    this process (or :func:`end_shared_pool`).
+    this process (or :func:`end_shared_pool`, :func:`end_all_pools`).
     """
     pool = _SHARED.get(jobs)
     if pool is None or getattr(pool, "_broken", False) or getattr(pool, "_shutdown_thread", False):
@@ -117,24 +131,48 @@ def shared_pool(jobs: int) -> cf.ProcessPoolExecutor:
     return pool
 
 
-def end_shared_pool(jobs: int | None = None, *, wait: bool = True) -> None:
+def end_shared_pool(jobs: int | None = None, *, grace: float = math.inf) -> None:
     """End the shared pool of ``jobs`` workers (default: every shared pool) by :func:`end_pool`."""
     for n in [jobs] if jobs is not None else list(_SHARED):
         pool = _SHARED.pop(n, None)
         if pool is not None:
-            end_pool(pool, wait=wait)
+            end_pool(pool, grace=grace)
 
 
-def end_pool(pool: cf.ProcessPoolExecutor, *, wait: bool = True) -> None:
-    """End ``pool``: tasks not started are cancelled; ``wait``: the running ones finish first, else the
-    workers are terminated at once (by a signal)."""
+def end_all_pools(grace: float = EXIT_GRACE_S) -> None:
+    """End every pool of this process (:func:`end_pool`): what a command does when it is done.
+
+    Left to the interpreter's exit, each pool's workers would be joined without a time limit: a
+    worker that does not exit (a library's thread that never ends, a full pipe) keeps the command
+    from ever exiting, and with it the output still in its buffers.
+    """
+    _SHARED.clear()
+    for pool in list(_POOLS):
+        end_pool(pool, grace=grace)
+
+
+def end_pool(pool: cf.ProcessPoolExecutor, *, grace: float = math.inf) -> None:
+    """End ``pool``: tasks not started are cancelled, running ones and the workers' own exit get
+    ``grace`` seconds (``0``: none; ``inf``: as long as they take), and every worker still there after
+    that is ended by a signal (SIGTERM, then SIGKILL after :data:`KILL_AFTER_S`)."""
+    import multiprocessing.connection
+
+    _POOLS.discard(pool)
     workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
     pool.shutdown(wait=False, cancel_futures=True)
-    if wait:
+    if grace == math.inf:
         pool.shutdown(wait=True)
-    else:
-        for proc in workers:
-            proc.terminate()
+        return
+    # a worker's sentinel is readable once it has ended (whichever thread reaps it)
+    left = [p for p in workers if p.sentinel not in multiprocessing.connection.wait(
+        [p.sentinel for p in workers], timeout=grace)] if workers and grace > 0 else workers
+    for signal_worker, wait_s in ((lambda p: p.terminate(), KILL_AFTER_S), (lambda p: p.kill(), 0.0)):
+        for proc in left:
+            signal_worker(proc)
+        if not left or wait_s == 0.0:
+            break
+        ready = multiprocessing.connection.wait([p.sentinel for p in left], timeout=wait_s)
+        left = [p for p in left if p.sentinel not in ready]
 
 
 def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
@@ -159,7 +197,7 @@ def _on_pool(
                 fut.cancel()
             cf.wait([f for f in futures if not f.cancelled()], timeout=INTERRUPT_GRACE_S)
             leftovers.extend(_finished(futures, handed))
-            end_shared_pool(jobs, wait=False)  # do not wait any longer
+            end_shared_pool(jobs, grace=0.0)  # do not wait any longer
 
 
 def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,

@@ -193,7 +193,8 @@ class FigureDrawing:
 
     def close(self) -> None:
         """End the worker: once the figures were collected it exits by itself (not waited for: it tears
-        down while this process writes and prints; the interpreter joins it at exit), else at once."""
+        down while this process writes and prints; the command's end joins it, executors.end_all_pools),
+        else at once."""
         if self._pool is None:
             return
         pool, self._pool = self._pool, None
@@ -202,7 +203,7 @@ class FigureDrawing:
             return
         from dualmech.validation.executors import end_pool
 
-        end_pool(pool, wait=False)
+        end_pool(pool, grace=0.0)
 
 
 def write_tolerance_report(outdir: Path, summary: dict, x: np.ndarray | None,

@@ -172,7 +172,7 @@ def test_a_run_that_ends_its_pool_is_seen(small, tmp_path, monkeypatch):
 
 
 def test_an_interrupted_run_ends_its_busy_workers_at_once():
-    """``end_shared_pool(wait=False)`` (what an interrupted run calls) ends a worker still busy with its
+    """``end_shared_pool(grace=0)`` (what an interrupted run calls) ends a worker still busy with its
     task by a signal, not after the task (``shutdown`` forgets the pool's processes: they are taken
     first; taken after, none was ended and the 60 s task below ran on)."""
     from dualmech.validation import executors
@@ -182,7 +182,7 @@ def test_an_interrupted_run_ends_its_busy_workers_at_once():
     pool.submit(time.sleep, 60)
     workers = list(pool._processes.values())
     assert workers
-    executors.end_shared_pool(1, wait=False)
+    executors.end_shared_pool(1, grace=0.0)
     for proc in workers:
         code = exit_code(proc, timeout=20)
         assert code is not None and code < 0, code

@@ -1,0 +1,105 @@
+"""The end of a command's worker pools (``validation/executors.py``): bounded, whatever the workers do.
+
+Why: CI timed out (90 min) after the main job had printed part of its table: the command had done its
+work and never exited.  A pool kept for reuse was left to the interpreter's exit, which joins its
+workers without a time limit, so one worker that does not exit keeps the command (and the output still
+in its buffers) forever.  Here a worker is made not to exit (a thread that never ends, joined at the
+worker's exit as any library's non-daemon thread would be).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+
+import pytest
+from click.testing import CliRunner
+
+from dualmech.validation import executors
+
+from .test_validate import ROOT
+from .worker_exits import exit_code
+
+#: Seconds a process with a worker that never exits is given to exit (it needs about 1 s).
+PROCESS_EXIT_S = 15.0
+
+
+def never_ending_thread() -> int:
+    """A pool task: leave a non-daemon thread behind, so that the worker's exit waits forever."""
+    threading.Thread(target=time.sleep, args=(3600,), daemon=False).start()
+    return 1
+
+
+def _program(end: str) -> str:
+    return textwrap.dedent(f"""
+        from dualmech.validation import executors
+        from tests.validation.test_executors import never_ending_thread
+        if __name__ == "__main__":
+            pool = executors.shared_pool(1)
+            assert pool.submit(never_ending_thread).result() == 1
+            {end}
+            print("done", flush=True)
+    """)
+
+
+def _run(program: str, tmp_path, timeout: float) -> subprocess.CompletedProcess:
+    script = tmp_path / "program.py"
+    script.write_text(program)
+    return subprocess.run([sys.executable, str(script)], cwd=ROOT, capture_output=True, text=True,
+                          timeout=timeout, env={"PYTHONPATH": str(ROOT), "PATH": ""})
+
+
+def test_a_process_that_ends_its_pools_exits_though_a_worker_would_not(tmp_path):
+    start = time.monotonic()
+    done = _run(_program("executors.end_all_pools(grace=0.5)"), tmp_path, timeout=PROCESS_EXIT_S)
+    assert done.returncode == 0 and done.stdout == "done\n", done.stderr
+    assert time.monotonic() - start < PROCESS_EXIT_S
+
+
+def test_a_pool_left_to_the_interpreters_exit_hangs_it(tmp_path):
+    """The fault the test above must see (what the commands did before): the pool left to the exit."""
+    with pytest.raises(subprocess.TimeoutExpired):
+        _run(_program("pass"), tmp_path, timeout=PROCESS_EXIT_S)
+
+
+def test_end_all_pools_ends_a_worker_that_does_not_exit_by_a_signal():
+    executors.end_shared_pool()
+    pool = executors.shared_pool(1)
+    assert pool.submit(never_ending_thread).result() == 1
+    workers = list(pool._processes.values())
+    start = time.monotonic()
+    executors.end_all_pools(grace=0.5)
+    for proc in workers:
+        code = exit_code(proc, timeout=PROCESS_EXIT_S)
+        assert code is not None and code < 0, code
+    assert time.monotonic() - start < 0.5 + executors.KILL_AFTER_S + 5.0
+    assert not executors._SHARED
+
+
+def test_end_all_pools_waits_for_workers_that_exit_by_themselves():
+    """Workers that exit on their own are not signalled (a grace that ends them at once is seen)."""
+    executors.end_shared_pool()
+    pool = executors.shared_pool(2)
+    assert pool.submit(int, 3).result() == 3
+    workers = list(pool._processes.values())
+    assert workers
+    executors.end_all_pools(grace=executors.EXIT_GRACE_S)
+    assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [0] * len(workers)
+
+
+def test_every_command_ends_its_pools(monkeypatch):
+    """The ``dualmech`` group ends every pool when a command is done (here a command that uses none)."""
+    from dualmech.cli import main
+
+    executors.end_shared_pool()
+    pool = executors.shared_pool(1)
+    assert pool.submit(int, 1).result() == 1
+    workers = list(pool._processes.values())
+    assert workers
+    result = CliRunner().invoke(main, ["cases"])
+    assert result.exit_code == 0, result.output
+    assert not executors._SHARED and pool not in executors._POOLS
+    assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [0]
