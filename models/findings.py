@@ -36,6 +36,7 @@ from dualmech.core.thresholds import Tolerance
 from dualmech.models.case import Case, load_case, preset_names
 from dualmech.models.joint_frames import joint_frame_columns
 from dualmech.models.slider_crank import Analysis, analyze_many, to_table
+from dualmech.models.slider_crank_kernel import solve_cases
 from dualmech.models.stroke import (
     STROKE_OFFSETS,
     STROKE_SHIFTS,
@@ -284,10 +285,10 @@ def _finding_f(base: Case) -> dict[str, Any]:
                                         "geometry.crank_axial_shift": 0.0}))
     beyond = [base.with_values({"geometry.slider_offset": a4, "geometry.crank_axial_shift": lim + 0.5})
               for a4, lim in limits.items()]
-    ans = analyze_many(checks + beyond)
-    solved_ok = all(is_status(an.status, *RATES_GIVEN).all() for an in ans[:len(checks)])
-    worst_residual = max(float(an.closure_residual.max()) for an in ans[:len(checks)])
-    refused = [int(is_status(an.status, Status.NO_ASSEMBLY).sum()) for an in ans[len(checks):]]
+    tables = solve_cases(checks + beyond)
+    solved_ok = all(is_status(t.status, *RATES_GIVEN).all() for t in tables[:len(checks)])
+    worst_residual = max(float(t.columns["residual"].max()) for t in tables[:len(checks)])
+    refused = [int(is_status(t.status, Status.NO_ASSEMBLY).sum()) for t in tables[len(checks):]]
     return {
         "id": "f", "finding": ("convergence limits: with a4 = 0 the program fails for S1 > 1.5 in, with a4 "
                                ">= 10 for "

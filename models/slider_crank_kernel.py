@@ -278,29 +278,36 @@ def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
     return ResultTable("dualmech", case.name, cols, chunk.words(), meta)
 
 
-def solve_cases(cases: Sequence[Case], chunk_positions: int = CHUNK_POSITIONS) -> list[ResultTable]:
-    """The result table of every case, cases batched together in chunks of about ``chunk_positions``.
+def solve_cases(cases: Sequence[Case], chunk_positions: int = CHUNK_POSITIONS,
+                cranks: Sequence[CrankState] | None = None) -> list[ResultTable]:
+    """The result table of every case (at its own crank states, or at ``cranks[i]`` for ``cases[i]``), cases
+    batched together in chunks of about ``chunk_positions``.
 
     Each chunk's columns are copied once, into one contiguous ``(columns, n)`` array whose rows the
     chunk's tables share (not copied again per case and column).
     """
+    def crank(i: int) -> CrankState:
+        c = cases[i]
+        return c.motion.state(c.geometry.crank_axial_shift) if cranks is None else cranks[i]
+
     tables: list[ResultTable] = []
-    group: list[Case] = []
+    group: list[int] = []
     size = 0
     for i, case in enumerate(cases):
-        group.append(case)
-        size += len(case.motion.angles_deg)
+        group.append(i)
+        size += len(case.motion.angles_deg) if cranks is None else len(cranks[i])
         if size < chunk_positions and i < len(cases) - 1:
             continue
-        chunk = analyze_chunk(group, [c.motion.state(c.geometry.crank_axial_shift) for c in group])
+        states = [crank(j) for j in group]
+        chunk = analyze_chunk([cases[j] for j in group], states)
         columns = np.array([chunk.columns[c] for c in NUMERIC_COLUMNS])
         start = 0
-        for c in group:
-            part = slice(start, start + len(c.motion.angles_deg))
+        for j, state in zip(group, states):
+            part = slice(start, start + len(state))
             start = part.stop
             own = Chunk(dict(zip(NUMERIC_COLUMNS, columns[:, part])), chunk.status[part],
                         chunk.iterations[part], chunk.dynamics_residual[part])
-            tables.append(to_table(c, own, copy=False))
+            tables.append(to_table(cases[j], own, copy=False))
         group, size = [], 0
     return tables
 

@@ -6,19 +6,23 @@ extremes refined by Newton on dS4/dtheta1; :func:`stroke_table` the stroke of th
 worked example over a4 x alpha4 x S1 (thesis section 3.1, issue 2); :func:`assembly_limit_s1`
 the largest S1 at which the planar-twist mechanism still assembles everywhere.  The thesis
 findings (``models/findings.py``) read them.
+
+Every sweep runs the compiled solver (:func:`~dualmech.models.slider_crank_kernel.solve_cases`, its result
+tables): the thesis findings of a report solve about 40,000 positions here.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
 from dualmech.core.motion import CrankState
 from dualmech.core.status import RATES_GIVEN, Status, is_status
+from dualmech.core.table import ResultTable
 from dualmech.models.case import Case, load_case
-from dualmech.models.slider_crank import analyze_many
+from dualmech.models.slider_crank_kernel import solve_cases
 
 #: Grid of the stroke table (thesis section 3.1 and issue 2).
 STROKE_OFFSETS = (0.0, 10.0, 20.0, 30.0)
@@ -39,10 +43,10 @@ def dead_centres(cases: list[Case], iterations: int = 48) -> list[np.ndarray]:
     Brackets come from sign changes of the in-house transmission on the case's
     grid; each bisection step is one batched in-house analysis of all brackets.
     """
-    ans = analyze_many(cases)
     lo_parts, hi_parts, owner_parts, exact = [], [], [], []
-    for i, an in enumerate(ans):
-        t, th = an.transmission, an.crank.theta
+    cranks = [c.motion.state(c.geometry.crank_axial_shift) for c in cases]
+    for i, (crank, table) in enumerate(zip(cranks, solve_cases(cases, cranks=cranks))):
+        t, th = table.columns["transmission"], crank.theta
         exact.append(np.degrees(th[t == 0.0]))
         k = np.flatnonzero((t != 0.0) & (t * np.roll(t, -1) < 0.0))  # a sign change to the next position
         step = th[1] - th[0] if th.shape[0] > 1 else 0.0
@@ -69,11 +73,10 @@ def dead_centres(cases: list[Case], iterations: int = 48) -> list[np.ndarray]:
 def _transmission_at(cases: list[Case], owner: np.ndarray, theta: np.ndarray) -> np.ndarray:
     groups = [np.flatnonzero(owner == i) for i in range(len(cases))]
     used = [i for i, g in enumerate(groups) if g.size]
-    ans = analyze_many([cases[i] for i in used],
-                       [_fixed_crank(theta[groups[i]], cases[i].geometry.crank_axial_shift) for i in used])
+    tables = _at_fixed_cranks([cases[i] for i in used], [theta[groups[i]] for i in used])
     out = np.empty_like(theta)
-    for i, an in zip(used, ans):
-        out[groups[i]] = an.transmission
+    for i, table in zip(used, tables):
+        out[groups[i]] = table.columns["transmission"]
     return out
 
 
@@ -84,36 +87,42 @@ def stroke_of(cases: list[Case], newton_steps: int = 6) -> list[dict[str, Any]]:
     ``assembles = False`` and no stroke.
     """
     grid = [c.with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 1.0}}) for c in cases]
-    ans = analyze_many(grid)
     rows, todo = [], []
-    for case, an in zip(cases, ans):
-        ok = is_status(an.status, *RATES_GIVEN)
+    cranks = [c.motion.state(c.geometry.crank_axial_shift) for c in grid]
+    for case, crank, table in zip(cases, cranks, solve_cases(grid, cranks=cranks)):
+        ok = is_status(table.status, *RATES_GIVEN)
+        s4 = table.columns["S4"]
         row: dict[str, Any] = {
             "a4": case.geometry.slider_offset, "alpha4_deg": case.geometry.slider_twist_deg,
             "S1": case.geometry.crank_axial_shift, "assembles": bool(ok.all()),
-            "no_assembly_positions": int(is_status(an.status, Status.NO_ASSEMBLY).sum()),
+            "no_assembly_positions": int(is_status(table.status, Status.NO_ASSEMBLY).sum()),
             "stroke": None, "s4_min": None, "s4_max": None, "theta_min_deg": None, "theta_max_deg": None,
         }
         rows.append(row)
         if ok.all():
-            todo.append((row, case, an.crank.theta[[np.argmin(an.s4), np.argmax(an.s4)]]))
+            todo.append((row, case, crank.theta[[np.argmin(s4), np.argmax(s4)]]))
     if not todo:
         return rows
     theta = np.stack([t for _, _, t in todo])
     todo_cases = [c for _, c, _ in todo]
     for _ in range(newton_steps):
-        sub = analyze_many(todo_cases, [_fixed_crank(theta[i], c.geometry.crank_axial_shift)
-                                        for i, c in enumerate(todo_cases)])
-        d1 = np.stack([a.rates.q_dot[:, 0] for a in sub])
-        d2 = np.stack([a.rates.q_ddot[:, 0] for a in sub])
+        sub = _at_fixed_cranks(todo_cases, theta)
+        d1 = np.stack([t.columns["S4_dot"] for t in sub])  # unit crank speed: dS4/dtheta1
+        d2 = np.stack([t.columns["S4_ddot"] for t in sub])
         theta = theta - d1 / d2
-    sub = analyze_many(todo_cases, [_fixed_crank(theta[i], c.geometry.crank_axial_shift)
-                                    for i, c in enumerate(todo_cases)])
-    for i, ((row, _, _), a) in enumerate(zip(todo, sub)):
-        row.update(s4_min=float(a.s4[0]), s4_max=float(a.s4[1]), stroke=float(a.s4[1] - a.s4[0]),
+    for i, ((row, _, _), t) in enumerate(zip(todo, _at_fixed_cranks(todo_cases, theta))):
+        s4 = t.columns["S4"]
+        row.update(s4_min=float(s4[0]), s4_max=float(s4[1]), stroke=float(s4[1] - s4[0]),
                    theta_min_deg=float(np.degrees(theta[i, 0]) % 360.0),
                    theta_max_deg=float(np.degrees(theta[i, 1]) % 360.0))
     return rows
+
+
+def _at_fixed_cranks(cases: list[Case], theta: Sequence[np.ndarray]) -> list[ResultTable]:
+    """The result table of ``cases[i]`` at the crank angles ``theta[i]`` (rad), unit speed, no acceleration
+    (S4_dot, S4_ddot are then dS4/dtheta1 and its derivative)."""
+    return solve_cases(cases, cranks=[_fixed_crank(theta[i], c.geometry.crank_axial_shift)
+                                      for i, c in enumerate(cases)])
 
 
 def stroke_table(base: Case | None = None) -> list[dict[str, Any]]:

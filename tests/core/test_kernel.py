@@ -221,3 +221,26 @@ def test_many_cases_in_chunks_are_each_case_alone() -> None:
         assert_array_equal(got.status, alone.status)
         for name in alone.columns:
             assert_array_equal(got[name], alone[name], err_msg=name)
+
+
+def test_cases_at_given_crank_states_are_the_numpy_solver_there() -> None:
+    """``solve_cases(..., cranks=)`` (the dead-centre bisection and the stroke's Newton in models/stroke.py):
+    each case at its own scattered crank states (no grid: the warm starts meet arbitrary steps), unit speed,
+    as the numpy solver gives them there, statuses identical; the case's own motion would be a fault."""
+    from dualmech.core.motion import CrankState
+
+    rng = np.random.default_rng(7)
+    cases = [BASE.with_values({"geometry.slider_offset": a4, "geometry.crank_axial_shift": s1})
+             for a4, s1 in [(0.0, 0.0), (30.0, 3.5), (38.5, 1.0)]]
+    cranks = []
+    for n in (5, 40, 17):
+        theta = np.sort(rng.uniform(0.0, 2.0 * np.pi, n))
+        cranks.append(CrankState(theta, np.full(n, 1.0), np.ones(n), np.zeros(n), np.zeros(n), np.zeros(n)))
+    tables = slider_crank_kernel.solve_cases(cases, cranks=cranks)
+    for case, crank, got in zip(cases, cranks, tables, strict=True):
+        ref = slider_crank.to_table(slider_crank.analyze(case, crank))
+        assert_array_equal(got.status, ref.status)
+        assert_allclose(got["theta1_deg"], np.degrees(crank.theta), rtol=1e-15)
+        for name in ("S4", "S4_dot", "S4_ddot", "transmission"):
+            assert_allclose(got[name], ref[name], rtol=0, atol=KERNEL_VS_NUMPY_KINEMATICS * np.nanmax(np.abs(
+                ref[name])), equal_nan=True, err_msg=name)
