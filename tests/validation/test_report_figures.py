@@ -9,9 +9,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dualmech.validation import executors
+from dualmech.validation import derived, executors
 from dualmech.validation.compare import compare_run
 from dualmech.validation.report import canvas, figures, plots
+from dualmech.validation.report.sections import balancing_spec
 
 
 def _specs(matrix, results):
@@ -23,13 +24,15 @@ def test_figures_drawn_in_workers_come_back_in_plan_order(matrix, results):
     process computes the other sections; the report must list them in the plan's order, each the same PNG
     as drawn here."""
     comparison = compare_run(matrix, results)
-    here = figures.start_figures(matrix, results, comparison, jobs=1).collect()
+    extra = (balancing_spec(derived.balancing(matrix)),)  # the balancing section's figure, drawn with them
+    here = figures.start_figures(matrix, results, comparison, jobs=1, extra=extra).collect()
     try:
-        there = figures.start_figures(matrix, results, comparison, jobs=2).collect()
+        there = figures.start_figures(matrix, results, comparison, jobs=2, extra=extra).collect()
     finally:
         executors.end_shared_pool()
-    assert [f.key for f in here] == [s[0] for s in figures.figure_specs(matrix, results, comparison)]
-    assert {s[5][0] for s in figures.figure_specs(matrix, results, comparison)} == set(figures._RENDER_ORDER)
+    plan = [*figures.figure_specs(matrix, results, comparison), *extra]
+    assert [f.key for f in here] == [s[0] for s in plan]
+    assert {s[5][0] for s in plan} == set(figures._RENDER_ORDER)
     assert [f.key for f in there] == [f.key for f in here]
     assert [f.png for f in there] == [f.png for f in here]
 
@@ -119,9 +122,10 @@ def test_a_margin_too_small_is_seen(matrix, results, monkeypatch, margin):
 
 
 def _failed_report(small, tmp_path, monkeypatch) -> list:
-    """A report whose balancing section fails while the workers draw its figures; its figure jobs."""
+    """A report whose findings section (the last before the figures are collected; a thesis matrix's) fails
+    while the workers draw its figures; its figure jobs."""
     from dualmech.validation import derived
-    from dualmech.validation.matrix import load_matrix
+    from dualmech.validation.matrix import Matrix, load_matrix
     from dualmech.validation.report import ReportError, write_report
     from dualmech.validation.runner import run_matrix
 
@@ -136,12 +140,13 @@ def _failed_report(small, tmp_path, monkeypatch) -> list:
 
     monkeypatch.setattr("dualmech.validation.report.render.start_figures", start)
 
-    def broken(matrix):
-        raise RuntimeError("balancing broke")
+    def broken():
+        raise RuntimeError("findings broke")
 
-    monkeypatch.setattr(derived, "balancing", broken)
+    monkeypatch.setattr(Matrix, "of_thesis", property(lambda self: True))
+    monkeypatch.setattr(derived, "findings", broken)
     try:
-        with pytest.raises(ReportError, match="balancing"):
+        with pytest.raises(ReportError, match="findings"):
             write_report(tmp_path / "run", None, jobs=2)
         jobs = list(started[0]._rendered)
         cf.wait([j for j in jobs if not j.cancelled()], timeout=60)

@@ -17,7 +17,13 @@ from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation.compare import STROKE, Comparison
 from dualmech.validation.executors import shared_pool
 from dualmech.validation.matrix import Matrix
-from dualmech.validation.report.plots import Figure, difference_figure, heatmap_figure, sweep_figure
+from dualmech.validation.report.plots import (
+    Figure,
+    difference_figure,
+    heatmap_figure,
+    shaking_force_figure,
+    sweep_figure,
+)
 from dualmech.validation.runner import ProgressCallback
 
 #: Figures of each sweep and load mode: (key, title, columns, panel grid (rows, cols)).
@@ -167,9 +173,10 @@ def _file_key(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.-]", "-", text)
 
 
-_FIGURE_FUNCTIONS = {"sweep": sweep_figure, "difference": difference_figure, "heatmap": heatmap_figure}
+_FIGURE_FUNCTIONS = {"sweep": sweep_figure, "difference": difference_figure, "heatmap": heatmap_figure,
+                     "balancing": shaking_force_figure}
 #: Kinds of figure from the slowest to draw to the fastest.
-_RENDER_ORDER = ("difference", "heatmap", "sweep")
+_RENDER_ORDER = ("balancing", "difference", "heatmap", "sweep")
 
 
 def _render(job: tuple[str, tuple]) -> bytes:
@@ -199,11 +206,12 @@ class PendingFigures:
                 job.cancel()
 
 
-def start_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: int = 1) -> PendingFigures:
-    """Plan every figure of the report and start drawing them in the ``jobs`` workers of the shared pool
-    (:func:`~dualmech.validation.executors.shared_pool`, the run's own); with ``jobs = 1`` they are
-    drawn by :meth:`PendingFigures.collect`, in this process."""
-    specs = figure_specs(matrix, results, comparison)
+def start_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: int = 1,
+                  extra: tuple[FigureSpec, ...] = ()) -> PendingFigures:
+    """Plan every figure of the report (then the ``extra`` ones of other sections) and start drawing them in
+    the ``jobs`` workers of the shared pool (:func:`~dualmech.validation.executors.shared_pool`, the run's
+    own); with ``jobs = 1`` they are drawn by :meth:`PendingFigures.collect`, in this process."""
+    specs = [*figure_specs(matrix, results, comparison), *extra]
     if jobs <= 1 or len(specs) <= 1:
         return PendingFigures(specs, [spec[5] for spec in specs])
     pool = shared_pool(jobs)

@@ -9,7 +9,9 @@
 * :func:`difference_figure`: per judge, the relative difference ``r_i``
   (:mod:`dualmech.validation.compare`) against the crank angle on a log scale, worst over kinematics
   and over reactions;
-* :func:`heatmap_figure`: per judge, the worst relative difference per case and quantity.
+* :func:`heatmap_figure`: per judge, the worst relative difference per case and quantity;
+* :func:`shaking_force_figure`: the balancing section's polar plot of the shaking force
+  (:func:`dualmech.models.balancing.draw_shaking_force_polar`).
 """
 
 from __future__ import annotations
@@ -330,3 +332,14 @@ def heatmap_figure(
     w, h = fig.get_figwidth(), fig.get_figheight()
     fig.subplots_adjust(left=1.9 / w, right=1 - 0.2 / w, top=1 - 0.4 / h, bottom=1.1 / h)
     return fig_to_png(fig, tight=False)
+
+
+def shaking_force_figure(forces: tuple[np.ndarray, np.ndarray], name: str, units: str) -> bytes:
+    """PNG of :func:`~dualmech.models.balancing.draw_shaking_force_polar` (original, then balanced)."""
+    import tempfile
+    from pathlib import Path
+
+    from dualmech.models.balancing import draw_shaking_force_polar
+
+    with tempfile.TemporaryDirectory() as tmp:
+        return draw_shaking_force_polar(forces, name, units, Path(tmp) / "shaking.png").read_bytes()

@@ -22,7 +22,7 @@ from dualmech.validation.provenance import key_versions
 from dualmech.validation.report.figures import start_figures
 from dualmech.validation.report.plots import Figure
 from dualmech.validation.report.sections import (
-    balancing_figure,
+    balancing_spec,
     copy_errata,
     dead_centre_rows,
     design_rows,
@@ -148,16 +148,16 @@ def write_report(
     if comparison is None:
         comparison = compare_run(matrix, results)
     with locked(outdir if outdir is not None else rundir) as outdir:
+        balance = _section("balancing", derived.balancing, matrix)
+        shaking = _section("balancing", balancing_spec, balance)
         # the workers draw the figures while this process computes the sections beside them
-        pending = _section("figures", start_figures, matrix, results, comparison, jobs=jobs)
+        pending = _section("figures", start_figures, matrix, results, comparison, jobs=jobs,
+                           extra=(shaking,) if shaking is not None else ())
         try:
-            balance = _section("balancing", derived.balancing, matrix)
-            balance_figure = _section("balancing", balancing_figure, balance)
             find = _section("findings", derived.findings) if matrix.of_thesis else None  # the thesis's only
             figures = _section("figures", pending.collect, progress)
         finally:
             pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
-        figures = [*figures, *([balance_figure] if balance_figure is not None else [])]
         paths = _write_figures(outdir, figures)
         context = _context(matrix, run, results, comparison, figures)
         context.update(

@@ -1,6 +1,6 @@
 """The report's sections as data: rows for the templates' tables, from a finished run and its comparison.
 
-Every function here returns plain rows (dicts), a figure or
+Every function here returns plain rows (dicts), a figure's plan or
 :class:`~dualmech.models.design_summary.DesignSummary` objects; :mod:`~dualmech.validation.report.render`
 puts them into the templates.  The numbers no stored table holds (balancing, the thesis's findings)
 come from :mod:`dualmech.validation.derived`.
@@ -9,19 +9,17 @@ come from :mod:`dualmech.validation.derived`.
 from __future__ import annotations
 
 import shutil
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
-from dualmech.models.balancing import draw_shaking_force_polar
 from dualmech.models.design_summary import DesignSummary, design_summary
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Comparison
 from dualmech.validation.derived import Balancing
 from dualmech.validation.matrix import Matrix
-from dualmech.validation.report.plots import Figure
+from dualmech.validation.report.figures import FigureSpec
 from dualmech.validation.rundir import record_files
 
 
@@ -78,14 +76,13 @@ def stroke_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
     return rows
 
 
-def balancing_figure(balance: Balancing) -> Figure | None:
-    """The polar figure of the balancing section: the drawn case's shaking force, original and balanced."""
+def balancing_spec(balance: Balancing) -> FigureSpec | None:
+    """The plan of the balancing section's polar figure (a
+    :data:`~dualmech.validation.report.figures.FigureSpec`, drawn with the others): the drawn case's shaking
+    force, original and balanced."""
     if balance.forces is None:
         return None
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "shaking.png"
-        png = draw_shaking_force_polar(balance.forces, balance.name, balance.units, path).read_bytes()
-    return Figure(
+    return (
         "balancing-shaking-force",
         "balancing",
         "balancing",
@@ -93,7 +90,7 @@ def balancing_figure(balance: Balancing) -> Figure | None:
         "Tip of the shaking force's component normal to the crank axis over one revolution. "
         "Balanced: crank and rod mass centres at xi1 = -(1 + mu2)/mu1, xi2 = -1/mu2 "
         "(docs/conventions.md; errata S7).",
-        png,
+        ("balancing", (balance.forces, balance.name, balance.units)),
     )
 
 
