@@ -1,4 +1,4 @@
-"""Shared test fixtures (the bundled thesis cases) and the Hypothesis profiles.
+"""Shared test fixtures (the bundled thesis cases), the Hypothesis profiles, the end of the worker pools.
 
 The closed-form kinematics oracle is ``tests/oracles.py``; test-only tolerances are in
 ``tests/tolerances.py``.
@@ -28,3 +28,12 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE",
 @pytest.fixture(scope="session")
 def thesis_cases() -> list[Case]:
     return [load_case(n) for n in preset_names() if n.startswith("thesis/")]
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    """End the worker pools the tests left for reuse, as a command does when it is done
+    (:func:`~dualmech.validation.executors.end_all_pools`): left to the interpreter's teardown, a pool
+    was collected after ``multiprocessing.util`` was gone ("Exception ignored in ... weakref_cb")."""
+    from dualmech.validation.executors import end_all_pools
+
+    end_all_pools()

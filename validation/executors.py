@@ -155,24 +155,30 @@ def end_pool(pool: cf.ProcessPoolExecutor, *, grace: float = math.inf) -> None:
     """End ``pool``: tasks not started are cancelled, running ones and the workers' own exit get
     ``grace`` seconds (``0``: none; ``inf``: as long as they take), and every worker still there after
     that is ended by a signal (SIGTERM, then SIGKILL after :data:`KILL_AFTER_S`)."""
-    import multiprocessing.connection
-
     _POOLS.discard(pool)
     workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
     pool.shutdown(wait=False, cancel_futures=True)
     if grace == math.inf:
         pool.shutdown(wait=True)
         return
-    # a worker's sentinel is readable once it has ended (whichever thread reaps it)
-    left = [p for p in workers if p.sentinel not in multiprocessing.connection.wait(
-        [p.sentinel for p in workers], timeout=grace)] if workers and grace > 0 else workers
-    for signal_worker, wait_s in ((lambda p: p.terminate(), KILL_AFTER_S), (lambda p: p.kill(), 0.0)):
-        for proc in left:
-            signal_worker(proc)
-        if not left or wait_s == 0.0:
-            break
-        ready = multiprocessing.connection.wait([p.sentinel for p in left], timeout=wait_s)
+    left = _running_after(workers, grace)
+    for proc in left:
+        proc.terminate()
+    for proc in _running_after(left, KILL_AFTER_S):
+        proc.kill()
+
+
+def _running_after(workers: list[Any], seconds: float) -> list[Any]:
+    """The processes of ``workers`` still running after waiting up to ``seconds`` for all of them to end
+    (by their sentinels, readable once a process has ended, whichever thread reaps it)."""
+    import multiprocessing.connection
+
+    deadline = time.monotonic() + seconds
+    left = list(workers)
+    while left and (remaining := deadline - time.monotonic()) > 0:
+        ready = multiprocessing.connection.wait([p.sentinel for p in left], timeout=remaining)
         left = [p for p in left if p.sentinel not in ready]
+    return left
 
 
 def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:

@@ -9,6 +9,7 @@ worker's exit as any library's non-daemon thread would be).
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import textwrap
@@ -79,15 +80,44 @@ def test_end_all_pools_ends_a_worker_that_does_not_exit_by_a_signal():
     assert not executors._SHARED
 
 
-def test_end_all_pools_waits_for_workers_that_exit_by_themselves():
-    """Workers that exit on their own are not signalled (a grace that ends them at once is seen)."""
+def slow_exit(seconds: float) -> int:
+    """A pool task: make the worker's exit take ``seconds`` (an exit handler), as a library's teardown can."""
+    import atexit
+
+    atexit.register(time.sleep, seconds)
+    return os.getpid()
+
+
+def test_end_all_pools_waits_for_every_worker_that_exits_by_itself():
+    """Workers that exit within the grace are not signalled, also when one exits well after the other
+    (a wait that ends at the first exit, and then signals the rest, is seen below)."""
     executors.end_shared_pool()
     pool = executors.shared_pool(2)
-    assert pool.submit(int, 3).result() == 3
+    first = pool.submit(time.sleep, 0.5)  # both workers busy at once: both started
+    slow = pool.submit(slow_exit, 1.0).result()
+    first.result()
     workers = list(pool._processes.values())
-    assert workers
+    assert len(workers) == 2 and slow in pool._processes
     executors.end_all_pools(grace=executors.EXIT_GRACE_S)
-    assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [0] * len(workers)
+    assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [0, 0]
+
+
+def test_a_grace_that_ends_at_the_first_exit_is_seen(monkeypatch):
+    """The fault the test above must see: the slow worker signalled once the other has exited."""
+    import multiprocessing.connection
+
+    wait = multiprocessing.connection.wait  # one wait: it returns at the first sentinel ready
+
+    executors.end_shared_pool()
+    pool = executors.shared_pool(2)
+    first = pool.submit(time.sleep, 0.5)
+    slow = pool.submit(slow_exit, 1.0).result()
+    first.result()
+    workers = dict(pool._processes)
+    monkeypatch.setattr(executors, "_running_after", lambda left, seconds: [
+        p for p in left if p.sentinel not in wait([q.sentinel for q in left], seconds)])
+    executors.end_all_pools(grace=executors.EXIT_GRACE_S)
+    assert exit_code(workers[slow], timeout=PROCESS_EXIT_S) < 0
 
 
 def test_every_command_ends_its_pools(monkeypatch):
