@@ -113,8 +113,10 @@ def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
     return pool
 
 
-#: Every pool :func:`process_pool` made that is still referenced somewhere.
+#: Every pool :func:`process_pool` made that is still referenced somewhere and not shut down yet.
 _POOLS: weakref.WeakSet[cf.ProcessPoolExecutor] = weakref.WeakSet()
+#: Workers of the pools :func:`let_go` shut down, for :func:`end_all_pools` to wait for.
+_LEAVING: list[Any] = []
 _SHARED: dict[int, cf.ProcessPoolExecutor] = {}
 
 
@@ -140,27 +142,43 @@ def end_shared_pool(jobs: int | None = None, *, grace: float = math.inf) -> None
 
 
 def end_all_pools(grace: float = EXIT_GRACE_S) -> None:
-    """End every pool of this process (:func:`end_pool`): what a command does when it is done.
+    """End every pool of this process (:func:`end_pool`), and the workers of those let go
+    (:func:`let_go`): what a command does when it is done.  Their workers get ``grace`` seconds
+    together.
 
     Left to the interpreter's exit, each pool's workers would be joined without a time limit: a
     worker that does not exit (a library's thread that never ends, a full pipe) keeps the command
     from ever exiting, and with it the output still in its buffers.
     """
     _SHARED.clear()
-    for pool in list(_POOLS):
-        end_pool(pool, grace=grace)
+    workers = [*_LEAVING, *(w for pool in list(_POOLS) for w in _shut(pool))]
+    _LEAVING.clear()
+    _end_workers(workers, grace)
 
 
 def end_pool(pool: cf.ProcessPoolExecutor, *, grace: float = math.inf) -> None:
     """End ``pool``: tasks not started are cancelled, running ones and the workers' own exit get
     ``grace`` seconds (``0``: none; ``inf``: as long as they take), and every worker still there after
     that is ended by a signal (SIGTERM, then SIGKILL after :data:`KILL_AFTER_S`)."""
+    _end_workers(_shut(pool), grace)
+
+
+def let_go(pool: cf.ProcessPoolExecutor) -> None:
+    """Shut ``pool`` down without waiting (tasks not started are cancelled; its workers finish the
+    running ones and exit while this process goes on); :func:`end_all_pools` waits for them."""
+    _LEAVING.extend(_shut(pool))
+
+
+def _shut(pool: cf.ProcessPoolExecutor) -> list[Any]:
+    """Shut ``pool`` down without waiting, tasks not started cancelled; its worker processes."""
     _POOLS.discard(pool)
     workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
     pool.shutdown(wait=False, cancel_futures=True)
-    if grace == math.inf:
-        pool.shutdown(wait=True)
-        return
+    return workers
+
+
+def _end_workers(workers: list[Any], grace: float) -> None:
+    """Wait up to ``grace`` seconds for ``workers`` to end; signal those left (SIGTERM, then SIGKILL)."""
     left = _running_after(workers, grace)
     for proc in left:
         proc.terminate()
@@ -169,14 +187,16 @@ def end_pool(pool: cf.ProcessPoolExecutor, *, grace: float = math.inf) -> None:
 
 
 def _running_after(workers: list[Any], seconds: float) -> list[Any]:
-    """The processes of ``workers`` still running after waiting up to ``seconds`` for all of them to end
-    (by their sentinels, readable once a process has ended, whichever thread reaps it)."""
+    """The processes of ``workers`` still running after waiting up to ``seconds`` (``inf``: until they
+    end) for all of them to end (by their sentinels, readable once a process has ended, whichever
+    thread reaps it)."""
     import multiprocessing.connection
 
     deadline = time.monotonic() + seconds
     left = list(workers)
     while left and (remaining := deadline - time.monotonic()) > 0:
-        ready = multiprocessing.connection.wait([p.sentinel for p in left], timeout=remaining)
+        timeout = None if math.isinf(remaining) else remaining
+        ready = multiprocessing.connection.wait([p.sentinel for p in left], timeout=timeout)
         left = [p for p in left if p.sentinel not in ready]
     return left
 

@@ -193,17 +193,17 @@ class FigureDrawing:
 
     def close(self) -> None:
         """End the worker: once the figures were collected it exits by itself (not waited for: it tears
-        down while this process writes and prints; the command's end joins it, executors.end_all_pools),
-        else at once."""
+        down while this process writes and prints; the command's end waits for it,
+        :func:`~dualmech.validation.executors.end_all_pools`), else at once."""
         if self._pool is None:
             return
+        from dualmech.validation.executors import end_pool, let_go
+
         pool, self._pool = self._pool, None
         if self._collected:
-            pool.shutdown(wait=False)
-            return
-        from dualmech.validation.executors import end_pool
-
-        end_pool(pool, grace=0.0)
+            let_go(pool)
+        else:
+            end_pool(pool, grace=0.0)
 
 
 def write_tolerance_report(outdir: Path, summary: dict, x: np.ndarray | None,

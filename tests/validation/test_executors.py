@@ -133,3 +133,26 @@ def test_every_command_ends_its_pools(monkeypatch):
     assert result.exit_code == 0, result.output
     assert not executors._SHARED and pool not in executors._POOLS
     assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [0]
+
+
+def test_a_pool_let_go_is_ended_with_the_others():
+    """``let_go`` (the tolerance study's figure worker, once its figures are in) does not wait; the
+    command's end still bounds the wait for its worker (one left out of ``end_all_pools`` is seen)."""
+    pool = executors.process_pool(1)
+    assert pool.submit(never_ending_thread).result() == 1
+    workers = list(pool._processes.values())
+    executors.let_go(pool)
+    assert exit_code(workers[0], timeout=0.5) is None  # still exiting: not waited for
+    executors.end_all_pools(grace=0.5)
+    code = exit_code(workers[0], timeout=PROCESS_EXIT_S)
+    assert code is not None and code < 0, code
+
+
+def test_ending_a_pool_without_a_grace_waits_for_its_workers():
+    """``end_pool(pool)`` (grace inf) returns once the workers have ended, however long their exit takes
+    (two shutdowns in a row, as before, returned at once: the first forgets the manager thread)."""
+    pool = executors.process_pool(1)
+    pool.submit(slow_exit, 1.0).result()
+    workers = list(pool._processes.values())
+    executors.end_pool(pool)
+    assert [p.exitcode if p.exitcode is not None else exit_code(p, timeout=0.05) for p in workers] == [0]
