@@ -26,6 +26,7 @@ from dualmech.core.kernel.dynamics_nb import required_wrench
 from dualmech.core.kernel.rates_nb import solve_rates
 from dualmech.core.kernel.universal_nb import universal_motion
 from dualmech.models.slider_crank_nb import (
+    FINE_SPAN,
     Rules,
     Scratch,
     close_reachable,
@@ -276,7 +277,9 @@ def _close(
     if warm:
         speed = crank[2, i - 1]
         step = (crank[0, i] - crank[0, i - 1]) / speed if speed != 0.0 else 0.0
-        accepted, it, residual = warm_start(fl, rules, g, step, w, sc)
+        fine = abs(crank[0, i] - crank[0, i - 1]) <= FINE_SPAN and speed != 0.0
+        bend = crank[4, i - 1] / speed if fine else np.nan
+        accepted, it, residual = warm_start(fl, rules, g, step, bend, w, sc)
     if accepted:
         return rules.codes[0], it, residual, True
     word, more, residual = close_reachable(fl, rules, g, w, sc)
