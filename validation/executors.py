@@ -115,8 +115,8 @@ def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
 
 #: Every pool :func:`process_pool` made that is still referenced somewhere and not shut down yet.
 _POOLS: weakref.WeakSet[cf.ProcessPoolExecutor] = weakref.WeakSet()
-#: Workers of the pools :func:`let_go` shut down, for :func:`end_all_pools` to wait for.
-_LEAVING: list[Any] = []
+#: What the pools :func:`let_go` shut down left running (:func:`_shut`), for :func:`end_all_pools`.
+_LEAVING: list[tuple[list[Any], Any]] = []
 _SHARED: dict[int, cf.ProcessPoolExecutor] = {}
 
 
@@ -151,39 +151,47 @@ def end_all_pools(grace: float = EXIT_GRACE_S) -> None:
     from ever exiting, and with it the output still in its buffers.
     """
     _SHARED.clear()
-    workers = [*_LEAVING, *(w for pool in list(_POOLS) for w in _shut(pool))]
+    shut = [*_LEAVING, *(_shut(pool) for pool in list(_POOLS))]
     _LEAVING.clear()
-    _end_workers(workers, grace)
+    _end(shut, grace)
 
 
 def end_pool(pool: cf.ProcessPoolExecutor, *, grace: float = math.inf) -> None:
     """End ``pool``: tasks not started are cancelled, running ones and the workers' own exit get
     ``grace`` seconds (``0``: none; ``inf``: as long as they take), and every worker still there after
     that is ended by a signal (SIGTERM, then SIGKILL after :data:`KILL_AFTER_S`)."""
-    _end_workers(_shut(pool), grace)
+    _end([_shut(pool)], grace)
 
 
 def let_go(pool: cf.ProcessPoolExecutor) -> None:
     """Shut ``pool`` down without waiting (tasks not started are cancelled; its workers finish the
     running ones and exit while this process goes on); :func:`end_all_pools` waits for them."""
-    _LEAVING.extend(_shut(pool))
+    _LEAVING.append(_shut(pool))
 
 
-def _shut(pool: cf.ProcessPoolExecutor) -> list[Any]:
-    """Shut ``pool`` down without waiting, tasks not started cancelled; its worker processes."""
+def _shut(pool: cf.ProcessPoolExecutor) -> tuple[list[Any], Any]:
+    """Shut ``pool`` down without waiting, tasks not started cancelled; its worker processes and its
+    manager thread (``shutdown`` forgets both)."""
     _POOLS.discard(pool)
-    workers = list((getattr(pool, "_processes", None) or {}).values())  # shutdown forgets them
+    workers = list((getattr(pool, "_processes", None) or {}).values())
+    manager = getattr(pool, "_executor_manager_thread", None)
     pool.shutdown(wait=False, cancel_futures=True)
-    return workers
+    return workers, manager
 
 
-def _end_workers(workers: list[Any], grace: float) -> None:
-    """Wait up to ``grace`` seconds for ``workers`` to end; signal those left (SIGTERM, then SIGKILL)."""
-    left = _running_after(workers, grace)
+def _end(shut: list[tuple[list[Any], Any]], grace: float) -> None:
+    """Wait up to ``grace`` seconds for the workers of the pools ``shut`` (:func:`_shut`) to end, signal
+    those left (SIGTERM, then SIGKILL), then let each pool's manager thread finish: it closes the pool's
+    pipes (left running into the interpreter's exit, its wake-up pipe was once written after its file
+    descriptor had gone: "OSError: [Errno 9] Bad file descriptor" after the main job in CI)."""
+    left = _running_after([w for workers, _ in shut for w in workers], grace)
     for proc in left:
         proc.terminate()
     for proc in _running_after(left, KILL_AFTER_S):
         proc.kill()
+    for _, manager in shut:
+        if manager is not None:
+            manager.join(KILL_AFTER_S)
 
 
 def _running_after(workers: list[Any], seconds: float) -> list[Any]:

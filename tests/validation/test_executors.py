@@ -98,8 +98,10 @@ def test_end_all_pools_waits_for_every_worker_that_exits_by_itself():
     first.result()
     workers = list(pool._processes.values())
     assert len(workers) == 2 and slow in pool._processes
+    manager = pool._executor_manager_thread
     executors.end_all_pools(grace=executors.EXIT_GRACE_S)
     assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [0, 0]
+    assert not manager.is_alive()  # its pipes closed: nothing left for the interpreter's exit
 
 
 def test_a_grace_that_ends_at_the_first_exit_is_seen(monkeypatch):
