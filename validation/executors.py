@@ -41,6 +41,8 @@ DASK_POLL_S = 2.0
 DASK_NO_WORKER_S = 30.0
 #: How long (s) to wait for a Dask scheduler to answer at the start.
 DASK_CONNECT_S = 30.0
+#: How long (s) the results of finished Dask tasks may take to arrive (each poll's; those kept at the end).
+DASK_RESULT_S = 30.0
 #: A Dask scheduler address: ``tcp://host:port`` (also ``tls://``), or ``host:port``.
 ADDRESS = re.compile(r"^(?:(?:tcp|tls)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):\d{1,5}$")
 
@@ -254,21 +256,39 @@ def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,
         while pending:
             try:
                 done, pending = wait(pending, timeout=DASK_POLL_S, return_when="FIRST_COMPLETED")
-                entries = [(fut, fut.result()) for fut in done]  # run_task never raises: the cluster did
             except TimeoutError:  # nothing finished within the poll interval
-                entries = []
+                done = set()
             except Exception as err:  # futures cancelled by a lost scheduler, a killed worker, ...
                 raise ClusterLost(f"Dask: the cluster at {address} failed ({type(err).__name__}); "
                                   "finished cases are kept (re-run with --resume)") from None
+            try:  # run_task never raises: an error here is the cluster's
+                entries = [(fut, fut.result(timeout=DASK_RESULT_S)) for fut in done]
+            except Exception as err:  # a finished result its lost worker can no longer send, ...
+                raise ClusterLost(f"Dask: the cluster at {address} failed ({type(err).__name__}, fetching a "
+                                  "result); finished cases are kept (re-run with --resume)") from None
             for fut, entry in entries:
                 yield entry
                 handed.add(fut)
             alone_since = _check_cluster(client, alone_since)
     finally:
-        leftovers.extend(_finished(futures, handed))
+        leftovers.extend(_fetched(futures, handed, DASK_RESULT_S))
         with contextlib.suppress(Exception):  # best-effort clean-up of a cluster that may be gone
             client.cancel(futures)
             client.close(timeout=5)
+
+
+def _fetched(futures: list[Any], handed: set[Any], seconds: float) -> list[dict]:
+    """The results of the Dask ``futures`` that finished and were not handed out, fetched within
+    ``seconds`` in all: a result whose worker is gone may never arrive (seen with distributed
+    2024.1: ``result()`` of a finished future waited forever after the cluster lost its workers)."""
+    deadline = time.monotonic() + seconds
+    out = []
+    for f in futures:
+        if f in handed or f.status != "finished":
+            continue
+        with contextlib.suppress(Exception):  # not fetched in time, or lost with its worker
+            out.append(f.result(timeout=max(deadline - time.monotonic(), 0.1)))
+    return out
 
 
 def _check_cluster(client: Any, alone_since: float | None) -> float | None:
