@@ -79,6 +79,10 @@ class Case:
         (:meth:`~dualmech.core.motion.CrankMotion.at`)."""
         return self.motion.at(self.geometry.crank_axial_shift, theta, theta_dot, theta_ddot)
 
+    def own_crank_states(self) -> CrankState:
+        """The crank states of the case's own motion: its angles, speed, acceleration and axial law."""
+        return self.motion.state(self.geometry.crank_axial_shift)
+
     @property
     def is_planar(self) -> bool:
         """``S1 = 0`` at every position and the slider line in the crank plane (``cos alpha4 = 0``)."""

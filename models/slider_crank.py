@@ -159,8 +159,7 @@ def iter_analyses(cases: Sequence[Case], cranks: Sequence[CrankState] | None = N
     size (plus the case list) however many positions there are in all.
     """
     def crank(i: int) -> CrankState:
-        c = cases[i]
-        return c.motion.state(c.geometry.crank_axial_shift) if cranks is None else cranks[i]
+        return cases[i].own_crank_states() if cranks is None else cranks[i]
 
     group: list[int] = []
     size = 0

@@ -287,8 +287,7 @@ def solve_cases(cases: Sequence[Case], chunk_positions: int = CHUNK_POSITIONS,
     chunk's tables share (not copied again per case and column).
     """
     def crank(i: int) -> CrankState:
-        c = cases[i]
-        return c.motion.state(c.geometry.crank_axial_shift) if cranks is None else cranks[i]
+        return cases[i].own_crank_states() if cranks is None else cranks[i]
 
     tables: list[ResultTable] = []
     group: list[int] = []

@@ -22,15 +22,7 @@ import numpy as np
 from numba import njit
 
 from dualmech.core.kernel import depends_on_kernel
-from dualmech.core.kernel.closure_nb import (
-    NO_ASSEMBLY,
-    NOT_CONVERGED,
-    OK,
-    ClosureTols,
-    Work,
-    newton,
-    retract,
-)
+from dualmech.core.kernel.closure_nb import NO_ASSEMBLY, NOT_CONVERGED, OK, ClosureTols, Work, newton, retract
 from dualmech.core.kernel.dfp_nb import solve_closure
 from dualmech.core.kernel.dual_nb import ALLOC, INLINE, JIT, copy, tmul
 from dualmech.core.kernel.loop_nb import FlatLoop, closure_residual, evaluate, frame_origin, length_scale

@@ -275,10 +275,9 @@ def _close(
     Returns (status code, iterations, residual, whether the warm start was accepted)."""
     accepted, it, residual = False, 0, 0.0
     if warm:
-        speed = crank[2, i - 1]
-        step = (crank[0, i] - crank[0, i - 1]) / speed if speed != 0.0 else 0.0
-        fine = abs(crank[0, i] - crank[0, i - 1]) <= FINE_SPAN and speed != 0.0
-        bend = crank[4, i - 1] / speed if fine else np.nan
+        speed, turn = crank[2, i - 1], crank[0, i] - crank[0, i - 1]
+        step = turn / speed if speed != 0.0 else 0.0
+        bend = crank[4, i - 1] / speed if speed != 0.0 and abs(turn) <= FINE_SPAN else np.nan
         accepted, it, residual = warm_start(fl, rules, g, step, bend, w, sc)
     if accepted:
         return rules.codes[0], it, residual, True

@@ -44,7 +44,7 @@ def dead_centres(cases: list[Case], iterations: int = 48) -> list[np.ndarray]:
     grid; each bisection step is one batched in-house analysis of all brackets.
     """
     lo_parts, hi_parts, owner_parts, exact = [], [], [], []
-    cranks = [c.motion.state(c.geometry.crank_axial_shift) for c in cases]
+    cranks = [c.own_crank_states() for c in cases]
     for i, (crank, table) in enumerate(zip(cranks, solve_cases(cases, cranks=cranks))):
         t, th = table.columns["transmission"], crank.theta
         exact.append(np.degrees(th[t == 0.0]))
@@ -88,7 +88,7 @@ def stroke_of(cases: list[Case], newton_steps: int = 6) -> list[dict[str, Any]]:
     """
     grid = [c.with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 1.0}}) for c in cases]
     rows, todo = [], []
-    cranks = [c.motion.state(c.geometry.crank_axial_shift) for c in grid]
+    cranks = [c.own_crank_states() for c in grid]
     for case, crank, table in zip(cases, cranks, solve_cases(grid, cranks=cranks)):
         ok = is_status(table.status, *RATES_GIVEN)
         s4 = table.columns["S4"]

@@ -15,6 +15,7 @@ import sys
 import textwrap
 import threading
 import time
+from typing import Any
 
 import pytest
 from click.testing import CliRunner
@@ -88,16 +89,22 @@ def slow_exit(seconds: float) -> int:
     return os.getpid()
 
 
-def test_end_all_pools_waits_for_every_worker_that_exits_by_itself():
-    """Workers that exit within the grace are not signalled, also when one exits well after the other
-    (a wait that ends at the first exit, and then signals the rest, is seen below)."""
+def _two_workers_one_slow() -> tuple[Any, int]:
+    """A shared pool of two started workers, one of whose exit takes 1 s longer; (pool, its pid)."""
     executors.end_shared_pool()
     pool = executors.shared_pool(2)
     first = pool.submit(time.sleep, 0.5)  # both workers busy at once: both started
     slow = pool.submit(slow_exit, 1.0).result()
     first.result()
+    assert len(pool._processes) == 2 and slow in pool._processes
+    return pool, slow
+
+
+def test_end_all_pools_waits_for_every_worker_that_exits_by_itself():
+    """Workers that exit within the grace are not signalled, also when one exits well after the other
+    (a wait that ends at the first exit, and then signals the rest, is seen below)."""
+    pool, _ = _two_workers_one_slow()
     workers = list(pool._processes.values())
-    assert len(workers) == 2 and slow in pool._processes
     manager = pool._executor_manager_thread
     executors.end_all_pools(grace=executors.EXIT_GRACE_S)
     assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [0, 0]
@@ -110,11 +117,7 @@ def test_a_grace_that_ends_at_the_first_exit_is_seen(monkeypatch):
 
     wait = multiprocessing.connection.wait  # one wait: it returns at the first sentinel ready
 
-    executors.end_shared_pool()
-    pool = executors.shared_pool(2)
-    first = pool.submit(time.sleep, 0.5)
-    slow = pool.submit(slow_exit, 1.0).result()
-    first.result()
+    pool, slow = _two_workers_one_slow()
     workers = dict(pool._processes)
     monkeypatch.setattr(executors, "_running_after", lambda left, seconds: [
         p for p in left if p.sentinel not in wait([q.sentinel for q in left], seconds)])
@@ -157,4 +160,4 @@ def test_ending_a_pool_without_a_grace_waits_for_its_workers():
     pool.submit(slow_exit, 1.0).result()
     workers = list(pool._processes.values())
     executors.end_pool(pool)
-    assert [p.exitcode if p.exitcode is not None else exit_code(p, timeout=0.05) for p in workers] == [0]
+    assert [exit_code(p, timeout=0.05) for p in workers] == [0]  # at once: the exit code is there
