@@ -171,10 +171,14 @@ def status_codes(words: np.ndarray) -> np.ndarray:
     return np.array([STATUSES.index(w) for w in found], dtype=np.int8)[inverse.reshape(-1)]
 
 
-#: Rows copied at a time when a chunk's columns are gathered into the writer's column-major buffer: a
-#: block of a row-major ``(n, 31)`` buffer stays in cache while its 31 columns are copied out (about half
-#: the time of copying whole columns, measured on 100,000 rows).
-COPY_ROWS = 4096
+def _float_columns(columns: dict[str, np.ndarray], n: int) -> list[np.ndarray]:
+    """The :data:`NUMERIC_COLUMNS` of ``columns`` as contiguous float64 arrays ``(n,)`` (copied only if
+    they are not already)."""
+    data = [np.ascontiguousarray(columns[c], dtype=np.float64) for c in NUMERIC_COLUMNS]
+    for name, col in zip(NUMERIC_COLUMNS, data):
+        if col.shape != (n,):
+            raise ValueError(f"columns[{name!r}]: expected shape ({n},), got {col.shape}")
+    return data
 
 
 class ParquetWriter:
@@ -183,9 +187,10 @@ class ParquetWriter:
     The columns are :data:`COLUMNS` (the contract of :meth:`ResultTable.to_csv`): the numeric
     ones as float64 (plain encoding: a dictionary of distinct floats costs time and does not shrink
     the file), ``status`` dictionary-encoded over :data:`STATUSES`; snappy, with min/max statistics.
-    Use as a context manager; memory is bounded by one row group (the columns are copied into one
-    reused ``(31, n)`` buffer and handed to pyarrow without another copy).  :meth:`write` and
-    :meth:`close` may be called from different threads: a close waits for a write in progress.
+    Use as a context manager; memory is bounded by one row group.  A contiguous float64 column (as the
+    kernel gives them: rows of one ``(31, n)`` array) is handed to pyarrow as it is, without a copy;
+    any other is copied first.  :meth:`write` and :meth:`close` may be called from different threads:
+    a close waits for a write in progress.
     """
 
     def __init__(self, path: str | Path) -> None:
@@ -199,7 +204,6 @@ class ParquetWriter:
         self._writer = pq.ParquetWriter(
             str(path), self.schema, compression="snappy", use_dictionary=["status"]
         )
-        self._rows = np.empty((len(NUMERIC_COLUMNS), 0))
         self._lock = threading.Lock()
 
     def write(self, columns: dict[str, np.ndarray], codes: np.ndarray) -> None:
@@ -207,24 +211,10 @@ class ParquetWriter:
         (:func:`status_codes`)."""
         pa = self._pa
         with self._lock:
-            rows = self._gather(columns, np.asarray(codes).shape[0])
+            rows = _float_columns(columns, np.asarray(codes).shape[0])
             status = pa.DictionaryArray.from_arrays(pa.array(codes, type=pa.int8()), self._dictionary)
             arrays = [pa.array(row) for row in rows] + [status]  # contiguous float64: no copy
             self._writer.write_table(pa.Table.from_arrays(arrays, schema=self.schema))
-
-    def _gather(self, columns: dict[str, np.ndarray], n: int) -> np.ndarray:
-        """The :data:`NUMERIC_COLUMNS` of ``columns`` as float64 rows of the reused buffer, ``(31, n)``."""
-        data = [np.asarray(columns[c]) for c in NUMERIC_COLUMNS]
-        for name, col in zip(NUMERIC_COLUMNS, data):
-            if col.shape != (n,):
-                raise ValueError(f"columns[{name!r}]: expected shape ({n},), got {col.shape}")
-        if self._rows.shape[1] < n:
-            self._rows = np.empty((len(NUMERIC_COLUMNS), n))
-        rows = self._rows[:, :n]
-        for lo in range(0, n, COPY_ROWS):
-            for row, col in zip(rows, data):
-                row[lo : lo + COPY_ROWS] = col[lo : lo + COPY_ROWS]
-        return rows
 
     def close(self) -> None:
         with self._lock:

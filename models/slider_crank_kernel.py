@@ -149,7 +149,7 @@ NO_ASSEMBLY = STATUSES.index(Status.NO_ASSEMBLY)
 class Chunk:
     """The kernel's answer for consecutive positions of one or more cases (arrays ``(n,)``).
 
-    ``columns`` maps every name of :data:`OUT_COLUMNS` to a column (a strided view) of one ``(n, 31)`` array;
+    ``columns`` maps every name of :data:`OUT_COLUMNS` to a row (contiguous) of one ``(31, n)`` array;
     ``status`` holds codes into :data:`WORDS`; ``iterations`` closure iterations;
     ``dynamics_residual`` the Newton-Euler residual (NaN where the reactions are not given).
     """
@@ -203,7 +203,7 @@ def analyze_chunk(
 ) -> Chunk:
     """Analyse the positions ``cranks[i]`` of every ``cases[i]``, concatenated, with the compiled kernel.
 
-    ``out`` ``(>= n, len(OUT_COLUMNS))``: a buffer to reuse (its first ``n`` rows are written).
+    ``out`` ``(len(OUT_COLUMNS), >= n)``: a buffer to reuse (its first ``n`` columns are written).
     """
     counts = [len(c) for c in cranks]
     crank = np.empty((6, sum(counts)))
@@ -229,19 +229,19 @@ def analyze_positions(
     (a1, a2, a4, alpha4 [rad]) and of each array of ``bodies`` (the layout of :func:`case_arrays`:
     masses ``(designs, 3)``, centres of mass ``(designs, 3, 3)``, inertias ``(designs, 3, 3, 3)``
     of crank, rod and slider, gravity ``(designs, 3)``, given drive torque and slider load
-    ``(designs,)``, NaN where not given).  ``out``: a ``(>= n, len(OUT_COLUMNS))`` buffer to reuse.
+    ``(designs,)``, NaN where not given).  ``out``: a ``(len(OUT_COLUMNS), >= n)`` buffer to reuse.
     ``index`` ``(n,)``: each position's index in its design (default: from its run's start), which
     fixes the cold starts (:func:`chain_starts`); a run that does not begin at a multiple of
     :data:`WARM_CHAIN` starts cold there, so its bits may differ from the whole design's.
     """
     fl, rules = _setup()
     n = crank.shape[1]
-    if out is None or out.shape[0] < n:
-        out = np.empty((n, len(OUT_COLUMNS)))
-    out = out[:n]
+    if out is None or out.shape[1] < n:
+        out = np.empty((len(OUT_COLUMNS), n))
+    out = out[:, :n]
     status, iters, dyn = np.empty(n, np.int8), np.empty(n, np.int64), np.empty(n)
     _run(n, fl, rules, (crank, case_of, geo, bodies, out, status, iters, dyn, chain_starts(case_of, index)))
-    return Chunk(dict(zip(OUT_COLUMNS, out.T)), status, iters, dyn)
+    return Chunk(dict(zip(OUT_COLUMNS, out)), status, iters, dyn)
 
 
 def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1) -> Iterator[Chunk]:
@@ -258,7 +258,7 @@ def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1) -> Iterator[
     chunk_positions = chain_aligned(chunk_positions)
     rows = min(chunk_positions, max(1, angles.size))
     chunks = -(-angles.size // chunk_positions)
-    pool = [np.empty((rows, len(OUT_COLUMNS))) for _ in range(max(1, min(buffers, chunks)))]
+    pool = [np.empty((len(OUT_COLUMNS), rows)) for _ in range(max(1, min(buffers, chunks)))]
     for k, lo in enumerate(range(0, angles.size, chunk_positions)):
         crank = case.motion.state(case.geometry.crank_axial_shift, angles[lo : lo + chunk_positions])
         yield analyze_chunk([case], [crank], pool[k % len(pool)])

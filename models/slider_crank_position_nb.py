@@ -302,12 +302,12 @@ def _position(
     dyn: np.ndarray,
     warm: bool,
 ) -> bool:
-    """Analyse position ``i`` into row ``i`` of ``out``, with its status code, iterations and
+    """Analyse position ``i`` into column ``i`` of ``out``, with its status code, iterations and
     dynamics residual; ``warm``: whether position ``i - 1`` left a closed state and its rates in
     ``sc``, ``w`` to start from.  Returns whether position ``i`` leaves them for ``i + 1``."""
     c = case_of[i]
     g = (crank[0, i], crank[1, i], geo[c, 0], geo[c, 1], geo[c, 2], geo[c, 3])
-    col = out[i]
+    col = out[:, i]
     col[:] = np.nan
     col[_THETA], col[_S1] = math.degrees(g[0]), g[1]
     rho, foot = reach_and_foot(g)
@@ -373,8 +373,8 @@ def analyze_range(
     universal (0: ball); ``bodies``: per
     case the masses ``(cases, 3)``, centres of mass ``(cases, 3, 3)``, inertias ``(cases, 3, 3, 3)``
     of crank, rod and slider, gravity ``(cases, 3)``, the given drive torque and slider load
-    ``(cases,)`` (NaN where not given); ``out`` ``(n, len(OUT_COLUMNS))`` (a row per position:
-    written where it is computed), ``status``,
+    ``(cases,)`` (NaN where not given); ``out`` ``(len(OUT_COLUMNS), n)`` (a column per position, written
+    where it is computed: each output is then one contiguous row, what a writer takes as it is), ``status``,
     ``iters``, ``dyn`` ``(n,)``; ``cold`` ``(n,)`` bool: the positions that start cold
     (:func:`~dualmech.models.slider_crank_kernel.chain_starts`; ``lo`` must be one); ``w``, ``sc``:
     this thread's scratch (:func:`~dualmech.models.slider_crank_kernel._scratch`).

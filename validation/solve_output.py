@@ -102,6 +102,17 @@ def _pipelined(chunks: Iterable[Chunk], sink: Callable[[int, Chunk], None]) -> N
             pending.result()
 
 
+def _remove_old_file(path: Path) -> None:
+    """Remove a regular file (not a link) at ``path`` before it is written anew.
+
+    Rewritten in place (truncated), a file is written back to disk when it is closed: ext4 does so
+    (``auto_da_alloc``) to protect a replaced file's data, and the close of a 2·10⁶-row Parquet file
+    then took 0.16-0.21 s, a tenth of the whole solve.  A new file's pages go to disk in the background.
+    """
+    if path.is_file() and not path.is_symlink():
+        path.unlink()
+
+
 def stream_solve(case: Case, path: str | Path) -> str:
     """Solve ``case`` with the compiled in-house engine chunk by chunk into ``path``; return the summary.
 
@@ -112,6 +123,7 @@ def stream_solve(case: Case, path: str | Path) -> str:
     from dualmech.models.slider_crank_kernel import CHUNK_POSITIONS, iter_chunks, to_table
 
     parquet = output_format(path) == ".parquet"
+    _remove_old_file(Path(path))
     tally = _Tally()
     with ParquetWriter(path) if parquet else Path(path).open("w") as out:
 

@@ -162,7 +162,7 @@ def analyse_designs(designs: DesignArrays, mode: str,
     m, p = len(designs), designs.angles_deg.size
     per_block = max(1, chunk_positions // max(p, 1))
     step = min(p, chain_aligned(chunk_positions))  # a split begins a chain of warm starts
-    buffer = np.empty((min(per_block * p, max(step, 1)), len(OUT_COLUMNS)))
+    buffer = np.empty((len(OUT_COLUMNS), min(per_block * p, max(step, 1))))
     reduction = DesignReduction(m, mode)
     names = needed_columns(mode)
     for d0 in range(0, m, per_block):

@@ -1,11 +1,10 @@
 """``core/table.ParquetWriter``: what it writes reads back bit for bit, in the file's agreed encodings.
 
-The writer gathers each row group's columns into one reused column-major buffer (blocks of
-:data:`~dualmech.core.table.COPY_ROWS` rows) and hands it to pyarrow without another copy; the
-float columns are written plain (no dictionary), ``status`` dictionary-encoded, snappy, with
-statistics.  Deliberate faults these tests were seen to catch (each made by hand in a scratch edit,
-then undone): the last partial block of rows left uncopied (``range(0, n // COPY_ROWS * COPY_ROWS,
-...)``); pyarrow's default ``use_dictionary=True``; ``close`` without the lock.
+The writer hands contiguous float64 columns (the kernel's: rows of one ``(31, n)`` array) to pyarrow
+as they are and copies any other (strided views, other dtypes) first; both kinds are written here.  The
+float columns are written plain (no dictionary), ``status`` dictionary-encoded, snappy, with statistics.
+Deliberate faults these tests were seen to catch (each made by hand in a scratch edit, then undone):
+pyarrow's default ``use_dictionary=True``; ``close`` without the lock.
 """
 
 from __future__ import annotations
@@ -19,9 +18,9 @@ import pytest
 from dualmech.core import table
 from dualmech.core.table import NUMERIC_COLUMNS, STATUSES, ParquetWriter, read_parquet, status_codes
 
-#: Row groups of uneven sizes: several blocks of COPY_ROWS with a partial one, one row, a smaller
-#: group after a larger one (the reused buffer is cut, not reallocated).
-GROUPS = (2 * table.COPY_ROWS + 17, 1, 300)
+#: Row groups of uneven sizes, each from a column-major buffer (contiguous rows, as the kernel gives them)
+#: and from a row-major one (strided columns): one row, a smaller group after a larger one.
+GROUPS = (8209, 1, 300, 5000)
 
 
 def _rows(n: int, seed: int) -> np.ndarray:
@@ -37,15 +36,17 @@ def _rows(n: int, seed: int) -> np.ndarray:
 
 
 def _write_groups(path) -> tuple[np.ndarray, np.ndarray]:
-    """Write :data:`GROUPS` as row groups, each from the strided column views of one ``(n, 31)`` buffer
-    (as the kernel gives them); return all rows ``(N, 31)`` and status words ``(N,)``."""
+    """Write :data:`GROUPS` as row groups, alternately from the contiguous rows of one ``(31, n)`` buffer
+    (as the kernel gives them) and from the strided column views of an ``(n, 31)`` one; return all rows
+    ``(N, 31)`` and status words ``(N,)``."""
     rng = np.random.default_rng(1)
     all_rows, all_words = [], []
     with ParquetWriter(path) as writer:
         for k, n in enumerate(GROUPS):
             rows = _rows(n, k)
             words = rng.choice(np.array(STATUSES, dtype=object), size=n)
-            writer.write(dict(zip(NUMERIC_COLUMNS, rows.T)), status_codes(words))
+            columns = rows.T.copy() if k % 2 == 0 else rows.T
+            writer.write(dict(zip(NUMERIC_COLUMNS, columns)), status_codes(words))
             all_rows.append(rows.copy())
             all_words.append(words)
     return np.concatenate(all_rows), np.concatenate(all_words)

@@ -125,3 +125,21 @@ def test_an_interrupted_run_leaves_the_finished_chunks(monkeypatch, tmp_path, su
         solve_output.stream_solve(case, tmp_path / f"s.{suffix}")
     read = read_parquet if suffix == "parquet" else read_csv
     _same_rows(read(tmp_path / f"s.{suffix}"), whole, 2 * CHUNK)
+
+
+@pytest.mark.parametrize("suffix", ["parquet", "csv"])
+def test_an_old_file_is_replaced_and_a_link_written_through(monkeypatch, tmp_path, suffix: str) -> None:
+    """An existing file at the output path, longer than the new one, is replaced (it is removed first:
+    ext4 writes a truncated file back when it is closed); a symbolic link is written through, not
+    replaced by a file of its own."""
+    case, whole = _case(monkeypatch)
+    old, target, link = (tmp_path / f"{name}.{suffix}" for name in ("old", "target", "link"))
+    for path in (old, target):
+        path.write_bytes(b"x" * 1_000_000)
+    link.symlink_to(target)
+    for path in (old, link):
+        solve_output.stream_solve(case, path)
+    read = read_parquet if suffix == "parquet" else read_csv
+    _same_rows(read(old), whole, len(whole))
+    assert link.is_symlink()
+    _same_rows(read(target), whole, len(whole))
