@@ -80,7 +80,9 @@ def chain_starts(case_of: np.ndarray, index: np.ndarray | None = None) -> np.nda
     at = np.arange(n)
     first = np.ones(n, dtype=bool)
     first[1:] = case_of[1:] != case_of[:-1]
-    if index is None:
+    if index is None and (n == 0 or case_of[0] == case_of[-1]):  # one run: its positions count from 0
+        index = at
+    elif index is None:
         index = at - np.maximum.accumulate(np.where(first, at, 0))
     return first | (index % WARM_CHAIN == 0)
 
@@ -259,9 +261,18 @@ def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1) -> Iterator[
     rows = min(chunk_positions, max(1, angles.size))
     chunks = -(-angles.size // chunk_positions)
     pool = [np.empty((len(OUT_COLUMNS), rows)) for _ in range(max(1, min(buffers, chunks)))]
-    for k, lo in enumerate(range(0, angles.size, chunk_positions)):
-        crank = case.motion.state(case.geometry.crank_axial_shift, angles[lo : lo + chunk_positions])
-        yield analyze_chunk([case], [crank], pool[k % len(pool)])
+
+    def crank(lo: int) -> CrankState:
+        return case.motion.state(case.geometry.crank_axial_shift, angles[lo : lo + chunk_positions])
+
+    # each chunk's crank states are made on a helper thread while the kernel analyses the one before
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="dualmech-crank") as helper:
+        starts = range(0, angles.size, chunk_positions)
+        ahead = helper.submit(crank, 0) if chunks else None
+        for k, lo in enumerate(starts):
+            states = ahead.result()
+            ahead = helper.submit(crank, lo + chunk_positions) if k + 1 < chunks else None
+            yield analyze_chunk([case], [states], pool[k % len(pool)])
 
 
 def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
