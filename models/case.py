@@ -79,9 +79,10 @@ class Case:
         (:meth:`~dualmech.core.motion.CrankMotion.at`)."""
         return self.motion.at(self.geometry.crank_axial_shift, theta, theta_dot, theta_ddot)
 
-    def own_crank_states(self) -> CrankState:
-        """The crank states of the case's own motion: its angles, speed, acceleration and axial law."""
-        return self.motion.state(self.geometry.crank_axial_shift)
+    def own_crank_states(self, angles_deg: np.ndarray | None = None) -> CrankState:
+        """The crank states of the case's own motion (speed, acceleration and axial law) at its angles, or
+        at ``angles_deg``."""
+        return self.motion.state(self.geometry.crank_axial_shift, angles_deg)
 
     @property
     def is_planar(self) -> bool:

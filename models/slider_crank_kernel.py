@@ -77,13 +77,11 @@ def chain_starts(case_of: np.ndarray, index: np.ndarray | None = None) -> np.nda
     every :data:`WARM_CHAIN` of a case's positions (``index``: their indices in the case; default:
     counted from the run's first)."""
     n = case_of.size
-    at = np.arange(n)
     first = np.ones(n, dtype=bool)
     first[1:] = case_of[1:] != case_of[:-1]
-    if index is None and (n == 0 or case_of[0] == case_of[-1]):  # one run: its positions count from 0
-        index = at
-    elif index is None:
-        index = at - np.maximum.accumulate(np.where(first, at, 0))
+    if index is None:  # each position less the first of its run
+        starts = np.flatnonzero(first)
+        index = np.arange(n) - np.repeat(starts, np.diff(np.append(starts, n)))
     return first | (index % WARM_CHAIN == 0)
 
 
@@ -263,15 +261,15 @@ def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1) -> Iterator[
     pool = [np.empty((len(OUT_COLUMNS), rows)) for _ in range(max(1, min(buffers, chunks)))]
 
     def crank(lo: int) -> CrankState:
-        return case.motion.state(case.geometry.crank_axial_shift, angles[lo : lo + chunk_positions])
+        return case.own_crank_states(angles[lo : lo + chunk_positions])
 
     # each chunk's crank states are made on a helper thread while the kernel analyses the one before
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="dualmech-crank") as helper:
-        starts = range(0, angles.size, chunk_positions)
-        ahead = helper.submit(crank, 0) if chunks else None
-        for k, lo in enumerate(starts):
+        ahead = helper.submit(crank, 0)
+        for k, lo in enumerate(range(0, angles.size, chunk_positions)):
             states = ahead.result()
-            ahead = helper.submit(crank, lo + chunk_positions) if k + 1 < chunks else None
+            if lo + chunk_positions < angles.size:
+                ahead = helper.submit(crank, lo + chunk_positions)
             yield analyze_chunk([case], [states], pool[k % len(pool)])
 
 
