@@ -17,6 +17,7 @@ from typing import Any, Callable
 from dualmech.models.design_summary import JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION
 from dualmech.validation import derived, runner
 from dualmech.validation.compare import Check, Comparison, compare_run
+from dualmech.validation.executors import shared_pool
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.provenance import key_versions
 from dualmech.validation.report.figures import start_figures
@@ -150,14 +151,19 @@ def write_report(
     with locked(outdir if outdir is not None else rundir) as outdir:
         balance = _section("balancing", derived.balancing, matrix)
         shaking = _section("balancing", balancing_spec, balance)
-        # the workers draw the figures while this process computes the sections beside them
+        # the thesis's findings (only its) and the figures in the workers, the findings first: they solve
+        # with the compiled kernel, which a worker of the run has loaded already (this process has not)
+        finding = shared_pool(jobs).submit(derived.findings) if matrix.of_thesis and jobs > 1 else None
         pending = _section("figures", start_figures, matrix, results, comparison, jobs=jobs,
                            extra=(shaking,) if shaking is not None else ())
         try:
-            find = _section("findings", derived.findings) if matrix.of_thesis else None  # the thesis's only
+            find = (_section("findings", finding.result if finding else derived.findings)
+                    if matrix.of_thesis else None)
             figures = _section("figures", pending.collect, progress)
         finally:
             pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
+            if finding is not None:
+                finding.cancel()
         paths = _write_figures(outdir, figures)
         context = _context(matrix, run, results, comparison, figures)
         context.update(
