@@ -151,19 +151,7 @@ def write_report(
     with locked(outdir if outdir is not None else rundir) as outdir:
         balance = _section("balancing", derived.balancing, matrix)
         shaking = _section("balancing", balancing_spec, balance)
-        # the thesis's findings (only its) and the figures in the workers, the findings first: they solve
-        # with the compiled kernel, which a worker of the run has loaded already (this process has not)
-        finding = shared_pool(jobs).submit(derived.findings) if matrix.of_thesis and jobs > 1 else None
-        pending = _section("figures", start_figures, matrix, results, comparison, jobs=jobs,
-                           extra=(shaking,) if shaking is not None else ())
-        try:
-            find = (_section("findings", finding.result if finding else derived.findings)
-                    if matrix.of_thesis else None)
-            figures = _section("figures", pending.collect, progress)
-        finally:
-            pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
-            if finding is not None:
-                finding.cancel()
+        find, figures = _findings_and_figures(matrix, results, comparison, shaking, jobs, progress)
         paths = _write_figures(outdir, figures)
         context = _context(matrix, run, results, comparison, figures)
         context.update(
@@ -191,6 +179,25 @@ def write_report(
         runner.write_json_atomic(files.summary, comparison_summary(matrix, comparison, run), pretty=True)
         record_files(outdir, [files.html, files.markdown, files.summary])
     return replace(files, seconds=time.perf_counter() - start)
+
+
+def _findings_and_figures(matrix: Matrix, results: dict, comparison: Comparison, shaking: Any, jobs: int,
+                          progress: ProgressCallback | None) -> tuple[list[dict] | None, list[Figure]]:
+    """The thesis's findings (a thesis matrix's only, else ``None``) and every figure (``shaking``: the
+    balancing section's, if any), in the ``jobs`` workers, the findings first: they solve with the
+    compiled kernel, which a worker of the run has loaded already and this process has not."""
+    finding = shared_pool(jobs).submit(derived.findings) if matrix.of_thesis and jobs > 1 else None
+    pending = _section("figures", start_figures, matrix, results, comparison, jobs=jobs,
+                       extra=(shaking,) if shaking is not None else ())
+    try:
+        find = None
+        if matrix.of_thesis:
+            find = _section("findings", finding.result if finding else derived.findings)
+        return find, _section("figures", pending.collect, progress)
+    finally:
+        pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
+        if finding is not None:
+            finding.cancel()
 
 
 def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
