@@ -131,11 +131,27 @@ def polish(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState, steps: i
     return state
 
 
-def _newton(loop, inputs, state, active, iters, residual, max_iter):
+def refine(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState,
+           max_iter: int = 30) -> tuple[LoopState, np.ndarray, np.ndarray]:
+    """Newton from a closed ``state`` on to the rounding level: until a step no longer halves the residual.
+
+    Where the closure is ill-conditioned the unknowns carry the residual times its gain (the slider
+    crank near an edge of assembly: ``1/c``, accelerations ``1/c^3``), so the ``CLOSURE_TOL`` that
+    suffices elsewhere leaves digits there (``EDGE_REFINE_CONDITION`` in ``core/thresholds.py``).
+    Returns the state, the Newton iterations taken and the residual, per position.
+    """
+    n = state.scalars.shape[0]
+    active, iters, residual = np.ones(n, dtype=bool), np.zeros(n, dtype=int), np.full(n, np.inf)
+    state, _, iters, residual = _newton(loop, inputs, state, active, iters, residual, max_iter, tol=0.0)
+    return state, iters, residual
+
+
+def _newton(loop, inputs, state, active, iters, residual, max_iter, tol=CLOSURE_TOL):
     """Newton with step halving, one loop evaluation per iteration, over the active positions.
 
     A step that increases the residual is halved (up to 6 times) before a new
-    Newton step is taken from the accepted point.  Returns the updated state and
+    Newton step is taken from the accepted point; a position is closed at a residual
+    of ``tol`` (:func:`refine`: 0, on to the rounding level).  Returns the updated state and
     arrays; ``active`` ends true where Newton stalled or ran out of iterations.
     """
     n = active.shape[0]
@@ -152,7 +168,7 @@ def _newton(loop, inputs, state, active, iters, residual, max_iter):
         res = closure_residual(chain, loop)
         residual[idx] = res
         worse = (res > base_res[idx]) & (halvings[idx] < 6)
-        done = res <= CLOSURE_TOL
+        done = res <= tol
         # back off where the step made things worse
         back = idx[worse & ~done]
         if back.size:

@@ -35,6 +35,13 @@ JOINT_LOCK_CONDITION = Tolerance(
     math.sqrt(1.0 - 1e-4), "the rod within asin(1e-2) = 0.57 deg of the slider axis (the crank pin within "
     "a2/100 of the slider line): the rod's spin rate carries 1/sin, its rate and the reactions 1/sin^2, "
     "so 1e-2 keeps the margin of ASSEMBLY_LIMIT_CONDITION")
+#: Near an edge of assembly, in-house engine: a closed row whose geometric closure_condition
+#: sqrt(1 - (rho/a2)^2) is below this (and not below ASSEMBLY_LIMIT_CONDITION, where Newton has no
+#: regular root to go on to) is refined by Newton to the rounding level (core/closure.py ``refine``).
+EDGE_REFINE_CONDITION = Tolerance(
+    0.1, "S4 carries the closure residual times 1/c, S4_ddot ~1/c^3: at c = 0.025 the residual CLOSURE_TOL "
+    "(1e-14) left S4_ddot 3e-11 of its peak off the closed form; below c = 0.1 the closure goes on to "
+    "rounding (a row or two of a revolution near an edge, so its cost is not measurable)")
 #: Edge of reach, every engine: P2 farther than a2 from the slider line by more than this (relative to a2)
 #: is ``no_assembly``.
 ASSEMBLY_REACH = Tolerance(

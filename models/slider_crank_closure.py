@@ -15,11 +15,11 @@ import math
 import numpy as np
 
 from dualmech.core.assembly import on_branch
-from dualmech.core.closure import ClosureStatus, solve_closure
+from dualmech.core.closure import ClosureStatus, refine, solve_closure
 from dualmech.core.loop import LoopState, closure_residual, evaluate
 from dualmech.core.motion import CrankState
 from dualmech.core.status import Status
-from dualmech.core.thresholds import ASSEMBLY_REACH
+from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, EDGE_REFINE_CONDITION
 from dualmech.models.slider_crank_loop import CONTINUATION_STEPS, LOOP, Batch
 
 
@@ -134,6 +134,13 @@ def close_loop(batch: Batch) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndar
     if idx.size:
         sub_state, status[idx], iters[idx], residual[idx] = _close_reachable(batch.take(idx))
         state = state.put(idx, sub_state)
+    # near an edge of assembly (geometric c = sqrt(1 - rho^2) small), not at its limit: on to rounding
+    c2 = 1.0 - rho**2
+    edge = np.flatnonzero((status == Status.OK.value) & (c2 >= ASSEMBLY_LIMIT_CONDITION.value**2)
+                          & (c2 < EDGE_REFINE_CONDITION.value**2))
+    if edge.size:
+        sub_state, more, residual[edge] = refine(LOOP, batch.take(edge).inputs(), state.take(edge))
+        state, iters[edge] = state.put(edge, sub_state), iters[edge] + more
     return state, status, iters, residual
 
 

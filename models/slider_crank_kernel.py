@@ -110,7 +110,12 @@ def _setup() -> tuple[FlatLoop, Rules]:
     from dualmech.core.kernel.closure_nb import closure_tols
     from dualmech.core.kernel.loop_nb import value_names
     from dualmech.core.status import Status
-    from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, JOINT_LOCK_CONDITION
+    from dualmech.core.thresholds import (
+        ASSEMBLY_LIMIT_CONDITION,
+        ASSEMBLY_REACH,
+        EDGE_REFINE_CONDITION,
+        JOINT_LOCK_CONDITION,
+    )
     from dualmech.models import slider_crank_loop as sc
 
     names = value_names(sc.LOOP)
@@ -126,8 +131,11 @@ def _setup() -> tuple[FlatLoop, Rules]:
         Status.JOINT_LOCK,
     )
     codes = np.array([STATUSES.index(s.value) for s in order], dtype=np.int64)
+    tols = closure_tols()
     rules = Rules(
-        closure_tols(),
+        tols,
+        tols._replace(closure=0.0),
+        EDGE_REFINE_CONDITION.value,
         vidx,
         codes,
         ASSEMBLY_REACH.value,

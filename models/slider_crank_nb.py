@@ -47,10 +47,14 @@ class Rules(NamedTuple):
 
     ``vidx`` ``(6,)``: indices in ``vals`` of theta1, S1, a1, a2, a4, alpha4; ``codes``
     ``(8,)``: the codes of ok, dead_centre, assembly_limit, branch_jump, not_converged,
-    no_assembly, not_finite, joint_lock (positions in :data:`dualmech.core.status.STATUSES`).
+    no_assembly, not_finite, joint_lock (positions in :data:`dualmech.core.status.STATUSES`);
+    ``refine_tols`` those of :func:`dualmech.core.closure.refine` (closed at the rounding level), for rows
+    closer to an edge of assembly than ``refine_condition``.
     """
 
     tols: ClosureTols
+    refine_tols: ClosureTols
+    refine_condition: float
     vidx: np.ndarray
     codes: np.ndarray
     reach_tol: float

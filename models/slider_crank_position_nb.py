@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from dualmech.core.kernel import depends_on_kernel
-from dualmech.core.kernel.closure_nb import Work
+from dualmech.core.kernel.closure_nb import Work, newton
 from dualmech.core.kernel.dual_nb import INLINE, JIT, cross, dot
 from dualmech.core.kernel.dynamics_nb import required_wrench
 from dualmech.core.kernel.rates_nb import solve_rates
@@ -32,6 +32,7 @@ from dualmech.models.slider_crank_nb import (
     close_reachable,
     pins,
     reach_and_foot,
+    set_values,
     slider_line,
     warm_start,
 )
@@ -268,21 +269,28 @@ def _settle(rules: Rules, status: int, col: np.ndarray) -> int:
 
 @njit(**INLINE)
 def _close(
-    fl, rules: Rules, crank: np.ndarray, i: int, g: tuple, warm: bool, w: Work, sc: Scratch
+    fl, rules: Rules, crank: np.ndarray, i: int, g: tuple, rho: float, warm: bool, w: Work, sc: Scratch
 ) -> tuple[int, int, float, bool]:
-    """Close position ``i`` (reachable) into ``sc.x[0]``: from position ``i - 1`` where ``warm`` and
-    :func:`~dualmech.models.slider_crank_nb.warm_start` accepts, else by the cold strategy.
-    Returns (status code, iterations, residual, whether the warm start was accepted)."""
-    accepted, it, residual = False, 0, 0.0
+    """Close position ``i`` (reachable; ``rho`` its reach over ``a2``) into ``sc.x[0]``: from position
+    ``i - 1`` where ``warm`` and :func:`~dualmech.models.slider_crank_nb.warm_start` accepts, else by the
+    cold strategy; closed nearer an edge of assembly than ``rules.refine_condition`` (not at its limit),
+    on to the rounding level (:func:`dualmech.core.closure.refine`).  Returns (status code, iterations,
+    residual, whether the frames in ``w`` hold the state: an accepted warm start, not refined)."""
+    accepted, it, residual, word = False, 0, 0.0, rules.codes[0]
     if warm:
         speed, turn = crank[2, i - 1], crank[0, i] - crank[0, i - 1]
         step = turn / speed if speed != 0.0 else 0.0
         bend = crank[4, i - 1] / speed if speed != 0.0 and abs(turn) <= FINE_SPAN else np.nan
         accepted, it, residual = warm_start(fl, rules, g, step, bend, w, sc)
-    if accepted:
-        return rules.codes[0], it, residual, True
-    word, more, residual = close_reachable(fl, rules, g, w, sc)
-    return word, it + more, residual, False
+    if not accepted:
+        word, more, residual = close_reachable(fl, rules, g, w, sc)
+        it += more
+    c2 = 1.0 - rho * rho  # the geometric closure condition, squared: an assembly_limit below the band
+    if word == rules.codes[0] and rules.limit_band**2 <= c2 < rules.refine_condition**2:
+        set_values(rules.vidx, g, sc.vals)
+        more, residual = newton(fl, sc.vals, sc.x[0], rules.refine_tols, w)
+        it, accepted = it + more, False
+    return word, it, residual, accepted
 
 
 @njit(**INLINE)
@@ -315,7 +323,7 @@ def _position(
     word, it, residual, closed = rules.codes[5], 0, max(rho - 1.0, 0.0), False
     accepted = False
     if not beyond:
-        word, it, residual, accepted = _close(fl, rules, crank, i, g, warm, w, sc)
+        word, it, residual, accepted = _close(fl, rules, crank, i, g, rho, warm, w, sc)
         closed = word == rules.codes[0]
     col[_RESID] = residual
     k4, p2, p3 = sc.vec[11], sc.vec[12], sc.vec[13]
