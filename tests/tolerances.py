@@ -17,9 +17,9 @@ S4_VS_CLOSED_FORM = 1e-12
 #: case's peak: refined to rounding (EDGE_REFINE_CONDITION) the in-house engine measured 2e-13 there, 3e-11
 #: stopped at CLOSURE_TOL; what is left is rounding times 1/c^3 (up to 3e-12 on 150 random cases).
 NEAR_EDGE_VS_CLOSED_FORM = 3e-12
-#: The Pinocchio judge there (closure condition 0.016), relative to the case's peak, unscaled: measured 4.5e-12
-#: once it goes on to rounding (pinocchio_closure.EDGE_CONDITION), 2.1e-10 stopped at its tolerance (over the
-#: matrix's 1e-10 against the in-house engine); rounding times 1/c^3 is ~3e-11 there.
+#: The Pinocchio judge there (closure condition 0.016), relative to the case's peak, unscaled: measured
+#: 4.5e-12 once it goes on to rounding (pinocchio_closure.EDGE_CONDITION), 2.1e-10 stopped at its tolerance
+#: (over the matrix's 1e-10 against the in-house engine); rounding times 1/c^3 is ~3e-11 there.
 JUDGE_NEAR_EDGE_VS_CLOSED_FORM = 2e-11
 #: Rates against exact (dual-number + complex-step) derivatives, relative to the case's peak.
 RATES_VS_EXACT = 1e-11
