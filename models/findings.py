@@ -239,7 +239,7 @@ def _finding_e(cases: list[Case], solved) -> dict[str, Any]:
         per_case[case.name] = [round(float(x), 4) for x in r]
         for x in r:
             th = np.radians(x + np.array([DEAD_CENTRE_OFFSETS_DEG[0], DEAD_CENTRE_OFFSETS_DEG[1], 0.0]))
-            c = case.motion.state(case.geometry.crank_axial_shift, np.degrees(th))
+            c = case.own_crank_states(np.degrees(th))
             probe_cases.append(case)
             probe_cranks.append(c)
     probes = analyze_many(probe_cases, probe_cranks)

@@ -112,7 +112,7 @@ def closed_form_inputs(cases: list[Case]) -> list[tuple]:
 
     out = []
     for case in cases:
-        state = case.motion.state(case.geometry.crank_axial_shift)
+        state = case.own_crank_states()
         crank = np.stack([getattr(state, f) for f in CRANK_FIELDS])
         geo, (mass, com, inertia, gravity, torque, load) = case_arrays([case])
         out.append((crank, geo[0], mass[0], com[0], inertia[0], gravity[0], torque[0], load[0],
@@ -177,7 +177,7 @@ def time_mujoco(cases: list[Case], repeats: int) -> Timing:
 
     def run() -> None:
         for case, lp in zip(cases, loops):
-            state = case.motion.state(case.geometry.crank_axial_shift)
+            state = case.own_crank_states()
             mode, given = me._given(case)
             fields = [getattr(state, f) for f in CRANK_FIELDS]
             warm = False

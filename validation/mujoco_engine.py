@@ -185,7 +185,7 @@ def solve_case(case: Case) -> ResultTable:
         the largest least-squares residual of the effort equations.
     """
     lp = build(case)
-    state = case.motion.state(case.geometry.crank_axial_shift)
+    state = case.own_crank_states()
     mode, given = _given(case)
     n = len(state)
     cols = {c: np.full(n, np.nan) for c in NUMERIC_COLUMNS}
@@ -214,7 +214,7 @@ def assembled_qpos(case: Case, row: int = 0) -> np.ndarray:
     ``ValueError`` if the mechanism does not assemble there.
     """
     lp = build(case)
-    st = case.motion.state(case.geometry.crank_axial_shift)
+    st = case.own_crank_states()
     if not 0 <= row < len(st):
         raise ValueError(f"row: expected 0 <= row < {len(st)}, got {row!r}")
     status, _, _, _ = assembled_state(lp, (float(st.theta[row]), float(st.s[row]), 0.0, 0.0), warm=False)

@@ -85,7 +85,7 @@ def start_state(case: Case) -> MjcfStart:
     """
     check_exportable(case)
     lp = build(case)
-    st = case.motion.state(case.geometry.crank_axial_shift)
+    st = case.own_crank_states()
     theta, s1 = float(st.theta[0]), float(st.s[0])
     status, *_ = assembled_state(lp, (theta, s1, case.motion.speed, 0.0), warm=False)
     if status != Status.OK:

@@ -321,7 +321,7 @@ def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTa
     status = np.where(dead, Status.DEAD_CENTRE.value, Status.OK.value).astype(object)
     status[~np.isfinite(cols["S4"])] = Status.NOT_CONVERGED.value
     status = flag_joint_lock(_edges(status, cols, sv), cols["closure_condition"], case.joints.universal)
-    cols["S1"] = np.where(reachable, cols["S1"], case.motion.state(case.geometry.crank_axial_shift).s)
+    cols["S1"] = np.where(reachable, cols["S1"], case.own_crank_states().s)
     status = settle(cols, status, REACTION_COLUMNS)
     lag = raw["theta_lag"]
     meta["max_theta_lag"] = float(np.nanmax(np.abs(lag))) if np.isfinite(lag).any() else math.nan
@@ -365,7 +365,7 @@ def _overflowed(case: Case, sv: Survey) -> ResultTable:
     n = sv.status.shape[0]
     cols = {c: np.full(n, np.nan) for c in NUMERIC_COLUMNS}
     cols["theta1_deg"] = case.motion.angles_deg.astype(float).copy()
-    cols["S1"] = case.motion.state(case.geometry.crank_axial_shift).s
+    cols["S1"] = case.own_crank_states().s
     status = _edges(np.full(n, Status.NOT_FINITE.value, dtype=object), cols, sv)
     status = settle(cols, status, REACTION_COLUMNS)
     messages = rigid.status_messages(cols["theta1_deg"], status)

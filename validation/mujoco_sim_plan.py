@@ -128,7 +128,7 @@ def survey(case: Case) -> Survey:
     other crank joint held, zero rod spin with a ball at P3); a revolute crank has no axial servo (0).
     """
     lp = rigid.build(case)
-    st = case.motion.state(case.geometry.crank_axial_shift)
+    st = case.own_crank_states()
     n = len(st)
     status = np.empty(n, dtype=object)
     s4, condition = np.full(n, np.nan), np.full(n, np.nan)

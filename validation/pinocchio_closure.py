@@ -293,7 +293,7 @@ class Closure:
 
 def _s1_at(case: Case, theta: np.ndarray) -> np.ndarray:
     """S1 at crank angles ``theta`` [rad] (for intermediate continuation steps)."""
-    return case.motion.state(case.geometry.crank_axial_shift, np.degrees(theta)).s
+    return case.own_crank_states(np.degrees(theta)).s
 
 
 def continue_to(closure: Closure, case: Case, q0: np.ndarray, tangent: np.ndarray,

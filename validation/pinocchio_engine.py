@@ -209,7 +209,7 @@ def solve(case: Case, pm: PinocchioSliderCrank | None = None) -> tuple[Pinocchio
     """
     t0 = time.perf_counter()
     pm = build_model(case) if pm is None else pm
-    state = case.motion.state(case.geometry.crank_axial_shift)
+    state = case.own_crank_states()
     closure = Closure(pm, length_scale(case, state))
     t1 = time.perf_counter()
     pos = close_positions(closure, case, state)
@@ -295,7 +295,7 @@ def _angle_ranges(deg: np.ndarray, mask: np.ndarray) -> str:
 
 def to_table(case: Case, sol: PinocchioSolution, meta: dict | None = None) -> ResultTable:
     """The :class:`ResultTable` of ``sol`` in the conventions' columns, statuses and signs."""
-    state = case.motion.state(case.geometry.crank_axial_shift)
+    state = case.own_crank_states()
     status = sol.status
     t = transmission(sol, case.geometry.crank_length)
     w1, w2, w4 = sol.wrench1, sol.wrench2, sol.wrench4

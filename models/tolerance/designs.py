@@ -125,7 +125,7 @@ def design_arrays(case: Case, spec: Spec, x: np.ndarray, first: int = 0) -> Desi
         geo, bodies = case_arrays(designs)
 
         def crank_of_cases(rows: slice, lo: int, hi: int) -> np.ndarray:
-            states = [d.motion.state(d.geometry.crank_axial_shift, angles[lo:hi]) for d in designs[rows]]
+            states = [d.own_crank_states(angles[lo:hi]) for d in designs[rows]]
             return _stack(states)
 
         return DesignArrays(geo, bodies, angles, crank_of_cases)

@@ -93,10 +93,10 @@ def _seeded_case(design: Case, key: str) -> Case:
 
 def _derivative_runs(design: Case, keys: tuple[str, ...], angles_deg: np.ndarray) -> list[Analysis]:
     """The analysis of ``design`` at ``angles_deg``, once per key with that key seeded (module docstring)."""
-    crank = design.motion.state(design.geometry.crank_axial_shift, angles_deg)
+    crank = design.own_crank_states(angles_deg)
     state, status, iters, residual = close_loop(Batch.of([design], [crank]))
     seeded = [_seeded_case(design, key) for key in keys]
-    cranks = [c.motion.state(c.geometry.crank_axial_shift, angles_deg) for c in seeded]
+    cranks = [c.own_crank_states(angles_deg) for c in seeded]
     batch = Batch.of(seeded, cranks)
     k = len(keys)
     start = LoopState(np.tile(state.scalars, (k, 1)).astype(complex),

@@ -12,7 +12,7 @@ from tests.tolerances import S4_VS_CLOSED_FORM
 
 
 def _batch(case):
-    return Batch.of([case], [case.motion.state(case.geometry.crank_axial_shift)])
+    return Batch.of([case], [case.own_crank_states()])
 
 
 def test_newton_converges_quadratically_from_plane_geometry():

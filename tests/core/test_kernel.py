@@ -196,7 +196,7 @@ def test_many_cases_in_one_chunk_equal_one_at_a_time() -> None:
         )
         for _ in range(6)
     ]
-    cranks = [c.motion.state(c.geometry.crank_axial_shift) for c in cases]
+    cranks = [c.own_crank_states() for c in cases]
     together = slider_crank_kernel.analyze_chunk(cases, cranks)
     start = 0
     for case in cases:

@@ -59,7 +59,7 @@ def _energy_along(case, an, h=1e-5):
     """Kinetic energy at theta1 -+ h of a constant-speed motion, and the time between them."""
     out = []
     for sign in (-1, 1):
-        moved = case.motion.state(case.geometry.crank_axial_shift, np.degrees(an.crank.theta + sign * h))
+        moved = case.own_crank_states(np.degrees(an.crank.theta + sign * h))
         a = analyze(case, moved)
         out.append(sum(kinetic_energy(b, m) for b, m in zip(_bodies(case), a.motions)))
     return out, 2 * h / case.motion.speed
@@ -134,7 +134,7 @@ def test_whole_mechanism_momentum_balance():
     moms = []
     for sign in (-1, 1):
         a = analyze(
-            case, case.motion.state(case.geometry.crank_axial_shift, np.degrees(an.crank.theta + sign * h))
+            case, case.own_crank_states(np.degrees(an.crank.theta + sign * h))
         )
         moms.append(sum((momentum(b, m) for b, m in zip(_bodies(case), a.motions)),
                         start=momentum(_bodies(case)[0], a.motions[0]) * 0.0))

@@ -25,7 +25,7 @@ def _universal(name: str):
 
 def _rod(case, shift: float):
     """The rod's frame, angular velocity and unit vector at every position moved by ``shift`` rad."""
-    moved = case.motion.state(case.geometry.crank_axial_shift, case.motion.angles_deg + np.degrees(shift))
+    moved = case.own_crank_states(case.motion.angles_deg + np.degrees(shift))
     an = analyze(case, moved)
     u = (an.p3 - an.p2) / case.geometry.rod_length
     k4 = np.broadcast_to(case.geometry.k4, u.shape)

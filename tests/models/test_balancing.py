@@ -66,7 +66,7 @@ def test_axial_motion_leaves_an_axial_shaking_force():
     balanced = bl.balanced_case(case)
     s = bl.shaking(balanced)
     total = sum(b.mass for b in (balanced.bodies.crank, balanced.bodies.rod, balanced.bodies.slider))
-    s1_ddot = balanced.motion.state(balanced.geometry.crank_axial_shift).s_ddot
+    s1_ddot = balanced.own_crank_states().s_ddot
     peak = _peak(bl.shaking(case).force)
     assert_allclose(s.force[:, :2], 0.0, rtol=0, atol=BALANCE_SHAKING_FORCE.value * peak)
     assert_allclose(s.force[:, 2], -total * s1_ddot, rtol=0, atol=BALANCE_SHAKING_FORCE.value * peak)

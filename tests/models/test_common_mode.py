@@ -155,7 +155,7 @@ def _sinusoidal_case(theta1_ddot: float = 0.7):
 
 def test_crank_motion_matches_eq_28_by_hand_at_30_degrees():
     case = _sinusoidal_case()
-    st = case.motion.state(case.geometry.crank_axial_shift, np.array([30.0]))
+    st = case.own_crank_states(np.array([30.0]))
     assert_allclose(st.theta, [math.pi / 6], rtol=COMMON_MODE_INPUT, atol=0)
     assert_allclose(st.theta_dot, [THETA1_DOT], rtol=PRINTED_DIGITS, atol=0)
     assert_allclose(st.theta_ddot, [0.7], rtol=0, atol=0)

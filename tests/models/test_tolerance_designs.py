@@ -56,7 +56,7 @@ def test_arrays_are_the_loaders_designs_bit_for_bit(mode):
     for mine, theirs in zip(got.bodies, bodies):
         assert_array_equal(mine, theirs)
     p = len(case.motion.angles_deg)
-    states = [c.motion.state(c.geometry.crank_axial_shift) for c in cases]
+    states = [c.own_crank_states() for c in cases]
     want = np.stack([np.concatenate([getattr(s, f) for s in states]) for f in FIELDS])
     assert_array_equal(got.crank(slice(0, 30), 0, p), want)
     assert_array_equal(got.crank(slice(4, 7), 5, 11), want.reshape(6, 30, p)[:, 4:7, 5:11].reshape(6, -1))

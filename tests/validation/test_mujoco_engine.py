@@ -172,7 +172,7 @@ def test_newton_starts_from_a_crude_guess():
     """Independence: the first position starts far from the closed loop (never from an answer)."""
     case = load_case("thesis/a4-20-alpha-232")
     lp = mujoco_closure.build(case)
-    st = case.motion.state(case.geometry.crank_axial_shift)
+    st = case.own_crank_states()
     mujoco_closure.set_crank(lp, float(st.theta[0]), float(st.s[0]))
     mujoco.mj_kinematics(lp.model, lp.data)
     mujoco_closure.crude_guess(lp)
@@ -207,7 +207,7 @@ def test_mujoco_facts_behind_the_rigid_path():
     case = load_case("thesis/a4-20-alpha-232")
     lp = mujoco_closure.build(case)
     m, d = lp.model, lp.data
-    st = case.motion.state(case.geometry.crank_axial_shift)
+    st = case.own_crank_states()
     crank = tuple(float(f[40]) for f in (st.theta, st.s, st.theta_dot, st.s_dot, st.theta_ddot, st.s_ddot))
     pos = mujoco_engine.solve_position(lp, crank, "torque", 100.0, warm=False)
     j3 = np.array([pos.values[f"j3_f{a}"] for a in "xyz"])

@@ -294,7 +294,7 @@ def test_survey_takes_both_unit_rates_at_one_closed_pose():
 
     case = load_case("thesis/a4-30-s1-6")  # a cylindrical crank: two servos
     lp = rigid.build(case)
-    st = case.motion.state(case.geometry.crank_axial_shift)
+    st = case.own_crank_states()
     for i in (0, 97, 200, 333):
         crank = (float(st.theta[i]), float(st.s[i]))
         assert rigid.assembled_state(lp, (*crank, 1.0, 0.0), warm=False)[0] == "ok"

@@ -35,7 +35,7 @@ def _check_closed_form(case, table):
                               ("S4_ddot", a, np.abs(a[rows]).max())):
         assert np.all(np.abs(table[col][rows] - exact[rows]) <= TOL * scale * cond), col
     assert np.nanmax(table["residual"]) <= pc.CLOSURE_TOLERANCE * pc.length_scale(
-        case, case.motion.state(case.geometry.crank_axial_shift)) / a2
+        case, case.own_crank_states()) / a2
 
 
 def test_bundled_cases_match_the_closed_form(thesis_cases):
