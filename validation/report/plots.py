@@ -160,7 +160,7 @@ def sweep_figure(
         right=0.98,
         top=1 - 0.55 / height,
         bottom=(legend_in + 0.45) / height,
-        hspace=0.55,
+        hspace=0.3,  # room for the lower panels' titles: the upper ones show no crank-angle labels
         wspace=0.22,
     )
     return fig_to_png(fig, tight=False)
@@ -169,8 +169,11 @@ def sweep_figure(
 def _sweep_axes(fig: Any, grid: tuple[int, int], columns: tuple[str, ...], units: str) -> None:
     """The panels of a :func:`sweep_figure` without data: a framed axes per column, the grid's others off."""
     axes = list(fig.subplots(*grid, squeeze=False).flat)
-    for ax, col in zip(axes, columns):
+    for k, (ax, col) in enumerate(zip(axes, columns)):
         _frame(ax, col, units)
+        if k + grid[1] < len(columns):  # a panel below shows the same crank-angle axis
+            ax.tick_params(labelbottom=False)
+            ax.set_xlabel("")
     for ax in axes[len(columns) :]:
         ax.axis("off")
 
