@@ -21,6 +21,7 @@ cannot reach the slider line.
 from __future__ import annotations
 
 import numpy as np
+from numpy.testing import assert_allclose
 
 from dualmech.models.case import Case
 
@@ -93,3 +94,13 @@ def exact_slider_motion(case: Case, theta: np.ndarray) -> tuple[np.ndarray, np.n
     """``S4``, ``S4_dot``, ``S4_ddot`` of :func:`slider_motion`, ``(n,)`` each."""
     mo = slider_motion(case, theta)
     return mo["S4"], mo["S4_dot"], mo["S4_ddot"]
+
+
+def assert_slider_motion(case: Case, table, tol: float, rows=slice(None), peak_rows=None,
+                         label: str = "") -> None:
+    """``S4``, ``S4_dot``, ``S4_ddot`` of ``table`` on ``rows`` against :func:`exact_slider_motion`, each
+    within ``tol`` times its closed-form peak over ``peak_rows`` (default ``rows``)."""
+    exact = exact_slider_motion(case, np.radians(table["theta1_deg"]))
+    for q, want in zip(("S4", "S4_dot", "S4_ddot"), exact):
+        scale = np.abs(want[rows if peak_rows is None else peak_rows]).max()
+        assert_allclose(table[q][rows], want[rows], rtol=0, atol=tol * scale, err_msg=f"{label}{q}")

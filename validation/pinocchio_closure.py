@@ -152,7 +152,7 @@ class Closure:
         for it in range(MAX_NEWTON_ITERATIONS + 1):
             jc, r, rr = self._evaluate(q)
             if rr <= tol2:
-                if abs(float(self.data.oMi[self.pm.rod_joint].rotation[:, 0] @ self.pm.k4)) < EDGE_CONDITION:
+                if abs(self._along()) < EDGE_CONDITION:
                     q, jc, rr = self._on_to_rounding(q, jc, r, rr)
                 return self._converged(q, jc, it, rr)
             if rr < best_rr:
@@ -162,6 +162,10 @@ class Closure:
             dv[nc:] = _min_norm_step(jc[:, nc:], r, mu)
             q = pin.integrate(model, q, dv)
         return self._minimize(best_q, it)
+
+    def _along(self) -> float:
+        """``u·k4`` at the pose ``data`` holds (``u`` = the rod frame's x axis)."""
+        return float(self.data.oMi[self.pm.rod_joint].rotation[:, 0] @ self.pm.k4)
 
     def _on_to_rounding(self, q: np.ndarray, jc: np.ndarray, r: tuple[float, float, float],
                         rr: float) -> tuple[np.ndarray, np.ndarray, float]:
@@ -235,7 +239,7 @@ class Closure:
                 model, data, pm.rod_joint, _LOCAL)[3:]
         else:  # rod angular velocity along its x = u
             AB[3] = pin.getJointJacobian(model, data, pm.rod_joint, _LOCAL)[3]
-        along = float(rotation[:, 0] @ pm.k4)  # u·k4, u = the rod frame's x axis
+        along = self._along()
         self.condition = abs(along)
         return q, OK if along < 0.0 else BRANCH, it, math.sqrt(rr)
 
