@@ -4,7 +4,7 @@ Positions are split into blocks, each analysed on a thread of a pool with the GI
 (:func:`dualmech.models.slider_crank_position_nb.analyze_range`: one position at a time, warm
 starts along the crank angle in fixed chains, see :data:`WARM_CHAIN`); the scratch of each block
 is allocated here, since the compiled code allocates nothing.  Cases, designs given as arrays,
-and chunks of one long case all go through :func:`analyze_positions`; status codes become words
+and chunks of one long case all go through :func:`start_positions`; status codes become words
 in :class:`Chunk`.
 
 The numpy implementation in :mod:`dualmech.models.slider_crank` is the same algorithm
@@ -14,7 +14,8 @@ batched; ``tests/core/test_kernel.py`` holds the two to 1e-12.
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Iterator, Sequence
@@ -85,23 +86,21 @@ def chain_starts(case_of: np.ndarray, index: np.ndarray | None = None) -> np.nda
     return first | (index % WARM_CHAIN == 0)
 
 
-def _run(n: int, fl: FlatLoop, rules: Rules, args: tuple) -> None:
-    """:func:`analyze_range` over ``n`` positions, :data:`BLOCKS_PER_THREAD` blocks a thread, in parallel;
+def _start(n: int, fl: FlatLoop, rules: Rules, args: tuple) -> list[Future]:
+    """:func:`analyze_range` over ``n`` positions, :data:`BLOCKS_PER_THREAD` blocks a thread, submitted to
+    the kernel's threads (the futures of the blocks returned), or run here if one block is all (no futures);
     blocks begin at cold starts (the last of ``args``) only."""
     parts = max(1, min(n // BLOCK, threads() * BLOCKS_PER_THREAD))
     starts = np.flatnonzero(args[-1])
     cut = starts[np.minimum(np.searchsorted(starts, np.linspace(0, n, parts + 1)[1:-1]), starts.size - 1)]
     bounds = np.unique(np.concatenate([[0], cut, [n]]))
-    parts = bounds.size - 1
-    if parts == 1:
+    if bounds.size == 2:
         analyze_range(0, n, *_scratch(fl, rules), fl, rules, *args)
-        return
-    futures = [
+        return []
+    return [
         _pool().submit(analyze_range, int(a), int(b), *_scratch(fl, rules), fl, rules, *args)
         for a, b in zip(bounds[:-1], bounds[1:])
     ]
-    for f in futures:
-        f.result()
 
 
 @lru_cache(maxsize=1)
@@ -172,9 +171,29 @@ class Chunk:
         return WORDS[self.status]
 
 
+@dataclass(frozen=True)
+class Running:
+    """A :class:`Chunk` whose positions are being analysed: ``blocks`` the futures of its blocks on the
+    kernel's threads (none if it was analysed where it was started)."""
+
+    chunk: Chunk
+    blocks: list[Future]
+
+    def result(self) -> Chunk:
+        """The chunk, once every block is analysed (a block's error is raised here)."""
+        for block in self.blocks:
+            block.result()
+        return self.chunk
+
+    def cancel(self) -> None:
+        """Drop the blocks not begun; those running finish into the chunk's buffer."""
+        for block in self.blocks:
+            block.cancel()
+
+
 def case_arrays(cases: Sequence[Case]) -> tuple[np.ndarray, tuple]:
     """Geometry ``(cases, 5)`` (a1, a2, a4, alpha4, 1 for a universal joint 3) and the per-case body and
-    load arrays of :func:`analyze_positions`."""
+    load arrays of :func:`start_positions`."""
     geo = np.array(
         [
             [
@@ -213,24 +232,33 @@ def analyze_chunk(
 
     ``out`` ``(len(OUT_COLUMNS), >= n)``: a buffer to reuse (its first ``n`` columns are written).
     """
+    return start_chunk(cases, cranks, out).result()
+
+
+def start_chunk(
+    cases: Sequence[Case], cranks: Sequence[CrankState], out: np.ndarray | None = None
+) -> Running:
+    """:func:`analyze_chunk` begun on the kernel's threads, not waited for."""
     counts = [len(c) for c in cranks]
     crank = np.empty((6, sum(counts)))
     for k, name in enumerate(("theta", "s", "theta_dot", "s_dot", "theta_ddot", "s_ddot")):
         np.concatenate([getattr(c, name) for c in cranks], out=crank[k])
     case_of = np.repeat(np.arange(len(cases), dtype=np.int64), counts)
     geo, bodies = case_arrays(cases)
-    return analyze_positions(crank, case_of, geo, bodies, out)
+    return start_positions(crank, case_of, geo, bodies, out)
 
 
-def analyze_positions(
+def start_positions(
     crank: np.ndarray,
     case_of: np.ndarray,
     geo: np.ndarray,
     bodies: tuple,
     out: np.ndarray | None = None,
     index: np.ndarray | None = None,
-) -> Chunk:
-    """Analyse positions given as arrays (no :class:`Case` objects: for many designs at once).
+) -> Running:
+    """Begin the analysis of positions given as arrays (no :class:`Case` objects: for many designs at
+    once) on the kernel's threads; :meth:`Running.result` waits for it.  A second chunk begun before
+    the first is done keeps both threads busy while the first's last block finishes.
 
     ``crank`` ``(6, n)``: theta [rad], S1 and their first and second time derivatives; ``case_of``
     ``(n,)`` int64: the design of each position, indexing the first axis of ``geo`` ``(designs, 4)``
@@ -248,37 +276,51 @@ def analyze_positions(
         out = np.empty((len(OUT_COLUMNS), n))
     out = out[:, :n]
     status, iters, dyn = np.empty(n, np.int8), np.empty(n, np.int64), np.empty(n)
-    _run(n, fl, rules, (crank, case_of, geo, bodies, out, status, iters, dyn, chain_starts(case_of, index)))
-    return Chunk(dict(zip(OUT_COLUMNS, out)), status, iters, dyn)
+    args = (crank, case_of, geo, bodies, out, status, iters, dyn, chain_starts(case_of, index))
+    return Running(Chunk(dict(zip(OUT_COLUMNS, out)), status, iters, dyn), _start(n, fl, rules, args))
 
 
-def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1) -> Iterator[Chunk]:
+def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1, ahead: int = 0) -> Iterator[Chunk]:
     """The positions of one case in chunks of ``chunk_positions`` (rounded up to a multiple of
     :data:`WARM_CHAIN`, so that no chain of warm starts straddles two chunks), in ``buffers`` output
-    buffers reused in turn: chunk ``k`` is written into buffer ``k % buffers``, so a consumer may still
-    read a chunk (write it to a file on another thread) while the next ``buffers - 1`` are computed.
+    buffers reused in turn: chunk ``k`` is written into buffer ``k % buffers``.
 
-    Memory stays bounded by ``buffers`` chunks, however many positions the case has.
+    The kernel's threads run ``ahead`` chunks beyond the one yielded last (with 0 they wait at each
+    chunk's end while its last block finishes): chunk ``k`` is begun when chunk ``k - ahead`` is asked
+    for, so a consumer may read chunk ``k`` (write it to a file on another thread) until it asks for
+    chunk ``k + buffers - ahead``.  Memory stays bounded by ``buffers`` chunks, however many positions
+    the case has.
     """
     if buffers < 1:
         raise ValueError(f"buffers: expected at least 1, got {buffers}")
+    if not 0 <= ahead < buffers:
+        raise ValueError(
+            f"ahead: expected 0 to {buffers - 1} (fewer than the {buffers} buffers), got {ahead}"
+        )
     angles = np.asarray(case.motion.angles_deg, dtype=float)
     chunk_positions = chain_aligned(chunk_positions)
     rows = min(chunk_positions, max(1, angles.size))
-    chunks = -(-angles.size // chunk_positions)
-    pool = [np.empty((len(OUT_COLUMNS), rows)) for _ in range(max(1, min(buffers, chunks)))]
+    los = range(0, angles.size, chunk_positions)
+    pool = [np.empty((len(OUT_COLUMNS), rows)) for _ in range(max(1, min(buffers, len(los))))]
+    running: deque[Running] = deque()
 
     def crank(lo: int) -> CrankState:
         return case.own_crank_states(angles[lo : lo + chunk_positions])
 
     # each chunk's crank states are made on a helper thread while the kernel analyses the one before
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="dualmech-crank") as helper:
-        ahead = helper.submit(crank, 0)
-        for k, lo in enumerate(range(0, angles.size, chunk_positions)):
-            states = ahead.result()
-            if lo + chunk_positions < angles.size:
-                ahead = helper.submit(crank, lo + chunk_positions)
-            yield analyze_chunk([case], [states], pool[k % len(pool)])
+        states = helper.submit(crank, 0)
+        try:
+            for k in range(len(los)):
+                for j in range(k + len(running), min(k + ahead + 1, len(los))):
+                    ready = states.result()
+                    if j + 1 < len(los):
+                        states = helper.submit(crank, los[j + 1])
+                    running.append(start_chunk([case], [ready], pool[j % len(pool)]))
+                yield running.popleft().result()
+        finally:
+            for chunk in running:
+                chunk.cancel()
 
 
 def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
@@ -295,27 +337,42 @@ def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
     return ResultTable("dualmech", case.name, cols, chunk.words(), meta)
 
 
+def _groups(sizes: Sequence[int], chunk_positions: int) -> list[list[int]]:
+    """Consecutive indices of ``sizes`` in groups of at least ``chunk_positions`` in all (the last one
+    may be smaller)."""
+    groups: list[list[int]] = [[]]
+    size = 0
+    for i, n in enumerate(sizes):
+        if size >= chunk_positions:
+            groups.append([])
+            size = 0
+        groups[-1].append(i)
+        size += n
+    return groups if groups[0] else []
+
+
 def solve_cases(cases: Sequence[Case], chunk_positions: int = CHUNK_POSITIONS,
                 cranks: Sequence[CrankState] | None = None) -> list[ResultTable]:
     """The result table of every case (at its own crank states, or at ``cranks[i]`` for ``cases[i]``), cases
     batched together in chunks of about ``chunk_positions``.
 
-    Each chunk's columns are copied once, into one contiguous ``(columns, n)`` array whose rows the
-    chunk's tables share (not copied again per case and column).
+    Each chunk is begun before the tables of the one before are made, so the kernel's threads do not
+    wait for that Python.  Each chunk's columns are copied once, into one contiguous ``(columns, n)``
+    array whose rows the chunk's tables share (not copied again per case and column).
     """
-    def crank(i: int) -> CrankState:
-        return cases[i].own_crank_states() if cranks is None else cranks[i]
+    def begin(group: list[int]) -> tuple[list[CrankState], Running]:
+        states = [cases[j].own_crank_states() if cranks is None else cranks[j] for j in group]
+        return states, start_chunk([cases[j] for j in group], states)
 
+    sizes = [len(c.motion.angles_deg) for c in cases] if cranks is None else [len(s) for s in cranks]
+    groups = _groups(sizes, chunk_positions)
+    running = [begin(groups[0])] if groups else []
     tables: list[ResultTable] = []
-    group: list[int] = []
-    size = 0
-    for i, case in enumerate(cases):
-        group.append(i)
-        size += len(case.motion.angles_deg) if cranks is None else len(cranks[i])
-        if size < chunk_positions and i < len(cases) - 1:
-            continue
-        states = [crank(j) for j in group]
-        chunk = analyze_chunk([cases[j] for j in group], states)
+    for g, group in enumerate(groups):
+        if g + 1 < len(groups):
+            running.append(begin(groups[g + 1]))
+        states, begun = running.pop(0)
+        chunk = begun.result()
         columns = np.array([chunk.columns[c] for c in NUMERIC_COLUMNS])
         start = 0
         for j, state in zip(group, states):
@@ -324,7 +381,6 @@ def solve_cases(cases: Sequence[Case], chunk_positions: int = CHUNK_POSITIONS,
             own = Chunk(dict(zip(NUMERIC_COLUMNS, columns[:, part])), chunk.status[part],
                         chunk.iterations[part], chunk.dynamics_residual[part])
             tables.append(to_table(cases[j], own, copy=False))
-        group, size = [], 0
     return tables
 
 

@@ -1,10 +1,10 @@
 """The output of ``dualmech solve``: the table as CSV or Parquet, long in-house cases streamed chunk by chunk.
 
 A case of more than :data:`STREAM_POSITIONS` crank positions solved by the in-house engine
-never exists whole in memory: the compiled kernel analyses it chunk by chunk into two
-buffers used in turn (:func:`~dualmech.models.slider_crank_kernel.iter_chunks`) and each chunk
-goes to the file (a Parquet row group, or CSV rows) on a writer thread while the kernel computes
-the next, so memory is bounded by two chunks (and the writer's buffer).  Its summary then
+never exists whole in memory: the compiled kernel analyses it chunk by chunk into three
+buffers used in turn (:func:`~dualmech.models.slider_crank_kernel.iter_chunks`), one chunk ahead,
+and each chunk goes to the file (a Parquet row group, or CSV rows) on a writer thread while the
+kernel computes the next, so memory is bounded by three chunks (and the writer's buffer).  Its summary then
 gives what can be gathered on the way: status counts, stroke, worst closure residual and the
 ``no_assembly`` ranges (the design peaks need the table: load the Parquet file).
 """
@@ -86,8 +86,9 @@ def _pipelined(chunks: Iterable[Chunk], sink: Callable[[int, Chunk], None]) -> N
     """``sink(k, chunk)`` for every chunk in order, on a writer thread while the next chunk is computed.
 
     One chunk at most is being written: chunk ``k + 1`` is handed over once chunk ``k`` is written, and
-    only then is chunk ``k + 2`` computed, so two kernel buffers used in turn suffice
-    (:func:`~dualmech.models.slider_crank_kernel.iter_chunks` with ``buffers=2``).  An exception of
+    only then is chunk ``k + 2`` asked for (and chunk ``k + 3`` begun), so with the kernel one chunk
+    ahead three buffers used in turn suffice
+    (:func:`~dualmech.models.slider_crank_kernel.iter_chunks` with ``buffers=3, ahead=1``).  An exception of
     ``sink`` is raised here (when the next chunk is ready, or at the end); on any exception, an
     interrupt too, the write in flight is finished first, so the caller may then close the file with
     every finished chunk in it.
@@ -117,7 +118,8 @@ def stream_solve(case: Case, path: str | Path) -> str:
     """Solve ``case`` with the compiled in-house engine chunk by chunk into ``path``; return the summary.
 
     Each chunk is written (and tallied) on a writer thread while the kernel computes the next
-    (:func:`_pipelined`): memory is two chunks of the kernel's rows and the writer's buffer.
+    (:func:`_pipelined`), the kernel's threads going on to the chunk after without waiting at a chunk's
+    end: memory is three chunks of the kernel's rows and the writer's buffer.
     """
     from dualmech.models.slider_crank import no_assembly_message, no_assembly_ranges
     from dualmech.models.slider_crank_kernel import CHUNK_POSITIONS, iter_chunks, to_table
@@ -135,7 +137,7 @@ def stream_solve(case: Case, path: str | Path) -> str:
             text = to_table(case, chunk).to_csv()
             out.write(text if k == 0 else text.split("\n", 1)[1])
 
-        _pipelined(iter_chunks(case, CHUNK_POSITIONS, buffers=2), sink)
+        _pipelined(iter_chunks(case, CHUNK_POSITIONS, buffers=3, ahead=1), sink)
     theta = np.asarray(case.motion.angles_deg, dtype=float)
     ranges = no_assembly_ranges(theta, np.concatenate(tally.no_assembly))
     return tally.text(case, no_assembly_message(ranges))

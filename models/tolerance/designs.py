@@ -3,7 +3,7 @@
 A chunk of sampled designs (``x`` ``(m, k)``, the varied keys' values) is never turned into a
 table per design.  Its geometry ``(m, 4)``, body and load arrays (the layout of
 :func:`~dualmech.models.slider_crank_kernel.case_arrays`) and crank states go straight to
-:func:`~dualmech.models.slider_crank_kernel.analyze_positions`, in blocks of whole designs at
+:func:`~dualmech.models.slider_crank_kernel.start_positions`, in blocks of whole designs at
 up to :data:`~dualmech.models.slider_crank_kernel.CHUNK_POSITIONS` positions (a design with more
 positions than that is split along its positions), one output buffer reused; each block is
 folded into the per-design outputs by :class:`~dualmech.models.tolerance.outputs.DesignReduction`.
@@ -38,9 +38,9 @@ from dualmech.models.case import Case, CaseError
 from dualmech.models.slider_crank_kernel import (
     CHUNK_POSITIONS,
     OUT_COLUMNS,
-    analyze_positions,
     case_arrays,
     chain_aligned,
+    start_positions,
 )
 from dualmech.models.tolerance.outputs import DesignReduction, needed_columns
 from dualmech.models.tolerance.spec import Spec, design_case
@@ -174,7 +174,7 @@ def analyse_designs(designs: DesignArrays, mode: str,
             hi = min(p, lo + step)
             case_of = np.repeat(np.arange(d, dtype=np.int64), hi - lo)
             index = np.tile(np.arange(lo, hi), d)
-            chunk = analyze_positions(designs.crank(rows, lo, hi), case_of, geo, bodies, buffer, index)
+            chunk = start_positions(designs.crank(rows, lo, hi), case_of, geo, bodies, buffer, index).result()
             columns = {c: chunk.columns[c].reshape(d, hi - lo) for c in names}
             codes = chunk.status.reshape(d, hi - lo)
             for r0 in range(0, d, REDUCE_DESIGNS):

@@ -81,6 +81,24 @@ def test_chunks_take_their_buffers_in_turn() -> None:
         next(slider_crank_kernel.iter_chunks(case, 200, buffers=0))
 
 
+def test_chunks_begun_ahead_keep_their_bits_and_buffers() -> None:
+    """With the kernel one chunk ahead (``ahead=1``, as the streamed solve runs it) chunk ``k`` is in
+    buffer ``k % 3`` and has the same bits as the chunks computed one at a time; positions split into
+    blocks on both threads (chunks of 1,000 positions).  ``ahead`` must leave a buffer to read."""
+    grid = {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 0.05}}
+    case = load_case("a4-30-s1-3.5").with_values(grid)
+    one = [{k: v.copy() for k, v in c.columns.items()} for c in slider_crank_kernel.iter_chunks(case, 1000)]
+    ahead = [dict(c.columns) for c in slider_crank_kernel.iter_chunks(case, 1000, buffers=3, ahead=1)]
+    assert len(ahead) == len(one) == 8
+    s4 = [c["S4"] for c in ahead]
+    assert all(np.shares_memory(a, b) == (k % 3 == 0) for a in s4[:1] for k, b in enumerate(s4[1:], 1))
+    for k, (a, b) in enumerate(zip(one, slider_crank_kernel.iter_chunks(case, 1000, buffers=3, ahead=1))):
+        for name, col in a.items():
+            assert_allclose(b.columns[name], col, rtol=0, atol=0, equal_nan=True, err_msg=f"{k} {name}")
+    with pytest.raises(ValueError, match=r"ahead: expected 0 to 1 \(fewer than the 2 buffers\), got 2"):
+        next(slider_crank_kernel.iter_chunks(case, 200, buffers=2, ahead=2))
+
+
 def test_remembered_turns_are_fresh_turns() -> None:
     """The joint factors remembered from the last evaluation (``Work.turns``) are reused only for the
     same angle and slide: after an evaluation of another design (same twist, other slider offset), the

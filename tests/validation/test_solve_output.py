@@ -1,13 +1,15 @@
 """``stream_solve``: each chunk is written on a writer thread while the kernel computes the next.
 
 What the pipeline must keep (``tests/cli/test_solve_output.py`` holds the streamed rows and summary
-to the case solved whole): a chunk's buffer is not overwritten while it is being written (two kernel
-buffers in turn); an error of the writer is raised, not lost; an interrupted run leaves a readable
-file of the chunks finished, as the sequential loop did.  No timing: the overlap is shown by a writer
-that waits until the kernel has computed the next chunk.  Deliberate faults these tests were seen to
-catch (each made by hand in a scratch edit, then undone): the sequential loop (no writer thread: the
-writer waits for a chunk never computed); the writer's error only waited for (``wait([pending])``
-instead of ``pending.result()``), or the last one not waited for at all.
+to the case solved whole): a chunk's buffer is not overwritten while it is being written (three
+kernel buffers in turn, the kernel one chunk ahead); an error of the writer is raised, not lost; an
+interrupted run leaves a readable file of the chunks finished, as the sequential loop did.  No
+timing: the overlap is shown by a writer that waits until the kernel has computed the next chunk.
+Deliberate faults these tests were seen to catch (each made by hand in a scratch edit, then undone):
+the sequential loop (no writer thread: the writer waits for a chunk never computed); the writer's
+error only waited for (``wait([pending])`` instead of ``pending.result()``), or the last one not
+waited for at all; two buffers with the kernel one chunk ahead; a chunk begun ahead into the buffer
+of the chunk yielded.
 """
 
 from __future__ import annotations
@@ -42,17 +44,18 @@ def _same_rows(read: table.ResultTable, whole: table.ResultTable, rows: int) -> 
     assert list(read.status) == list(whole.status[:rows])
 
 
-def _written_late(monkeypatch: pytest.MonkeyPatch, tmp_path, buffers: int | None = None):
+def _written_late(monkeypatch: pytest.MonkeyPatch, tmp_path, buffers: tuple[int, int] | None = None):
     """Solve into Parquet with a writer that writes chunk ``k`` only once the kernel has computed chunk
     ``k + 1``; return the table read back, the whole table and, per chunk but the last, whether that
-    happened while chunk ``k`` was being written.  ``buffers``: force the kernel's buffer count."""
+    happened while chunk ``k`` was being written.  ``buffers``: force the kernel's buffer count and how
+    many chunks it runs ahead."""
     case, whole = _case(monkeypatch)
     computed, ready, overlapped = [0], threading.Condition(), []
-    analyze, write = slider_crank_kernel.analyze_chunk, table.ParquetWriter.write
+    result, write = slider_crank_kernel.Running.result, table.ParquetWriter.write
     chunks = slider_crank_kernel.iter_chunks
 
-    def counted(*args, **kwargs):
-        out = analyze(*args, **kwargs)
+    def counted(self):
+        out = result(self)
         with ready:
             computed[0] += 1
             ready.notify_all()
@@ -65,10 +68,10 @@ def _written_late(monkeypatch: pytest.MonkeyPatch, tmp_path, buffers: int | None
                 overlapped.append(ready.wait_for(lambda: computed[0] >= k + 2, timeout=5.0))
         write(self, columns, codes)
 
-    monkeypatch.setattr(slider_crank_kernel, "analyze_chunk", counted)
+    monkeypatch.setattr(slider_crank_kernel.Running, "result", counted)
     monkeypatch.setattr(table.ParquetWriter, "write", late)
     if buffers is not None:
-        monkeypatch.setattr(slider_crank_kernel, "iter_chunks", lambda c, n, **_: chunks(c, n, buffers))
+        monkeypatch.setattr(slider_crank_kernel, "iter_chunks", lambda c, n, **_: chunks(c, n, *buffers))
     solve_output.stream_solve(case, tmp_path / "s.parquet")
     return read_parquet(tmp_path / "s.parquet"), whole, overlapped
 
@@ -79,10 +82,11 @@ def test_a_chunk_is_written_while_the_next_is_computed(monkeypatch, tmp_path) ->
     _same_rows(read, whole, len(whole))
 
 
-def test_one_kernel_buffer_would_be_overwritten_while_written(monkeypatch, tmp_path) -> None:
-    """The check above fails when the kernel reuses one buffer: the next chunk overwrites the one
-    being written."""
-    read, whole, overlapped = _written_late(monkeypatch, tmp_path, buffers=1)
+@pytest.mark.parametrize("buffers", [(1, 0), (2, 1)], ids=["one buffer", "two buffers, one chunk ahead"])
+def test_too_few_kernel_buffers_would_be_overwritten_while_written(monkeypatch, tmp_path, buffers) -> None:
+    """The check above fails with one buffer fewer than it needs: with one, the next chunk overwrites
+    the one being written; with two and the kernel one chunk ahead, the chunk after next does."""
+    read, whole, overlapped = _written_late(monkeypatch, tmp_path, buffers)
     assert overlapped == [True] * (CHUNKS - 1)
     with pytest.raises(AssertionError):
         _same_rows(read, whole, len(whole))
@@ -112,15 +116,15 @@ def test_an_interrupted_run_leaves_the_finished_chunks(monkeypatch, tmp_path, su
     """Ctrl-C while the kernel computes chunk 2: chunks 0 and 1 (the one on the writer thread too) are in
     a file that reads back."""
     case, whole = _case(monkeypatch)
-    analyze, calls = slider_crank_kernel.analyze_chunk, []
+    result, calls = slider_crank_kernel.Running.result, []
 
-    def interrupted(*args, **kwargs):
+    def interrupted(self):
         calls.append(1)
         if len(calls) == 3:
             raise KeyboardInterrupt
-        return analyze(*args, **kwargs)
+        return result(self)
 
-    monkeypatch.setattr(slider_crank_kernel, "analyze_chunk", interrupted)
+    monkeypatch.setattr(slider_crank_kernel.Running, "result", interrupted)
     with pytest.raises(KeyboardInterrupt):
         solve_output.stream_solve(case, tmp_path / f"s.{suffix}")
     read = read_parquet if suffix == "parquet" else read_csv
