@@ -186,8 +186,15 @@ def analyze(case: Case, crank: CrankState | None = None) -> Analysis:
 
 def no_assembly_ranges(theta_deg: np.ndarray, mask: np.ndarray) -> list[tuple[float, float]]:
     """Contiguous runs of ``mask`` as (first, last) crank angles in degrees."""
-    edges = np.diff(np.concatenate([[0], mask.astype(int), [0]]))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return row_ranges(theta_deg, np.flatnonzero(mask))
+
+
+def row_ranges(theta_deg: np.ndarray, rows: np.ndarray) -> list[tuple[float, float]]:
+    """Runs of consecutive indices in ``rows`` (increasing) as (first, last) crank angles in degrees."""
+    if rows.size == 0:
+        return []
+    cut = np.flatnonzero(np.diff(rows) != 1)
+    starts, ends = rows[np.r_[0, cut + 1]], rows[np.r_[cut, rows.size - 1]]
     return [(float(theta_deg[a]), float(theta_deg[b])) for a, b in zip(starts, ends)]
 
 

@@ -28,7 +28,7 @@ def test_parquet_holds_what_csv_holds(tmp_path) -> None:
 
 def test_long_cases_stream_in_chunks_with_the_same_rows(tmp_path, monkeypatch) -> None:
     """Streamed (chunks of 80 positions, rounded up to a warm-start chain: 4 chunks of at most 100 rows in
-    two buffers taken in turn) = solved whole, in both formats; so is the summary."""
+    three buffers taken in turn) = solved whole, in both formats; so is the summary."""
     monkeypatch.setattr(solve_output, "STREAM_POSITIONS", 100)
     monkeypatch.setattr(slider_crank_kernel, "CHUNK_POSITIONS", 80)
     case = load_case("a4-30-s1-3.5").with_values({"geometry.slider_offset": 40.0})  # some no_assembly rows
