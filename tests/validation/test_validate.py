@@ -123,9 +123,11 @@ def test_broken_judge_fails_names_case_and_quantity(small, tmp_path, monkeypatch
 # ----------------------------------------------------------------------------- runner
 
 
-def test_interrupted_run_resumes_to_identical_results(small, tmp_path):
-    """Kill a run halfway (SIGKILL, no clean-up), re-run with resume: the same results as an uninterrupted
-    run."""
+def test_interrupted_run_resumes_to_identical_results(small, tmp_path, monkeypatch):
+    """Kill a run halfway (SIGKILL, no clean-up), re-run with resume: every stored result is kept and only
+    the others run, giving the same results as an uninterrupted run.  All three runs use the same
+    registry (a result's fingerprint holds its engine's function: one stored by another is run again),
+    the two after the kill without the slow-down."""
     matrix = load_matrix(small)
     slow = dict(FAKE_REGISTRY, dualmech=f"{FAKES}:solve_case_slow")
     killed = tmp_path / "killed"
@@ -145,10 +147,11 @@ def test_interrupted_run_resumes_to_identical_results(small, tmp_path):
     # may have a file by now, but not every engine's result
     done = sum(len(per) for per in load_entries(killed, matrix).values())
     assert 2 <= done < len(matrix.cases) * 3, done
-    outcome = run_matrix(matrix, killed, jobs=1, resume=True, registry=FAKE_REGISTRY)
-    assert outcome.skipped >= 2 and outcome.ran < len(matrix.cases) * 3  # (case, engine) results
+    monkeypatch.setenv("MATRIX_FAKES_DELAY", "0")
+    outcome = run_matrix(matrix, killed, jobs=1, resume=True, registry=slow)
+    assert (outcome.skipped, outcome.ran) == (done, len(matrix.cases) * 3 - done)  # (case, engine) results
     clean = tmp_path / "clean"
-    run_matrix(matrix, clean, jobs=1, registry=FAKE_REGISTRY)
+    run_matrix(matrix, clean, jobs=1, registry=slow)
     _tables_equal(load_results(killed, matrix), load_results(clean, matrix))
 
 
