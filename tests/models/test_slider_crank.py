@@ -9,7 +9,7 @@ from numpy.testing import assert_allclose
 
 from dualmech.core.motion import CrankState
 from dualmech.models.case import load_case
-from dualmech.models.slider_crank import analyze, analyze_many, solve_case, to_table
+from dualmech.models.slider_crank import analyze, analyze_many, no_assembly_ranges, solve_case, to_table
 from tests.oracles import assembly_margin, assert_slider_motion, exact_slider_motion
 from tests.tolerances import (
     BATCH_VS_SINGLE,
@@ -250,3 +250,19 @@ def test_random_geometries_agree_with_the_closed_form_near_their_edges():
             continue
         rows = ok & (table["closure_condition"] >= RANDOM_VS_CLOSED_FORM_CONDITION)
         assert_slider_motion(case, table, RANDOM_VS_CLOSED_FORM, rows, peak_rows=ok, label=f"case {i}: ")
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.booleans(), max_size=40))
+def test_no_assembly_ranges_are_the_runs_of_the_mask(flags: list[bool]) -> None:
+    """Each run of ``True`` rows, first and last angle, as a plain scan of the rows finds them (runs at
+    either end, of one row, none at all)."""
+    theta = 0.5 * np.arange(len(flags)) + 10.0
+    runs, start = [], None
+    for i, flag in enumerate([*flags, False]):
+        if flag and start is None:
+            start = i
+        elif not flag and start is not None:
+            runs.append((theta[start], theta[i - 1]))
+            start = None
+    assert no_assembly_ranges(theta, np.array(flags, dtype=bool)) == runs
