@@ -318,9 +318,9 @@ def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1, ahead: int =
                         states = helper.submit(crank, los[j + 1])
                     running.append(start_chunk([case], [ready], pool[j % len(pool)]))
                 yield running.popleft().result()
-        finally:
-            for chunk in running:
-                chunk.cancel()
+        finally:  # a consumer that stops early (or an error) leaves no blocks queued
+            for begun in running:
+                begun.cancel()
 
 
 def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
