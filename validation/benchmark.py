@@ -15,20 +15,24 @@ seeded random cases (the thesis example with random offset, twist and axial shif
   the closed form's own time on the 1° grid, is not the machine's limit.
 * **Pinocchio, MuJoCo** -- best-effort drivers: the model built once per case outside the
   timing (Pinocchio: :func:`~dualmech.validation.pinocchio_engine.solve` with a prebuilt
-  model, its closure and dynamics split reported beside the total; MuJoCo rigid: the
-  per-position loop of :func:`~dualmech.validation.mujoco_engine.solve_case` on a prebuilt
-  model).
+  model; MuJoCo rigid: the per-position loop of
+  :func:`~dualmech.validation.mujoco_engine.solve_case` on a prebuilt model).  Beside the
+  driver's total, the time inside the engine: the seconds spent in the library's own
+  functions (:func:`library_time`), measured in separate runs so that the timers do not
+  slow the total.
 """
 
 from __future__ import annotations
 
+import contextlib
 import platform
 import statistics
 import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from types import ModuleType
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -68,19 +72,47 @@ class Timing:
         )
 
 
-def measure(label: str, positions: int, run: Callable[[], float | None], repeats: int) -> Timing:
-    """Median wall and CPU time of ``run()`` over ``repeats`` runs after a warm-up run (``run`` may
-    return the seconds it spent inside the engine)."""
+def measure(label: str, positions: int, run: Callable[[], object], repeats: int,
+            inside: Callable[[], float] | None = None) -> Timing:
+    """Median wall and CPU time of ``run()`` over ``repeats`` runs after a warm-up run; ``inside``, a run
+    that returns the seconds it spent inside the engine, is repeated as often after them (its median is
+    the figure's ``engine``)."""
     run()
-    walls, cpus, engines = [], [], []
+    walls, cpus = [], []
     for _ in range(repeats):
         w, c = time.perf_counter(), time.process_time()
-        inside = run()
+        run()
         walls.append(time.perf_counter() - w)
         cpus.append(time.process_time() - c)
-        engines.append(inside)
-    engine = statistics.median(engines) if all(e is not None for e in engines) else None
+    engine = statistics.median(inside() for _ in range(repeats)) if inside is not None else None
     return Timing(label, positions, statistics.median(walls), statistics.median(cpus), engine)
+
+
+@contextlib.contextmanager
+def library_time(module: ModuleType, like: Callable) -> Iterator[list[float]]:
+    """While inside, every function of ``module`` of the type of ``like`` (the library's own compiled
+    functions, not its classes) is timed: the seconds spent in them add up in the one-element list
+    yielded.  Attribute reads of the library's objects are not calls and are not counted."""
+    spent = [0.0]
+
+    def timed(function: Callable) -> Callable:
+        def call(*args: object, **kwargs: object) -> object:
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                spent[0] += time.perf_counter() - start
+
+        return call
+
+    functions = {n: f for n, f in vars(module).items() if type(f) is type(like)}
+    for name, function in functions.items():
+        setattr(module, name, timed(function))
+    try:
+        yield spent
+    finally:
+        for name, function in functions.items():
+            setattr(module, name, function)
 
 
 def random_cases(count: int, step_deg: float = 1.0, seed: int = 0) -> list[Case]:
@@ -152,25 +184,28 @@ def agreement(cases: list[Case]) -> float:
 
 
 def time_pinocchio(cases: list[Case], repeats: int) -> Timing:
-    """Pinocchio with its model built once per case outside the timing; engine = closure + dynamics split."""
+    """Pinocchio with its model built once per case outside the timing; engine = time in Pinocchio's
+    functions."""
+    import pinocchio as pin
+
     from dualmech.validation import pinocchio_engine as pe
     from dualmech.validation.pinocchio_model import build_model
 
     models = [build_model(c) for c in cases]
 
-    def run() -> float:
-        inside = 0.0
+    def run() -> None:
         for case, pm in zip(cases, models):
-            sol, split = pe.solve(case, pm)
-            pe.to_table(case, sol)
-            inside += split["positions"] + split["dynamics"]  # the driver's split: closure, dynamics
-        return inside
+            pe.to_table(case, pe.solve(case, pm)[0])
 
-    return measure("Pinocchio full analysis (model prebuilt)", _positions(cases), run, repeats)
+    return measure("Pinocchio full analysis (model prebuilt)", _positions(cases), run, repeats,
+                   _inside(pin, pin.forwardKinematics, run))
 
 
 def time_mujoco(cases: list[Case], repeats: int) -> Timing:
-    """MuJoCo rigid: the per-position driver loop on a model built once per case outside the timing."""
+    """MuJoCo rigid: the per-position driver loop on a model built once per case outside the timing;
+    engine = time in MuJoCo's functions."""
+    import mujoco
+
     from dualmech.validation import mujoco_engine as me
 
     loops = [me.build(c) for c in cases]
@@ -185,7 +220,18 @@ def time_mujoco(cases: list[Case], repeats: int) -> Timing:
                 pos = me.solve_position(lp, tuple(float(f[i]) for f in fields), mode, given, warm)
                 warm = pos.status in ("ok", "dead_centre")
 
-    return measure("MuJoCo rigid full analysis (model prebuilt)", _positions(cases), run, repeats)
+    return measure("MuJoCo rigid full analysis (model prebuilt)", _positions(cases), run, repeats,
+                   _inside(mujoco, mujoco.mj_step, run))
+
+
+def _inside(module: ModuleType, like: Callable, run: Callable[[], None]) -> Callable[[], float]:
+    """A run of ``run`` that returns the seconds spent in ``module``'s functions (:func:`library_time`)."""
+    def timed_run() -> float:
+        with library_time(module, like) as spent:
+            run()
+        return spent[0]
+
+    return timed_run
 
 
 def time_solve_parquet(positions: int, repeats: int) -> Timing:
@@ -196,7 +242,7 @@ def time_solve_parquet(positions: int, repeats: int) -> Timing:
         return measure(
             f"dualmech solve, one case into Parquet ({n:,} positions)",
             n,
-            lambda: stream_solve(case, Path(tmp) / "out.parquet") and None,
+            lambda: stream_solve(case, Path(tmp) / "out.parquet"),
             repeats,
         )
 
@@ -209,11 +255,11 @@ def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000,
     yard = measure(
         "closed-form yardstick, compiled (this machine's limit for the mechanism)",
         n,
-        lambda: run_closed_form(prepared) and None,
+        lambda: run_closed_form(prepared),
         repeats,
     )
     rows = [
-        measure("dualmech full analysis (compiled kernel)", n, lambda: solve_cases(bench) and None, repeats),
+        measure("dualmech full analysis (compiled kernel)", n, lambda: solve_cases(bench), repeats),
         yard,
     ]
     if big:
