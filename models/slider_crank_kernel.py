@@ -18,6 +18,7 @@ from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache
+from itertools import islice
 from typing import Iterator, Sequence
 
 import numpy as np
@@ -302,25 +303,38 @@ def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1, ahead: int =
     rows = min(chunk_positions, max(1, angles.size))
     los = range(0, angles.size, chunk_positions)
     pool = [np.empty((len(OUT_COLUMNS), rows)) for _ in range(max(1, min(buffers, len(los))))]
-    running: deque[Running] = deque()
 
     def crank(lo: int) -> CrankState:
         return case.own_crank_states(angles[lo : lo + chunk_positions])
 
     # each chunk's crank states are made on a helper thread while the kernel analyses the one before
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="dualmech-crank") as helper:
-        states = helper.submit(crank, 0)
-        try:
-            for k in range(len(los)):
-                for j in range(k + len(running), min(k + ahead + 1, len(los))):
-                    ready = states.result()
-                    if j + 1 < len(los):
-                        states = helper.submit(crank, los[j + 1])
-                    running.append(start_chunk([case], [ready], pool[j % len(pool)]))
-                yield running.popleft().result()
-        finally:  # a consumer that stops early (or an error) leaves no blocks queued
-            for begun in running:
-                begun.cancel()
+
+        def begun() -> Iterator[Running]:
+            states = helper.submit(crank, 0)
+            for j in range(len(los)):
+                ready = states.result()
+                if j + 1 < len(los):
+                    states = helper.submit(crank, los[j + 1])
+                yield start_chunk([case], [ready], pool[j % len(pool)])
+
+        for running in _ahead(begun(), ahead):
+            yield running.result()
+
+
+def _ahead(begun: Iterator[Running], ahead: int) -> Iterator[Running]:
+    """The chunks of ``begun`` in order, chunk ``k + ahead`` begun (drawn from ``begun``) before chunk ``k``
+    is handed on; those begun and not handed on are cancelled when the consumer stops early (or fails)."""
+    queue = deque(islice(begun, ahead))
+    try:
+        for running in begun:
+            queue.append(running)
+            yield queue.popleft()
+        while queue:
+            yield queue.popleft()
+    finally:
+        for running in queue:
+            running.cancel()
 
 
 def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
@@ -360,23 +374,19 @@ def solve_cases(cases: Sequence[Case], chunk_positions: int = CHUNK_POSITIONS,
     wait for that Python.  Each chunk's columns are copied once, into one contiguous ``(columns, n)``
     array whose rows the chunk's tables share (not copied again per case and column).
     """
-    def begin(group: list[int]) -> tuple[list[CrankState], Running]:
+    def begin(group: list[int]) -> Running:
         states = [cases[j].own_crank_states() if cranks is None else cranks[j] for j in group]
-        return states, start_chunk([cases[j] for j in group], states)
+        return start_chunk([cases[j] for j in group], states)
 
     sizes = [len(c.motion.angles_deg) for c in cases] if cranks is None else [len(s) for s in cranks]
     groups = _groups(sizes, chunk_positions)
-    running = [begin(groups[0])] if groups else []
     tables: list[ResultTable] = []
-    for g, group in enumerate(groups):
-        if g + 1 < len(groups):
-            running.append(begin(groups[g + 1]))
-        states, begun = running.pop(0)
-        chunk = begun.result()
+    for group, running in zip(groups, _ahead(map(begin, groups), 1)):
+        chunk = running.result()
         columns = np.array([chunk.columns[c] for c in NUMERIC_COLUMNS])
         start = 0
-        for j, state in zip(group, states):
-            part = slice(start, start + len(state))
+        for j in group:
+            part = slice(start, start + sizes[j])
             start = part.stop
             own = Chunk(dict(zip(NUMERIC_COLUMNS, columns[:, part])), chunk.status[part],
                         chunk.iterations[part], chunk.dynamics_residual[part])

@@ -58,9 +58,10 @@ class _Tally:
         self.extremes: list[tuple[float, float]] = []  # (S4, theta1_deg) of each chunk's max and min
         self.worst = -np.inf
         self.no_assembly: list[np.ndarray] = []  # the rows of each chunk that are no_assembly
-        self.rows = 0
 
     def add(self, columns: dict[str, np.ndarray], codes: np.ndarray) -> None:
+        first = int(self.counts.sum())  # the chunk's first row in the case
+        self.no_assembly.append(first + np.flatnonzero(codes == STATUSES.index("no_assembly")))
         self.counts += np.bincount(codes, minlength=len(STATUSES))
         s4, theta = columns["S4"], columns["theta1_deg"]
         if np.isfinite(s4).any():
@@ -68,8 +69,6 @@ class _Tally:
                 self.extremes.append((float(s4[i]), float(theta[i])))
         if np.isfinite(columns["residual"]).any():
             self.worst = max(self.worst, float(np.nanmax(columns["residual"])))
-        self.no_assembly.append(self.rows + np.flatnonzero(codes == STATUSES.index("no_assembly")))
-        self.rows += codes.size
 
     def text(self, case: Case, messages: list[str]) -> str:
         lines = [f"case {case.name} (dualmech): {int(self.counts.sum())} positions, streamed"]
