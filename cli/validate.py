@@ -185,7 +185,8 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     if write_baseline_file:
         write_baseline(write_baseline_file, summary)
     with rich_progress(f"report of {matrix.name}: figures") as bar:
-        files = write_report(outdir, report_dir, jobs=jobs or _cores(), comparison=comparison, progress=bar)
+        files = write_report(outdir, report_dir, jobs=jobs or _cores(), comparison=comparison,
+                             results=outcome.results, progress=bar)
 
     how = f"Dask {scheduler}" if scheduler else f"{jobs or _cores()} jobs"
     title = (f"{matrix.name}: {len(matrix.cases)} cases, engines {', '.join(matrix.engines)} — "

@@ -38,6 +38,7 @@ from dualmech.models.inputs import (
     MAX_LENGTH_RATIO,
     MAX_POSITIONS,
     POSITIVE_LENGTH,
+    Range,
     TORQUE,
     CaseError,
     NumberReader,
@@ -71,6 +72,9 @@ class Case:
     loads: Loads
     raw: dict  # the parsed TOML, after defaults; used to derive swept cases
     joints: Joints = Joints()
+    #: ``[simulation] steps_per_degree``: the MuJoCo simulation judge's time step, in steps per degree of
+    #: the fastest prescribed phase (``None``: its documented default, models/mjcf_settings.py).
+    simulation_steps: int | None = None
 
     def crank_state(self, theta: np.ndarray, theta_dot: np.ndarray | float,
                     theta_ddot: np.ndarray | float) -> CrankState:
@@ -142,6 +146,7 @@ _SCHEMA: dict[str, dict[str, tuple[type | tuple, bool]]] = {
         "slider_force": ((int, float), False),
         "gravity": (list, False),
     },
+    "simulation": {"steps_per_degree": ((int, float), False)},
 }
 _TOP = {"name": (str, True), "units": (str, False), "description": (str, False)}
 #: ``[mechanism] kind`` of this case format (optional; the other linkages: :mod:`dualmech.models.linkages`).
@@ -192,6 +197,21 @@ def _geometry(g: dict, number: NumberReader = check_number) -> Geometry:
     alpha = number("geometry.slider_twist_deg", g["slider_twist_deg"], ANGLE_DEG)
     s1 = number("geometry.crank_axial_shift", g["crank_axial_shift"], LENGTH)
     return Geometry(a1, a2, a4, alpha, s1)
+
+
+#: ``[simulation] steps_per_degree``: whole steps, and few enough that a revolution stays seconds of MuJoCo.
+SIMULATION_STEPS = Range(1, 1024, "a whole number of steps per degree")
+
+
+def _simulation_steps(sim: dict) -> int | None:
+    """``[simulation] steps_per_degree`` (``None`` if not given); a one-line error outside
+    :data:`SIMULATION_STEPS`."""
+    value = sim.get("steps_per_degree")
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise CaseError(f"simulation.steps_per_degree: expected {SIMULATION_STEPS.describe()}, got {show(value)}")
+    return int(SIMULATION_STEPS.check("simulation.steps_per_degree", value))
 
 
 def _slider_crank(kind: str) -> None:
@@ -313,9 +333,10 @@ def case_from_dict(data: dict) -> Case:
     units = data.get("units", "consistent")
     if units not in KNOWN_UNITS:
         raise CaseError(f"units: {show(units)} is not a known unit label (valid: {', '.join(KNOWN_UNITS)})")
+    steps = _simulation_steps(data.get("simulation", {}))
     name = check_text("name", data["name"], MAX_CASE_NAME)  # last: a derived name shows the values above
     return Case(name=name, units=units, geometry=geom, motion=motion, bodies=bodies, loads=loads,
-                raw=_deep_copy(data), joints=joints)
+                raw=_deep_copy(data), joints=joints, simulation_steps=steps)
 
 
 def preset_names() -> list[str]:

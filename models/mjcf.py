@@ -88,6 +88,7 @@ from dualmech.models.mjcf_settings import (  # noqa: F401  (re-exported: engines
     default_timestep,
     inertia_bound,
     inertial,
+    simulation_steps,
 )
 from dualmech.models.mjcf_settings import num as _num
 from dualmech.models.mjcf_settings import vec as _vec

@@ -62,8 +62,17 @@ class MjcfSettings:
     integrator: str = "implicitfast"
 
 
-def default_timestep(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> float:
-    """Seconds per step: one degree of the fastest prescribed phase / ``steps_per_degree``.
+def simulation_steps(case: Case, steps_per_degree: int | None = None) -> int:
+    """The simulation's steps per degree: ``steps_per_degree`` if given, else the case's ``[simulation]
+    steps_per_degree``, else :data:`STEPS_PER_DEGREE`."""
+    if steps_per_degree is not None:
+        return steps_per_degree
+    return STEPS_PER_DEGREE if case.simulation_steps is None else case.simulation_steps
+
+
+def default_timestep(case: Case, steps_per_degree: int | None = None) -> float:
+    """Seconds per step: one degree of the fastest prescribed phase / ``steps_per_degree``
+    (:func:`simulation_steps`).
 
     At most :data:`MAX_TIMESTEP`.
 
@@ -71,6 +80,7 @@ def default_timestep(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> fl
     turn one degree from rest under :math:`\\ddot\\theta_1`) and the axial motion
     :math:`\\alpha\\theta_1` of thesis eq. (27) (``axial_cycles`` times faster).
     """
+    steps_per_degree = simulation_steps(case, steps_per_degree)
     mo = case.motion
     one = math.radians(1.0)
     cycles = max(1.0, abs(mo.axial_cycles)) if mo.axial_amplitude != 0.0 else 1.0

@@ -26,8 +26,10 @@ not changed by the implicit step.
 and here; measured in the tests):
 
 * ``dt`` = one degree of the fastest prescribed phase (crank angle or axial
-  cycle) over ``STEPS_PER_DEGREE`` (128), at most ``MAX_TIMESTEP`` (1e-4 s):
-  2.6e-5 s for the bundled cases at 50 rpm.  Rows fall on the step grid.
+  cycle) over ``STEPS_PER_DEGREE`` (128; a case may set its own, ``[simulation]
+  steps_per_degree``), at most ``MAX_TIMESTEP`` (1e-4 s): 2.6e-5 s for the
+  bundled cases at 50 rpm.  Rows fall on the step grid.  The SIM_* tolerances
+  are the same at any step: a coarser one is judged by them, not excused.
 * Servo stiffness ``kp = I_low ω_n²``, :math:`\\omega_n = 0.5/dt`, with ``I_low``
   the crank's own inertia about its axis (its mass for the axial servo), a lower
   bound of what the servo sees: the explicit stiffness stays stable in every
@@ -97,7 +99,7 @@ from dualmech.core.assembly import edge_status
 from dualmech.core.status import Status, flag_joint_lock, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
-from dualmech.models.mjcf import STEPS_PER_DEGREE, MjcfSettings, case_to_mjcf
+from dualmech.models.mjcf import MjcfSettings, case_to_mjcf, simulation_steps
 from dualmech.validation import mujoco_closure, mujoco_dynamics
 from dualmech.validation import mujoco_engine as rigid
 from dualmech.validation.mujoco_sim_plan import (
@@ -166,7 +168,7 @@ def read_state(lp: rigid.MjLoop, gains: np.ndarray) -> dict[str, float]:
 
 
 def simulate(case: Case, slider_load: float, settings: MjcfSettings, rows: np.ndarray | None = None,
-             steps_per_degree: int = STEPS_PER_DEGREE) -> dict[str, np.ndarray]:
+             steps_per_degree: int | None = None) -> dict[str, np.ndarray]:
     """Simulate the rows of ``case`` (mask ``rows``, default all) with a constant slider load.
 
     ``settings.timestep`` must be the schedule's (:func:`schedule` with the same
@@ -279,7 +281,7 @@ def load_scale(case: Case) -> float:
     return scale if scale > 0 else 1.0
 
 
-def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTable:
+def solve_case(case: Case, steps_per_degree: int | None = None) -> ResultTable:
     """Simulate ``case`` in MuJoCo (method, error budget and torque-mode handling: module docstring).
 
     Returns
@@ -288,6 +290,7 @@ def solve_case(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> ResultTa
         Engine ``"mujoco-sim"``; ``meta`` holds the time step, steps per degree,
         the largest crank tracking lag (rad) and, in torque mode, ``L_ref``.
     """
+    steps_per_degree = simulation_steps(case, steps_per_degree)
     n = case.motion.angles_deg.shape[0]
     sv = survey(case)
     reachable = sv.simulated
@@ -372,7 +375,7 @@ def _overflowed(case: Case, sv: Survey) -> ResultTable:
     return ResultTable(ENGINE, case.name, cols, status, {"mujoco": mujoco.__version__, "messages": messages})
 
 
-def benchmark(case: Case, repeats: int = 1, steps_per_degree: int = STEPS_PER_DEGREE) -> dict:
+def benchmark(case: Case, repeats: int = 1, steps_per_degree: int | None = None) -> dict:
     """Per-position cost of :func:`solve_case` (best of ``repeats``), and per simulated step.
 
     Returns
@@ -383,6 +386,7 @@ def benchmark(case: Case, repeats: int = 1, steps_per_degree: int = STEPS_PER_DE
     """
     if isinstance(repeats, bool) or int(repeats) != repeats or repeats < 1:
         raise ValueError(f"repeats: expected a positive integer, got {repeats!r}")
+    steps_per_degree = simulation_steps(case, steps_per_degree)
     reachable, settings = prepare(case, steps_per_degree)
     plan = schedule(case, steps_per_degree, reachable, runin_steps(settings))
     steps = plan.steps * (1 if case.loads.mode == "force" else 2)

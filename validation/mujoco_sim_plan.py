@@ -16,10 +16,10 @@ import numpy as np
 from dualmech.core.status import Status, flag_joint_lock, is_status, joint_locked
 from dualmech.models.case import Case
 from dualmech.models.mjcf import (
-    STEPS_PER_DEGREE,
     MjcfSettings,
     default_settings,
     default_timestep,
+    simulation_steps,
 )
 from dualmech.validation import mujoco_engine as rigid
 from dualmech.validation.mujoco_dynamics import rate_rows, solve_rates
@@ -61,15 +61,16 @@ class Schedule:
         return sum(int(s[-1]) + 1 for _, s in self.runs)
 
 
-def schedule(case: Case, steps_per_degree: int = STEPS_PER_DEGREE, rows: np.ndarray | None = None,
+def schedule(case: Case, steps_per_degree: int | None = None, rows: np.ndarray | None = None,
              runin: int = SIM_RUNIN_STEPS) -> Schedule:
     """Split the rows of ``case`` into simulation runs on a common time grid (module docstring).
 
     ``rows``: boolean mask, shape (n,), of the rows to simulate (default all).  One
     continuous run needs every row (a trajectory cannot pass where the mechanism
     does not assemble); otherwise each selected row gets its own run.  Each run
-    starts ``runin`` steps before its first row.
+    starts ``runin`` steps before its first row.  ``steps_per_degree``: :func:`simulation_steps`.
     """
+    steps_per_degree = simulation_steps(case, steps_per_degree)
     if (
         isinstance(steps_per_degree, bool)
         or int(steps_per_degree) != steps_per_degree
@@ -171,13 +172,13 @@ def sim_settings(case: Case, timestep: float, inertia_high: tuple[float, float])
     return default_settings(case, timestep, inertia_high=tuple(SIM_INERTIA_MARGIN * h for h in inertia_high))
 
 
-def prepare(case: Case, steps_per_degree: int = STEPS_PER_DEGREE) -> tuple[np.ndarray, MjcfSettings]:
+def prepare(case: Case, steps_per_degree: int | None = None) -> tuple[np.ndarray, MjcfSettings]:
     """Rows to simulate (:attr:`Survey.simulated`) and the simulation settings for ``case``."""
     sv = survey(case)
     return sv.simulated, checked_settings(case, steps_per_degree, sv)
 
 
-def checked_settings(case: Case, steps_per_degree: int, sv: Survey) -> MjcfSettings:
+def checked_settings(case: Case, steps_per_degree: int | None, sv: Survey) -> MjcfSettings:
     """:func:`sim_settings` at the schedule's step; ``OverflowError`` if they leave the double range."""
     dt = schedule(case, steps_per_degree, sv.simulated).timestep
     if not (dt > 0.0 and math.isfinite(1.0 / dt)):

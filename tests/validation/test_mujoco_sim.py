@@ -11,11 +11,13 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 from click.testing import CliRunner
 
 from dualmech.cli import main
 from dualmech.core.table import NUMERIC_COLUMNS, read_csv
 from dualmech.models.case import load_case, preset_names, with_loads
+from dualmech.models.mjcf_settings import STEPS_PER_DEGREE
 from dualmech.validation.tolerances import (
     DEAD_CENTRE_TRANSMISSION,
     SIM_DEAD_CENTRE_TRANSMISSION,
@@ -87,6 +89,9 @@ def test_simulation_agrees_with_the_inhouse_solver(case):
 
 
 def test_halving_the_time_step_reduces_the_error():
+    """Every error shrinks with the step, and the pose's (S4, the closure condition) by 4: dt^2, as the
+    SIM_* tolerances' reasons say (measured 4.00-4.02 here; 4.0 per halving from 256 to 32 steps a degree on
+    the worst of _cases())."""
     base = load_case("thesis/a4-20-alpha-232").with_values(
         {"motion.crank_rpm": 200.0, "motion.angles_deg": {"start": 0.0, "stop": 180.0, "step": 10.0}})
     for case in (with_loads(base, drive_torque=None, slider_force=-300.0), base):
@@ -94,6 +99,21 @@ def test_halving_the_time_step_reduces_the_error():
         coarse, fine = (worst_differences(case, reference, solve_case(case, k)) for k in (32, 64))
         for group in ("length", "velocity", "acceleration", "force", "moment"):
             assert fine[group] < 0.7 * coarse[group], (case.loads.mode, group, coarse, fine)
+        for group in ("length", "ratio"):
+            assert_allclose(coarse[group] / fine[group], 4.0, rtol=0.1, err_msg=f"{case.loads.mode} {group}")
+
+
+def test_a_case_sets_the_simulation_step():
+    """``[simulation] steps_per_degree`` sets the judge's step (as the thesis matrix does); an argument
+    overrides it; without either, STEPS_PER_DEGREE."""
+    case = load_case("thesis/a4-20-alpha-232").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 20.0, "step": 10.0}})
+    coarse = case.with_values({"simulation.steps_per_degree": 64})
+    one_degree = np.radians(1.0) / abs(case.motion.speed)
+    for c, given, steps in ((case, None, STEPS_PER_DEGREE), (coarse, None, 64), (coarse, 100, 100)):
+        table = solve_case(c, given)
+        assert table.meta["steps_per_degree"] == steps
+        assert table.meta["timestep"] == pytest.approx(one_degree / steps, rel=1e-12)
 
 
 def test_default_solref_leaves_the_loop_open():

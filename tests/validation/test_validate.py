@@ -19,7 +19,7 @@ from click.testing import CliRunner
 from numpy.testing import assert_array_equal
 
 from dualmech.cli import main
-from dualmech.validation import engines
+from dualmech.validation import engines, runner
 from dualmech.validation.baseline import baseline_summary, compare_baseline
 from dualmech.validation.compare import compare_run
 from dualmech.validation.matrix import MatrixError, load_matrix, parse_matrix
@@ -242,3 +242,23 @@ def test_user_text_is_escaped_in_the_report(small, tmp_path):
     assert "<b>coarse</b>" not in html and "&lt;b&gt;coarse&lt;/b&gt;" in html
     assert "<b>coarse</b>" not in Path(files.markdown).read_text()
     assert np.isfinite(files.seconds)
+
+
+def test_the_results_in_memory_are_those_stored(tmp_path):
+    """The report draws from the run's results in memory (``write_report(results=...)``), so they must be
+    what ``load_results`` reads back from the run's files: the same engines in the matrix's order, the same
+    meta and the same bits in every column (NaN where NaN)."""
+    from dualmech.validation.api import validate
+
+    run = validate("thesis/a4-30-s1-3.5", tmp_path / "run", engines=("dualmech", "mujoco"), jobs=2)
+    matrix, _ = runner.load_run(run.outdir)
+    stored = runner.load_results(run.outdir, matrix)
+    assert list(stored) == list(run.results)
+    for cid, per in stored.items():
+        assert list(per) == list(run.results[cid]) == list(matrix.engines)
+        for engine, table in per.items():
+            kept = run.results[cid][engine]
+            assert table.meta == kept.meta and list(table.columns) == list(kept.columns)
+            assert_array_equal(table.status, kept.status)
+            for name, column in table.columns.items():
+                assert_array_equal(column, kept.columns[name], err_msg=f"{cid} {engine} {name}")

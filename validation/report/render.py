@@ -133,6 +133,7 @@ def write_report(
     *,
     jobs: int = 1,
     comparison: Comparison | None = None,
+    results: dict | None = None,
     progress: ProgressCallback | None = None,
 ) -> ReportFiles:
     """Render the report of the run in ``rundir`` into ``outdir`` (default: ``rundir``).
@@ -141,11 +142,14 @@ def write_report(
     ``figures/*.png``, and lists them in the folder's manifest
     (:mod:`~dualmech.validation.rundir`: only a dualmech folder, one writer at a time,
     and only figures it wrote before are removed when they are no longer drawn).
+    ``comparison`` and ``results`` (case id -> engine -> table or error text), if given, are the run's as
+    :func:`~dualmech.validation.api.run_and_compare` has them in memory; else they are read and made here.
     """
     start = time.perf_counter()
     rundir = Path(rundir)
     matrix, run = runner.load_run(rundir)
-    results = runner.load_results(rundir, matrix)
+    if results is None:
+        results = runner.load_results(rundir, matrix)
     if comparison is None:
         comparison = compare_run(matrix, results)
     with locked(outdir if outdir is not None else rundir) as outdir:
