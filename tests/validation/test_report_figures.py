@@ -268,3 +268,17 @@ def test_a_reused_figure_with_traces_is_seen(matrix, results, monkeypatch, fault
         results = _without_values(matrix, results)
     reused, new = _reused_and_new(matrix, results)
     assert reused != new
+
+
+def test_figures_are_drawn_under_the_report_settings_only(monkeypatch):
+    """Every report figure is made and drawn under canvas.FIGURE_RC (glyphs not hinted), and the process's
+    own matplotlib settings are as they were after it."""
+    import matplotlib
+
+    seen = []
+    monkeypatch.setitem(figures._FIGURE_FUNCTIONS, "probe",
+                        lambda: seen.append({k: matplotlib.rcParams[k] for k in canvas.FIGURE_RC}) or b"")
+    before = {k: matplotlib.rcParams[k] for k in canvas.FIGURE_RC}
+    assert figures._render(("probe", ())) == b""
+    assert seen == [canvas.FIGURE_RC]
+    assert {k: matplotlib.rcParams[k] for k in canvas.FIGURE_RC} == before != canvas.FIGURE_RC

@@ -17,6 +17,7 @@ from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation.compare import STROKE, Comparison
 from dualmech.validation.executors import shared_pool
 from dualmech.validation.matrix import Matrix
+from dualmech.validation.report.canvas import drawing
 from dualmech.validation.report.plots import (
     Figure,
     difference_figure,
@@ -181,7 +182,8 @@ _RENDER_ORDER = ("balancing", "difference", "heatmap", "sweep")
 
 def _render(job: tuple[str, tuple]) -> bytes:
     name, args = job
-    return _FIGURE_FUNCTIONS[name](*args)
+    with drawing():
+        return _FIGURE_FUNCTIONS[name](*args)
 
 
 class PendingFigures:
