@@ -22,6 +22,19 @@ ENGINES: dict[str, str] = {
 }
 
 
+#: Engines run in a thread of the running process beside a pool's workers (under their registered function
+#: only: a test's fake of the same name runs in a worker): the in-house kernel is compiled, releases the GIL
+#: and takes ~2 ms a case, while loading it (numba) costs a worker ~0.6 s of CPU; so it is loaded once, in
+#: the process that runs the matrix, and the workers run the judges.
+IN_PROCESS_ENGINES: dict[str, str] = {"dualmech": ENGINES["dualmech"]}
+
+
+def runs_here(engine: str, spec: str) -> bool:
+    """Whether a task of ``engine`` under ``spec`` runs in the running process beside a pool
+    (:data:`IN_PROCESS_ENGINES`)."""
+    return IN_PROCESS_ENGINES.get(engine) == spec
+
+
 def get_engine(name: str) -> Callable[[Case], ResultTable]:
     """The ``solve_case`` function of engine ``name``."""
     if name not in ENGINES:

@@ -83,11 +83,13 @@ def worker_init() -> None:
 
 
 def execute(task: Callable[..., dict], calls: list[tuple], jobs: int, scheduler: str | None,
-            leftovers: list[dict]) -> Iterator[dict]:
+            leftovers: list[dict], here: Callable[[tuple], bool] = lambda call: False) -> Iterator[dict]:
     """Run ``task(*call)`` for every call; yield entries as they finish.
 
     Tasks that finished but were not yielded when the generator is closed early
-    (an interrupt) are appended to ``leftovers``.
+    (an interrupt) are appended to ``leftovers``.  With a pool, the calls for which ``here(call)``
+    is true run in a thread of this process instead, beside the workers (tasks that are short and
+    release the GIL, but whose libraries would cost each worker more to load than to run them).
     """
     if scheduler:
         yield from _on_dask(task, calls, scheduler, leftovers)
@@ -95,7 +97,7 @@ def execute(task: Callable[..., dict], calls: list[tuple], jobs: int, scheduler:
         for call in calls:
             yield task(*call)
     else:
-        yield from _on_pool(task, calls, jobs, leftovers)
+        yield from _on_pool(task, calls, jobs, leftovers, here)
 
 
 def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
@@ -217,10 +219,12 @@ def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
 
 
 def _on_pool(
-    task: Callable[..., dict], calls: list[tuple], jobs: int, leftovers: list[dict]
+    task: Callable[..., dict], calls: list[tuple], jobs: int, leftovers: list[dict],
+    here: Callable[[tuple], bool]
 ) -> Iterator[dict]:
     pool = shared_pool(jobs)
-    futures = [pool.submit(task, *call) for call in calls]
+    local = cf.ThreadPoolExecutor(max_workers=1, thread_name_prefix="dualmech-task")
+    futures = [(local if here(call) else pool).submit(task, *call) for call in calls]
     handed: set[Any] = set()
     try:
         for fut in cf.as_completed(futures):
@@ -234,6 +238,7 @@ def _on_pool(
             cf.wait([f for f in futures if not f.cancelled()], timeout=INTERRUPT_GRACE_S)
             leftovers.extend(_finished(futures, handed))
             end_shared_pool(jobs, grace=0.0)  # do not wait any longer
+        local.shutdown(wait=False, cancel_futures=True)
 
 
 def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,

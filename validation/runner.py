@@ -37,7 +37,7 @@ import numpy as np
 
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
 from dualmech.models.case import case_from_dict
-from dualmech.validation.engines import ENGINES
+from dualmech.validation.engines import ENGINES, runs_here
 from dualmech.validation.executors import check_address, execute
 from dualmech.validation.matrix import Matrix, matrix_from_dict
 from dualmech.validation.provenance import (
@@ -376,7 +376,7 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
         record_files(outdir, [path])
 
     leftovers: list[dict] = []
-    stream = execute(run_task, calls, jobs, scheduler, leftovers)
+    stream = execute(run_task, calls, jobs, scheduler, leftovers, here=lambda call: runs_here(*call[2:]))
     try:
         for n_done, entry in enumerate(stream, start=1):
             store(entry)

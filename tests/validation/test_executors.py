@@ -161,3 +161,33 @@ def test_ending_a_pool_without_a_grace_waits_for_its_workers():
     workers = list(pool._processes.values())
     executors.end_pool(pool)
     assert [exit_code(p, timeout=0.05) for p in workers] == [0]  # at once: the exit code is there
+
+
+def whose(tag: str) -> dict:
+    """A task that says which process and thread ran it."""
+    return {"tag": tag, "pid": os.getpid(), "thread": threading.current_thread().name}
+
+
+def test_calls_chosen_to_run_here_run_in_a_thread_of_this_process_the_others_in_the_workers():
+    """``execute(here=...)``: the in-house engine's tasks run beside the pool, in this process
+    (engines.IN_PROCESS_ENGINES), every other task in a worker; every entry is yielded once."""
+    calls = [(tag,) for tag in ("pool-1", "here-1", "pool-2", "here-2")]
+    try:
+        entries = list(executors.execute(whose, calls, 2, None, [], here=lambda call: call[0].startswith("here")))
+    finally:
+        executors.end_shared_pool(2)
+    assert sorted(e["tag"] for e in entries) == sorted(c[0] for c in calls)
+    for e in entries:
+        here = e["tag"].startswith("here")
+        assert (e["pid"] == os.getpid()) == here, e
+        assert e["thread"].startswith("dualmech-task") == here, e
+
+
+def test_the_run_solves_with_the_inhouse_engine_here_and_judges_in_workers():
+    """Only an engine registered under its own function runs here (a test's fake of the same name still
+    runs in a worker, where it may crash or hang as it is meant to)."""
+    from dualmech.validation.engines import ENGINES, runs_here
+
+    assert runs_here("dualmech", ENGINES["dualmech"])
+    assert not runs_here("dualmech", "tests.validation.fake_engines:crash")
+    assert not any(runs_here(e, spec) for e, spec in ENGINES.items() if e != "dualmech")

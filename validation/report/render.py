@@ -17,7 +17,6 @@ from typing import Any, Callable
 from dualmech.models.design_summary import JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION
 from dualmech.validation import derived, runner
 from dualmech.validation.compare import Check, Comparison, compare_run
-from dualmech.validation.executors import shared_pool
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.provenance import key_versions
 from dualmech.validation.report.figures import start_figures
@@ -188,20 +187,16 @@ def write_report(
 def _findings_and_figures(matrix: Matrix, results: dict, comparison: Comparison, shaking: Any, jobs: int,
                           progress: ProgressCallback | None) -> tuple[list[dict] | None, list[Figure]]:
     """The thesis's findings (a thesis matrix's only, else ``None``) and every figure (``shaking``: the
-    balancing section's, if any), in the ``jobs`` workers, the findings first: they solve with the
-    compiled kernel, which a worker of the run has loaded already and this process has not."""
-    finding = shared_pool(jobs).submit(derived.findings) if matrix.of_thesis and jobs > 1 else None
+    balancing section's, if any): the figures are started in the ``jobs`` workers first, and the findings
+    solved here meanwhile, with the compiled kernel that the run has loaded in this process (its in-house
+    engine runs here: engines.IN_PROCESS_ENGINES)."""
     pending = _section("figures", start_figures, matrix, results, comparison, jobs=jobs,
                        extra=(shaking,) if shaking is not None else ())
     try:
-        find = None
-        if matrix.of_thesis:
-            find = _section("findings", finding.result if finding else derived.findings)
+        find = _section("findings", derived.findings) if matrix.of_thesis else None
         return find, _section("figures", pending.collect, progress)
     finally:
         pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
-        if finding is not None:
-            finding.cancel()
 
 
 def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
