@@ -38,10 +38,10 @@ from dualmech.models.inputs import (
     MAX_LENGTH_RATIO,
     MAX_POSITIONS,
     POSITIVE_LENGTH,
-    Range,
     TORQUE,
     CaseError,
     NumberReader,
+    Range,
     check_keys,
     check_number,
     check_text,
@@ -210,7 +210,8 @@ def _simulation_steps(sim: dict) -> int | None:
     if value is None:
         return None
     if isinstance(value, bool) or not isinstance(value, int):
-        raise CaseError(f"simulation.steps_per_degree: expected {SIMULATION_STEPS.describe()}, got {show(value)}")
+        raise CaseError(f"simulation.steps_per_degree: expected {SIMULATION_STEPS.describe()}, "
+                        f"got {show(value)}")
     return int(SIMULATION_STEPS.check("simulation.steps_per_degree", value))
 
 

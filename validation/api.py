@@ -98,7 +98,8 @@ class ValidationRun:
         """
         from dualmech.validation.report import write_report
 
-        return write_report(self.outdir, report_dir, jobs=jobs, comparison=self.comparison, results=self.results)
+        return write_report(self.outdir, report_dir, jobs=jobs, comparison=self.comparison,
+                            results=self.results)
 
 
 def open_run(source: str | Path | None, outdir: str | Path | None,

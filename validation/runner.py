@@ -391,7 +391,7 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
     info.update(seconds=seconds, ran=len(calls), skipped=sum(len(v) for v in kept.values()))
     write_json_atomic(outdir / RUN_FILE, info)
     results = {cid: {e: entry_result(f.entries[e]) for e in matrix.engines if e in f.entries}
-               for cid, f in files.items() if f.entries}  # as load_results reads them back: the matrix's order
+               for cid, f in files.items() if f.entries}  # as load_results reads them: the matrix's order
     return RunOutcome(results, len(calls), info["skipped"], seconds)
 
 

@@ -72,9 +72,11 @@ def test_presets_cover_the_thesis_example():
     (lambda d: d.update(mechanism={"kind": "RSSR"}, geometry={"input_crank": 0.1}),
      ["'RSSR'", "valid: slider"]),  # the kind is named before another format's keys are called unknown
     # [simulation] steps_per_degree (issue 12): whole steps from 1 to 1024
-    (lambda d: d.update(simulation={"steps_per_degree": 0}), ["simulation.steps_per_degree", "0", "1 to 1024"]),
+    (lambda d: d.update(simulation={"steps_per_degree": 0}),
+     ["simulation.steps_per_degree", "0", "1 to 1024"]),
     (lambda d: d.update(simulation={"steps_per_degree": 4096}), ["simulation.steps_per_degree", "4096"]),
-    (lambda d: d.update(simulation={"steps_per_degree": 32.5}), ["simulation.steps_per_degree", "32.5", "whole"]),
+    (lambda d: d.update(simulation={"steps_per_degree": 32.5}),
+     ["simulation.steps_per_degree", "32.5", "whole"]),
     (lambda d: d.update(simulation={"steps_per_degree": True}), ["simulation.steps_per_degree", "True"]),
     (lambda d: d.update(simulation={"step": 32}), ["simulation.step", "unknown", "steps_per_degree"]),
 ])

@@ -173,7 +173,8 @@ def test_calls_chosen_to_run_here_run_in_a_thread_of_this_process_the_others_in_
     (engines.IN_PROCESS_ENGINES), every other task in a worker; every entry is yielded once."""
     calls = [(tag,) for tag in ("pool-1", "here-1", "pool-2", "here-2")]
     try:
-        entries = list(executors.execute(whose, calls, 2, None, [], here=lambda call: call[0].startswith("here")))
+        here = lambda call: call[0].startswith("here")  # noqa: E731
+        entries = list(executors.execute(whose, calls, 2, None, [], here=here))
     finally:
         executors.end_shared_pool(2)
     assert sorted(e["tag"] for e in entries) == sorted(c[0] for c in calls)

@@ -11,8 +11,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from numpy.testing import assert_allclose
 from click.testing import CliRunner
+from numpy.testing import assert_allclose
 
 from dualmech.cli import main
 from dualmech.core.table import NUMERIC_COLUMNS, read_csv
