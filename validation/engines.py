@@ -11,7 +11,7 @@ from importlib import import_module
 from typing import Callable
 
 from dualmech.core.table import ResultTable
-from dualmech.models.case import Case
+from dualmech.models.case import Case, case_from_dict
 
 #: engine name -> "module:function"
 ENGINES: dict[str, str] = {
@@ -25,14 +25,23 @@ ENGINES: dict[str, str] = {
 #: Engines run in a thread of the running process beside a pool's workers (under their registered function
 #: only: a test's fake of the same name runs in a worker): the in-house kernel is compiled, releases the GIL
 #: and takes ~2 ms a case, while loading it (numba) costs a worker ~0.6 s of CPU; so it is loaded once, in
-#: the process that runs the matrix, and the workers run the judges.
+#: the process that runs the matrix, and the workers run the judges ...
 IN_PROCESS_ENGINES: dict[str, str] = {"dualmech": ENGINES["dualmech"]}
+#: ... for cases of at most this many crank positions (~0.1 s of the kernel): a thread cannot be ended, so
+#: an interrupted run waits for the one it is running; a larger case runs in a worker, which can be.
+IN_PROCESS_MAX_POSITIONS = 100_000
 
 
-def runs_here(engine: str, spec: str) -> bool:
-    """Whether a task of ``engine`` under ``spec`` runs in the running process beside a pool
-    (:data:`IN_PROCESS_ENGINES`)."""
-    return IN_PROCESS_ENGINES.get(engine) == spec
+def runs_here(engine: str, spec: str, raw: dict) -> bool:
+    """Whether the task of ``engine`` under ``spec`` on the case table ``raw`` runs in the running process
+    beside a pool (:data:`IN_PROCESS_ENGINES`, :data:`IN_PROCESS_MAX_POSITIONS`; a table that does not
+    parse runs in a worker, which stores its error)."""
+    if IN_PROCESS_ENGINES.get(engine) != spec:
+        return False
+    try:
+        return case_from_dict(raw).motion.angles_deg.size <= IN_PROCESS_MAX_POSITIONS
+    except ValueError:
+        return False
 
 
 def get_engine(name: str) -> Callable[[Case], ResultTable]:

@@ -376,7 +376,7 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
         record_files(outdir, [path])
 
     leftovers: list[dict] = []
-    stream = execute(run_task, calls, jobs, scheduler, leftovers, here=lambda call: runs_here(*call[2:]))
+    stream = execute(run_task, calls, jobs, scheduler, leftovers, here=lambda c: runs_here(c[2], c[3], c[1]))
     try:
         for n_done, entry in enumerate(stream, start=1):
             store(entry)
