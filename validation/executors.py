@@ -60,16 +60,18 @@ def check_address(address: str) -> str:
 
 
 def worker_init() -> None:
-    """Pool worker initializer: leave SIGINT to the run, and end with it.
+    """Pool worker initializer: leave SIGINT to the run, end with it, and exit without a teardown.
 
     A run killed hard (SIGKILL, an OOM kill) cannot shut its pool down, and idle
     workers would otherwise wait on their queue forever.  On Linux the kernel
     sends SIGTERM to the worker when its parent, the run, exits (``PR_SET_PDEATHSIG``).
-    Elsewhere only the SIGINT part applies.
+    Elsewhere only that part does not apply.  The exit: :func:`_leave`.
     """
+    import atexit
     import signal
 
     parent = os.getppid()
+    atexit.register(_leave)  # before any task: the handlers that tasks' libraries add run before it
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         import ctypes
@@ -80,6 +82,25 @@ def worker_init() -> None:
         return
     if os.getppid() != parent:  # the parent died before the request took effect
         os._exit(1)
+
+
+def _leave() -> None:
+    """A pool worker's last exit handler: end the process without tearing its interpreter down.
+
+    It runs once the worker has sent its last result and flushed its streams (multiprocessing's own exit
+    function runs before the interpreter's exit) and every exit handler registered after
+    :func:`worker_init` (a library's, imported by a task) has run.  What is left, freeing every module the
+    tasks loaded (MuJoCo, Pinocchio, matplotlib, numba), saves nothing and took 0.4 s at the end of every
+    command that used a pool (the main job: 0.44 -> 0.01 s from the pool's end to the command's).  The
+    exit code is 0: a pool worker's is 0 whatever its tasks did (their errors are results), unless a
+    signal ended it, and then this does not run.
+    """
+    import sys
+
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    os._exit(0)
 
 
 def execute(task: Callable[..., dict], calls: list[tuple], jobs: int, scheduler: str | None,
@@ -154,8 +175,8 @@ def end_all_pools(grace: float = EXIT_GRACE_S) -> None:
     worker that does not exit (a library's thread that never ends, a full pipe) keeps the command
     from ever exiting, and with it the output still in its buffers.
     """
-    _SHARED.clear()
     shut = [*_LEAVING, *(_shut(pool) for pool in list(_POOLS))]
+    _SHARED.clear()  # after: a pool that only _SHARED refers to would leave _POOLS with it
     _LEAVING.clear()
     _end(shut, grace)
 

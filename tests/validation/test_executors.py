@@ -35,13 +35,17 @@ def never_ending_thread() -> int:
     return 1
 
 
-def _program(end: str) -> str:
+def _program(end: str, keep: bool = True) -> str:
+    """A program whose worker never exits by itself, ending its pools by ``end``; ``keep``: it holds a
+    reference to the pool (else only the executors module does, as in a command)."""
+    pool = "pool" if keep else "executors.shared_pool(1)"
     return textwrap.dedent(f"""
         from dualmech.validation import executors
         from tests.validation.test_executors import never_ending_thread
         if __name__ == "__main__":
             pool = executors.shared_pool(1)
-            assert pool.submit(never_ending_thread).result() == 1
+            assert {pool}.submit(never_ending_thread).result() == 1
+            {"" if keep else "del pool"}
             {end}
             print("done", flush=True)
     """)
@@ -59,6 +63,14 @@ def test_a_process_that_ends_its_pools_exits_though_a_worker_would_not(tmp_path)
     done = _run(_program("executors.end_all_pools(grace=0.5)"), tmp_path, timeout=PROCESS_EXIT_S)
     assert done.returncode == 0 and done.stdout == "done\n", done.stderr
     assert time.monotonic() - start < PROCESS_EXIT_S
+
+
+def test_a_shared_pool_that_nothing_else_refers_to_is_ended_too(tmp_path):
+    """As in a command, where only the executors module holds the pool: ``end_all_pools`` once emptied
+    the shared pools before it listed the pools to end, the pool was collected and left to the
+    interpreter's exit (seen: this program hung; the main job waited 0.4 s for its workers' teardown)."""
+    done = _run(_program("executors.end_all_pools(grace=0.5)", keep=False), tmp_path, timeout=PROCESS_EXIT_S)
+    assert done.returncode == 0 and done.stdout == "done\n", done.stderr
 
 
 def test_a_pool_left_to_the_interpreters_exit_hangs_it(tmp_path):
@@ -109,6 +121,46 @@ def test_end_all_pools_waits_for_every_worker_that_exits_by_itself():
     executors.end_all_pools(grace=executors.EXIT_GRACE_S)
     assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [0, 0]
     assert not manager.is_alive()  # its pipes closed: nothing left for the interpreter's exit
+
+
+class SlowTeardown:
+    """An object whose deletion takes :data:`TEARDOWN_S` seconds, as a loaded library's teardown can."""
+
+    def __del__(self) -> None:
+        time.sleep(TEARDOWN_S)
+
+
+#: Seconds the teardown of :class:`SlowTeardown` takes.
+TEARDOWN_S = 3.0
+#: What a pool task leaves in its worker: collected at the interpreter's teardown, not before.
+_LEFT_IN_WORKER: list[Any] = []
+
+
+def leave_slow_teardown(marker: str) -> int:
+    """A pool task: leave a :class:`SlowTeardown` in the worker's modules and an exit handler that writes
+    ``marker``."""
+    import atexit
+    from pathlib import Path
+
+    _LEFT_IN_WORKER.append(SlowTeardown())
+    atexit.register(Path(marker).write_text, "ran")
+    return os.getpid()
+
+
+def test_a_worker_exits_without_its_teardown_after_its_exit_handlers(tmp_path):
+    """The end of a pool does not wait for its workers' teardown (:func:`executors._leave`), and the exit
+    handlers that tasks registered still run, before it.  Seen failing: without ``_leave`` the end took
+    the 3 s teardown; with ``os._exit`` at the worker's first exit handler, the task's did not run."""
+    executors.end_shared_pool()
+    pool = executors.shared_pool(1)
+    marker = tmp_path / "handler-ran"
+    pool.submit(leave_slow_teardown, str(marker)).result()
+    workers = list(pool._processes.values())
+    start = time.monotonic()
+    executors.end_all_pools(grace=executors.EXIT_GRACE_S)
+    assert time.monotonic() - start < TEARDOWN_S / 2
+    assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [0]
+    assert marker.read_text() == "ran"
 
 
 def test_a_grace_that_ends_at_the_first_exit_is_seen(monkeypatch):
