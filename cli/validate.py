@@ -176,17 +176,19 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     except ClusterLost as err:
         click.echo(f"dualmech: error: {err}", err=True)
         sys.exit(EXIT_CLUSTER_LOST)
-    outcome, comparison = run.outcome, run.comparison
-    summary = baseline_summary(matrix, comparison, outcome.results)
-    regressions = compare_baseline(summary, baseline) if baseline is not None else []
-    if junit_file:
-        write_junit(junit_file, matrix, comparison, timings(load_entries(outdir, matrix)),
-                    regressions=regressions, versions=run_versions(outdir))
-    if write_baseline_file:
-        write_baseline(write_baseline_file, summary)
-    with rich_progress(f"report of {matrix.name}: figures") as bar:
-        files = write_report(outdir, report_dir, jobs=jobs or _cores(), comparison=comparison,
-                             results=outcome.results, progress=bar)
+    try:  # the run is compared in the report, once its first figures are being drawn
+        with rich_progress(f"report of {matrix.name}: figures") as bar:
+            files = write_report(outdir, report_dir, jobs=jobs or _cores(), comparison=lambda: run.comparison,
+                                 results=run.results, progress=bar)
+    finally:  # also after a failed report: the JUnit file and the baseline of the run
+        outcome, comparison = run.outcome, run.comparison
+        summary = baseline_summary(matrix, comparison, outcome.results)
+        regressions = compare_baseline(summary, baseline) if baseline is not None else []
+        if junit_file:
+            write_junit(junit_file, matrix, comparison, timings(load_entries(outdir, matrix)),
+                        regressions=regressions, versions=run_versions(outdir))
+        if write_baseline_file:
+            write_baseline(write_baseline_file, summary)
 
     how = f"Dask {scheduler}" if scheduler else f"{jobs or _cores()} jobs"
     title = (f"{matrix.name}: {len(matrix.cases)} cases, engines {', '.join(matrix.engines)} — "

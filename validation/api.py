@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -73,13 +74,20 @@ class ValidationRun:
     outcome : RunOutcome
         ``results`` (case id -> engine -> :class:`ResultTable` or error text), tasks run and resumed, seconds.
     comparison : Comparison
-        Every check (case x judge x quantity) against the reference, with strokes and dead-centre counts.
+        Every check against the reference (a property, made at its first use).
     """
 
     matrix: Matrix
     outdir: Path
     outcome: RunOutcome
-    comparison: Comparison
+
+    @cached_property
+    def comparison(self) -> Comparison:
+        """Every check (case x judge x quantity) against the reference, with strokes and dead-centre counts;
+        made at its first use (``dualmech validate`` starts drawing the report's figures first)."""
+        from dualmech.validation.compare import compare_run
+
+        return compare_run(self.matrix, self.outcome.results)
 
     @property
     def verdict(self) -> Verdict:
@@ -98,7 +106,7 @@ class ValidationRun:
         """
         from dualmech.validation.report import write_report
 
-        return write_report(self.outdir, report_dir, jobs=jobs, comparison=self.comparison,
+        return write_report(self.outdir, report_dir, jobs=jobs, comparison=lambda: self.comparison,
                             results=self.results)
 
 
@@ -121,15 +129,15 @@ def open_run(source: str | Path | None, outdir: str | Path | None,
 
 def run_and_compare(matrix: Matrix, outdir: Path, *, jobs: int | None = None, resume: bool = False,
                     scheduler: str | None = None, progress: ProgressCallback | None = None) -> ValidationRun:
-    """Run every case of ``matrix`` on its engines into ``outdir`` and compare the judges with the reference.
+    """Run every case of ``matrix`` on its engines into ``outdir``; the run compares the judges with the
+    reference at the first use of its :attr:`~ValidationRun.comparison`.
 
     The arguments are those of :func:`~dualmech.validation.runner.run_matrix`.
     """
-    from dualmech.validation.compare import compare_run
     from dualmech.validation.runner import run_matrix
 
     outcome = run_matrix(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=progress)
-    return ValidationRun(matrix, outdir, outcome, compare_run(matrix, outcome.results))
+    return ValidationRun(matrix, outdir, outcome)
 
 
 def validate(source: str | Path | None = None, outdir: str | Path | None = None, *,

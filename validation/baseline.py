@@ -26,8 +26,8 @@ import numpy as np
 from dualmech.core.table import ResultTable
 from dualmech.validation import tolerances as tol
 from dualmech.validation.compare import UNIT_GROUP, Comparison, condition_factor, stroke, unit_scales
+from dualmech.validation.durable import write_json_atomic
 from dualmech.validation.matrix import Matrix
-from dualmech.validation.runner import write_json_atomic
 
 BASELINE_FORMAT = "dualmech-baseline/1"
 

@@ -23,23 +23,31 @@ ENGINES: dict[str, str] = {
 
 
 #: Engines run in a thread of the running process beside a pool's workers (under their registered function
-#: only: a test's fake of the same name runs in a worker): the in-house kernel is compiled, releases the GIL
-#: and takes ~2 ms a case, while loading it (numba) costs a worker ~0.6 s of CPU; so it is loaded once, in
-#: the process that runs the matrix, and the workers run the judges ...
-IN_PROCESS_ENGINES: dict[str, str] = {"dualmech": ENGINES["dualmech"]}
-#: ... for cases of at most this many crank positions (~0.1 s of the kernel): a thread cannot be ended, so
-#: an interrupted run waits for the one it is running; a larger case runs in a worker, which can be.
-IN_PROCESS_MAX_POSITIONS = 100_000
+#: only: a test's fake of the same name runs in a worker), each on cases of at most so many crank positions:
+#: a thread cannot be ended, so an interrupted run waits for the task it is running (at most ~0.2 s under
+#: these bounds); a larger case runs in a worker, which can be ended.  Both are engines whose library costs
+#: a process more to load than the thesis matrix's tasks cost to run, so it is loaded once, here, instead of
+#: in every worker:
+#:
+#: * the in-house kernel: compiled, releases the GIL, ~2 ms a thesis case (10^5 positions: ~0.1 s); loading
+#:   numba and the cached kernel costs a process ~0.85 s of CPU;
+#: * Pinocchio: ~30 ms a thesis case (~85 us a position: 2000 positions ~0.2 s); importing it costs a process
+#:   0.23 s of CPU.
+IN_PROCESS_ENGINES: dict[str, tuple[str, int]] = {
+    "dualmech": (ENGINES["dualmech"], 100_000),
+    "pinocchio": (ENGINES["pinocchio"], 2_000),
+}
 
 
 def runs_here(engine: str, spec: str, raw: dict) -> bool:
     """Whether the task of ``engine`` under ``spec`` on the case table ``raw`` runs in the running process
-    beside a pool (:data:`IN_PROCESS_ENGINES`, :data:`IN_PROCESS_MAX_POSITIONS`; a table that does not
-    parse runs in a worker, which stores its error)."""
-    if IN_PROCESS_ENGINES.get(engine) != spec:
+    beside a pool (:data:`IN_PROCESS_ENGINES`; a table that does not parse runs in a worker, which stores
+    its error)."""
+    here, most = IN_PROCESS_ENGINES.get(engine, (None, 0))
+    if here != spec:
         return False
     try:
-        return case_from_dict(raw).motion.angles_deg.size <= IN_PROCESS_MAX_POSITIONS
+        return case_from_dict(raw).motion.angles_deg.size <= most
     except ValueError:
         return False
 

@@ -19,7 +19,6 @@ import math
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg import lapack
 
 from dualmech.core.motion import CrankState
 from dualmech.core.status import Status
@@ -258,9 +257,16 @@ class Closure:
         return pin.integrate(self.model, q, dv)
 
     def tangent(self) -> np.ndarray:
-        """``d q_free / d (crank coordinates) = -A^{-1} B`` at the last converged solution, shape (4, nc)."""
-        _, _, x, info = lapack.dgesv(self.AB[:, self.nc:], self.AB[:, :self.nc])
-        return -x if info == 0 else np.full((4, self.nc), np.nan)
+        """``d q_free / d (crank coordinates) = -A^{-1} B`` at the last converged solution, shape (4, nc)
+        (NaN where ``A`` is singular).
+
+        numpy's solve, not SciPy's LAPACK wrapper: importing ``scipy.linalg`` cost each worker 0.15 s of
+        CPU, the wrapper's lower overhead a few ms a matrix of cases.
+        """
+        try:
+            return -np.linalg.solve(self.AB[:, self.nc:], self.AB[:, :self.nc])
+        except np.linalg.LinAlgError:
+            return np.full((4, self.nc), np.nan)
 
     def crude_guess(self, theta: float, s1: float, side: float = 1.0) -> np.ndarray:
         """A rough assembly: ``S4`` a rod length beyond the foot of the perpendicular from ``P2``, rod aimed

@@ -37,6 +37,7 @@ import numpy as np
 
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
 from dualmech.models.case import case_from_dict
+from dualmech.validation.durable import jsonable, write_json_atomic, write_text_durable
 from dualmech.validation.engines import ENGINES, runs_here
 from dualmech.validation.executors import check_address, execute
 from dualmech.validation.matrix import Matrix, matrix_from_dict
@@ -85,42 +86,6 @@ class RunOutcome:
 
 # ----------------------------------------------------------------------------- files
 
-def write_json_atomic(path: Path, data: Any, *, pretty: bool = False) -> None:
-    """Write ``data`` as JSON to ``path`` so that readers see the old file or the new one, never half.
-
-    ``pretty``: sorted keys, one value per line, so that a change shows as a readable diff
-    (for files people review: baselines, summaries).
-    """
-    # json.dumps, not json.dump: dump always encodes in pure Python, dumps in C (without indent)
-    text = json.dumps(data, allow_nan=True, default=_jsonable,
-                      **({"indent": 1, "sort_keys": True} if pretty else {}))
-    write_text_durable(Path(path), text + ("\n" if pretty else ""))
-
-
-def write_text_durable(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (a temporary file, fsync, :func:`os.replace`)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with tmp.open("w") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, (set, tuple)):
-        return list(obj)
-    return str(obj)
-
-
 def table_to_dict(table: ResultTable) -> dict:
     """JSON-ready form of a table (floats round-trip exactly; NaN is written as ``NaN``)."""
     return {
@@ -128,7 +93,7 @@ def table_to_dict(table: ResultTable) -> dict:
         "case": table.case,
         "columns": {c: np.asarray(table.columns[c], dtype=float).tolist() for c in NUMERIC_COLUMNS},
         "status": [str(s) for s in table.status],
-        "meta": json.loads(json.dumps(table.meta, default=_jsonable, allow_nan=True)),
+        "meta": json.loads(json.dumps(table.meta, default=jsonable, allow_nan=True)),
     }
 
 
@@ -151,15 +116,15 @@ class CaseFileText:
 
     def __init__(self, case_id: str, raw: dict, engines: tuple[str, ...], kept: dict[str, dict]) -> None:
         head = {"format": CASE_FORMAT, "id": case_id, "fingerprint": case_fingerprint(raw), "raw": raw}
-        self._head = json.dumps(head, allow_nan=True, default=_jsonable)[:-1]  # without its closing brace
+        self._head = json.dumps(head, allow_nan=True, default=jsonable)[:-1]  # without its closing brace
         self._engines = tuple(engines)
         self.entries: dict[str, dict] = dict(kept)
-        self._texts = {e: json.dumps(v, allow_nan=True, default=_jsonable) for e, v in kept.items()}
+        self._texts = {e: json.dumps(v, allow_nan=True, default=jsonable) for e, v in kept.items()}
 
     def add(self, entry: dict) -> str:
         """Take ``entry`` (its engine's, replacing any earlier one); return the file's text."""
         self.entries[entry["engine"]] = entry
-        self._texts[entry["engine"]] = json.dumps(entry, allow_nan=True, default=_jsonable)
+        self._texts[entry["engine"]] = json.dumps(entry, allow_nan=True, default=jsonable)
         body = ", ".join(f"{json.dumps(k)}: {self._texts[k]}" for k in self._engines if k in self.entries)
         return f'{self._head}, "engines": {{{body}}}}}'
 

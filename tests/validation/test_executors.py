@@ -236,18 +236,26 @@ def test_calls_chosen_to_run_here_run_in_a_thread_of_this_process_the_others_in_
         assert e["thread"].startswith("dualmech-task") == here, e
 
 
-def test_the_run_solves_small_cases_with_the_inhouse_engine_here_and_the_rest_in_workers():
+def test_the_run_solves_small_cases_with_the_inhouse_engine_and_pinocchio_here_and_the_rest_in_workers():
     """Only an engine registered under its own function runs here (a test's fake of the same name still
     runs in a worker, where it may crash or hang as it is meant to), on cases small enough that an
-    interrupt need not wait for it; a case table that does not parse goes to a worker, which stores why."""
+    interrupt need not wait for it; a case table that does not parse goes to a worker, which stores why.
+    Faults seen: everything here (no bound), the engine chosen by its name only."""
     from dualmech.models.case import load_case
-    from dualmech.validation.engines import ENGINES, IN_PROCESS_MAX_POSITIONS, runs_here
+    from dualmech.validation.engines import ENGINES, IN_PROCESS_ENGINES, runs_here
 
     raw = load_case("thesis/ideal").raw
-    big = dict(raw, motion=dict(raw["motion"], angles_deg={"start": 0.0, "stop": 360.0,
-                                                           "step": 360.0 / (IN_PROCESS_MAX_POSITIONS + 1)}))
-    assert runs_here("dualmech", ENGINES["dualmech"], raw)
-    assert not runs_here("dualmech", ENGINES["dualmech"], big)
-    assert not runs_here("dualmech", ENGINES["dualmech"], dict(raw, geometry={}))
-    assert not runs_here("dualmech", "tests.validation.fake_engines:crash", raw)
-    assert not any(runs_here(e, spec, raw) for e, spec in ENGINES.items() if e != "dualmech")
+
+    def with_positions(n: int) -> dict:
+        angles = {"start": 0.0, "stop": 360.0, "step": 360.0 / n}  # n positions
+        return dict(raw, motion=dict(raw["motion"], angles_deg=angles))
+
+    assert set(IN_PROCESS_ENGINES) == {"dualmech", "pinocchio"}
+    for engine, (spec, most) in IN_PROCESS_ENGINES.items():
+        assert spec == ENGINES[engine]
+        assert runs_here(engine, spec, raw) and runs_here(engine, spec, with_positions(most))
+        assert not runs_here(engine, spec, with_positions(most + 1))
+        assert not runs_here(engine, spec, dict(raw, geometry={}))
+        assert not runs_here(engine, "tests.validation.fake_engines:crash", raw)
+    assert IN_PROCESS_ENGINES["dualmech"][1] == 100_000 and IN_PROCESS_ENGINES["pinocchio"][1] == 2_000
+    assert not any(runs_here(e, spec, raw) for e, spec in ENGINES.items() if e not in IN_PROCESS_ENGINES)

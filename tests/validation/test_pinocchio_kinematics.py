@@ -171,3 +171,18 @@ def test_near_an_edge_of_assembly_the_closure_goes_on_to_rounding():
     table = pe.solve_case(case)
     assert set(table.status) == {"ok"} and np.min(table["closure_condition"]) < 0.02
     assert_slider_motion(case, table, JUDGE_NEAR_EDGE_VS_CLOSED_FORM)
+
+
+def test_the_tangent_is_minus_a_inverse_b_and_nan_where_a_is_singular():
+    """``Closure.tangent`` (the continuation's predictor) on rate equations set by hand: ``-A^{-1} B``, and
+    NaN, not an error, for a singular ``A`` (numpy's solve replaced SciPy's LAPACK wrapper here)."""
+    from dualmech.validation.pinocchio_model import build_model
+
+    case = load_case("a4-30-s1-6")
+    closure = pc.Closure(build_model(case), 1.0)
+    rng = np.random.default_rng(7)
+    closure.AB[:] = rng.normal(size=closure.AB.shape)
+    a, b = closure.AB[:, closure.nc:], closure.AB[:, :closure.nc]
+    assert_allclose(a @ closure.tangent(), -b, rtol=0, atol=1e-12)
+    closure.AB[:, closure.nc] = 0.0  # a zero column: A singular
+    assert np.isnan(closure.tangent()).all() and closure.tangent().shape == (4, closure.nc)

@@ -19,15 +19,22 @@ def _specs(matrix, results):
     return figures.figure_specs(matrix, results, compare_run(matrix, results))
 
 
+def _drawn_in(jobs, matrix, results, comparison, extra=()):
+    """Every figure of the report, drawn by ``jobs`` processes, in its two stages."""
+    pending = figures.start_figures(matrix, results, jobs)
+    pending.add_judged(matrix, comparison, extra)
+    return pending.collect()
+
+
 def test_figures_drawn_in_workers_come_back_in_plan_order(matrix, results):
     """Why: the figures are now handed to the run's workers slowest kind first and collected while this
     process computes the other sections; the report must list them in the plan's order, each the same PNG
     as drawn here."""
     comparison = compare_run(matrix, results)
     extra = (balancing_spec(derived.balancing(matrix)),)  # the balancing section's figure, drawn with them
-    here = figures.start_figures(matrix, results, comparison, jobs=1, extra=extra).collect()
+    here = _drawn_in(1, matrix, results, comparison, extra)
     try:
-        there = figures.start_figures(matrix, results, comparison, jobs=2, extra=extra).collect()
+        there = _drawn_in(2, matrix, results, comparison, extra)
     finally:
         executors.end_shared_pool()
     plan = [*figures.figure_specs(matrix, results, comparison), *extra]
@@ -47,10 +54,58 @@ def test_figures_collected_as_they_finish_are_seen(matrix, results, monkeypatch)
 
     monkeypatch.setattr(figures.PendingFigures, "collect", as_finished)
     try:
-        there = figures.start_figures(matrix, results, comparison, jobs=2).collect()
+        there = _drawn_in(2, matrix, results, comparison)
     finally:
         executors.end_shared_pool()
     assert [f.key for f in there] != [s[0] for s in figures.figure_specs(matrix, results, comparison)]
+
+
+class _RecordingPool:
+    """A stand-in for the shared pool: records what is submitted, and draws nothing."""
+
+    def __init__(self) -> None:
+        self.submitted: list[str] = []
+
+    def submit(self, func, job):
+        self.submitted.append(job[1][0] if job[0] == "sweep" else job[0])  # a sweep figure by its title
+        future = cf.Future()
+        future.set_result(b"")
+        return future
+
+
+def test_figures_are_started_first_sweep_then_slowest_kinds_then_the_other_sweeps(small, monkeypatch):
+    """Why: the first sweep's figures (they need the results only) keep the workers busy while the run is
+    compared; the slowest kinds, which need the comparison, then go before the other sweeps' figures, so that
+    they are not drawn last with one worker idle.  Fault seen: the held sweeps started before the judged
+    figures (their order in the plan)."""
+    from dualmech.validation.matrix import load_matrix
+
+    from . import matrix_fakes
+
+    small.write_text(small.read_text() + '''
+[[sweep]]
+name = "S1"
+fixed = { "geometry.slider_offset" = 30.0 }
+grid = { "geometry.crank_axial_shift" = [3.0, 6.0] }
+''')
+    matrix = load_matrix(small)
+    results = {mc.id: {"dualmech": matrix_fakes.solve_case(mc.case()),
+                       "pinocchio": matrix_fakes.solve_case_judge(mc.case()),
+                       "mujoco": matrix_fakes.solve_case_judge_b(mc.case())} for mc in matrix.cases}
+    pool = _RecordingPool()
+    monkeypatch.setattr(figures, "shared_pool", lambda jobs: pool)
+    pending = figures.start_figures(matrix, results, jobs=2)
+    first = list(pool.submitted)
+    extra = (balancing_spec(derived.balancing(matrix)),)
+    pending.add_judged(matrix, compare_run(matrix, results), extra)
+    assert first and all(": a4 sweep" in title for title in first)
+    n_sweeps = len(figures.SWEEP_FIGURES) * len(matrix.sweeps) * len(matrix.modes)
+    assert len(first) == n_sweeps // 2
+    judged = pool.submitted[len(first):len(first) + 1 + 2 * len(matrix.judges)]
+    assert judged == ["balancing", *["difference"] * len(matrix.judges), *["heatmap"] * len(matrix.judges)]
+    rest = pool.submitted[len(first) + len(judged):]
+    assert len(rest) == n_sweeps // 2 and all(": S1 sweep" in title for title in rest)
+    assert [f.key for f in pending.collect()] == [s[0] for s in pending.specs]
 
 
 def _undrawn_tick_labels(fig) -> set[int]:
@@ -282,3 +337,36 @@ def test_figures_are_drawn_under_the_report_settings_only(monkeypatch):
     assert figures._render(("probe", ())) == b""
     assert seen == [canvas.FIGURE_RC]
     assert {k: matplotlib.rcParams[k] for k in canvas.FIGURE_RC} == before != canvas.FIGURE_RC
+
+
+def test_the_first_figures_are_drawn_while_the_run_is_compared(small, tmp_path, monkeypatch):
+    """Why: this process compares the run (0.3 s of the main job) and solves the balancing section while the
+    workers would otherwise wait; a report given a function that makes the comparison calls it once its
+    first figures are in the workers.  Fault seen: the comparison made before the figures start."""
+    from dualmech.validation.matrix import load_matrix
+    from dualmech.validation.report import write_report
+    from dualmech.validation.runner import load_results, run_matrix
+
+    from .test_validate import FAKE_REGISTRY
+
+    matrix = load_matrix(small)
+    run_matrix(matrix, tmp_path / "run", jobs=1, registry=FAKE_REGISTRY)
+    results = load_results(tmp_path / "run", matrix)
+    started, seen = [], []
+    real = figures.start_figures
+
+    def start(*args, **kwargs):
+        started.append(real(*args, **kwargs))
+        return started[-1]
+
+    def compare():
+        seen.append(sum(isinstance(job, cf.Future) for job in started[0]._rendered) if started else 0)
+        return compare_run(matrix, results)
+
+    monkeypatch.setattr("dualmech.validation.report.render.start_figures", start)
+    try:
+        files = write_report(tmp_path / "run", None, jobs=2, comparison=compare)
+    finally:
+        executors.end_shared_pool()
+    assert seen and seen[0] == len(figures.SWEEP_FIGURES) * len(matrix.modes)  # the (first) sweep's
+    assert files.verdict == "PASS" and len(files.figures) == len(started[0].specs)

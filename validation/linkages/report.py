@@ -16,12 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
+from dualmech.validation.durable import write_json_atomic
 from dualmech.validation.linkages.run import SPECS, LinkageRun, write_tables
 from dualmech.validation.provenance import KEY_LIBRARIES, versions
 from dualmech.validation.report import Figure, environment, fig_to_png
 from dualmech.validation.report.plots import JUDGE_MARKERS, LOG_FLOOR
 from dualmech.validation.rundir import locked, record_files
-from dualmech.validation.runner import write_json_atomic
 
 #: The report's Jinja2 templates (beside the slider crank's).
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"

@@ -2,7 +2,8 @@
 
 :func:`figure_specs` plans every figure of a run (what to draw and from which tables);
 :func:`start_figures` starts drawing them with :mod:`~dualmech.validation.report.plots` in the run's worker
-processes (:func:`render_figures`: and waits for them).
+processes, those that need the results only first, and :meth:`PendingFigures.add_judged` those that need the
+comparison (:func:`render_figures`: all, and waits for them).
 """
 
 from __future__ import annotations
@@ -187,13 +188,50 @@ def _render(job: tuple[str, tuple]) -> bytes:
 
 
 class PendingFigures:
-    """Figures being drawn (:func:`start_figures`); :meth:`collect` waits for them."""
+    """The figures of a report, planned and started in two stages (:func:`start_figures`, then
+    :meth:`add_judged`); :meth:`collect` waits for them.
 
-    def __init__(self, specs: list[FigureSpec], rendered: list[Any]) -> None:
-        self.specs, self._rendered = specs, rendered
+    ``specs`` is the plan, in the report's order: the sweep figures, each judge's difference plot, each
+    judge's heat map, the other sections' figures.  With a pool, figures are drawn in its workers in the
+    order they are started; without one (``jobs = 1``), by :meth:`collect`, in this process.
+    """
+
+    def __init__(self, jobs: int = 1) -> None:
+        self._pool = shared_pool(jobs) if jobs > 1 else None
+        self.specs: list[FigureSpec] = []
+        self._rendered: list[Any] = []  # per spec: its future once started, else its drawing job
+        self._held: list[int] = []
+
+    def add(self, specs: list[FigureSpec], start: int | None = None) -> None:
+        """Add ``specs`` to the plan; start the first ``start`` of them (default all), the slowest kind first,
+        and hold the others for :meth:`start_held`."""
+        first = len(self.specs)
+        self.specs += specs
+        self._rendered += [spec[5] for spec in specs]
+        end = first + (len(specs) if start is None else start)
+        self._start(list(range(first, end)))
+        self._held += range(end, len(self.specs))
+
+    def add_judged(self, matrix: Matrix, comparison: Comparison, extra: tuple[FigureSpec, ...] = ()) -> None:
+        """Plan and start the figures that need the comparison (each judge's difference plot and heat map)
+        and the ``extra`` ones of other sections, then the sweep figures held."""
+        self.add([*_difference_specs(matrix, comparison), *_heatmap_specs(matrix, comparison), *extra])
+        self.start_held()
+
+    def start_held(self) -> None:
+        """Start the figures held by :meth:`add`."""
+        held, self._held = self._held, []
+        self._start(held)
+
+    def _start(self, indices: list[int]) -> None:
+        if self._pool is None:
+            return
+        for i in sorted(indices, key=lambda i: _RENDER_ORDER.index(self.specs[i][5][0])):  # stable
+            self._rendered[i] = self._pool.submit(_render, self.specs[i][5])
 
     def collect(self, progress: ProgressCallback | None = None) -> list[Figure]:
-        """Every figure in plan order; ``progress(done, total, key)`` after each."""
+        """Every figure in plan order (held ones started first); ``progress(done, total, key)`` after each."""
+        self.start_held()
         pngs: list[bytes] = []
         for spec, job in zip(self.specs, self._rendered):
             pngs.append(job.result() if isinstance(job, cf.Future) else _render(job))
@@ -203,24 +241,27 @@ class PendingFigures:
 
     def cancel(self) -> None:
         """Drop the figures not started yet (the report failed elsewhere)."""
+        self._held = []
         for job in self._rendered:
             if isinstance(job, cf.Future):
                 job.cancel()
 
 
-def start_figures(matrix: Matrix, results: dict, comparison: Comparison, jobs: int = 1,
-                  extra: tuple[FigureSpec, ...] = ()) -> PendingFigures:
-    """Plan every figure of the report (then the ``extra`` ones of other sections) and start drawing them in
-    the ``jobs`` workers of the shared pool (:func:`~dualmech.validation.executors.shared_pool`, the run's
-    own); with ``jobs = 1`` they are drawn by :meth:`PendingFigures.collect`, in this process."""
-    specs = [*figure_specs(matrix, results, comparison), *extra]
-    if jobs <= 1 or len(specs) <= 1:
-        return PendingFigures(specs, [spec[5] for spec in specs])
-    pool = shared_pool(jobs)
-    # the slowest kinds first, so that no worker is left with a long one at the end
-    order = sorted(range(len(specs)), key=lambda i: _RENDER_ORDER.index(specs[i][5][0]))
-    futures: dict[int, cf.Future] = {i: pool.submit(_render, specs[i][5]) for i in order}
-    return PendingFigures(specs, [futures[i] for i in range(len(specs))])
+def start_figures(matrix: Matrix, results: dict, jobs: int = 1) -> PendingFigures:
+    """Plan the report's sweep figures (they need the results only) and start drawing those of the
+    matrix's first sweep in the ``jobs`` workers of the shared pool (the run's own:
+    :func:`~dualmech.validation.executors.shared_pool`); :meth:`PendingFigures.add_judged` adds the rest
+    once the run is compared.
+
+    The first sweep's figures keep the workers busy while this process compares the run (the thesis
+    matrix: 12 figures, ~0.8 s of the two workers, against ~0.4 s to compare and to solve the balancing
+    section); the other sweeps' wait, so that the slowest kinds, which need the comparison, are not drawn
+    last, with one worker idle.
+    """
+    pending = PendingFigures(jobs)
+    specs = _sweep_specs(matrix, results)
+    pending.add(specs, start=sum(spec[2] == specs[0][2] for spec in specs) if specs else 0)
+    return pending
 
 
 def render_figures(
@@ -234,4 +275,6 @@ def render_figures(
 
     ``progress(done, total, key)`` is called after each figure.
     """
-    return start_figures(matrix, results, comparison, jobs).collect(progress)
+    pending = start_figures(matrix, results, jobs)
+    pending.add_judged(matrix, comparison)
+    return pending.collect(progress)

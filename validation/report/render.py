@@ -17,9 +17,10 @@ from typing import Any, Callable
 from dualmech.models.design_summary import JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION
 from dualmech.validation import derived, runner
 from dualmech.validation.compare import Check, Comparison, compare_run
+from dualmech.validation.durable import json_text, write_text_durable
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.provenance import key_versions
-from dualmech.validation.report.figures import start_figures
+from dualmech.validation.report.figures import PendingFigures, start_figures
 from dualmech.validation.report.plots import Figure
 from dualmech.validation.report.sections import (
     balancing_spec,
@@ -131,7 +132,7 @@ def write_report(
     outdir: str | Path | None = None,
     *,
     jobs: int = 1,
-    comparison: Comparison | None = None,
+    comparison: Comparison | Callable[[], Comparison] | None = None,
     results: dict | None = None,
     progress: ProgressCallback | None = None,
 ) -> ReportFiles:
@@ -143,60 +144,59 @@ def write_report(
     and only figures it wrote before are removed when they are no longer drawn).
     ``comparison`` and ``results`` (case id -> engine -> table or error text), if given, are the run's as
     :func:`~dualmech.validation.api.run_and_compare` has them in memory; else they are read and made here.
+    ``comparison`` may also be a function that makes it: it is called once the first figures are being
+    drawn (:func:`~dualmech.validation.report.figures.start_figures`), so that ``jobs`` workers draw while
+    this process compares.
     """
     start = time.perf_counter()
     rundir = Path(rundir)
     matrix, run = runner.load_run(rundir)
     if results is None:
         results = runner.load_results(rundir, matrix)
-    if comparison is None:
-        comparison = compare_run(matrix, results)
     with locked(outdir if outdir is not None else rundir) as outdir:
-        balance = _section("balancing", derived.balancing, matrix)
-        shaking = _section("balancing", balancing_spec, balance)
-        find, figures = _findings_and_figures(matrix, results, comparison, shaking, jobs, progress)
+        pending = _section("figures", start_figures, matrix, results, jobs=jobs)
+        try:
+            comparison = _compared(matrix, results, comparison)
+            context, summary, templates = _while_drawn(matrix, run, results, comparison, pending)
+            figures = _section("figures", pending.collect, progress)
+        finally:
+            pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
         paths = _write_figures(outdir, figures)
-        context = _context(matrix, run, results, comparison, figures)
-        context.update(
-            findings=find,
-            balancing=balance.rows,
-            errata=copy_errata(outdir) if find else None,
-            report_seconds=time.perf_counter() - start,
-        )
-        files = ReportFiles(
-            outdir / "report.html",
-            outdir / "report.md",
-            outdir / "summary.json",
-            tuple(paths),
-            0.0,
-            str(comparison.verdict),
-        )
-        write_text_atomic(
-            files.html,
-            environment(TEMPLATES, markdown=False).get_template("report.html.j2").render(**context),
-        )
-        write_text_atomic(
-            files.markdown,
-            environment(TEMPLATES, markdown=True).get_template("report.md.j2").render(**context),
-        )
-        runner.write_json_atomic(files.summary, comparison_summary(matrix, comparison, run), pretty=True)
+        context.update(figures=figures, errata=copy_errata(outdir) if context["findings"] else None,
+                       report_seconds=time.perf_counter() - start)
+        files = ReportFiles(outdir / "report.html", outdir / "report.md", outdir / "summary.json",
+                            tuple(paths), 0.0, str(comparison.verdict))
+        write_text_atomic(files.html, templates[0].render(**context))
+        write_text_atomic(files.markdown, templates[1].render(**context))
+        write_text_durable(files.summary, summary)
         record_files(outdir, [files.html, files.markdown, files.summary])
     return replace(files, seconds=time.perf_counter() - start)
 
 
-def _findings_and_figures(matrix: Matrix, results: dict, comparison: Comparison, shaking: Any, jobs: int,
-                          progress: ProgressCallback | None) -> tuple[list[dict] | None, list[Figure]]:
-    """The thesis's findings (a thesis matrix's only, else ``None``) and every figure (``shaking``: the
-    balancing section's, if any): the figures are started in the ``jobs`` workers first, and the findings
-    solved here meanwhile, with the compiled kernel that the run has loaded in this process (its in-house
-    engine runs here: engines.IN_PROCESS_ENGINES)."""
-    pending = _section("figures", start_figures, matrix, results, comparison, jobs=jobs,
-                       extra=(shaking,) if shaking is not None else ())
-    try:
-        find = _section("findings", derived.findings) if matrix.of_thesis else None
-        return find, _section("figures", pending.collect, progress)
-    finally:
-        pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
+def _while_drawn(matrix: Matrix, run: dict, results: dict, comparison: Comparison, pending: PendingFigures
+                 ) -> tuple[dict, str, tuple[Any, Any]]:
+    """Start the figures that need the comparison (and the balancing section's), then make what needs no
+    figure while the workers draw: the template variables but the figures (the findings solved here, with
+    the compiled kernel that the run loaded in this process: engines.IN_PROCESS_ENGINES), the summary's
+    JSON text and the compiled HTML and Markdown templates."""
+    balance = _section("balancing", derived.balancing, matrix)
+    shaking = _section("balancing", balancing_spec, balance)
+    _section("figures", pending.add_judged, matrix, comparison, extra=(shaking,) if shaking else ())
+    context = _context(matrix, run, results, comparison)
+    context.update(findings=_section("findings", derived.findings) if matrix.of_thesis else None,
+                   balancing=balance.rows)
+    summary = json_text(comparison_summary(matrix, comparison, run), pretty=True)
+    templates = tuple(environment(TEMPLATES, markdown=md).get_template(f"report.{'md' if md else 'html'}.j2")
+                      for md in (False, True))
+    return context, summary, templates
+
+
+def _compared(matrix: Matrix, results: dict, comparison: Comparison | Callable[[], Comparison] | None
+              ) -> Comparison:
+    """The run's comparison: ``comparison``, made by it if it is a function, or made here."""
+    if comparison is None:
+        return compare_run(matrix, results)
+    return comparison() if callable(comparison) else comparison
 
 
 def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
@@ -211,8 +211,9 @@ def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
     return paths
 
 
-def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison, figures: list[Figure]) -> dict:
-    """The template variables that summarise the run (everything but the model-package sections)."""
+def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison) -> dict:
+    """The template variables that summarise the run (everything but the figures and the model-package
+    sections)."""
     failures: list[Check] = comparison.failures()
     return {
         "matrix": matrix,
@@ -236,7 +237,6 @@ def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison, f
         ]
         + ["|drive_torque|", "|slider_load|"],
         "near_dead_centre": NEAR_DEAD_CENTRE_TRANSMISSION,
-        "figures": figures,
         "sections": [(s.name, s.label) for s in matrix.sweeps],
         "n_done": len(results),
         "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
