@@ -3,13 +3,18 @@ figure of that kind, and encoded as PNG bytes.
 
 :func:`skeleton` is what makes the report's figures cheap: a figure's axes, ticks, titles and labels cost
 more to make than its data, and a report draws the same kinds of figure many times (the thesis report:
-six kinds of sweep figure, six of each), so each process makes them once per kind and replaces the data.
+six kinds of sweep figure, six of each), so each process makes them once per kind and replaces the data;
+:func:`kept_line` keeps a sweep figure's curves too, and gives them the next figure's data.
 """
 
 from __future__ import annotations
 
 import io
+import weakref
+from collections.abc import Hashable
 from typing import Any, Callable
+
+import numpy as np
 
 #: Resolution of every report figure (dots per inch).
 DPI = 80
@@ -63,13 +68,48 @@ def skeleton(key: tuple, figsize: tuple[float, float], build: Callable[[Any], No
     return fig
 
 
+#: Per axes of a skeleton, its lines kept for the next figure of the kind (:func:`kept_line`), by slot.
+_KEPT: "weakref.WeakKeyDictionary[Any, dict[Hashable, Any]]" = weakref.WeakKeyDictionary()
+#: The label of a kept line that the current figure does not use: hidden, and left out of legends.
+_UNUSED = "_unused"
+
+
+def kept_line(ax: Any, slot: Hashable, x: np.ndarray, y: np.ndarray, **props: Any) -> Any:
+    """A line of ``ax`` through ``(x, y)`` with the Line2D properties ``props``: made by ``ax.plot`` at the
+    first figure of the skeleton, then the same line given the new data and properties.
+
+    Making a line (``ax.plot``: argument parsing, marker set-up, clip path, data limits) was a sixth of a
+    sweep figure's cost; a kept line is hidden by :func:`_empty` until its ``slot`` is used again.  Its data
+    limits are not those of the axes: the caller sets the y limits (or calls :func:`autoscale_y_visible`).
+    """
+    kept = _KEPT.setdefault(ax, {})
+    line = kept.get(slot)
+    if line is None:
+        line = kept[slot] = ax.plot(x, y, **props)[0]
+    else:
+        line.set(data=(x, y), visible=True, **props)
+    return line
+
+
+def autoscale_y_visible(ax: Any) -> None:
+    """The y limits of ``ax`` from the data of its visible artists (a kept line's data is not counted in the
+    axes' data limits when it is replaced)."""
+    ax.relim(visible_only=True)
+    ax.autoscale_view(scalex=False)
+
+
 def _empty(fig: Any) -> None:
-    """Remove what a report figure drew on its skeleton (lines, texts, legends); y axes autoscale again."""
+    """Remove what a report figure drew on its skeleton (texts, legends, lines but the kept ones, which are
+    hidden); y axes autoscale again."""
     for legend in list(fig.legends):
         legend.remove()
     for ax in fig.axes:
+        kept = set(_KEPT.get(ax, {}).values())
         for artist in (*ax.lines, *ax.texts):
-            artist.remove()
+            if artist in kept:
+                artist.set(visible=False, label=_UNUSED)
+            else:
+                artist.remove()
         if ax.legend_ is not None:
             ax.legend_.remove()
         _autoscale_y(ax)

@@ -26,7 +26,7 @@ import numpy as np
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.units import DIMENSIONS, axis_label, column_unit
-from dualmech.validation.report.canvas import fig_to_png, new_figure, skeleton
+from dualmech.validation.report.canvas import autoscale_y_visible, fig_to_png, kept_line, new_figure, skeleton
 
 #: Rows with |transmission| below this set no axis range in torque mode (their reactions
 #: are the 1/t spikes beside a dead centre); they are still drawn, at the edge if beyond it.
@@ -214,11 +214,12 @@ def _sweep_panel(
         ref = per.get(reference)
         if ref is not None:
             x = ref["theta1_deg"]
-            ax.plot(x, ref[col], "-", color=color, lw=1.3, label=f"{label} ({reference})")
+            kept_line(ax, ("reference", i), x, ref[col], linestyle="-", marker="None", color=color,
+                      linewidth=1.3, label=f"{label} ({reference})")
             if lim is not None:
                 _draw_clipped(ax, x, ref[col], lim, color)
             for a in x[is_status(ref.status, Status.DEAD_CENTRE)]:
-                ax.axvline(a, color=color, ls=":", lw=1.0)
+                ax.axvline(a, color=color, ls=":", lw=1.0, zorder=1.5)  # beneath every curve
         for j, e in enumerate(judges):
             t = per.get(e)
             if t is None:
@@ -226,19 +227,15 @@ def _sweep_panel(
             x = t["theta1_deg"]
             step = max(1, len(x) // 36)
             sel = slice(j % step, None, step)
-            ax.plot(
-                x[sel],
-                t[col][sel],
-                JUDGE_MARKERS[j % len(JUDGE_MARKERS)],
-                color=color,
-                ms=4,
-                mfc="none",
-                label=f"{label} ({e})" if i == 0 else None,
-            )
+            kept_line(ax, ("judge", i, j), x[sel], t[col][sel], linestyle="None",
+                      marker=JUDGE_MARKERS[j % len(JUDGE_MARKERS)], color=color, markersize=4,
+                      markerfacecolor="none", label=f"{label} ({e})" if i == 0 else "_nolegend_")
             if lim is not None:
                 _draw_clipped(ax, x[sel], t[col][sel], lim, color)
     if lim is not None:
         ax.set_ylim(*lim)
+    else:  # nothing finite to show
+        autoscale_y_visible(ax)
 
 
 def _frame(ax: Any, column: str, units: str) -> None:
