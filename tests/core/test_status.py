@@ -3,7 +3,7 @@
 import numpy as np
 from numpy.testing import assert_array_equal
 
-from dualmech.core.status import POSE_COLUMNS, RATE_COLUMNS, Status, demote_non_finite, settle
+from dualmech.core.status import POSE_COLUMNS, RATE_COLUMNS, Status, demote_non_finite, is_status, settle
 
 WORDS = [Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT, Status.NO_ASSEMBLY, Status.OK]
 REACTIONS = ("j3_fy",)
@@ -43,3 +43,17 @@ def test_settle_blanks_what_a_word_does_not_give():
         others = np.setdiff1d(np.arange(len(WORDS)), rows)
         assert np.isnan(cols[name][others]).all(), name
     assert list(status) == [str(w) for w in WORDS]
+
+
+def test_is_status_marks_the_rows_of_the_allowed_words_whatever_the_array():
+    """Object arrays of words or of Status members, string arrays, lists, one row, no row: the same mask
+    (it was np.isin on the words as strings; now one comparison per word)."""
+    words = ["ok", "dead_centre", "no_assembly", "assembly_limit", "ok"]
+    expected = [False, True, True, False, False]
+    for form in (np.array(words, dtype=object), np.array([Status(w) for w in words], dtype=object),
+                 np.array(words), words):
+        assert_array_equal(is_status(form, Status.DEAD_CENTRE, "no_assembly"), expected)
+    assert_array_equal(is_status(np.array(["ok"], dtype=object), Status.OK), [True])
+    assert is_status(np.array([], dtype=object), Status.OK).shape == (0,)
+    assert not is_status(np.array(words, dtype=object)).any()  # no word allowed
+    assert not is_status(np.array([None, float("nan")], dtype=object), Status.OK).any()
