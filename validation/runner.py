@@ -37,7 +37,7 @@ import numpy as np
 
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
 from dualmech.models.case import case_from_dict
-from dualmech.validation.durable import jsonable, write_json_atomic, write_text_durable
+from dualmech.validation.durable import json_text, write_json_atomic, write_text_durable
 from dualmech.validation.engines import ENGINES, runs_here
 from dualmech.validation.executors import check_address, execute
 from dualmech.validation.matrix import Matrix, matrix_from_dict
@@ -93,7 +93,7 @@ def table_to_dict(table: ResultTable) -> dict:
         "case": table.case,
         "columns": {c: np.asarray(table.columns[c], dtype=float).tolist() for c in NUMERIC_COLUMNS},
         "status": [str(s) for s in table.status],
-        "meta": json.loads(json.dumps(table.meta, default=jsonable, allow_nan=True)),
+        "meta": json.loads(json_text(table.meta)),
     }
 
 
@@ -116,15 +116,15 @@ class CaseFileText:
 
     def __init__(self, case_id: str, raw: dict, engines: tuple[str, ...], kept: dict[str, dict]) -> None:
         head = {"format": CASE_FORMAT, "id": case_id, "fingerprint": case_fingerprint(raw), "raw": raw}
-        self._head = json.dumps(head, allow_nan=True, default=jsonable)[:-1]  # without its closing brace
+        self._head = json_text(head)[:-1]  # without its closing brace
         self._engines = tuple(engines)
         self.entries: dict[str, dict] = dict(kept)
-        self._texts = {e: json.dumps(v, allow_nan=True, default=jsonable) for e, v in kept.items()}
+        self._texts = {e: json_text(v) for e, v in kept.items()}
 
     def add(self, entry: dict) -> str:
         """Take ``entry`` (its engine's, replacing any earlier one); return the file's text."""
         self.entries[entry["engine"]] = entry
-        self._texts[entry["engine"]] = json.dumps(entry, allow_nan=True, default=jsonable)
+        self._texts[entry["engine"]] = json_text(entry)
         body = ", ".join(f"{json.dumps(k)}: {self._texts[k]}" for k in self._engines if k in self.entries)
         return f'{self._head}, "engines": {{{body}}}}}'
 

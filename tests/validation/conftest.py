@@ -47,9 +47,14 @@ def matrix(small: Path) -> Matrix:
     return load_matrix(small)
 
 
-@pytest.fixture()
-def results(matrix: Matrix) -> dict[str, dict[str, ResultTable]]:
-    """Case id -> engine -> table of the stand-in engines (all agreeing)."""
+def fake_results(matrix: Matrix) -> dict[str, dict[str, ResultTable]]:
+    """Case id -> engine -> table of the stand-in engines (all agreeing) for every case of ``matrix``."""
     return {mc.id: {"dualmech": matrix_fakes.solve_case(mc.case()),
                     "pinocchio": matrix_fakes.solve_case_judge(mc.case()),
                     "mujoco": matrix_fakes.solve_case_judge_b(mc.case())} for mc in matrix.cases}
+
+
+@pytest.fixture()
+def results(matrix: Matrix) -> dict[str, dict[str, ResultTable]]:
+    """:func:`fake_results` of the ``SMALL`` matrix."""
+    return fake_results(matrix)

@@ -80,7 +80,7 @@ def test_figures_are_started_first_sweep_then_slowest_kinds_then_the_other_sweep
     figures (their order in the plan)."""
     from dualmech.validation.matrix import load_matrix
 
-    from . import matrix_fakes
+    from .conftest import fake_results
 
     small.write_text(small.read_text() + '''
 [[sweep]]
@@ -89,9 +89,7 @@ fixed = { "geometry.slider_offset" = 30.0 }
 grid = { "geometry.crank_axial_shift" = [3.0, 6.0] }
 ''')
     matrix = load_matrix(small)
-    results = {mc.id: {"dualmech": matrix_fakes.solve_case(mc.case()),
-                       "pinocchio": matrix_fakes.solve_case_judge(mc.case()),
-                       "mujoco": matrix_fakes.solve_case_judge_b(mc.case())} for mc in matrix.cases}
+    results = fake_results(matrix)
     pool = _RecordingPool()
     monkeypatch.setattr(figures, "shared_pool", lambda jobs: pool)
     pending = figures.start_figures(matrix, results, jobs=2)
@@ -176,6 +174,19 @@ def test_a_margin_too_small_is_seen(matrix, results, monkeypatch, margin):
     assert all(_cut_off(fig) for fig in drawn.values())
 
 
+def _record_started(monkeypatch) -> list:
+    """The :class:`~figures.PendingFigures` that ``write_report`` starts from now on, as it starts them."""
+    started = []
+    real = figures.start_figures
+
+    def start(*args, **kwargs):
+        started.append(real(*args, **kwargs))
+        return started[-1]
+
+    monkeypatch.setattr("dualmech.validation.report.render.start_figures", start)
+    return started
+
+
 def _failed_report(small, tmp_path, monkeypatch) -> list:
     """A report whose findings section (the last before the figures are collected; a thesis matrix's) fails
     while the workers draw its figures; its figure jobs."""
@@ -187,13 +198,7 @@ def _failed_report(small, tmp_path, monkeypatch) -> list:
     from .test_validate import FAKE_REGISTRY
 
     run_matrix(load_matrix(small), tmp_path / "run", jobs=1, registry=FAKE_REGISTRY)
-    started = []
-
-    def start(*args, **kwargs):
-        started.append(figures.start_figures(*args, **kwargs))
-        return started[-1]
-
-    monkeypatch.setattr("dualmech.validation.report.render.start_figures", start)
+    started = _record_started(monkeypatch)
 
     def broken():
         raise RuntimeError("findings broke")
@@ -353,18 +358,12 @@ def test_the_first_figures_are_drawn_while_the_run_is_compared(small, tmp_path, 
     matrix = load_matrix(small)
     run_matrix(matrix, tmp_path / "run", jobs=1, registry=FAKE_REGISTRY)
     results = load_results(tmp_path / "run", matrix)
-    started, seen = [], []
-    real = figures.start_figures
-
-    def start(*args, **kwargs):
-        started.append(real(*args, **kwargs))
-        return started[-1]
+    started, seen = _record_started(monkeypatch), []
 
     def compare():
         seen.append(sum(isinstance(job, cf.Future) for job in started[0]._rendered) if started else 0)
         return compare_run(matrix, results)
 
-    monkeypatch.setattr("dualmech.validation.report.render.start_figures", start)
     try:
         files = write_report(tmp_path / "run", None, jobs=2, comparison=compare)
     finally:

@@ -186,9 +186,9 @@ def _while_drawn(matrix: Matrix, run: dict, results: dict, comparison: Compariso
     context.update(findings=_section("findings", derived.findings) if matrix.of_thesis else None,
                    balancing=balance.rows)
     summary = json_text(comparison_summary(matrix, comparison, run), pretty=True)
-    templates = tuple(environment(TEMPLATES, markdown=md).get_template(f"report.{'md' if md else 'html'}.j2")
-                      for md in (False, True))
-    return context, summary, templates
+    html = environment(TEMPLATES, markdown=False).get_template("report.html.j2")
+    markdown = environment(TEMPLATES, markdown=True).get_template("report.md.j2")
+    return context, summary, (html, markdown)
 
 
 def _compared(matrix: Matrix, results: dict, comparison: Comparison | Callable[[], Comparison] | None
