@@ -64,7 +64,9 @@ def write_traceback(err: BaseException, folder: Path | None) -> str:
                 with os.fdopen(fd, "w") as fh:
                     fh.write(text)
                 return temp
-            path.write_text(text)
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)  # never a link
+            with os.fdopen(fd, "w") as fh:
+                fh.write(text)
             return str(path)
         except Exception as write_err:  # read-only folder, full disk, no memory: try the next place
             reason = f"{type(write_err).__name__}: {first_line(write_err)}"

@@ -5,7 +5,7 @@ A run directory holds::
     run.json              the expanded matrix, machine, versions, timings
     cases/<case id>.json  one file per case: every engine's table (or its error)
 
-Each case file is written atomically (a temporary file, then :func:`os.replace`)
+Each case file is written atomically (a temporary file, fsync, then :func:`os.replace`)
 each time one of its engines is done, so an interrupted run loses no finished result,
 and ``resume=True`` runs only the (case, engine) pairs that are missing, failed,
 or whose fingerprint (:func:`~dualmech.validation.provenance.result_fingerprint`:
@@ -37,7 +37,8 @@ import numpy as np
 
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
 from dualmech.models.case import case_from_dict
-from dualmech.validation.durable import json_text, write_json_atomic, write_text_durable
+from dualmech.validation import rundir
+from dualmech.validation.durable import json_text
 from dualmech.validation.engines import ENGINES, runs_here
 from dualmech.validation.executors import check_address, execute
 from dualmech.validation.matrix import Matrix, matrix_from_dict
@@ -49,12 +50,11 @@ from dualmech.validation.provenance import (
     result_fingerprint,
     versions,
 )
-from dualmech.validation.rundir import locked, record_files
+from dualmech.validation.rundir import CASE_FORMAT, RUN_FORMAT, locked
 
 CASES_DIR = "cases"
 RUN_FILE = "run.json"
 LOG_FILE = "run.log"
-CASE_FORMAT = "dualmech-case/2"
 
 #: Rough cost of one case per engine (thesis cases, CPU s x 10): tasks go to the workers longest first, so
 #: that a run does not end with one worker on a long task and the other idle (an engine not listed: 1).
@@ -129,19 +129,27 @@ class CaseFileText:
         return f'{self._head}, "engines": {{{body}}}}}'
 
 
+def case_name(case_id: str) -> str:
+    """The case file of one case, relative to its run folder."""
+    return f"{CASES_DIR}/{case_id}.json"
+
+
 def case_file(outdir: Path, case_id: str) -> Path:
     """Where the results of one case are stored."""
-    return Path(outdir) / CASES_DIR / f"{case_id}.json"
+    return Path(outdir) / case_name(case_id)
 
 
-def read_case_file(path: Path) -> dict | None:
-    """A stored case file, or ``None`` if absent or unreadable (e.g. from an older format)."""
-    try:
-        with Path(path).open() as fh:
-            data = json.load(fh)
-    except (OSError, ValueError):
+def read_case_file(outdir: Path, case_id: str) -> dict | None:
+    """The stored case file of ``case_id`` in the run folder ``outdir``, checked
+    (:func:`~dualmech.validation.rundir.check_case_file`); ``None`` if absent or of an older format.
+
+    A file that is not valid JSON, breaks the format, is a link or a special file is a one-line
+    :class:`~dualmech.validation.rundir.RunDirError`.
+    """
+    data = rundir.read_json(outdir, case_name(case_id))
+    if not isinstance(data, dict) or data.get("format") != CASE_FORMAT:
         return None
-    return data if isinstance(data, dict) and data.get("format") == CASE_FORMAT else None
+    return rundir.check_case_file(data, case_file(outdir, case_id), case_id)
 
 
 def entry_result(entry: dict) -> ResultTable | str:
@@ -156,7 +164,7 @@ def load_entries(outdir: Path, matrix: Matrix) -> dict[str, dict[str, dict]]:
     """
     entries = {}
     for mc in matrix.cases:
-        data = read_case_file(case_file(outdir, mc.id))
+        data = read_case_file(outdir, mc.id)
         if data is None or data.get("fingerprint") != case_fingerprint(mc.raw):
             continue
         per = {e: v for e, v in data["engines"].items() if e in matrix.engines}
@@ -178,17 +186,17 @@ def timings(entries: dict[str, dict[str, dict]]) -> dict[str, dict[str, float]]:
 
 
 def load_run(outdir: Path) -> tuple[Matrix, dict]:
-    """The matrix and metadata of a stored run directory."""
+    """The matrix and metadata of a stored run directory (``run.json`` checked against
+    :data:`~dualmech.validation.rundir.RUN_SCHEMA`, its matrix's names and engines too)."""
     path = Path(outdir) / RUN_FILE
-    try:
-        with path.open() as fh:
-            run = json.load(fh)
-    except OSError:
+    run = rundir.read_json(outdir, RUN_FILE, rundir.RUN_SCHEMA)
+    if run is None:
         raise ValueError(f"run directory: {outdir} has no {RUN_FILE} (run `dualmech validate -o {outdir}` "
-                         "first)") from None
+                         "first)")
+    try:
+        return matrix_from_dict(run["matrix"]), run
     except ValueError as err:
-        raise ValueError(f"run directory: {path} is not valid JSON ({err})") from None
-    return matrix_from_dict(run["matrix"]), run
+        raise rundir.RunDirError(f"{path}: matrix: {err}") from None
 
 
 # ----------------------------------------------------------------------------- environment
@@ -237,10 +245,8 @@ def error_line(err: BaseException, width: int = 300) -> str:
 def _log_failure(outdir: Path, entry: dict) -> None:
     """Append a failed entry's traceback to the run's log file."""
     stamp = datetime.now(timezone.utc).isoformat(timespec="seconds")
-    record_files(outdir, [LOG_FILE])
-    with (outdir / LOG_FILE).open("a", encoding="utf-8") as fh:
-        fh.write(f"--- {stamp} {entry['case']} / {entry['engine']}: {entry['error']}\n")
-        fh.write(entry.get("traceback", "") + "\n")
+    head = f"--- {stamp} {entry['case']} / {entry['engine']}: {entry['error']}\n"
+    rundir.append_text(outdir, LOG_FILE, head + entry.get("traceback", "") + "\n")
 
 
 def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: dict[str, str]
@@ -248,7 +254,7 @@ def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: dict[str, str]
     """Tasks to run, and the entries kept from earlier files, per case."""
     tasks, kept = [], {}
     for mc in matrix.cases:
-        old = read_case_file(case_file(outdir, mc.id)) if resume else None
+        old = read_case_file(outdir, mc.id) if resume else None
         entries = {}
         if old is not None:
             entries = {e: v for e, v in old["engines"].items()
@@ -305,7 +311,7 @@ def _run_info(matrix: Matrix, jobs: int, resume: bool, scheduler: str | None,
               registry: dict[str, str]) -> dict:
     """What ``run.json`` says of a run when it starts (its end adds seconds, ran and skipped)."""
     return {
-        "format": "dualmech-run/1",
+        "format": RUN_FORMAT,
         "matrix": matrix.to_dict(),
         "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "jobs": 1 if scheduler else jobs,
@@ -320,12 +326,11 @@ def _run_info(matrix: Matrix, jobs: int, resume: bool, scheduler: str | None,
 def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler: str | None,
                 progress: ProgressCallback | None, registry: dict[str, str], start: float) -> RunOutcome:
     """:func:`run_matrix` in its locked output folder."""
-    (outdir / CASES_DIR).mkdir(parents=True, exist_ok=True)
+    rundir.make_folder(outdir, CASES_DIR)
     tasks, kept = _plan(matrix, outdir, resume, registry)
     raws = {mc.id: mc.raw for mc in matrix.cases}
     info = _run_info(matrix, jobs, resume, scheduler, registry)
-    write_json_atomic(outdir / RUN_FILE, info)
-    record_files(outdir, [RUN_FILE])
+    rundir.write_json(outdir, RUN_FILE, info)
 
     files = {cid: CaseFileText(cid, raws[cid], matrix.engines, kept[cid]) for cid in raws}
     calls = [(cid, raws[cid], e, registry[e]) for cid, e in tasks]
@@ -336,9 +341,7 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
         cid = entry["case"]
         if entry.get("error"):
             _log_failure(outdir, entry)
-        path = case_file(outdir, cid)
-        write_text_durable(path, files[cid].add(entry))
-        record_files(outdir, [path])
+        rundir.write_file(outdir, case_name(cid), files[cid].add(entry))
 
     leftovers: list[dict] = []
     stream = execute(run_task, calls, jobs, scheduler, leftovers, here=lambda c: runs_here(c[2], c[3], c[1]))
@@ -354,7 +357,7 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
 
     seconds = time.perf_counter() - start
     info.update(seconds=seconds, ran=len(calls), skipped=sum(len(v) for v in kept.values()))
-    write_json_atomic(outdir / RUN_FILE, info)
+    rundir.write_json(outdir, RUN_FILE, info)
     results = {cid: {e: entry_result(f.entries[e]) for e in matrix.engines if e in f.entries}
                for cid, f in files.items() if f.entries}  # as load_results reads them: the matrix's order
     return RunOutcome(results, len(calls), info["skipped"], seconds)

@@ -62,10 +62,21 @@ def test_a_report_deletes_only_what_dualmech_wrote(small, tmp_path):
 
 
 def test_a_second_concurrent_run_is_refused(small, tmp_path):
+    """The lock holds across processes (within one, it is taken again by nested calls: one writer)."""
     out = tmp_path / "run"
-    with locked(out):
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import time; from dualmech.validation.rundir import locked\n"
+         f"with locked({str(out)!r}):\n print('held', flush=True); time.sleep(60)"],
+        stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        assert holder.stdout.readline().strip() == "held"
         with pytest.raises(RunDirError, match="in use by another dualmech run"):
             run_matrix(load_matrix(small), out, jobs=1, registry=FAKE_REGISTRY)
+    finally:
+        holder.kill()
+        holder.wait()
+    with locked(out):  # nested in one process: the holder keeps its lock
+        run_matrix(load_matrix(small), out, jobs=1, registry=FAKE_REGISTRY)
     run_matrix(load_matrix(small), out, jobs=1, registry=FAKE_REGISTRY)  # free again once the holder is gone
 
 

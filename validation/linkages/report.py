@@ -16,12 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from dualmech.validation.durable import write_json_atomic
 from dualmech.validation.linkages.run import SPECS, LinkageRun, write_tables
 from dualmech.validation.provenance import KEY_LIBRARIES, versions
 from dualmech.validation.report import Figure, environment, fig_to_png
 from dualmech.validation.report.plots import JUDGE_MARKERS, LOG_FLOOR
-from dualmech.validation.rundir import locked, record_files
+from dualmech.validation.rundir import locked, record_files, write_file, write_json
 
 #: The report's Jinja2 templates (beside the slider crank's).
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
@@ -134,20 +133,17 @@ def write_linkage_report(run: LinkageRun, outdir: Path, seconds: float) -> Linka
     with locked(outdir) as outdir:
         tables = write_tables(run, outdir)
         figures = [case_figure(run, e.id, e.kind) for e in run.matrix.cases]
-        (outdir / "figures").mkdir(exist_ok=True)
-        paths = [outdir / "figures" / f"{f.key}.png" for f in figures]
-        for f, p in zip(figures, paths):
-            p.write_bytes(f.png)
+        paths = [write_file(outdir, f"figures/{f.key}.png", f.png, record=False) for f in figures]
         summary = linkage_summary(run, seconds)
         context = {"s": summary, "figures": figures, "failures": run.comparison.failures()[:200],
                    "checks": run.comparison.checks, "report_seconds": time.perf_counter() - start,
                    "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
         files = LinkageReport(outdir / "summary.json", outdir / "report.md", outdir / "report.html",
                               tuple(paths), tuple(tables))
-        write_json_atomic(files.summary, summary, pretty=True)
+        write_json(outdir, files.summary.name, summary, pretty=True, record=False)
         for template, target, markdown in (("linkages.md.j2", files.markdown, True),
                                            ("linkages.html.j2", files.html, False)):
-            target.write_text(environment(TEMPLATES, markdown).get_template(template).render(**context),
-                              encoding="utf-8")
+            write_file(outdir, target.name, environment(TEMPLATES, markdown).get_template(template).render(
+                **context), record=False)
         record_files(outdir, [files.summary, files.markdown, files.html, *paths, *tables])
     return files

@@ -25,6 +25,7 @@ from dualmech.validation.compare import Check, Comparison, Verdict
 from dualmech.validation.linkages.engines import solve_case
 from dualmech.validation.linkages.gate import engine_check, judge_checks, reference_check
 from dualmech.validation.linkages.matrix import LinkageEntry, LinkageMatrix
+from dualmech.validation.rundir import write_file
 
 #: The table spec of each kind.
 SPECS: dict[str, TableSpec] = {"rssr": RSSR_SPEC, "rccc": RCCC_SPEC}
@@ -143,12 +144,6 @@ def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, 
 
 def write_tables(run: LinkageRun, outdir: Path) -> list[Path]:
     """Every engine's table of every case as ``tables/<case>/<engine>.csv`` (full precision)."""
-    paths = []
-    for case_id, per in run.tables.items():
-        folder = outdir / "tables" / case_id
-        folder.mkdir(parents=True, exist_ok=True)
-        for engine, table in per.items():
-            if not isinstance(table, str):
-                paths.append(folder / f"{engine}.csv")
-                table.to_csv(paths[-1])
-    return paths
+    return [write_file(outdir, f"tables/{case_id}/{engine}.csv", table.to_csv(), record=False)
+            for case_id, per in run.tables.items() for engine, table in per.items()
+            if not isinstance(table, str)]

@@ -250,10 +250,17 @@ class Matrix:
 def matrix_from_dict(d: dict) -> Matrix:
     """Inverse of :meth:`Matrix.to_dict`.
 
-    The names that become file or folder names are checked again (a stored run may
-    have been edited); a stored run without ``expect`` (older) reads as ``None``.
+    The names that become file or folder names, the engines and the quantities are checked again (a
+    stored run may have been edited; its types are checked by
+    :data:`~dualmech.validation.rundir.MATRIX_SCHEMA`); a stored run without ``expect`` (older) reads as
+    ``None``.
     """
     check_file_name("name", d["name"])
+    check_engines(tuple(d["engines"]), d["reference"])
+    unknown = [q for q in d["quantities"] if q not in COMPARABLE]
+    if unknown:
+        raise MatrixError(f"quantities: {show(unknown[0])} is not a comparable column (valid: "
+                          f"{', '.join(COMPARABLE)})")
     for c in d["cases"]:
         check_file_name("case id", c["id"])
         check_expect(f"case {c['id']}.expect", c.get("expect"))

@@ -8,7 +8,6 @@ PNG; nothing loaded from the network) and a Markdown summary (every value escape
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -17,7 +16,7 @@ from typing import Any, Callable
 from dualmech.models.design_summary import JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION
 from dualmech.validation import derived, runner
 from dualmech.validation.compare import Check, Comparison, compare_run
-from dualmech.validation.durable import json_text, write_text_durable
+from dualmech.validation.durable import json_text
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.provenance import key_versions
 from dualmech.validation.report.figures import PendingFigures, start_figures
@@ -32,7 +31,7 @@ from dualmech.validation.report.sections import (
     summary_rows,
     tolerance_rows,
 )
-from dualmech.validation.rundir import locked, record_files, remove_stale
+from dualmech.validation.rundir import locked, record_files, remove_stale, write_file
 from dualmech.validation.runner import ProgressCallback
 
 #: The report's Jinja2 templates.
@@ -166,10 +165,9 @@ def write_report(
                        report_seconds=time.perf_counter() - start)
         files = ReportFiles(outdir / "report.html", outdir / "report.md", outdir / "summary.json",
                             tuple(paths), 0.0, str(comparison.verdict))
-        write_text_atomic(files.html, templates[0].render(**context))
-        write_text_atomic(files.markdown, templates[1].render(**context))
-        write_text_durable(files.summary, summary)
-        record_files(outdir, [files.html, files.markdown, files.summary])
+        for target, text in ((files.html, templates[0].render(**context)),
+                             (files.markdown, templates[1].render(**context)), (files.summary, summary)):
+            write_file(outdir, target.name, text)
     return replace(files, seconds=time.perf_counter() - start)
 
 
@@ -200,12 +198,9 @@ def _compared(matrix: Matrix, results: dict, comparison: Comparison | Callable[[
 
 
 def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
-    """Write the figures' PNGs; remove those this folder's earlier reports wrote that are no longer drawn."""
-    figdir = outdir / "figures"
-    figdir.mkdir(parents=True, exist_ok=True)
-    paths = [figdir / f"{f.key}.png" for f in figures]
-    for f, p in zip(figures, paths):
-        p.write_bytes(f.png)
+    """Write the figures' PNGs; remove those this folder's earlier reports wrote that are no longer drawn
+    (:mod:`~dualmech.validation.rundir`: inside the folder, never through a link)."""
+    paths = [write_file(outdir, f"figures/{f.key}.png", f.png, record=False) for f in figures]
     record_files(outdir, paths)
     remove_stale(outdir, paths, "figures")
     return paths
@@ -256,10 +251,3 @@ def _section(name: str, build: Callable[..., Any], *args: Any, **kwargs: Any) ->
         raise ReportError(
             f"report section {name!r} failed: {type(err).__name__}: {lines[0][:200] if lines else ''}"
         ) from err
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` (UTF-8) to ``path`` so that readers see the old file or the new one, never half."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)

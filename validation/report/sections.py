@@ -8,7 +8,6 @@ come from :mod:`dualmech.validation.derived`.
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +19,7 @@ from dualmech.validation.compare import ENGINE, STATUS, STROKE, Comparison
 from dualmech.validation.derived import Balancing
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.report.figures import FigureSpec
-from dualmech.validation.rundir import record_files
+from dualmech.validation.rundir import write_file
 
 
 def engine_verdict(comparison: Comparison, case: str, engine: str) -> dict:
@@ -146,8 +145,7 @@ def copy_errata(outdir: Path) -> str | None:
     errata = Path(__file__).resolve().parents[2] / "docs" / "errata.md"
     if not errata.is_file():  # an installed package without the repository's docs
         return None
-    shutil.copyfile(errata, Path(outdir) / "errata.md")
-    record_files(outdir, ["errata.md"])
+    write_file(outdir, "errata.md", errata.read_bytes())
     return "errata.md"
 
 
