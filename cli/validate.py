@@ -161,7 +161,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
             "--resume": resume, "--scheduler": scheduler, "--junit": junit_file, "--baseline": baseline_file,
             "--write-baseline": write_baseline_file, "--report-dir": report_dir})
     matrix, outdir = open_run(matrix_file, outdir, _engine_list(engines))
-    baseline = read_baseline(baseline_file) if baseline_file else None  # fail early on a bad file
+    baseline = read_baseline(baseline_file, matrix.name) if baseline_file else None  # before the run
     if report_dir:
         check_output_folder(report_dir)
     console = summary_console(sys.stdout.isatty())

@@ -26,10 +26,22 @@ import numpy as np
 from dualmech.core.table import ResultTable
 from dualmech.validation import tolerances as tol
 from dualmech.validation.compare import UNIT_GROUP, Comparison, condition_factor, stroke, unit_scales
-from dualmech.validation.durable import write_json_atomic
+from dualmech.validation.durable import NotAFileError, read_regular, write_json_atomic
 from dualmech.validation.matrix import Matrix
+from dualmech.validation.rundir import NUMBER, MapOf, Nullable, RunDirError, conform
 
 BASELINE_FORMAT = "dualmech-baseline/1"
+
+_NUMBER_OR_NULL = Nullable(NUMBER)
+#: A baseline file (:func:`baseline_summary`); its checks are what :func:`compare_baseline` reads.
+BASELINE_SCHEMA = {
+    "format": str, "matrix": str, "reference": str, "engines": [str],
+    "cases": MapOf({
+        "reference": Nullable({"stroke": _NUMBER_OR_NULL, "peaks": MapOf(NUMBER),
+                               "scales": MapOf(NUMBER), "length": NUMBER}),
+        "checks": MapOf(MapOf({"max_rel": _NUMBER_OR_NULL, "passed": bool})),
+    }),
+}
 
 
 @dataclass(frozen=True)
@@ -100,18 +112,32 @@ def write_baseline(path: str | Path, summary: dict) -> None:
     write_json_atomic(Path(path), summary, pretty=True)
 
 
-def read_baseline(path: str | Path) -> dict:
-    """Read a baseline file; ValueError if it is not one."""
+def read_baseline(path: str | Path, matrix: str | None = None) -> dict:
+    """Read a baseline file, checked against :data:`BASELINE_SCHEMA` (and, given ``matrix``, made for the
+    matrix of that name); a one-line ValueError naming the file and the field if it is not one.
+
+    Called before a run starts, so that a broken baseline costs no run.
+    """
     try:
-        with Path(path).open() as fh:
-            data = json.load(fh)
+        data = json.loads(read_regular(path))
+    except FileNotFoundError:
+        raise ValueError(f"baseline: cannot read {path} (no such file)") from None
+    except NotAFileError as err:
+        raise ValueError(f"baseline: {err}") from None
     except OSError as err:
         raise ValueError(f"baseline: cannot read {path} ({err.strerror})") from None
     except ValueError as err:
-        raise ValueError(f"baseline: {path} is not valid JSON ({err})") from None
+        raise ValueError(f"baseline: {path} is not valid JSON ({str(err).splitlines()[0][:120]})") from None
     if not isinstance(data, dict) or data.get("format") != BASELINE_FORMAT:
         raise ValueError(f"baseline: {path} is not a {BASELINE_FORMAT} file (write one with "
                          "--write-baseline)")
+    try:
+        conform(data, BASELINE_SCHEMA, path)
+    except RunDirError as err:
+        raise ValueError(f"baseline: {err}") from None
+    if matrix is not None and data["matrix"] != matrix:
+        raise ValueError(f"baseline: {path} is for matrix {data['matrix']!r}, not {matrix!r} (this run's); "
+                         "give that matrix's baseline, or write one with --write-baseline")
     return data
 
 
@@ -127,6 +153,9 @@ def compare_baseline(current: dict, baseline: dict) -> list[Regression]:
     floor = tol.BASELINE_AGREEMENT_FLOOR.value
     rtol = tol.BASELINE_VALUE_RTOL.value
     ref_name = baseline.get("reference", "dualmech")
+    if baseline["matrix"] != current["matrix"]:
+        return [Regression("*", "*", "matrix", f"the baseline is for another matrix ({baseline['matrix']!r}, "
+                                              f"this run {current['matrix']!r}); nothing compared")]
     out: list[Regression] = []
     for cid, base in baseline["cases"].items():
         now = current["cases"].get(cid)

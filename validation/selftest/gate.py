@@ -91,10 +91,11 @@ def gate_main(argv: list[str]) -> int:
 
     matrix_file, outdir, baseline_in, baseline_out = argv
     matrix = load_matrix(matrix_file)
+    baseline = read_baseline(baseline_in, matrix.name) if baseline_in != "-" else None  # before the run
     outcome = run_matrix(matrix, outdir, jobs=1)
     comparison = compare_run(matrix, outcome.results)
     summary = baseline_summary(matrix, comparison, outcome.results)
-    regressions = compare_baseline(summary, read_baseline(baseline_in)) if baseline_in != "-" else []
+    regressions = compare_baseline(summary, baseline) if baseline is not None else []
     write_junit(Path(outdir) / "junit.xml", matrix, comparison, timings(load_entries(outdir, matrix)),
                 regressions=regressions, versions=run_versions(Path(outdir)))
     if baseline_out != "-":
