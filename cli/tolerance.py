@@ -4,7 +4,8 @@ A thin shell over :func:`dualmech.validation.tolerance_study.run_study` and
 :func:`dualmech.validation.tolerance_report.write_tolerance_report`; ``docs/conventions.md``
 ("Tolerance analysis") defines the SPEC, every column and the summary.
 Exit codes: 0 every spot check passed; 1 a judge disagreed, or the exact sensitivities disagree with
-central differences of the solver (named on stderr); 2 bad input.
+central differences of the solver (named on stderr); 2 bad input (a folder that is not dualmech's, or
+one another study is writing: :mod:`dualmech.validation.rundir`).
 """
 
 from __future__ import annotations
@@ -62,12 +63,15 @@ def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir:
         from dualmech.models.case import load_case
         from dualmech.models.tolerance.spec import load_spec
         from dualmech.models.tolerance.study import StudyInput
+        from dualmech.validation.rundir import locked
         from dualmech.validation.tolerance_report import write_tolerance_report
         from dualmech.validation.tolerance_study import run_study
 
         study = StudyInput(load_case(case), load_spec(spec_file), n, seed)
-        summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples, drawing)
-        files = write_tolerance_report(Path(outdir), summary, x, samples, drawing)
+        with locked(outdir):  # one lock for the study and its report (a second study is refused)
+            summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples,
+                                            drawing)
+            files = write_tolerance_report(Path(outdir), summary, x, samples, drawing)
     finally:
         drawing.close()
     _print_summary(summary)

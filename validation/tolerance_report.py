@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dualmech.models.tolerance.outputs import DesignStatus
+from dualmech.validation.rundir import locked, write_file
 
 if TYPE_CHECKING:
     from dualmech.validation.report import Figure
@@ -223,11 +224,10 @@ def write_tolerance_report(outdir: Path, summary: dict, x: np.ndarray | None,
         figures = draw_figures(figure_jobs(summary, samples))
     elif isinstance(figures, FigureDrawing):
         figures = figures.collect()
-    figdir = outdir / "figures"
-    figdir.mkdir(parents=True, exist_ok=True)
-    for f in figures:
-        (figdir / f"{f.key}.png").write_bytes(f.png)
     context = {"s": summary, "figures": figures, "names": list(summary["nominal"])}
-    for template, target in templates:
-        (outdir / target).write_text(template.render(**context))
+    with locked(outdir) as outdir:  # the run folder's rules: inside it, no link followed, atomic files
+        for f in figures:
+            write_file(outdir, f"figures/{f.key}.png", f.png)
+        for template, target in templates:
+            write_file(outdir, target, template.render(**context))
     return ["summary.json", "report.html", "report.md"] + [f"figures/{f.key}.png" for f in figures]

@@ -1,8 +1,10 @@
 """A tolerance study end to end, judged: the Monte Carlo chunks run, sensitivities, spot checks, summary.
 
 The study's parts live in :mod:`dualmech.models.tolerance` (sampling, batched solving of a chunk,
-its storage and resumption: :mod:`~dualmech.models.tolerance.study`; sensitivities; statistics).
-This module runs them: the chunks in this process (:data:`IN_FLIGHT` at once, so that the kernel's
+what a stored chunk holds: :mod:`~dualmech.models.tolerance.study`; sensitivities; statistics).
+This module runs them in the study's folder (:mod:`~dualmech.validation.rundir`'s rules: locked, every
+file atomic; a chunk fsynced when stored, so that a resume can rely on it, and recomputed if it is
+damaged or of another study): the chunks in this process (:data:`IN_FLIGHT` at once, so that the kernel's
 threads solve one chunk while this process reduces, stores and writes another), in a process pool
 (``jobs``) or on a Dask cluster (``scheduler``) through :func:`dualmech.validation.executors.execute`,
 each stored as it finishes and streamed into the samples files in design order; then the exact
@@ -13,8 +15,13 @@ and the statistics, may be drawn meanwhile (:class:`~dualmech.validation.toleran
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
+import os
 import time
+import zipfile
+import zlib
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -33,12 +40,17 @@ from dualmech.models.tolerance.study import (
     METHODS,
     SampleStream,
     StudyInput,
+    check_size,
+    chunk_arrays,
+    chunk_name,
+    chunk_part,
     finite_json,
-    prepare,
+    parquet_available,
     solve_chunk,
-    store_chunk,
 )
 from dualmech.models.tolerance.summary import summarize
+from dualmech.validation import rundir
+from dualmech.validation.durable import json_text
 from dualmech.validation.executors import execute
 from dualmech.validation.provenance import versions
 from dualmech.validation.tolerance_judges import candidates, run_spot_checks
@@ -48,6 +60,52 @@ from dualmech.validation.tolerance_report import FigureDrawing
 #: threads work on one chunk's positions this thread reduces, stores and writes another, and the
 #: kernel's threads always have a next block queued.  Results are the same bits for any value.
 IN_FLIGHT = 2
+
+
+#: ``study.json``: the study a folder holds (:meth:`~dualmech.models.tolerance.study.StudyInput.identity`).
+STUDY_FILE = "study.json"
+#: What a damaged chunk file raises when read (a truncated zip, a cut array, a bad header).
+DAMAGED_CHUNK = (zipfile.BadZipFile, zlib.error, EOFError, ValueError, KeyError, OSError)
+
+
+def store_chunk(outdir: Path, study: StudyInput, entry: dict) -> None:
+    """Store one finished chunk (a :func:`solve_chunk` result) in ``DIR/chunks/`` atomically and durably
+    (:func:`~dualmech.validation.rundir.writing`: fsynced, renamed; a resume relies on it)."""
+    with rundir.writing(outdir, chunk_name(entry["index"]), record=False) as (_, fd):
+        with os.fdopen(os.dup(fd), "wb") as fh:
+            np.savez(fh, **chunk_arrays(study, entry))
+
+
+def load_chunk(outdir: Path, study: StudyInput, index: int
+               ) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+    """Stored chunk ``index`` of ``study`` (key values, outputs), or ``None`` if it is absent, damaged or of
+    another study (:func:`~dualmech.models.tolerance.study.chunk_part`): it is then solved again.  A link
+    or special file in its place is a :class:`~dualmech.validation.rundir.RunDirError`."""
+    data = rundir.read_bytes(outdir, chunk_name(index))
+    if data is None:
+        return None
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as stored:
+            return chunk_part(study, index, {k: stored[k] for k in stored.files})
+    except DAMAGED_CHUNK:
+        return None
+
+
+def prepare(outdir: Path, study: StudyInput) -> list[int]:
+    """Open the study folder (locked by the caller): check or write ``study.json``; the chunks still to run
+    (absent, damaged or foreign ones)."""
+    check_size(study)
+    identity = rundir.read_json(outdir, STUDY_FILE)
+    wanted = json.loads(json_text(study.identity()))
+    if identity is not None and identity != wanted:
+        raise ValueError(f"output: {str(outdir)!r} holds another study (case, SPEC, n or seed differ); "
+                         "use an empty folder")
+    rundir.make_folder(outdir, "chunks")
+    if identity is None:
+        if any(rundir.inside(outdir, "chunks", folder=True).iterdir()):
+            raise ValueError(f"output: {str(outdir)!r} holds chunks but no {STUDY_FILE}; use an empty folder")
+        rundir.write_json(outdir, STUDY_FILE, wanted, pretty=True)
+    return [c for c in range(n_chunks(study.n)) if load_chunk(outdir, study, c) is None]
 
 
 def in_process(calls: list[tuple], leftovers: list[dict]) -> Iterator[dict]:
@@ -87,14 +145,14 @@ def run_chunks(outdir: Path, study: StudyInput, todo: list[int], jobs: int, sche
     done = 0
     try:
         for entry in entries:
-            store_chunk(outdir, entry)
+            store_chunk(outdir, study, entry)
             if stream is not None:
                 stream.add(entry["index"], entry["x"], entry["outputs"])
             done += 1
     finally:
         entries.close()
         for entry in leftovers:
-            store_chunk(outdir, entry)
+            store_chunk(outdir, study, entry)
     return done
 
 
@@ -108,13 +166,25 @@ def monte_carlo(outdir: Path, study: StudyInput, jobs: int, scheduler: str | Non
     if figures is not None:
         figures.warm()
     start = time.perf_counter()
-    stream = SampleStream(outdir, study, set(range(n_chunks(study.n))) - set(todo))
-    try:
-        ran = run_chunks(outdir, study, todo, jobs, scheduler, stream)
-        files, x, samples = stream.finish()
-    except BaseException:
-        stream.abort()
-        raise
+    files = ["samples.csv"] + (["samples.parquet"] if parquet_available() else [])
+    with contextlib.ExitStack() as temporary:  # renamed onto their names only if the study ends
+        paths = [temporary.enter_context(rundir.writing(outdir, f))[0] for f in files]
+
+        def load(index: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+            part = load_chunk(outdir, study, index)
+            if part is None:
+                raise rundir.RunDirError(f"{outdir / chunk_name(index)}: changed or removed while the study "
+                                         "ran; run the study again")
+            return part
+
+        stream = SampleStream(study, set(range(n_chunks(study.n))) - set(todo), paths[0],
+                              paths[1] if len(paths) > 1 else None, load)
+        try:
+            ran = run_chunks(outdir, study, todo, jobs, scheduler, stream)
+            x, samples = stream.finish()
+        except BaseException:
+            stream.abort()
+            raise
     solve_s = time.perf_counter() - start
     return ({"chunks_run": ran, "chunks_resumed": n_chunks(study.n) - len(todo), "solve_s": solve_s,
              "files": files}, x, samples)
@@ -132,18 +202,26 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
               ) -> tuple[dict, np.ndarray | None, dict[str, np.ndarray] | None]:
     """The whole study (module docstring): returns the summary (also in ``DIR/summary.json``) and the samples.
 
+    ``outdir`` follows the run folder's rules (:mod:`~dualmech.validation.rundir`): new, empty or
+    dualmech's, locked while the study runs, every file written atomically.
+
     Sampled key values ``(n, k)`` and outputs are ``None`` for ``method = "linear"``.  ``figures``: started
     (:meth:`~dualmech.validation.tolerance_report.FigureDrawing.start`) once the statistics are known,
     before the spot checks.
     """
     _check_inputs(study, method, judge_samples)
-    outdir = Path(outdir)
+    with rundir.locked(outdir) as outdir:
+        return _run_locked(study, method, outdir, jobs, scheduler, judge_samples, figures)
+
+
+def _run_locked(study: StudyInput, method: str, outdir: Path, jobs: int, scheduler: str | None,
+                judge_samples: int, figures: FigureDrawing | None,
+                ) -> tuple[dict, np.ndarray | None, dict[str, np.ndarray] | None]:
+    """:func:`run_study` in its locked folder."""
     timing: dict = {}
     x = samples = None
     if method != "linear":
         timing, x, samples = monte_carlo(outdir, study, jobs, scheduler, figures)
-    else:
-        outdir.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     table = solve_case(study.case)
     mode = study.case.loads.mode
@@ -170,5 +248,5 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
                "judges": [s.to_dict() for s in spots],
                "judges_passed": all(s.passed for s in spots), "timing": timing, "versions": versions()}
     summary = finite_json(summary)
-    (outdir / "summary.json").write_text(json.dumps(summary, indent=1, sort_keys=True) + "\n")
+    rundir.write_json(outdir, "summary.json", summary, pretty=True)
     return summary, x, samples

@@ -1,25 +1,25 @@
-"""A tolerance study's parts: sample designs in chunks, solve them batched, store and stream the rows.
+"""A tolerance study's parts: sample designs in chunks, solve them batched, and stream the rows.
 
 Designs are independent; chunks of :data:`~dualmech.models.tolerance.sampling.CHUNK_DESIGNS`
 are tasks (:func:`solve_chunk`, picklable), run by :mod:`dualmech.validation.tolerance_study` in
-this process, a process pool or on a Dask cluster, which also judges and summarises.  Each chunk's
-designs are solved together as the compiled kernel's arrays, in blocks of bounded memory, and
-reduced per design (:mod:`~dualmech.models.tolerance.designs`).  A finished chunk is stored at once as
-``DIR/chunks/chunk-NNNNNN.npz`` (written to a temporary name, then renamed), so an interrupted
-study resumes where it stopped; ``DIR/study.json`` names the case, SPEC, ``n`` and seed, and a
-folder holding another study is refused.  As the chunks finish they are streamed, in design order,
-into ``DIR/samples.csv`` (and ``DIR/samples.parquet`` when pyarrow is installed, one row group
-per chunk) by :class:`SampleStream`, while the next chunks are solved; the study then summarises
-them into ``DIR/summary.json``.
+this process, a process pool or on a Dask cluster, which also stores them, judges and summarises.
+Each chunk's designs are solved together as the compiled kernel's arrays, in blocks of bounded memory,
+and reduced per design (:mod:`~dualmech.models.tolerance.designs`).  A stored chunk
+(:func:`chunk_arrays`) carries the study's fingerprint and its index, and is read back only if they and
+every array's shape match (:func:`chunk_part`): a damaged chunk or one of another study is solved again.
+As the chunks finish they are streamed, in design order, into ``samples.csv`` (and ``samples.parquet``
+when pyarrow is installed, one row group per chunk) by :class:`SampleStream`, while the next chunks are
+solved; the study then summarises them into ``DIR/summary.json``.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable, Mapping
 
 import numpy as np
 
@@ -51,6 +51,11 @@ class StudyInput:
         return {"format": STUDY_FORMAT, "case": self.case.raw, "spec": self.spec.to_dict(), "n": self.n,
                 "seed": self.seed}
 
+    def fingerprint(self) -> str:
+        """SHA-256 (16 hex digits) of :meth:`identity`: what every stored chunk of this study carries."""
+        text = json.dumps(self.identity(), sort_keys=True, allow_nan=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
 
 def solve_chunk(case_raw: dict, spec_dict: dict, n: int, seed: int, index: int) -> dict:
     """Task: sample chunk ``index``, solve its designs together as arrays, return its rows.
@@ -64,42 +69,47 @@ def solve_chunk(case_raw: dict, spec_dict: dict, n: int, seed: int, index: int) 
     return {"index": index, "x": x, "outputs": analyse_designs(designs, case.loads.mode)}
 
 
-def _chunk_path(outdir: Path, index: int) -> Path:
-    return outdir / "chunks" / f"chunk-{index:06d}.npz"
+def chunk_name(index: int) -> str:
+    """A stored chunk's file, relative to the study folder."""
+    return f"chunks/chunk-{index:06d}.npz"
 
 
-def store_chunk(outdir: Path, entry: dict) -> None:
-    """Store one finished chunk (a :func:`solve_chunk` result) atomically: ``DIR/chunks/chunk-NNNNNN.npz``."""
-    path = _chunk_path(outdir, entry["index"])
-    tmp = path.with_name(path.name + ".tmp.npz")
+def chunk_arrays(study: StudyInput, entry: dict) -> dict[str, np.ndarray]:
+    """What a finished chunk (a :func:`solve_chunk` result) stores: ``x``, ``status``, ``out_<name>`` per
+    output, and the study's ``fingerprint`` and the chunk's ``index`` (:func:`chunk_part` checks them)."""
     arrays = {f"out_{k}": np.asarray(v) for k, v in entry["outputs"].items() if k != "status"}
-    np.savez(tmp, x=entry["x"], status=np.asarray(entry["outputs"]["status"], dtype=str), **arrays)
-    os.replace(tmp, path)
+    return {"fingerprint": np.asarray(study.fingerprint()), "index": np.asarray(entry["index"]),
+            "x": np.asarray(entry["x"]), "status": np.asarray(entry["outputs"]["status"], dtype=str),
+            **arrays}
 
 
-def _load(outdir: Path, index: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    with np.load(_chunk_path(outdir, index)) as data:
-        out = {k[4:]: data[k] for k in data.files if k.startswith("out_")}
-        out["status"] = data["status"].astype(object)
-        return data["x"], out
+def chunk_part(study: StudyInput, index: int, data: Mapping[str, np.ndarray]
+               ) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+    """Chunk ``index``'s key values ``(m, k)`` and outputs ``(m,)`` from its stored arrays
+    (:func:`chunk_arrays`); ``None`` if they are of another study or chunk, or any is missing or of
+    another shape or kind (the chunk is then solved again)."""
+    lo, hi = chunk_bounds(study.n, index)
+    names = ["status", *COUNTS, *output_names(study.case.loads.mode)]
+    wanted = {"fingerprint", "index", "x", *(f"out_{k}" for k in names if k != "status")}
+    if not wanted <= set(data):
+        return None
+    if str(data["fingerprint"]) != study.fingerprint() or data["index"].shape != () \
+            or int(data["index"]) != index:
+        return None
+    x = data["x"]
+    if x.shape != (hi - lo, len(study.spec.keys)) or x.dtype.kind != "f":
+        return None
+    outputs = {k: data[f"out_{k}"] for k in names if k != "status"}
+    outputs["status"] = data["status"].astype(object)
+    if any(v.shape != (hi - lo,) for v in outputs.values()) or data["status"].dtype.kind != "U":
+        return None
+    return x, outputs
 
 
-def prepare(outdir: Path, study: StudyInput) -> list[int]:
-    """Create (or reopen) the study folder; the chunks still to run."""
+def check_size(study: StudyInput) -> None:
+    """A one-line ValueError unless the study's design count is 1 to :data:`MAX_DESIGNS`."""
     if study.n < 1 or study.n > MAX_DESIGNS:
         raise ValueError(f"n: expected 1 to {MAX_DESIGNS:,} designs, got {study.n!r}")
-    (outdir / "chunks").mkdir(parents=True, exist_ok=True)
-    meta = outdir / "study.json"
-    identity = json.loads(json.dumps(study.identity()))
-    if meta.exists():
-        if json.loads(meta.read_text()) != identity:
-            raise ValueError(f"output: {str(outdir)!r} holds another study (case, SPEC, n or seed differ); "
-                             "use an empty folder")
-    elif any(outdir.iterdir()) and sorted(p.name for p in outdir.iterdir()) != ["chunks"]:
-        raise ValueError(f"output: {str(outdir)!r} is not empty and holds no tolerance study; "
-                         "use an empty folder")
-    meta.write_text(json.dumps(identity, indent=1, sort_keys=True))
-    return [c for c in range(n_chunks(study.n)) if not _chunk_path(outdir, c).exists()]
 
 
 def columns(spec: Spec, mode: str) -> list[str]:
@@ -112,21 +122,22 @@ class SampleStream:
 
     :meth:`add` takes a finished chunk; every chunk whose predecessors are all in is written at once
     (so the files grow while the next chunks are solved), a chunk stored by an earlier run
-    (``resumed``) read from ``DIR/chunks/`` when its turn comes.  The files are written under
-    temporary names and renamed by :meth:`finish`, which returns every design's key values ``(n, k)``
-    and outputs ``(n,)``; :meth:`abort` removes them.  Parquet (when pyarrow is installed) has one
-    row group per chunk, dictionary encoding for the status words only.
+    (``resumed``) read by ``load(index)`` when its turn comes.  The files are written to ``csv_path`` and
+    ``parquet_path`` (``None``: no Parquet), the temporary files of the caller, who renames them once
+    :meth:`finish` returned every design's key values ``(n, k)`` and outputs ``(n,)``; :meth:`abort`
+    closes them.  Parquet has one row group per chunk, dictionary encoding for the status words only.
     """
 
-    def __init__(self, outdir: Path, study: StudyInput, resumed: set[int]) -> None:
-        self.outdir, self.study, self.resumed = outdir, study, resumed
+    def __init__(self, study: StudyInput, resumed: set[int], csv_path: Path, parquet_path: Path | None,
+                 load: Callable[[int], tuple[np.ndarray, dict[str, np.ndarray]]]) -> None:
+        self.study, self.resumed, self.load = study, resumed, load
         self.names = columns(study.spec, study.case.loads.mode)
         self.pending: dict[int, tuple[np.ndarray, dict[str, np.ndarray]]] = {}
         self.parts: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []
-        self._csv = (outdir / "samples.csv.tmp").open("w", newline="")
+        self._csv = Path(csv_path).open("w", newline="")
         self._rows = csv.writer(self._csv, lineterminator="\n")
         self._rows.writerow(self.names)
-        self._parquet = _parquet_writer(outdir / "samples.parquet.tmp", self.names)
+        self._parquet = None if parquet_path is None else _parquet_writer(parquet_path, self.names)
 
     def add(self, index: int, x: np.ndarray, outputs: dict[str, np.ndarray]) -> None:
         """Take chunk ``index`` (a :func:`solve_chunk` result's parts); write every chunk now in order."""
@@ -140,7 +151,7 @@ class SampleStream:
             if c in self.pending:
                 part = self.pending.pop(c)
             elif stored is None or c in stored:
-                part = _load(self.outdir, c)
+                part = self.load(c)
             else:
                 return
             self._write(chunk_bounds(self.study.n, c)[0], *part)
@@ -152,26 +163,27 @@ class SampleStream:
         if self._parquet is not None:
             self._parquet.write_table(_arrow_table(cols, self.names))
 
-    def finish(self) -> tuple[list[str], np.ndarray, dict[str, np.ndarray]]:
-        """Write the chunks not yet written (from ``DIR/chunks/``), rename the files; (files, x, outputs)."""
+    def finish(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Write the chunks not yet written (``load``), close the files; (x, outputs) of every design."""
         self._drain(stored=None)
-        written = ["samples.csv"]
-        self._csv.close()
-        os.replace(self.outdir / "samples.csv.tmp", self.outdir / "samples.csv")
-        if self._parquet is not None:
-            self._parquet.close()
-            os.replace(self.outdir / "samples.parquet.tmp", self.outdir / "samples.parquet")
-            written.append("samples.parquet")
+        self.abort()
         xs, outs = zip(*self.parts)
-        return written, np.concatenate(xs), {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
+        return np.concatenate(xs), {k: np.concatenate([o[k] for o in outs]) for k in outs[0]}
 
     def abort(self) -> None:
-        """Close and remove the unfinished files."""
+        """Close the files (the caller removes them)."""
         self._csv.close()
         if self._parquet is not None:
             self._parquet.close()
-        for name in ("samples.csv.tmp", "samples.parquet.tmp"):
-            (self.outdir / name).unlink(missing_ok=True)
+
+
+def parquet_available() -> bool:
+    """Whether pyarrow is installed (``samples.parquet`` is written beside ``samples.csv``)."""
+    try:
+        import pyarrow.parquet  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 def _cells(column: np.ndarray) -> list[str]:
@@ -181,11 +193,9 @@ def _cells(column: np.ndarray) -> list[str]:
 
 
 def _parquet_writer(path: Path, names: list[str]):
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-    except ImportError:
-        return None
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     types = {"design": pa.int64(), "status": pa.string(), "dead_centres": pa.int64(),
              "failed_positions": pa.int64()}
     schema = pa.schema([(c, types.get(c, pa.float64())) for c in names])

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+from dualmech.validation.rundir import locked, record_files
 from dualmech.validation.selftest.catalogue import (
     Catalogue,
     Mutant,
@@ -76,33 +77,43 @@ def run_selftest(
     progress : callable, optional
         Called with each :class:`Outcome` as it finishes.
     keep : path, optional
-        Work directory to use and keep (scratch copies, runs, the baseline); default a temporary one.
+        Work directory to use and keep (scratch copies, runs, the baseline): new, empty or dualmech's,
+        locked while the selftest runs (:mod:`~dualmech.validation.rundir`); default a temporary one.
     """
     root = check_source(source_root() if root is None else root)
     chosen = _chosen(catalogue, only, jobs, timeout)
-    start = time.perf_counter()
-    work = Path(keep) if keep else Path(tempfile.mkdtemp(prefix="dualmech-selftest-"))
-    work.mkdir(parents=True, exist_ok=True)
+    if keep:
+        with locked(keep) as work:  # a dualmech folder, one selftest at a time
+            return _run(catalogue, root, chosen, jobs, timeout, progress, work, True)
+    work = Path(tempfile.mkdtemp(prefix="dualmech-selftest-"))
     try:
-        baseline = work / "baseline.json"
-        source = make_scratch(root, work / "pristine")  # one snapshot: every mutant is a copy of it
-        report = Report(run_gate(source, catalogue, None, baseline, timeout))
-        if report.pristine.verdict == "pass":
-            def one(m: Mutant) -> Outcome:
-                return _gate_mutant(m, source, work, catalogue, baseline, timeout, keep is not None)
-
-            with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
-                for fut in cf.as_completed([pool.submit(one, m) for m in chosen]):
-                    report.outcomes.append(fut.result())
-                    if progress is not None:
-                        progress(report.outcomes[-1])
-            order = {m.id: i for i, m in enumerate(chosen)}
-            report.outcomes.sort(key=lambda o: order[o.mutant.id])
-        report.seconds = time.perf_counter() - start
-        return report
+        return _run(catalogue, root, chosen, jobs, timeout, progress, work, False)
     finally:
-        if keep is None:
-            shutil.rmtree(work, ignore_errors=True)
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def _run(catalogue: Catalogue, root: Path, chosen: list[Mutant], jobs: int, timeout: float,
+         progress: Callable[[Outcome], None] | None, work: Path, keep: bool) -> Report:
+    """:func:`run_selftest` in its work folder (kept if ``keep``)."""
+    start = time.perf_counter()
+    baseline = work / "baseline.json"
+    source = make_scratch(root, work / "pristine")  # one snapshot: every mutant is a copy of it
+    report = Report(run_gate(source, catalogue, None, baseline, timeout))
+    if keep and baseline.is_file():
+        record_files(work, [baseline.name])  # the kept folder is dualmech's (rundir.MARKERS)
+    if report.pristine.verdict == "pass":
+        def one(m: Mutant) -> Outcome:
+            return _gate_mutant(m, source, work, catalogue, baseline, timeout, keep)
+
+        with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
+            for fut in cf.as_completed([pool.submit(one, m) for m in chosen]):
+                report.outcomes.append(fut.result())
+                if progress is not None:
+                    progress(report.outcomes[-1])
+        order = {m.id: i for i, m in enumerate(chosen)}
+        report.outcomes.sort(key=lambda o: order[o.mutant.id])
+    report.seconds = time.perf_counter() - start
+    return report
 
 
 def _chosen(catalogue: Catalogue, only: tuple[str, ...], jobs: int, timeout: float) -> list[Mutant]:
