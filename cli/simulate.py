@@ -19,6 +19,7 @@ from dualmech.models.case import load_case
 from dualmech.models.forward_dynamics import MAX_EVALUATIONS, TIME_LIMIT
 from dualmech.models.inputs import ANGLE_DEG, Range, show
 from dualmech.models.linkages import is_linkage
+from dualmech.validation.durable import write_with
 
 #: Longest integer option text: beyond this many digits it is out of every range anyway.
 _MAX_INT_DIGITS = 18
@@ -133,7 +134,7 @@ def simulate(case: str, duration: str, torque: str | None, slider_load: str | No
         sim = fd.simulate(load_case(case), torque=torque, slider_load=slider_load, psi0=psi0_rad, **settings)
         summary = summarize_simulation(sim)
     if output:
-        sim.to_csv(output)
+        write_with(output, sim.to_csv)
     else:
         sys.stdout.write(sim.to_csv())
     click.echo(summary, err=output is None)

@@ -15,6 +15,7 @@ from dualmech.cli.errors import one_line_errors
 from dualmech.core.table import ResultTable
 from dualmech.models.case import load_case, preset_names, preset_path
 from dualmech.models.linkages import is_linkage
+from dualmech.validation.durable import write_text_durable, write_with
 from dualmech.validation.engines import ENGINES, run_engine
 from dualmech.validation.solve_output import STREAM_POSITIONS, output_format, stream_solve, write_table
 
@@ -71,7 +72,8 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
         if frames == "joint":
             from dualmech.models.joint_frames import write_joint_frame_csv
 
-            write_joint_frame_csv(c, table, Path(output).with_suffix(".joint.csv"))
+            joint = Path(output).with_suffix(".joint.csv")
+            write_with(joint, lambda tmp: write_joint_frame_csv(c, table, tmp))
     else:
         sys.stdout.write(table.to_csv())
     click.echo(summarize(table, c.units), err=output is None)
@@ -89,7 +91,7 @@ def _solve_linkage(case: str, output: str | None, engine: str, frames: str) -> N
         raise ValueError(f"-o {output}: a linkage's table is written as CSV (OUT.csv)")
     table = solve_linkage(case, engine)
     if output:
-        table.to_csv(output)
+        write_with(output, table.to_csv)
     else:
         sys.stdout.write(table.to_csv())
     click.echo(summary(table), err=output is None)
@@ -113,7 +115,7 @@ def mjcf(case: str, output: str) -> None:
     c = load_case(case)
     path = Path(output)
     xml, check = export_mjcf(c, path.name)
-    path.write_text(xml, encoding="utf-8")
+    write_text_durable(path, xml)
     w = c.motion.speed
     click.echo(f"wrote {output}: loop closed at theta1 = {c.motion.angles_deg[0]:g} deg "
                f"(gap {check.assembled_gap:.2g} of a2); time step {check.timestep:.3g} s; "

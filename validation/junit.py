@@ -20,6 +20,7 @@ from pathlib import Path
 
 from dualmech.validation.baseline import Regression
 from dualmech.validation.compare import ENGINE, Check, Comparison, first_line
+from dualmech.validation.durable import write_bytes_durable
 from dualmech.validation.matrix import Matrix
 
 
@@ -125,8 +126,6 @@ def write_junit(path: str | Path, matrix: Matrix, comparison: Comparison,
                 errors_full: dict[str, dict[str, str]] | None = None,
                 regressions: list[Regression] | None = None,
                 versions: dict[str, str] | None = None) -> None:
-    """Write the JUnit XML of a compared run to ``path`` (parameters as :func:`junit_tree`)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    junit_tree(matrix, comparison, seconds, errors_full, regressions, versions).write(
-        path, encoding="utf-8", xml_declaration=True)
+    """Write the JUnit XML of a compared run to ``path`` (parameters as :func:`junit_tree`), atomically."""
+    root = junit_tree(matrix, comparison, seconds, errors_full, regressions, versions).getroot()
+    write_bytes_durable(Path(path), ET.tostring(root, encoding="utf-8", xml_declaration=True))

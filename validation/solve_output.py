@@ -22,6 +22,7 @@ import numpy as np
 from dualmech.core.status import STATUSES
 from dualmech.core.table import ParquetWriter, ResultTable, write_parquet
 from dualmech.models.case import Case
+from dualmech.validation.durable import replacing, write_with
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
     from dualmech.models.slider_crank_kernel import Chunk
@@ -43,11 +44,11 @@ def output_format(path: str | Path) -> str:
 
 
 def write_table(table: ResultTable, path: str | Path) -> None:
-    """Write ``table`` to ``path`` in the format of its suffix (:func:`output_format`)."""
-    if output_format(path) == ".parquet":
-        write_parquet(table, path)
-    else:
-        table.to_csv(path)
+    """Write ``table`` to ``path`` in the format of its suffix (:func:`output_format`), atomically: written
+    beside, fsynced, renamed (:func:`~dualmech.validation.durable.replacing`); a failed or interrupted write
+    leaves the old file as it was."""
+    parquet = output_format(path) == ".parquet"
+    write_with(path, lambda tmp: write_parquet(table, tmp) if parquet else table.to_csv(tmp))
 
 
 class _Tally:
@@ -106,22 +107,19 @@ def _pipelined(chunks: Iterable[Chunk], sink: Callable[[int, Chunk], None]) -> N
             pending.result()
 
 
-def _remove_old_file(path: Path) -> None:
-    """Remove a regular file (not a link) at ``path`` before it is written anew.
-
-    Rewritten in place (truncated), a file is written back to disk when it is closed: ext4 does so
-    (``auto_da_alloc``) to protect a replaced file's data, and the close of a 2·10⁶-row Parquet file
-    then took 0.16-0.21 s, a tenth of the whole solve.  A new file's pages go to disk in the background.
-    The old file's name goes at once; its blocks are freed when its last descriptor is closed, which
-    happens on a helper thread while the solve begins (the unlink of a 350 MB file took 20 ms).
-    """
+def _hold_old_file(path: Path) -> int | None:
+    """A descriptor of the regular file (not a link) at ``path``, or ``None``: held while the new file is
+    renamed over it, so that the old file's blocks are freed when the descriptor is closed
+    (:func:`_let_go`, on a helper thread), not in the rename: freeing a 350 MB file took 20 ms."""
     if not path.is_file() or path.is_symlink():
-        return
+        return None
     try:
-        held: int | None = os.open(path, os.O_RDONLY)
-    except OSError:  # unreadable: removed all the same, its blocks freed here
-        held = None
-    path.unlink()
+        return os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
+    except OSError:  # unreadable: its blocks are freed in the rename
+        return None
+
+
+def _let_go(held: int | None) -> None:
     if held is not None:
         threading.Thread(target=os.close, args=(held,), name="dualmech-free", daemon=True).start()
 
@@ -131,25 +129,32 @@ def stream_solve(case: Case, path: str | Path) -> str:
 
     Each chunk is written (and tallied) on a writer thread while the kernel computes the next
     (:func:`_pipelined`), the kernel's threads going on to the chunk after without waiting at a chunk's
-    end: memory is three chunks of the kernel's rows and the writer's buffer.
+    end: memory is three chunks of the kernel's rows and the writer's buffer.  The file is written beside
+    ``path`` and renamed onto it once whole and fsynced (:func:`~dualmech.validation.durable.replacing`):
+    an error, a full disk or Ctrl-C leaves the old file as it was and no partial one.
     """
     from dualmech.models.slider_crank import no_assembly_message, row_ranges
     from dualmech.models.slider_crank_kernel import CHUNK_POSITIONS, iter_chunks, to_table
 
     parquet = output_format(path) == ".parquet"
-    _remove_old_file(Path(path))
+    held = _hold_old_file(Path(path))
     tally = _Tally()
-    with ParquetWriter(path) if parquet else Path(path).open("w") as out:
+    try:
+        with replacing(path) as (tmp, fd):
+            out = ParquetWriter(tmp) if parquet else os.fdopen(os.dup(fd), "w")
 
-        def sink(k: int, chunk: Chunk) -> None:
-            tally.add(chunk.columns, chunk.status)
-            if parquet:
-                out.write(chunk.columns, chunk.status)
-                return
-            text = to_table(case, chunk).to_csv()
-            out.write(text if k == 0 else text.split("\n", 1)[1])
+            def sink(k: int, chunk: Chunk) -> None:
+                tally.add(chunk.columns, chunk.status)
+                if parquet:
+                    out.write(chunk.columns, chunk.status)
+                    return
+                text = to_table(case, chunk).to_csv()
+                out.write(text if k == 0 else text.split("\n", 1)[1])
 
-        _pipelined(iter_chunks(case, CHUNK_POSITIONS, buffers=3, ahead=1), sink)
+            with out:
+                _pipelined(iter_chunks(case, CHUNK_POSITIONS, buffers=3, ahead=1), sink)
+    finally:
+        _let_go(held)
     theta = np.asarray(case.motion.angles_deg, dtype=float)
     ranges = row_ranges(theta, np.concatenate(tally.no_assembly))
     return tally.text(case, no_assembly_message(ranges))

@@ -94,8 +94,8 @@ def test_too_few_kernel_buffers_would_be_overwritten_while_written(monkeypatch, 
 
 @pytest.mark.parametrize("failing", [1, CHUNKS - 1])
 def test_an_error_of_the_writer_is_raised(monkeypatch, tmp_path, failing: int) -> None:
-    """A write that fails (chunk ``failing``) stops the solve with its error; the chunks written before
-    it are in the file."""
+    """A write that fails (chunk ``failing``) stops the solve with its error; the old file stays whole and
+    no partial file is left (issue 31: written beside, renamed only when whole)."""
     case, whole = _case(monkeypatch)
     write, calls = table.ParquetWriter.write, []
 
@@ -106,15 +106,17 @@ def test_an_error_of_the_writer_is_raised(monkeypatch, tmp_path, failing: int) -
         write(self, columns, codes)
 
     monkeypatch.setattr(table.ParquetWriter, "write", failing_write)
+    (tmp_path / "s.parquet").write_bytes(b"the old file")
     with pytest.raises(OSError, match="No space left"):
         solve_output.stream_solve(case, tmp_path / "s.parquet")
-    _same_rows(read_parquet(tmp_path / "s.parquet"), whole, failing * CHUNK)
+    assert (tmp_path / "s.parquet").read_bytes() == b"the old file"
+    assert [p.name for p in tmp_path.iterdir()] == ["s.parquet"]
 
 
 @pytest.mark.parametrize("suffix", ["parquet", "csv"])
-def test_an_interrupted_run_leaves_the_finished_chunks(monkeypatch, tmp_path, suffix: str) -> None:
-    """Ctrl-C while the kernel computes chunk 2: chunks 0 and 1 (the one on the writer thread too) are in
-    a file that reads back."""
+def test_an_interrupted_run_leaves_the_old_file_and_no_partial(monkeypatch, tmp_path, suffix: str) -> None:
+    """Ctrl-C while the kernel computes chunk 2 (chunk 1 on the writer thread): the old file stays whole
+    and the partial one is removed (issue 31: before, the cut file was left under the final name)."""
     case, whole = _case(monkeypatch)
     result, calls = slider_crank_kernel.Running.result, []
 
@@ -125,17 +127,18 @@ def test_an_interrupted_run_leaves_the_finished_chunks(monkeypatch, tmp_path, su
         return result(self)
 
     monkeypatch.setattr(slider_crank_kernel.Running, "result", interrupted)
+    (tmp_path / f"s.{suffix}").write_bytes(b"the old file")
     with pytest.raises(KeyboardInterrupt):
         solve_output.stream_solve(case, tmp_path / f"s.{suffix}")
-    read = read_parquet if suffix == "parquet" else read_csv
-    _same_rows(read(tmp_path / f"s.{suffix}"), whole, 2 * CHUNK)
+    assert len(calls) == 3
+    assert (tmp_path / f"s.{suffix}").read_bytes() == b"the old file"
+    assert [p.name for p in tmp_path.iterdir()] == [f"s.{suffix}"]
 
 
 @pytest.mark.parametrize("suffix", ["parquet", "csv"])
 def test_an_old_file_is_replaced_and_a_link_written_through(monkeypatch, tmp_path, suffix: str) -> None:
-    """An existing file at the output path, longer than the new one, is replaced (it is removed first:
-    ext4 writes a truncated file back when it is closed); a symbolic link is written through, not
-    replaced by a file of its own."""
+    """An existing file at the output path, longer than the new one, is replaced (renamed over: a new
+    file beside it, fsynced); a symbolic link is written through, not replaced by a file of its own."""
     case, whole = _case(monkeypatch)
     old, target, link = (tmp_path / f"{name}.{suffix}" for name in ("old", "target", "link"))
     for path in (old, target):
