@@ -63,7 +63,6 @@ Settings are :mod:`dualmech.models.mjcf_settings`, the export's extras :mod:`dua
 from __future__ import annotations
 
 import math
-import re
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -77,6 +76,7 @@ from dualmech.models.mjcf_export import (  # noqa: F401  (re-exported: the expor
     SPEED_SERVO_STEPS,
     MjcfStart,
     export_header,
+    xml_text,
 )
 from dualmech.models.mjcf_settings import (  # noqa: F401  (re-exported: engines read the settings here)
     CLOSURE_DAMPRATIO,
@@ -239,7 +239,7 @@ def _placements(case: Case, start: MjcfStart | None) -> dict[str, dict[str, str]
 def _document(case: Case, s: MjcfSettings, start: MjcfStart | None) -> ET.Element:
     """The ``<mujoco>`` tree: :func:`case_to_mjcf` without ``start``, :func:`runnable_mjcf` with it."""
     at = _placements(case, start)
-    root = ET.Element("mujoco", model=_xml_text(f"dualmech {case.name}"))
+    root = ET.Element("mujoco", model=xml_text(f"dualmech {case.name}"))
     ET.SubElement(root, "compiler", angle="radian", inertiafromgeom="false", autolimits="true")
     ET.SubElement(
         root, "option",
@@ -387,11 +387,3 @@ def _actuators(actuator: ET.Element, case: Case, s: MjcfSettings, start: MjcfSta
             biastype="affine", biasprm=f"0 {_num(-kp)} {_num(-kv)}",
         )
     ET.SubElement(actuator, "motor", name="slider_load", joint="slider_stroke", gear="-1")
-
-
-_XML_INVALID = re.compile("[^\u0009\u000a\u000d\u0020-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
-
-
-def _xml_text(text: str) -> str:
-    """User text made storable in XML 1.0 (ElementTree escapes ``& < > "``; this drops control characters)."""
-    return _XML_INVALID.sub("?", text)

@@ -7,6 +7,7 @@ Split from :mod:`dualmech.models.mjcf` (issue 16); the body tree itself is writt
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,8 +57,9 @@ class MjcfStart:
 
 def export_header(case: Case, start: MjcfStart, s: MjcfSettings, file_name: str,
                   notes: tuple[str, ...]) -> str:
-    """The comment block of :func:`~dualmech.models.mjcf.runnable_mjcf` (no ``--`` inside: XML forbids it in
-    comments)."""
+    """The comment block of :func:`~dualmech.models.mjcf.runnable_mjcf`: every line through
+    :func:`comment_text` (no ``--`` inside: XML forbids it in comments); the case name and ``file_name``
+    quoted by ``repr``, so they read back exactly."""
     u = unit_system(case.units)
     units = (f'"{case.units}": length {u.length}, force {u.force}, time {u.time}, mass {u.mass}' if u.length
              else "unstated (one consistent system, as in the case file)")
@@ -71,10 +73,10 @@ def export_header(case: Case, start: MjcfStart, s: MjcfSettings, file_name: str,
         f"Units: the case's, {units}; angles in rad. Nothing is converted.",
         "",
         "Run it:",
-        f"  python -c \"import mujoco.viewer; mujoco.viewer.launch_from_path('{file_name}')\"",
+        f"  python -c \"import mujoco.viewer; mujoco.viewer.launch_from_path({file_name!r})\"",
         "  (what python -m mujoco.viewer with its mjcf option does),",
         "  then Simulation > Load key: the crank turns.",
-        f"  m = mujoco.MjModel.from_xml_path('{file_name}'); d = mujoco.MjData(m)",
+        f"  m = mujoco.MjModel.from_xml_path({file_name!r}); d = mujoco.MjData(m)",
         f"  mujoco.mj_resetDataKeyframe(m, d, m.key('{KEY_NAME}').id); mujoco.mj_step(m, d, nstep=1000)",
         "",
         "Bodies and joints (kinematic tree under the fixed, massless body ground):",
@@ -101,5 +103,26 @@ def export_header(case: Case, start: MjcfStart, s: MjcfSettings, file_name: str,
         f"Time step {s.timestep:.3g} s, integrator {s.integrator}.",
         *notes,
     ]
-    body = "".join(f"  {line}\n".replace("--", "- -") if line else "\n" for line in lines)
+    body = "".join(f"  {comment_text(line)}\n" if line else "\n" for line in lines)
     return "<!--\n" + body + "-->\n"
+
+
+#: Characters XML 1.0 does not allow in a document.
+XML_INVALID = re.compile("[^\u0009\u000a\u000d\u0020-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def xml_text(text: str) -> str:
+    """User text made storable in XML 1.0 (ElementTree escapes ``& < > "``; this drops control characters)."""
+    return XML_INVALID.sub("?", text)
+
+
+def comment_text(text: str) -> str:
+    """``text`` made safe inside an XML comment, which may hold neither ``--`` nor end in ``-``.
+
+    Every dash that a dash follows is written ``\\x2d``: no ``--`` is left (so no ``-->`` either),
+    whatever the run of dashes, and inside a Python string literal (the header quotes the case name and
+    file name with ``repr``) ``\\x2d`` is the escape of ``-``, so ``ast.literal_eval`` reads the name
+    back unchanged.  Characters XML forbids become ``?`` (:func:`xml_text`; ``repr`` escapes them
+    already).  Proven on adversarial names by ``tests/models/test_mjcf_names.py``.
+    """
+    return xml_text(re.sub("-(?=-)", r"\\x2d", text))
