@@ -1,8 +1,7 @@
 """``dualmech tolerance``: distributions of the stroke and joint loads under manufacturing tolerances.
 
-A thin shell over :func:`dualmech.validation.tolerance_study.run_study` and
-:func:`dualmech.validation.tolerance_report.write_tolerance_report`; ``docs/conventions.md``
-("Tolerance analysis") defines the SPEC, every column and the summary.
+A thin shell over :func:`dualmech.validation.api.tolerance_study` (``dualmech.tolerance_study``);
+``docs/conventions.md`` ("Tolerance analysis") defines the SPEC, every column and the summary.
 Exit codes: 0 every spot check passed; 1 a judge disagreed, or the exact sensitivities disagree with
 central differences of the solver (named on stderr); 2 bad input.
 """
@@ -48,28 +47,11 @@ def _print_summary(summary: dict) -> None:
 def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir: str, jobs: int,
               scheduler: str | None, judge_samples: int) -> None:
     """Tolerance study of CASE: Monte Carlo of SPEC and exact sensitivities, judged and reported."""
-    from dualmech.validation.tolerance_report import FigureDrawing
+    from dualmech.validation.api import tolerance_study
 
-    if jobs < 1:
-        raise ValueError(f"jobs: expected 1 or more processes, got {jobs!r}")
-    if seed < 0:
-        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
-    # the figures are drawn by a worker process while this one runs the judges' spot checks; started
-    # first, it imports its libraries while this process imports the solver's and reads the inputs
-    drawing = FigureDrawing(parallel=judge_samples > 0)
-    drawing.warm()
-    try:
-        from dualmech.models.case import load_case
-        from dualmech.models.tolerance.spec import load_spec
-        from dualmech.models.tolerance.study import StudyInput
-        from dualmech.validation.tolerance_report import write_tolerance_report
-        from dualmech.validation.tolerance_study import run_study
-
-        study = StudyInput(load_case(case), load_spec(spec_file), n, seed)
-        summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples, drawing)
-        files = write_tolerance_report(Path(outdir), summary, x, samples, drawing)
-    finally:
-        drawing.close()
+    done = tolerance_study(case, spec_file, n=n, seed=seed, method=method, outdir=outdir, jobs=jobs,
+                           scheduler=scheduler, judge_samples=judge_samples)
+    summary, files = done.summary, done.files
     _print_summary(summary)
     click.echo(f"wrote {', '.join(str(Path(outdir) / f) for f in files)}")
     failed = [s for s in summary["judges"] if not s["passed"]]

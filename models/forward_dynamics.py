@@ -149,7 +149,7 @@ class Budget:
                               f"{self.evaluations:,} evaluations")
 
 
-def simulate(case: Case, duration: float, torque: float | str | LoadFunction | None = None,
+def simulate(case: Case, duration: float, *, torque: float | str | LoadFunction | None = None,
              psi0: float | None = None, psidot0: float | None = None, damping: float = 0.0,
              slider_damping: float = 0.0, slider_load: float | str | LoadFunction | None = None,
              samples: int = 1001, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
@@ -159,10 +159,8 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
 
     Parameters
     ----------
-    case : Case
-        Geometry, bodies, gravity (``[loads].gravity``) and axial motion :math:`S_1(\\psi)`.
-    duration : float
-        End time (> 0), seconds.
+    case, duration : Case, float
+        Geometry, bodies, gravity and axial motion :math:`S_1(\\psi)`; the end time (> 0), seconds.
     torque, slider_load : number, expression or function, optional
         Motor torque :math:`\\tau^A` on the crank about +z, and :math:`F = k_4\\cdot` (force of the
         ground on the slider) excluding ``slider_damping``; a function is called as
@@ -181,8 +179,7 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
     max_evaluations, time_limit : the integrator's budget: right-hand-side evaluations and wall
         time (s); when either is used up the integration stops with a one-line ``ValueError``.
 
-    Every number is checked against its range first (:data:`DURATION`, :data:`RTOL`, ...;
-    ``docs/conventions.md``, "Input ranges").
+    Every number is checked against its range first (``docs/conventions.md``, "Input ranges").
 
     Returns
     -------
@@ -190,10 +187,12 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
 
     Raises
     ------
-    ValueError
-        One line: an input out of range, a load that is not a finite real number,
-        the budget used up, or a motion that runs away.
+    TypeError, ValueError
+        One line: ``case`` is not a Case, an input out of range, a load that is not a finite real
+        number, the budget used up, or a motion that runs away.
     """
+    if not isinstance(case, Case):
+        raise TypeError(f"case: expected a dualmech.Case (from dualmech.Case or load_case), got {show(case)}")
     duration, damping, slider_damping, rtol, atol, interpolation_tol = checked_settings(
         duration, damping, slider_damping, rtol, atol, interpolation_tol, samples, method)
     budget, loads = Budget(max_evaluations, time_limit), case.loads
