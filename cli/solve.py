@@ -134,13 +134,26 @@ def mjcf(case: str, output: str) -> None:
               help="Positions of one case solved into Parquet, streamed (0: skip).")
 @click.option("--repeats", type=click.IntRange(min=1), default=3, show_default=True,
               help="Runs per figure (the median is quoted).")
+@click.option("--main-job", type=click.IntRange(min=0), default=5, show_default=True,
+              help="Timed runs of the main job (dualmech validate, default matrix) after a warm-up; 0: skip.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="Write the figures as a Markdown page (docs/performance.md) instead of printing them.")
 @one_line_errors
-def benchmark(cases: int, judge_cases: int, big: int, repeats: int) -> None:
-    """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, in one run
-    (Markdown)."""
-    from dualmech.validation.benchmark import run_benchmark
+def benchmark(cases: int, judge_cases: int, big: int, repeats: int, main_job: int,
+              output: str | None) -> None:
+    """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, and the main job's time,
+    in one run (Markdown)."""
+    from dualmech.validation.benchmark import performance_page, run_benchmark
+    from dualmech.validation.durable import write_text_durable
 
-    click.echo(run_benchmark(cases, judge_cases, big, repeats))
+    table = run_benchmark(cases, judge_cases, big, repeats, main_job)
+    if output is None:
+        click.echo(table)
+        return
+    command = (f"dualmech benchmark --cases {cases} --judge-cases {judge_cases} --big {big} "
+               f"--repeats {repeats} --main-job {main_job} -o {output}")
+    write_text_durable(Path(output), performance_page(table, command))
+    click.echo(f"wrote {output}")
 
 
 @click.command(name="case-path")
