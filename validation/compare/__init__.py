@@ -61,9 +61,11 @@ from dualmech.validation.compare.differences import (
     stroke,
     unit_scales,
 )
+from dualmech.validation.compare.joint_lock import lock_factor, lock_rate
 from dualmech.validation.compare.results import (
     ENGINE,
     EXPECT_NO_ASSEMBLY,
+    NEAR_JOINT_LOCK,
     POSE_COLUMNS,
     RATE_COLUMNS,
     STATUS,
@@ -77,9 +79,9 @@ from dualmech.validation.compare.results import (
 )
 
 __all__ = [
-    "ENGINE", "EXPECT_NO_ASSEMBLY", "POSE_COLUMNS", "RATE_COLUMNS", "STATUS", "STATUS_RULES", "STROKE",
-    "STROKE_PROXY", "UNIT_GROUP", "VERDICTS", "Check", "Comparison", "StatusRule", "Verdict", "compare_case",
-    "compare_run", "condition_factor", "engine_failures", "first_line", "given_under", "quantity_check",
-    "reference_check", "relative_differences", "rows_given", "status_check", "stroke", "stroke_check",
-    "unit_scales",
+    "ENGINE", "EXPECT_NO_ASSEMBLY", "NEAR_JOINT_LOCK", "POSE_COLUMNS", "RATE_COLUMNS", "STATUS",
+    "STATUS_RULES", "STROKE", "STROKE_PROXY", "UNIT_GROUP", "VERDICTS", "Check", "Comparison", "StatusRule",
+    "Verdict", "compare_case", "compare_run", "condition_factor", "engine_failures", "first_line",
+    "given_under", "lock_factor", "lock_rate", "quantity_check", "reference_check", "relative_differences",
+    "rows_given", "status_check", "stroke", "stroke_check", "unit_scales",
 ]
