@@ -188,7 +188,7 @@ def status_check(case_id: str, reference: ResultTable, judge: ResultTable, quant
 
 def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: ResultTable, quantity: str,
                    rel: np.ndarray, scale: float, tol: ResolvedTolerance,
-                   lock: np.ndarray | None = None) -> Check:
+                   widening: np.ndarray | None = None) -> Check:
     """One column's check (module docstring): every row both engines give, none non-finite, at least one.
 
     The pose (S1, S4) of a row that either engine calls ``assembly_limit`` is held to
@@ -196,7 +196,7 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
     slider line, S4 carries the closure's error divided by the closure condition);
     ``max_rel`` is then the row's difference scaled to ``tol`` (``r_i tol / tol_i``).
     Likewise near a universal joint's lock, a rate or reaction row's tolerance is ``tol``
-    times ``lock`` (shape ``(n,)``, :func:`~dualmech.validation.compare.joint_lock.lock_factor`),
+    times ``widening`` (shape ``(n,)``, :func:`~dualmech.validation.compare.joint_lock.lock_factor`),
     and the detail says :data:`~dualmech.validation.compare.joint_lock.NEAR_JOINT_LOCK`.
     """
     theta = reference["theta1_deg"]
@@ -207,10 +207,10 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
         )
         rel = np.where(limit, rel * tol.value / max(tol.value, ASSEMBLY_LIMIT_POSE.value), rel)
     notes = []
-    if lock is not None and widened(quantity) and (rows & (lock > 1)).any():
-        near = rows & (lock > 1)
-        rel = rel / lock
-        notes.append(f"{NEAR_JOINT_LOCK}: tolerance x{lock[near].max():.3g} at most, at theta1 = "
+    if widening is not None and widened(quantity) and (rows & (widening > 1)).any():
+        near = rows & (widening > 1)
+        rel = rel / widening
+        notes.append(f"{NEAR_JOINT_LOCK}: tolerance x{widening[near].max():.3g} at most, at theta1 = "
                      f"{_angles(near, theta)} deg ({JOINT_LOCK_CAP})")
     infinite = rows & np.isinf(rel)
     finite = rows & np.isfinite(rel)
@@ -312,11 +312,11 @@ def compare_case(
         rel = relative_differences(reference, judge, mode, quantities)
     scales = unit_scales(reference, judge, mode, quantities)
     cap = tolerances.get(JOINT_LOCK_CAP)
-    factor = None if lock is None or cap is None else lock_factor(lock, reference["closure_condition"],
-                                                                  cap.value)
+    widening = None if lock is None or cap is None else lock_factor(lock, reference["closure_condition"],
+                                                                    cap.value)
     checks += [
         quantity_check(case_id, mode, reference, judge, q, rel[q], scales[UNIT_GROUP[q]], tolerances[q],
-                       factor)
+                       widening)
         for q in quantities
     ]
     checks.append(stroke_check(case_id, mode, reference, judge, tolerances[STROKE]))
