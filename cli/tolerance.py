@@ -28,6 +28,8 @@ def _print_summary(summary: dict) -> None:
         cells = [o.get("mean"), o.get("std"), lin, o.get("p99")]
         click.echo(f"{name:20s} " + " ".join(f"{'-' if v is None else format(v, '.6g'):>{w}s}"
                                             for v, w in zip(cells, (13, 11, 11, 13))))
+    for name, level in (summary.get("round_off") or {}).items():
+        click.echo(f"{name}: 0 in every design (the solver's round-off, at most {level:.1e}): not a load")
 
 
 @click.command()

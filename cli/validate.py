@@ -215,6 +215,11 @@ def _print_verdict(console, comparison, files, regressions: list, baseline_file:
         console.print(f"  [red]✗[/] {describe(c)}", markup=True, highlight=False)
     if len(failures) > SHOWN_FAILURES:
         console.print(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {files.markdown})")
+    near_lock = [c for c in comparison.checks if c.near_joint_lock and c.passed]
+    if near_lock:
+        where = sorted({f"{c.case} / {c.engine}" for c in near_lock})
+        console.print(f"near joint lock: {len(near_lock)} passing checks with their tolerance widened "
+                      f"({', '.join(where)}; see {files.markdown})", highlight=False)
     if baseline_file:
         if regressions:
             console.print(f"[red]REGRESSION[/] against {baseline_file}: {len(regressions)}")

@@ -26,7 +26,7 @@ from dualmech.models.slider_crank import solve_case
 from dualmech.models.tolerance import sensitivity
 from dualmech.models.tolerance.designs import design_name
 from dualmech.models.tolerance.differences import check_sensitivities
-from dualmech.models.tolerance.outputs import design_outputs, output_names
+from dualmech.models.tolerance.outputs import design_outputs, output_names, output_units
 from dualmech.models.tolerance.sampling import judge_picks, n_chunks
 from dualmech.models.tolerance.spec import design_case, nominal_values
 from dualmech.models.tolerance.study import (
@@ -154,7 +154,8 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
     timing["sensitivity_s"] = time.perf_counter() - start
     stats = summarize(study.spec, nominal, x, samples, sens)
     if figures is not None:
-        figures.start(finite_json({**stats, "keys": list(study.spec.keys)}), samples)
+        figures.start(finite_json({**stats, "keys": list(study.spec.keys),
+                                   "units": output_units(mode, study.case.units)}), samples)
     if samples is not None:
         picks = judge_picks(judge_samples, study.seed, candidates(samples["status"]))
         designs = [design_case(study.case, study.spec, x[i], design_name(int(i))) for i in picks]
@@ -165,6 +166,7 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
     timing["judges_s"] = time.perf_counter() - start
     summary = {"n": study.n if samples is not None else 0, "seed": study.seed, "method": method,
                "case": study.case.name, "mode": study.case.loads.mode, "keys": list(study.spec.keys),
+               "units": output_units(mode, study.case.units),
                "nominal_values": dict(zip(study.spec.keys, nominal_values(study.case, study.spec).tolist())),
                "spec": study.spec.to_dict(), **stats, "sensitivity_check": check,
                "judges": [s.to_dict() for s in spots],

@@ -224,6 +224,7 @@ def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison) -
         "n_checks": len(comparison.checks),
         "failures": failures[:200],
         "n_failures": len(failures),
+        "near_lock": [c for c in comparison.checks if c.near_joint_lock],
         "summary": summary_rows(matrix, comparison),
         "strokes": stroke_rows(matrix, comparison),
         "tolerances": tolerance_rows(matrix),
