@@ -25,7 +25,7 @@ from dualmech.validation.tolerances import (
     DYN_PLANAR_INERTIA,
     DYN_WORK_ENERGY,
 )
-from tests.tolerances import KERNEL_VS_NUMPY_REACTIONS
+from tests.tolerances import KERNEL_VS_NUMPY_KINEMATICS, KERNEL_VS_NUMPY_REACTIONS
 
 
 def _bodies(case):
@@ -174,18 +174,22 @@ def test_inverse_dynamics_along_the_trajectory_reproduces_the_loads():
                              "motion.axial_cycles": 2.0}, -2.0),
     ("thesis/a4-20-alpha-232", {}, 5.0),
 ])
-def test_reactions_along_the_trajectory_are_the_solvers_at_the_simulated_states(name, values, load):
+def test_outputs_along_the_trajectory_are_the_solvers_at_the_simulated_states(name, values, load):
     """Oracle: each simulated state (psi, psi_dot, psi_ddot) solved again by ``dualmech solve``'s engine
-    with the simulation's slider load given.  A universal joint at the slider must reach the reactions
-    with its moment (issue 30: simulate wrote j3_m = 0, drive_torque 0.271 N m in free motion, j2_fy
-    2.414 N for 6.394 N on the IFToMM benchmark)."""
+    with the simulation's slider load given: the kinematic columns and the reactions.  A universal joint at
+    the slider must reach the reactions with its moment (issue 30: simulate wrote j3_m = 0, drive_torque
+    0.271 N m in free motion, j2_fy 2.414 N for 6.394 N on the IFToMM benchmark)."""
     case = load_case(name).with_values(values) if values else load_case(name)
     sim = fd.simulate(case, 0.3, slider_load=load, samples=31)
     again = solve_cases([with_loads(case, drive_torque=None, slider_force=load)],
                         cranks=[case.crank_state(sim.psi, sim.psi_dot, sim.psi_ddot)])[0]
     ok = again.status == "ok"
     assert ok.sum() >= 25, set(again.status)
-    got = sim.reactions.columns()
+    got = sim.columns()
+    for c in ("S1", "S4", "S4_dot", "S4_ddot", "transmission"):
+        scale = max(np.abs(again[c][ok]).max(), case.geometry.crank_length if c != "transmission" else 1.0)
+        assert_allclose(got[c][ok], again[c][ok], rtol=0, atol=KERNEL_VS_NUMPY_KINEMATICS * scale,
+                        err_msg=f"{name}: {c}")
     for group in (FORCE_COLUMNS, MOMENT_COLUMNS):
         scale = max(np.abs(again[c][ok]).max() for c in group)
         for c in group:
