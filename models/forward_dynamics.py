@@ -295,7 +295,7 @@ def _trajectory(case: Case, rhs: _EquationOfMotion, t: np.ndarray, y: np.ndarray
     f = np.array([rhs.slider_load(*v) for v in zip(t, psi, w, an.s4, s4dot)])
     bodies, gravity = case.bodies.ordered, case.loads.gravity
     reactions = solve_reactions(bodies, an.motions, an.p2, an.p3, case.geometry.k4, gravity,
-                                np.full(psi.shape, np.nan), f + rhs.slider_damping * s4dot)
+                                np.full(psi.shape, np.nan), f + rhs.slider_damping * s4dot, an.moment_axis)
     kinetic = sum(kinetic_energy(b, m) for b, m in zip(bodies, an.motions))
     masses = np.array([b.mass for b in bodies])
     potential = gi.potential_energy(masses, gravity, np.stack([m.com for m in an.motions]))
