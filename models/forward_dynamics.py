@@ -157,6 +157,8 @@ def simulate(case: Case, duration: float, *, torque: float | str | LoadFunction 
              max_evaluations: int = MAX_EVALUATIONS, time_limit: float = TIME_LIMIT) -> Simulation:
     """Integrate the crank's equation of motion from ``t = 0`` to ``duration`` (module docstring).
 
+    Every number is checked against its range first (``docs/conventions.md``, "Input ranges").
+
     Parameters
     ----------
     case, duration : Case, float
@@ -172,14 +174,15 @@ def simulate(case: Case, duration: float, *, torque: float | str | LoadFunction 
     damping, slider_damping : float
         Viscous coefficients :math:`c_1` (torque·s/rad) of the crank bearing and :math:`c_4`
         (force·s/length) of the slider guide, >= 0.
-    samples, method, rtol, atol : equally spaced output times (>= 2, both ends included) and the
-        solve_ivp settings (``atol`` scaled per state component).
-    interpolation_tol, model : the relative accuracy asked of the coefficient table, or a
+    samples, method, rtol, atol : int, str, float, float
+        Equally spaced output times (>= 2, both ends included) and the solve_ivp settings (``atol``
+        scaled per state component).
+    interpolation_tol, model : float, CoefficientModel, optional
+        The relative accuracy asked of the coefficient table, or a
         :class:`~dualmech.models.dynamics_coefficients.CoefficientModel` built before.
-    max_evaluations, time_limit : the integrator's budget: right-hand-side evaluations and wall
-        time (s); when either is used up the integration stops with a one-line ``ValueError``.
-
-    Every number is checked against its range first (``docs/conventions.md``, "Input ranges").
+    max_evaluations, time_limit : int, float
+        The integrator's budget: right-hand-side evaluations and wall time (s); when either is used
+        up the integration stops with a one-line ``ValueError``.
 
     Returns
     -------
