@@ -1,7 +1,7 @@
 """Speed of the in-house solver in one run beside a compiled closed-form yardstick, Pinocchio and MuJoCo.
 
 Not a test: timings depend on the machine.  ``dualmech benchmark`` prints a Markdown
-table; the README quotes one run with the command that produced it.  Every figure is
+table; ``docs/performance.md`` holds one run with the command that produced it.  Every figure is
 the median of ``repeats`` runs after one warm-up run (compilation, caches), with the
 process CPU time (all threads) beside the wall time.  Every engine solves the same
 seeded random cases (the thesis example with random offset, twist and axial shift).
