@@ -1,4 +1,5 @@
-"""mkdocs hook: let mkdocstrings (griffe) read ``dualmech`` from its source folders.
+"""mkdocs hooks: let mkdocstrings (griffe) read ``dualmech`` from its source folders, and show the
+docstrings' Sphinx roles as plain code.
 
 pyproject.toml maps the import names onto folders that do not bear them (``dualmech`` -> ``api/``,
 ``dualmech.core`` -> ``core/``, ...).  Python's import system follows that mapping (setuptools' editable
@@ -6,10 +7,15 @@ finder), but griffe reads source files by folder name, so it finds neither ``dua
 subpackages.  This hook builds, for the length of the build, a temporary tree of symbolic links in which
 each package sits at the path its import name says (``dualmech/core`` -> ``core/``), from the mapping in
 pyproject.toml (its one statement), and puts that tree first on the python handler's search ``paths``.
+
+The docstrings are numpy style with Sphinx roles (``:func:`solve```, ``:class:`~dualmech.core.Case```,
+``:math:`S_4```), which mkdocstrings does not resolve: the rendered page would show ``:func:solve``.
+:func:`on_page_content` drops the role and a ``~``-shortened path's module part, leaving the code span.
 """
 
 from __future__ import annotations
 
+import re
 import shutil
 import tempfile
 import tomllib
@@ -19,6 +25,8 @@ from typing import Any
 from mkdocs.plugins import event_priority
 
 ROOT = Path(__file__).resolve().parents[2]
+#: a Sphinx role before a code span, as Markdown renders it; ``~a.b.c`` shows as ``c`` in Sphinx
+_ROLE = re.compile(r":(?:func|class|meth|attr|data|mod|obj|exc|math):<code>(?:~(?:[\w]+\.)*)?")
 
 
 def link_tree(root: Path, into: Path) -> None:
@@ -60,3 +68,8 @@ def on_shutdown() -> None:
     """Remove the trees."""
     for tree in _TREES:
         shutil.rmtree(tree, ignore_errors=True)
+
+
+def on_page_content(html: str, **_: Any) -> str:
+    """The page's HTML with every Sphinx role before a code span removed (module docstring)."""
+    return _ROLE.sub("<code>", html)
