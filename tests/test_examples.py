@@ -1,5 +1,6 @@
 """Every script of ``examples/`` runs as a user would run it (a fresh process, an empty working folder) and
-prints what it promises: strokes and peak loads against the closed-form oracle, a PASS, a checked study."""
+prints what it promises: strokes and peak loads against the closed-form oracle, a PASS, a checked study.
+The tutorials' matrix and SPEC files are read by the loaders, and expand to the cases their runs print."""
 
 from __future__ import annotations
 
@@ -14,10 +15,13 @@ import pytest
 from numpy.testing import assert_allclose
 
 import dualmech
+from dualmech.models.tolerance.spec import load_spec
+from dualmech.validation.matrix import load_matrix
 from tests.oracles import slider_motion
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
+TUTORIALS = ROOT / "docs" / "tutorials"
 #: Wall-clock limit of one example: the slowest (the tolerance study, or a validation that imports
 #: Pinocchio) takes under a minute on the loaded 2-core machine once the kernel is compiled; the first
 #: compile of the kernel alone can take 4 minutes there.
@@ -109,3 +113,27 @@ def test_every_example_is_checked() -> None:
 @pytest.mark.parametrize("name", sorted(CHECKS))
 def test_example_runs_and_prints_its_result(name: str, tmp_path: Path) -> None:
     CHECKS[name](run_example(name, tmp_path), tmp_path)
+
+
+def toml_blocks(page: str) -> list[str]:
+    """The ```toml blocks of ``docs/tutorials/<page>``, in order."""
+    return re.findall(r"^```toml\n(.*?)^```", (TUTORIALS / page).read_text(encoding="utf-8"), re.S | re.M)
+
+
+def printed_case_ids(page: str) -> list[str]:
+    """The case column of the summary tables a tutorial prints."""
+    text = (TUTORIALS / page).read_text(encoding="utf-8")
+    return [line.split()[0] for line in text.splitlines() if "│" in line]
+
+
+def test_matrix_tutorial_expands_to_the_cases_it_prints(tmp_path: Path) -> None:
+    (tmp_path / "first-design.toml").write_bytes((EXAMPLES / "first-design.toml").read_bytes())
+    (tmp_path / "offsets.toml").write_text(toml_blocks("matrix.md")[0], encoding="utf-8")
+    cases = load_matrix(tmp_path / "offsets.toml").cases
+    assert sorted(c.id for c in cases) == sorted(printed_case_ids("matrix.md"))
+
+
+def test_tolerance_tutorial_spec_loads(tmp_path: Path) -> None:
+    (tmp_path / "spec.toml").write_text(toml_blocks("tolerance.md")[0], encoding="utf-8")
+    assert list(load_spec(tmp_path / "spec.toml").keys) == [
+        "geometry.slider_offset", "geometry.slider_twist_deg", "geometry.rod_length"]
