@@ -71,5 +71,6 @@ def on_shutdown() -> None:
 
 
 def on_page_content(html: str, **_: Any) -> str:
-    """The page's HTML with every Sphinx role before a code span removed (module docstring)."""
-    return _ROLE.sub("<code>", html)
+    """The page's HTML with every Sphinx role before a code span removed (module docstring), and the
+    reStructuredText ``::`` that ends a paragraph before a literal block shown as one colon."""
+    return _ROLE.sub("<code>", html).replace("::</p>", ":</p>")
