@@ -172,14 +172,14 @@ def simulate(case: Case, duration: float, *, torque: float | str | LoadFunction 
     damping, slider_damping : float
         Viscous coefficients :math:`c_1` (torque·s/rad) of the crank bearing and :math:`c_4`
         (force·s/length) of the slider guide, >= 0.
-    samples, method, rtol, atol : equally spaced output times (>= 2, both ends included) and the
-        solve_ivp settings (``atol`` scaled per state component).
-    interpolation_tol, model : the relative accuracy asked of the coefficient table, or a
-        :class:`~dualmech.models.dynamics_coefficients.CoefficientModel` built before.
-    max_evaluations, time_limit : the integrator's budget: right-hand-side evaluations and wall
-        time (s); when either is used up the integration stops with a one-line ``ValueError``.
-
-    Every number is checked against its range first (``docs/conventions.md``, "Input ranges").
+    samples, method, rtol, atol : int, str, float, float
+        Equally spaced output times (>= 2, both ends included) and the solve_ivp settings (``atol``
+        scaled per state component).
+    interpolation_tol, model : float, CoefficientModel, optional
+        The relative accuracy asked of the coefficient table, or a :class:`CoefficientModel` built before.
+    max_evaluations, time_limit : int, float
+        The integrator's budget: right-hand-side evaluations and wall time (s); when either is used
+        up the integration stops with a one-line ``ValueError``.
 
     Returns
     -------
@@ -188,8 +188,9 @@ def simulate(case: Case, duration: float, *, torque: float | str | LoadFunction 
     Raises
     ------
     TypeError, ValueError
-        One line: ``case`` is not a Case, an input out of range, a load that is not a finite real
-        number, the budget used up, or a motion that runs away.
+        One line: ``case`` is not a Case, an input out of its range (every number is checked first:
+        ``docs/conventions.md``, "Input ranges"), a load that is not a finite real number, the budget
+        used up, or a motion that runs away.
     """
     if not isinstance(case, Case):
         raise TypeError(f"case: expected a dualmech.Case (from dualmech.Case or load_case), got {show(case)}")
