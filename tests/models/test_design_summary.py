@@ -6,7 +6,7 @@ import numpy as np
 from numpy.testing import assert_allclose
 
 from dualmech.core.thresholds import ROUND_OFF_RELATIVE
-from dualmech.models.case import load_case
+from dualmech.models.case import load_case, with_loads
 from dualmech.models.design_summary import NEAR_DEAD_CENTRE_TRANSMISSION, PEAK_NAMES, design_summary
 from dualmech.models.slider_crank import solve_case
 from dualmech.models.units import axis_label, column_unit
@@ -42,10 +42,9 @@ def test_units_are_never_invented():
 
 def _force_mode(preset: str):
     """The preset in slider-load mode (the drive torque solved, the slider load given: constant)."""
-    from dataclasses import replace
 
     case = load_case(preset)
-    return replace(case, loads=replace(case.loads, drive_torque=None, slider_force=-100.0))
+    return with_loads(case, drive_torque=None, slider_force=-100.0)
 
 
 def test_structurally_zero_peaks_show_as_zero_with_their_round_off_level():
@@ -79,10 +78,9 @@ def test_a_constant_output_has_no_angle_of_its_peak():
 def test_round_off_is_relative_to_the_case_not_a_list_of_columns():
     """The same rule makes a genuine moment (universal joint: j3 carries one) a peak: no column is zero by
     name."""
-    from dataclasses import replace
 
     case = load_case("thesis/a4-30-s1-3.5")
-    case = replace(case, joints=replace(case.joints, rod_slider="universal"))
+    case = case.with_values({"joints.rod_slider": "universal"})
     s = design_summary(solve_case(case), case.units)
     j3 = next(p for p in s.peaks if p.name.startswith("joint 3") and "moment" in p.name)
     assert j3.kind == "peak" and j3.value > 0

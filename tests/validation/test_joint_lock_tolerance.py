@@ -154,7 +154,7 @@ def test_kappa_is_the_turning_rate_of_the_joint_cross() -> None:
     e2 = np.cross(k4, e1)
 
     def psi(angles: np.ndarray) -> np.ndarray:
-        one = replace(case, motion=replace(case.motion, angles_deg=angles))
+        one = case.with_parts(motion=replace(case.motion, angles_deg=angles))
         t = solve_case(one)
         th = np.radians(angles)
         p2 = np.stack([12.0 * np.cos(th), 12.0 * np.sin(th), t["S1"]], -1)
@@ -162,7 +162,7 @@ def test_kappa_is_the_turning_rate_of_the_joint_cross() -> None:
         return np.arctan2(u @ e2, u @ e1)
 
     dpsi = np.unwrap(psi(centres + h) - psi(centres - h), period=2 * np.pi) / np.radians(2 * h)
-    one = replace(case, motion=replace(case.motion, angles_deg=centres))
+    one = case.with_parts(motion=replace(case.motion, angles_deg=centres))
     assert_allclose(lock_rate(one, solve_case(one)), np.abs(dpsi), rtol=KAPPA_VS_DIFFERENCE, atol=0)
 
 
