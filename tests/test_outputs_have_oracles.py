@@ -5,8 +5,9 @@
 (``tests/oracles.py``, ``tests/models/newton_euler_oracle.py``), finite differences, another engine, or a
 physical identity (power balance, Newton-Euler).  :func:`test_every_output_is_listed` fails when an engine
 gains or loses an output (list it here with its oracle test), :func:`test_every_listed_test_exists` when a
-listed test is renamed or removed.  The oracle tests below are those of outputs no other test read (issue
-30: the compiled engine's ``meta["dynamics_residual"]`` was wrong on every case and no test read it).
+listed test is renamed or removed.  The oracle tests below (and the judges' metadata's in
+``tests/validation/test_judge_meta.py``) are those of outputs no other test read (issue 30: the compiled
+engine's ``meta["dynamics_residual"]`` was wrong on every case and no test read it).
 
 Library-dependent engines (Pinocchio, MuJoCo) are declared dependencies: imported, not skipped.
 """
@@ -14,13 +15,9 @@ Library-dependent engines (Pinocchio, MuJoCo) are declared dependencies: importe
 from __future__ import annotations
 
 import ast
-import math
-import time
 from pathlib import Path
 
-import mujoco
 import numpy as np
-import pinocchio
 import pytest
 from numpy.testing import assert_allclose
 
@@ -33,11 +30,9 @@ from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage
 from dualmech.models.linkages.forward_dynamics import simulate as simulate_linkage
 from dualmech.models.slider_crank import format_angle_ranges, no_assembly_ranges
 from dualmech.validation.engines import run_engine
-from dualmech.validation.mujoco_sim_plan import SIM_RUNIN_STEPS, SIM_RUNIN_TIME_CONSTANTS, prepare
 from dualmech.validation.tolerances import SIM_STROKE
-from tests.models.newton_euler_oracle import table_violation
 from tests.oracles import assembly_margin, slider_line
-from tests.tolerances import NEWTON_EULER_ROUND_OFF, S4_VS_CLOSED_FORM
+from tests.tolerances import S4_VS_CLOSED_FORM
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -53,7 +48,8 @@ STATUSES = "tests/validation/test_engine_statuses.py::test_planar_edge_of_assemb
 CLASSIFIED = "tests/models/test_slider_crank.py::test_wild_random_geometries_are_classified_right"
 MESSAGES = HERE + "test_messages_count_the_closed_form_no_assembly_rows"
 NEWTON_EULER = "tests/models/test_dynamics_residual.py::test_reported_residual_is_the_oracles"
-VERSIONS = HERE + "test_library_versions_are_the_loaded_libraries"
+JUDGE_META = "tests/validation/test_judge_meta.py::"
+VERSIONS = JUDGE_META + "test_library_versions_are_the_loaded_libraries"
 ITERATIONS = HERE + "test_in_house_iterations_are_the_other_implementations"
 
 
@@ -72,7 +68,7 @@ POWER = "tests/core/test_reactions.py::test_power_balance"
 SIM_STEP = "tests/validation/test_mujoco_sim.py::test_a_case_sets_the_simulation_step"
 MUJOCO = "tests/validation/test_mujoco_engine.py::"
 MUJOCO_SIM = "tests/validation/test_mujoco_sim.py::test_simulation_agrees_with_the_inhouse_solver"
-SIM_SETTINGS = HERE + "test_mujoco_sim_settings_and_servo_lag"
+SIM_SETTINGS = JUDGE_META + "test_mujoco_sim_settings_and_servo_lag"
 FORWARD = "tests/models/test_forward_dynamics.py::"
 ALONG = FORWARD + "test_outputs_along_the_trajectory_are_the_solvers_at_the_simulated_states"
 INFO = HERE + "test_simulation_info_is_what_ran"
@@ -94,7 +90,7 @@ ORACLES: dict[str, dict[str, str]] = {
                           PINOCCHIO + "test_power_balance",
                           PINOCCHIO_VS_INHOUSE,
                           **{"meta:pinocchio_version": VERSIONS, "meta:messages": MESSAGES,
-                             **{f"meta:{k}": HERE + "test_pinocchio_meta" for k in (
+                             **{f"meta:{k}": JUDGE_META + "test_pinocchio_meta" for k in (
                                  "newton_iterations_max", "newton_iterations_mean", "ls_residual_max",
                                  "seconds")}}),
     "mujoco": _columns(MUJOCO + "test_slider_motion_matches_the_closed_form",
@@ -102,7 +98,7 @@ ORACLES: dict[str, dict[str, str]] = {
                        MUJOCO + "test_power_of_the_loads_is_the_rate_of_kinetic_energy",
                        MUJOCO + "test_rigid_path_agrees_with_the_inhouse_solver",
                        **{"meta:mujoco": VERSIONS, "meta:messages": MESSAGES,
-                          "meta:newton_iterations": HERE + "test_mujoco_iterations"}),
+                          "meta:newton_iterations": JUDGE_META + "test_mujoco_iterations"}),
     "mujoco-sim": _columns(MUJOCO_SIM, MUJOCO_SIM, MUJOCO_SIM, MUJOCO_SIM,
                            **{"meta:mujoco": VERSIONS, "meta:messages": MESSAGES,
                               "meta:timestep": SIM_STEP, "meta:steps_per_degree": SIM_STEP,
@@ -275,73 +271,6 @@ def test_in_house_iterations_are_the_other_implementations() -> None:
     warm = slider_crank_kernel.solve_case(fine).meta["iterations"]
     cold = slider_crank.to_table(slider_crank.analyze(fine)).meta["iterations"]
     assert np.all(warm <= cold) and warm.sum() < cold.sum()
-
-
-def test_library_versions_are_the_loaded_libraries() -> None:
-    assert run_engine("pinocchio", SMALL).meta["pinocchio_version"] == pinocchio.__version__
-    assert run_engine("mujoco", SMALL).meta["mujoco"] == mujoco.__version__
-    assert run_engine("mujoco-sim", SMALL).meta["mujoco"] == mujoco.__version__
-
-
-def test_pinocchio_meta() -> None:
-    """``ls_residual_max``: the closed loop's least-squares residual is round-off, as the independent
-    Newton-Euler equations evaluated on the table's columns say; the Newton counts: a cold first position
-    takes a few steps, the mean at most the max; ``seconds``: its parts within the wall time around the
-    call."""
-    start = time.perf_counter()
-    table = run_engine("pinocchio", SMALL)
-    wall = time.perf_counter() - start
-    meta = table.meta
-    violation = np.nanmax(table_violation(SMALL, table)[table.status == "ok"])
-    assert violation <= NEWTON_EULER_ROUND_OFF
-    assert 0.0 <= meta["ls_residual_max"] <= NEWTON_EULER_ROUND_OFF
-    assert 1 <= meta["newton_iterations_mean"] <= meta["newton_iterations_max"] <= 50
-    assert isinstance(meta["newton_iterations_max"], int)
-    parts = meta["seconds"]
-    assert set(parts) == {"model", "positions", "dynamics"} and all(v >= 0.0 for v in parts.values())
-    assert sum(parts.values()) <= wall
-
-
-def test_mujoco_iterations() -> None:
-    """One count per row: a row beyond reach (the closed form's ``assembly_margin`` < 0) is decided by
-    geometry, with no Newton step; every assembled row takes one at least (the MuJoCo closure counts from
-    1) and fewer than its cap, which a row that assembles never reaches."""
-    case = SMALL.with_values({"geometry.slider_offset": 45.0, "geometry.crank_axial_shift": 0.0,
-                              "motion.angles_deg": {"start": 90.0, "stop": 450.0, "step": 5.0}})
-    table = run_engine("mujoco", case)
-    iters = table.meta["newton_iterations"]
-    cannot = assembly_margin(case, np.radians(table["theta1_deg"])) < 0
-    assert iters.shape == (len(table),) and cannot.any()
-    assert np.all(iters[cannot] == 0) and np.all((iters[~cannot] >= 1) & (iters[~cannot] < MUJOCO_MAX_ITER))
-
-
-#: The MuJoCo closure's iteration cap (validation/mujoco_closure.py).
-MUJOCO_MAX_ITER = 60
-
-
-def test_mujoco_sim_settings_and_servo_lag() -> None:
-    """Force mode: the servo holds the crank against the drive torque the table reports, so its largest
-    lag is ``max |drive_torque| / kp`` (kp the crank servo's gain, the table's own ``servo_kp``); the
-    settings are the plan's (:func:`~dualmech.validation.mujoco_sim_plan.prepare`), the run-in its rule by
-    hand; torque mode: ``L_ref`` the pin force of the drive torque, ``|T| / a1``."""
-    forced = with_loads(SMALL, drive_torque=None, slider_force=50.0)
-    table = run_engine("mujoco-sim", forced)
-    meta = table.meta
-    settings = prepare(forced)[1]
-    assert meta["timestep"] == settings.timestep
-    assert meta["servo_kp"] == settings.servo_kp and meta["servo_kv"] == settings.servo_kv
-    slow = max(kv / kp for kp, kv in zip(meta["servo_kp"], meta["servo_kv"]))
-    assert meta["runin_steps"] == max(SIM_RUNIN_STEPS, math.ceil(SIM_RUNIN_TIME_CONSTANTS * slow
-                                                                  / meta["timestep"]))
-    lag = np.nanmax(np.abs(table["drive_torque"])) / meta["servo_kp"][0]
-    assert_allclose(meta["max_theta_lag"], lag, rtol=SERVO_LAG)
-    torque = run_engine("mujoco-sim", SMALL).meta["L_ref"]
-    assert_allclose(torque, abs(SMALL.loads.drive_torque) / SMALL.geometry.crank_length, rtol=1e-15)
-
-
-#: The crank servo's lag against max |drive torque| / kp: the servo's damping kv times the lag's rate adds
-#: to kp times the lag; measured 2e-4 relative on the thesis case at 50 N.
-SERVO_LAG = 1e-2
 
 
 def test_simulation_info_is_what_ran(monkeypatch: pytest.MonkeyPatch) -> None:
