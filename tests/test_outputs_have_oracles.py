@@ -5,9 +5,10 @@
 (``tests/oracles.py``, ``tests/models/newton_euler_oracle.py``), finite differences, another engine, or a
 physical identity (power balance, Newton-Euler).  :func:`test_every_output_is_listed` fails when an engine
 gains or loses an output (list it here with its oracle test), :func:`test_every_listed_test_exists` when a
-listed test is renamed or removed.  The oracle tests below (and the judges' metadata's in
-``tests/validation/test_judge_meta.py``) are those of outputs no other test read (issue 30: the compiled
-engine's ``meta["dynamics_residual"]`` was wrong on every case and no test read it).
+listed test is renamed or removed.  The oracle tests below (and those of
+``tests/validation/test_judge_meta.py`` and ``tests/validation/linkages/test_linkage_outputs.py``) are
+those of outputs no other test read (issue 30: the compiled engine's ``meta["dynamics_residual"]`` was wrong
+on every case and no test read it).
 
 Library-dependent engines (Pinocchio, MuJoCo) are declared dependencies: imported, not skipped.
 """
@@ -33,7 +34,7 @@ from dualmech.validation.engines import run_engine
 from dualmech.validation.linkages import solve_linkage as solve_linkage_by
 from dualmech.validation.tolerances import SIM_STROKE
 from tests.oracles import assembly_margin, slider_line
-from tests.tolerances import LINKAGE_DYNAMICS_RESIDUAL, S4_VS_CLOSED_FORM
+from tests.tolerances import S4_VS_CLOSED_FORM
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -76,9 +77,11 @@ INFO = HERE + "test_simulation_info_is_what_ran"
 LINKAGE_SIM = "tests/models/linkages/test_forward_dynamics.py::"
 RSSR = "tests/models/linkages/test_rssr.py::"
 RCCC = "tests/models/linkages/test_rccc.py::"
-LINKAGE_META = HERE + "test_linkage_meta"
-LINKAGE_RESIDUALS = HERE + "test_linkage_residuals_of_every_rigid_engine"
+LINKAGE_OUTPUTS = "tests/validation/linkages/test_linkage_outputs.py::"
+LINKAGE_META = LINKAGE_OUTPUTS + "test_linkage_meta"
+LINKAGE_RESIDUALS = LINKAGE_OUTPUTS + "test_linkage_residuals_of_every_rigid_engine"
 INDEPENDENCE = "tests/validation/linkages/test_judge_independence.py::"
+LINKAGE_SIM_TABLE = LINKAGE_OUTPUTS + "test_linkage_simulation_tables"
 
 #: The in-house engines' meta.
 IN_HOUSE_META = {"meta:iterations": ITERATIONS, "meta:dynamics_residual": NEWTON_EULER,
@@ -170,6 +173,9 @@ def _rigid_linkage_judges() -> dict[str, dict[str, str]]:
 
 
 ORACLES |= _rigid_linkage_judges()
+ORACLES |= {f"{kind}-mujoco-sim": {**{c: LINKAGE_SIM_TABLE for c in (*spec.columns, "status")},
+                                  **{f"meta:{k}": LINKAGE_SIM_TABLE for k in ("crank", "gives", "messages")}}
+            for kind, spec in (("rssr", rssr.SPEC), ("rccc", rccc.SPEC))}
 ORACLES["rssr-simulate"] = ORACLES["linkage-simulate"] | {
     c: LINKAGE_SIM + "test_the_simulated_table_is_the_solved_one_at_each_simulated_state"
     for c in rssr.COLUMNS if c != "theta1_deg"} | {"status": ORACLES["rssr"]["status"]}
@@ -188,7 +194,7 @@ def _outputs(engine: str) -> set[str]:
     if engine in ("rssr", "rccc"):
         table = solve_linkage(engine)
         return set(table.columns) | {"status"} | {f"meta:{k}" for k in table.meta}
-    if engine.endswith(("-pinocchio", "-mujoco")):
+    if engine.endswith(("-pinocchio", "-mujoco", "-mujoco-sim")):
         kind, judge = engine.split("-", 1)
         table = solve_linkage_by(kind, judge)
         return set(table.columns) | {"status"} | {f"meta:{k}" for k in table.meta}
@@ -338,52 +344,3 @@ def test_simulation_info_is_what_ran(monkeypatch: pytest.MonkeyPatch) -> None:
     direct = dc.coefficients(case, theta).stacked()
     error = np.max(np.abs(model(theta) - direct) / scale)
     assert error <= info["interpolation_error"] + 1e-15 and info["interpolation_error"] <= 1e-12
-
-
-@pytest.mark.parametrize("kind", ["rssr", "rccc"])
-def test_linkage_meta(kind: str) -> None:
-    """``theta1_deg`` the case's angles; ``branch`` the case's; ``residual`` bounds the loop gap of the
-    table's own pose (the RSSR: ``|P3 - P2| - a2``) and is round-off; ``iterations`` per row: none for the
-    RSSR, whose start is its exact closed form, one for the RCCC, whose spherical start is corrected once on
-    the bundled case; ``messages`` name the no_assembly rows, if any."""
-    case = linkage_case(kind)
-    table = solve_linkage(kind)
-    assert_allclose(table["theta1_deg"], case.motion.angles_deg, rtol=0, atol=1e-12)
-    assert table.meta["branch"] == case.branch
-    assembled = table.status != "no_assembly"
-    assert np.nanmax(table["residual"][assembled]) <= S4_VS_CLOSED_FORM
-    iterations = table.meta["iterations"]  # the RSSR starts at its closed form: no Newton step is needed
-    assert iterations.shape == (len(table),) and np.all(iterations[assembled] == (0 if kind == "rssr" else 1))
-    assert bool(table.meta["messages"]) == (not assembled.all())
-    if kind == "rssr":
-        assert np.all(_rssr_gap(case, table)[assembled] <= table["residual"][assembled] + S4_VS_CLOSED_FORM)
-
-@pytest.mark.parametrize("kind", ["rssr", "rccc"])
-def test_linkage_residuals_of_every_rigid_engine(kind: str) -> None:
-    """Each rigid engine's ``dynamics_residual`` (its Newton-Euler least squares' relative residual) is
-    round-off, as the other engines' are on the same rows (another engine: a report that read 0.45 where the
-    others read 1e-15, the slider crank's defect of issue 30, fails); ``residual`` (the closure gap over the
-    length scale) is round-off for all of them; ``theta1_deg`` the case's angles.  The RSSR's ``residual``
-    also bounds the loop gap of each table's own pose, ``| |P3 - P2| - a2 | / a2``."""
-    case = linkage_case(kind)
-    tables = {engine: solve_linkage_by(kind, engine) for engine in ("dualmech", "pinocchio", "mujoco")}
-    reference = tables["dualmech"]["dynamics_residual"]
-    for engine, table in tables.items():
-        assert (table.status == "ok").all(), engine
-        assert_allclose(table["theta1_deg"], case.motion.angles_deg, rtol=0, atol=1e-12, err_msg=engine)
-        assert_allclose(table["dynamics_residual"], reference, rtol=0, atol=LINKAGE_DYNAMICS_RESIDUAL.value,
-                        err_msg=engine)
-        assert np.max(table["residual"]) <= S4_VS_CLOSED_FORM, engine
-        if kind == "rssr":
-            gap = _rssr_gap(case, table)
-            assert np.all(gap <= table["residual"] + S4_VS_CLOSED_FORM), engine
-
-
-def _rssr_gap(case, table) -> np.ndarray:
-    """``| |P3 - P2| - a2 | / a2`` of an RSSR table's own pose: ``P2 = (a1 cos theta1, a1 sin theta1, s1)``,
-    ``P3 = Q4 + a3 G4 (cos phi4, sin phi4, 0)`` (``docs/conventions.md``, "RSSR"), ``(n,)``."""
-    g = case.geometry
-    theta, phi = np.radians(table["theta1_deg"]), np.radians(table["phi4_deg"])
-    p2 = np.stack([g.a1 * np.cos(theta), g.a1 * np.sin(theta), np.full_like(theta, g.s1)], 1)
-    p3 = g.foot + g.a3 * np.stack([np.cos(phi), np.sin(phi), 0 * phi], 1) @ g.ground_rotation().T
-    return np.abs(np.linalg.norm(p3 - p2, axis=1) - g.a2) / g.a2
