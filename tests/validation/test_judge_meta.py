@@ -17,7 +17,7 @@ from dualmech.validation.engines import run_engine
 from dualmech.validation.mujoco_sim_plan import SIM_RUNIN_STEPS, SIM_RUNIN_TIME_CONSTANTS, prepare
 from tests.models.newton_euler_oracle import table_violation
 from tests.oracles import assembly_margin
-from tests.tolerances import NEWTON_EULER_ROUND_OFF
+from tests.tolerances import NEWTON_EULER_ROUND_OFF, SERVO_LAG
 
 #: A small case in torque mode (mujoco-sim then gives L_ref too).
 SMALL = load_case("thesis/a4-30-s1-3.5").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0,
@@ -84,10 +84,3 @@ def test_mujoco_sim_settings_and_servo_lag() -> None:
     assert_allclose(meta["max_theta_lag"], lag, rtol=SERVO_LAG)
     torque = run_engine("mujoco-sim", SMALL).meta["L_ref"]
     assert_allclose(torque, abs(SMALL.loads.drive_torque) / SMALL.geometry.crank_length, rtol=1e-15)
-
-
-#: The crank servo's lag against max |drive torque| / kp: the servo's damping kv times the lag's rate adds
-#: to kp times the lag; measured 2e-4 relative on the thesis case at 50 N.
-SERVO_LAG = 1e-2
-
-

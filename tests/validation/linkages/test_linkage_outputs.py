@@ -16,7 +16,7 @@ from dualmech.models.linkages.forward_dynamics import MECHANISMS
 from dualmech.validation.linkages import solve_linkage as solve_linkage_by
 from dualmech.validation.linkages.gate import judge_tolerances, relative_differences
 from dualmech.validation.tolerances import SIM_STROKE
-from tests.tolerances import LINKAGE_DYNAMICS_RESIDUAL, S4_VS_CLOSED_FORM
+from tests.tolerances import LINKAGE_DYNAMICS_RESIDUAL, ROW_SPACING, S4_VS_CLOSED_FORM
 
 
 @pytest.mark.parametrize("kind", ["rssr", "rccc"])
@@ -103,8 +103,3 @@ def test_linkage_simulation_tables(kind: str, spec) -> None:
     between = 2 * np.diff(crank.theta) / (crank.theta_dot[1:] + crank.theta_dot[:-1])
     assert_allclose(between, steps * dt, rtol=ROW_SPACING)
     assert len(table) * steps * dt <= duration
-
-
-#: The time between simulated rows from their angles and rates (the trapezoid rule over a row's ~2 deg of a
-#: smoothly accelerating input) against the stated steps times the step: measured <= 1e-5 relative.
-ROW_SPACING = 1e-3
