@@ -5,8 +5,10 @@
 (``tests/oracles.py``, ``tests/models/newton_euler_oracle.py``), finite differences, another engine, or a
 physical identity (power balance, Newton-Euler).  :func:`test_every_output_is_listed` fails when an engine
 gains or loses an output (list it here with its oracle test), :func:`test_every_listed_test_exists` when a
-listed test is renamed or removed.  The oracle tests below are those of outputs no other test read (issue
-30: the compiled engine's ``meta["dynamics_residual"]`` was wrong on every case and no test read it).
+listed test is renamed or removed.  The oracle tests below (and those of
+``tests/validation/test_judge_meta.py`` and ``tests/validation/linkages/test_linkage_outputs.py``) are
+those of outputs no other test read (issue 30: the compiled engine's ``meta["dynamics_residual"]`` was wrong
+on every case and no test read it).
 
 Library-dependent engines (Pinocchio, MuJoCo) are declared dependencies: imported, not skipped.
 """
@@ -14,13 +16,9 @@ Library-dependent engines (Pinocchio, MuJoCo) are declared dependencies: importe
 from __future__ import annotations
 
 import ast
-import math
-import time
 from pathlib import Path
 
-import mujoco
 import numpy as np
-import pinocchio
 import pytest
 from numpy.testing import assert_allclose
 
@@ -33,11 +31,10 @@ from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage
 from dualmech.models.linkages.forward_dynamics import simulate as simulate_linkage
 from dualmech.models.slider_crank import format_angle_ranges, no_assembly_ranges
 from dualmech.validation.engines import run_engine
-from dualmech.validation.mujoco_sim_plan import SIM_RUNIN_STEPS, SIM_RUNIN_TIME_CONSTANTS, prepare
+from dualmech.validation.linkages import solve_linkage as solve_linkage_by
 from dualmech.validation.tolerances import SIM_STROKE
-from tests.models.newton_euler_oracle import table_violation
 from tests.oracles import assembly_margin, slider_line
-from tests.tolerances import NEWTON_EULER_ROUND_OFF, S4_VS_CLOSED_FORM
+from tests.tolerances import S4_VS_CLOSED_FORM
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -53,7 +50,8 @@ STATUSES = "tests/validation/test_engine_statuses.py::test_planar_edge_of_assemb
 CLASSIFIED = "tests/models/test_slider_crank.py::test_wild_random_geometries_are_classified_right"
 MESSAGES = HERE + "test_messages_count_the_closed_form_no_assembly_rows"
 NEWTON_EULER = "tests/models/test_dynamics_residual.py::test_reported_residual_is_the_oracles"
-VERSIONS = HERE + "test_library_versions_are_the_loaded_libraries"
+JUDGE_META = "tests/validation/test_judge_meta.py::"
+VERSIONS = JUDGE_META + "test_library_versions_are_the_loaded_libraries"
 ITERATIONS = HERE + "test_in_house_iterations_are_the_other_implementations"
 
 
@@ -72,14 +70,18 @@ POWER = "tests/core/test_reactions.py::test_power_balance"
 SIM_STEP = "tests/validation/test_mujoco_sim.py::test_a_case_sets_the_simulation_step"
 MUJOCO = "tests/validation/test_mujoco_engine.py::"
 MUJOCO_SIM = "tests/validation/test_mujoco_sim.py::test_simulation_agrees_with_the_inhouse_solver"
-SIM_SETTINGS = HERE + "test_mujoco_sim_settings_and_servo_lag"
+SIM_SETTINGS = JUDGE_META + "test_mujoco_sim_settings_and_servo_lag"
 FORWARD = "tests/models/test_forward_dynamics.py::"
 ALONG = FORWARD + "test_outputs_along_the_trajectory_are_the_solvers_at_the_simulated_states"
 INFO = HERE + "test_simulation_info_is_what_ran"
 LINKAGE_SIM = "tests/models/linkages/test_forward_dynamics.py::"
 RSSR = "tests/models/linkages/test_rssr.py::"
 RCCC = "tests/models/linkages/test_rccc.py::"
-LINKAGE_META = HERE + "test_linkage_meta"
+LINKAGE_OUTPUTS = "tests/validation/linkages/test_linkage_outputs.py::"
+LINKAGE_META = LINKAGE_OUTPUTS + "test_linkage_meta"
+LINKAGE_RESIDUALS = LINKAGE_OUTPUTS + "test_linkage_residuals_of_every_rigid_engine"
+INDEPENDENCE = "tests/validation/linkages/test_judge_independence.py::"
+LINKAGE_SIM_TABLE = LINKAGE_OUTPUTS + "test_linkage_simulation_tables"
 
 #: The in-house engines' meta.
 IN_HOUSE_META = {"meta:iterations": ITERATIONS, "meta:dynamics_residual": NEWTON_EULER,
@@ -94,7 +96,7 @@ ORACLES: dict[str, dict[str, str]] = {
                           PINOCCHIO + "test_power_balance",
                           PINOCCHIO_VS_INHOUSE,
                           **{"meta:pinocchio_version": VERSIONS, "meta:messages": MESSAGES,
-                             **{f"meta:{k}": HERE + "test_pinocchio_meta" for k in (
+                             **{f"meta:{k}": JUDGE_META + "test_pinocchio_meta" for k in (
                                  "newton_iterations_max", "newton_iterations_mean", "ls_residual_max",
                                  "seconds")}}),
     "mujoco": _columns(MUJOCO + "test_slider_motion_matches_the_closed_form",
@@ -102,7 +104,7 @@ ORACLES: dict[str, dict[str, str]] = {
                        MUJOCO + "test_power_of_the_loads_is_the_rate_of_kinetic_energy",
                        MUJOCO + "test_rigid_path_agrees_with_the_inhouse_solver",
                        **{"meta:mujoco": VERSIONS, "meta:messages": MESSAGES,
-                          "meta:newton_iterations": HERE + "test_mujoco_iterations"}),
+                          "meta:newton_iterations": JUDGE_META + "test_mujoco_iterations"}),
     "mujoco-sim": _columns(MUJOCO_SIM, MUJOCO_SIM, MUJOCO_SIM, MUJOCO_SIM,
                            **{"meta:mujoco": VERSIONS, "meta:messages": MESSAGES,
                               "meta:timestep": SIM_STEP, "meta:steps_per_degree": SIM_STEP,
@@ -128,7 +130,8 @@ ORACLES: dict[str, dict[str, str]] = {
         **{c: RSSR + "test_rates_match_finite_differences_of_the_closed_form"
            for c in ("phi4_dot", "phi4_ddot", "transmission_in", "transmission_out")},
         **{c: RSSR + "test_reactions_balance_power_and_newton_euler" for c in rssr.REACTIONS},
-        "output_torque": RSSR + "test_both_load_modes_give_the_same_reactions", "residual": LINKAGE_META,
+        "output_torque": RSSR + "test_both_load_modes_give_the_same_reactions", "residual": LINKAGE_RESIDUALS,
+        "dynamics_residual": LINKAGE_RESIDUALS,
         "status": RSSR + "test_no_assembly_angles_are_stated_and_edged_by_assembly_limits",
         "meta:iterations": LINKAGE_META, "meta:messages": LINKAGE_META, "meta:branch": LINKAGE_META,
     },
@@ -138,7 +141,8 @@ ORACLES: dict[str, dict[str, str]] = {
         **{c: RCCC + "test_rates_match_finite_differences"
            for c in ("theta4_dot", "s4_dot", "theta4_ddot", "s4_ddot", "transmission_out")},
         **{c: RCCC + "test_reactions_balance_power" for c in rccc.REACTIONS},
-        "output_torque": RCCC + "test_reactions_balance_power", "residual": LINKAGE_META,
+        "output_torque": RCCC + "test_reactions_balance_power", "residual": LINKAGE_RESIDUALS,
+        "dynamics_residual": LINKAGE_RESIDUALS,
         "status": RCCC + "test_edges_of_assembly_and_branches",
         "meta:iterations": LINKAGE_META, "meta:messages": LINKAGE_META, "meta:branch": LINKAGE_META,
     },
@@ -149,6 +153,29 @@ ORACLES: dict[str, dict[str, str]] = {
            for c in ("t", "kinetic_energy", "potential_energy", "work_drive", "work_output", "dissipated")},
     },
 }
+
+
+def _rigid_linkage_judges() -> dict[str, dict[str, str]]:
+    """The RSSR's and RCCC's rigid judges (Pinocchio, MuJoCo): their compared columns and statuses against
+    the in-house engine through the gate, their residuals and starts by tests of their own."""
+    out = {}
+    for kind, spec, verdict in (("rssr", rssr.SPEC, "tests/validation/linkages/test_rssr_judges.py::"
+                                 "test_bundled_case_agrees"),
+                                ("rccc", rccc.SPEC, "tests/validation/linkages/test_rccc_judges.py::"
+                                 "test_judges_agree")):
+        for judge in ("pinocchio", "mujoco"):
+            out[f"{kind}-{judge}"] = {
+                **{c: verdict for c in (*spec.kinematics, *spec.forces, *spec.moments, "status")},
+                **{c: LINKAGE_RESIDUALS for c in ("theta1_deg", "residual", "dynamics_residual")},
+                "meta:crude": INDEPENDENCE + "test_the_crude_start_closes_each_branch_at_the_first_attempt",
+                "meta:iterations": INDEPENDENCE + "test_judges_ignore_the_in_house_starts"}
+    return out
+
+
+ORACLES |= _rigid_linkage_judges()
+ORACLES |= {f"{kind}-mujoco-sim": {**{c: LINKAGE_SIM_TABLE for c in (*spec.columns, "status")},
+                                  **{f"meta:{k}": LINKAGE_SIM_TABLE for k in ("crank", "gives", "messages")}}
+            for kind, spec in (("rssr", rssr.SPEC), ("rccc", rccc.SPEC))}
 ORACLES["rssr-simulate"] = ORACLES["linkage-simulate"] | {
     c: LINKAGE_SIM + "test_the_simulated_table_is_the_solved_one_at_each_simulated_state"
     for c in rssr.COLUMNS if c != "theta1_deg"} | {"status": ORACLES["rssr"]["status"]}
@@ -166,6 +193,10 @@ def _outputs(engine: str) -> set[str]:
     """The outputs ``engine`` produces on :data:`SMALL` (or a bundled linkage case)."""
     if engine in ("rssr", "rccc"):
         table = solve_linkage(engine)
+        return set(table.columns) | {"status"} | {f"meta:{k}" for k in table.meta}
+    if engine.endswith(("-pinocchio", "-mujoco", "-mujoco-sim")):
+        kind, judge = engine.split("-", 1)
+        table = solve_linkage_by(kind, judge)
         return set(table.columns) | {"status"} | {f"meta:{k}" for k in table.meta}
     if engine.endswith("-simulate"):
         sim = simulate_linkage(linkage_case(engine.split("-")[0]), 0.05, samples=3)
@@ -277,73 +308,6 @@ def test_in_house_iterations_are_the_other_implementations() -> None:
     assert np.all(warm <= cold) and warm.sum() < cold.sum()
 
 
-def test_library_versions_are_the_loaded_libraries() -> None:
-    assert run_engine("pinocchio", SMALL).meta["pinocchio_version"] == pinocchio.__version__
-    assert run_engine("mujoco", SMALL).meta["mujoco"] == mujoco.__version__
-    assert run_engine("mujoco-sim", SMALL).meta["mujoco"] == mujoco.__version__
-
-
-def test_pinocchio_meta() -> None:
-    """``ls_residual_max``: the closed loop's least-squares residual is round-off, as the independent
-    Newton-Euler equations evaluated on the table's columns say; the Newton counts: a cold first position
-    takes a few steps, the mean at most the max; ``seconds``: its parts within the wall time around the
-    call."""
-    start = time.perf_counter()
-    table = run_engine("pinocchio", SMALL)
-    wall = time.perf_counter() - start
-    meta = table.meta
-    violation = np.nanmax(table_violation(SMALL, table)[table.status == "ok"])
-    assert violation <= NEWTON_EULER_ROUND_OFF
-    assert 0.0 <= meta["ls_residual_max"] <= NEWTON_EULER_ROUND_OFF
-    assert 1 <= meta["newton_iterations_mean"] <= meta["newton_iterations_max"] <= 50
-    assert isinstance(meta["newton_iterations_max"], int)
-    parts = meta["seconds"]
-    assert set(parts) == {"model", "positions", "dynamics"} and all(v >= 0.0 for v in parts.values())
-    assert sum(parts.values()) <= wall
-
-
-def test_mujoco_iterations() -> None:
-    """One count per row: a row beyond reach (the closed form's ``assembly_margin`` < 0) is decided by
-    geometry, with no Newton step; every assembled row takes one at least (the MuJoCo closure counts from
-    1) and fewer than its cap, which a row that assembles never reaches."""
-    case = SMALL.with_values({"geometry.slider_offset": 45.0, "geometry.crank_axial_shift": 0.0,
-                              "motion.angles_deg": {"start": 90.0, "stop": 450.0, "step": 5.0}})
-    table = run_engine("mujoco", case)
-    iters = table.meta["newton_iterations"]
-    cannot = assembly_margin(case, np.radians(table["theta1_deg"])) < 0
-    assert iters.shape == (len(table),) and cannot.any()
-    assert np.all(iters[cannot] == 0) and np.all((iters[~cannot] >= 1) & (iters[~cannot] < MUJOCO_MAX_ITER))
-
-
-#: The MuJoCo closure's iteration cap (validation/mujoco_closure.py).
-MUJOCO_MAX_ITER = 60
-
-
-def test_mujoco_sim_settings_and_servo_lag() -> None:
-    """Force mode: the servo holds the crank against the drive torque the table reports, so its largest
-    lag is ``max |drive_torque| / kp`` (kp the crank servo's gain, the table's own ``servo_kp``); the
-    settings are the plan's (:func:`~dualmech.validation.mujoco_sim_plan.prepare`), the run-in its rule by
-    hand; torque mode: ``L_ref`` the pin force of the drive torque, ``|T| / a1``."""
-    forced = with_loads(SMALL, drive_torque=None, slider_force=50.0)
-    table = run_engine("mujoco-sim", forced)
-    meta = table.meta
-    settings = prepare(forced)[1]
-    assert meta["timestep"] == settings.timestep
-    assert meta["servo_kp"] == settings.servo_kp and meta["servo_kv"] == settings.servo_kv
-    slow = max(kv / kp for kp, kv in zip(meta["servo_kp"], meta["servo_kv"]))
-    assert meta["runin_steps"] == max(SIM_RUNIN_STEPS, math.ceil(SIM_RUNIN_TIME_CONSTANTS * slow
-                                                                  / meta["timestep"]))
-    lag = np.nanmax(np.abs(table["drive_torque"])) / meta["servo_kp"][0]
-    assert_allclose(meta["max_theta_lag"], lag, rtol=SERVO_LAG)
-    torque = run_engine("mujoco-sim", SMALL).meta["L_ref"]
-    assert_allclose(torque, abs(SMALL.loads.drive_torque) / SMALL.geometry.crank_length, rtol=1e-15)
-
-
-#: The crank servo's lag against max |drive torque| / kp: the servo's damping kv times the lag's rate adds
-#: to kp times the lag; measured 2e-4 relative on the thesis case at 50 N.
-SERVO_LAG = 1e-2
-
-
 def test_simulation_info_is_what_ran(monkeypatch: pytest.MonkeyPatch) -> None:
     """``method``, ``rtol``, ``atol``: the arguments; ``nfev``: the right-hand-side calls counted by a wrapped
     equation of motion; ``message``: scipy's message of a finished integration; ``coefficients``,
@@ -380,27 +344,3 @@ def test_simulation_info_is_what_ran(monkeypatch: pytest.MonkeyPatch) -> None:
     direct = dc.coefficients(case, theta).stacked()
     error = np.max(np.abs(model(theta) - direct) / scale)
     assert error <= info["interpolation_error"] + 1e-15 and info["interpolation_error"] <= 1e-12
-
-
-@pytest.mark.parametrize("kind", ["rssr", "rccc"])
-def test_linkage_meta(kind: str) -> None:
-    """``theta1_deg`` the case's angles; ``branch`` the case's; ``residual`` bounds the loop gap of the
-    table's own pose (the RSSR: ``|P3 - P2| - a2``) and is round-off; ``iterations`` per row: none for the
-    RSSR, whose start is its exact closed form, one for the RCCC, whose spherical start is corrected once on
-    the bundled case; ``messages`` name the no_assembly rows, if any."""
-    case = linkage_case(kind)
-    table = solve_linkage(kind)
-    assert_allclose(table["theta1_deg"], case.motion.angles_deg, rtol=0, atol=1e-12)
-    assert table.meta["branch"] == case.branch
-    assembled = table.status != "no_assembly"
-    assert np.nanmax(table["residual"][assembled]) <= S4_VS_CLOSED_FORM
-    iterations = table.meta["iterations"]  # the RSSR starts at its closed form: no Newton step is needed
-    assert iterations.shape == (len(table),) and np.all(iterations[assembled] == (0 if kind == "rssr" else 1))
-    assert bool(table.meta["messages"]) == (not assembled.all())
-    if kind == "rssr":  # P2 = (a1 cos theta1, a1 sin theta1, s1), P3 = Q4 + a3 G4 (cos phi4, sin phi4, 0)
-        g = case.geometry
-        theta, phi = np.radians(table["theta1_deg"]), np.radians(table["phi4_deg"])
-        p2 = np.stack([g.a1 * np.cos(theta), g.a1 * np.sin(theta), np.full_like(theta, g.s1)], 1)
-        p3 = g.foot + g.a3 * np.stack([np.cos(phi), np.sin(phi), 0 * phi], 1) @ g.ground_rotation().T
-        gap = np.abs(np.linalg.norm(p3 - p2, axis=1) - g.a2) / g.a2
-        assert np.all(gap[assembled] <= table["residual"][assembled] + S4_VS_CLOSED_FORM)

@@ -61,14 +61,16 @@ class _Tally:
 
     def add(self, columns: dict[str, np.ndarray], codes: np.ndarray) -> None:
         first = int(self.counts.sum())  # the chunk's first row in the case
-        self.no_assembly.append(first + np.flatnonzero(codes == STATUSES.index("no_assembly")))
+        beyond = codes == STATUSES.index("no_assembly")
+        self.no_assembly.append(first + np.flatnonzero(beyond))
         self.counts += np.bincount(codes, minlength=len(STATUSES))
         s4, theta = columns["S4"], columns["theta1_deg"]
         if np.isfinite(s4).any():
             for i in (int(np.nanargmax(s4)), int(np.nanargmin(s4))):
                 self.extremes.append((float(s4[i]), float(theta[i])))
-        if np.isfinite(columns["residual"]).any():
-            self.worst = max(self.worst, float(np.nanmax(columns["residual"])))
+        closed = columns["residual"][~beyond]  # beyond reach: the reach's excess, not a closure residual
+        if np.isfinite(closed).any():
+            self.worst = max(self.worst, float(np.nanmax(closed)))
 
     def text(self, case: Case, messages: list[str]) -> str:
         lines = [f"case {case.name} (dualmech): {int(self.counts.sum())} positions, streamed"]

@@ -1,5 +1,6 @@
 """The dualmech command line: solve and cases (other subcommands are tested beside their modules)."""
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -85,10 +86,15 @@ def test_solve_of_a_spatial_design_out_of_reach_names_the_least_distance(tmp_pat
     assert "|a4|" not in result.output
 
 
-def test_solve_of_a_partly_assembling_design_names_the_ranges(tmp_path):
+@pytest.mark.parametrize("streamed", [False, True])
+def test_solve_of_a_partly_assembling_design_names_the_ranges(tmp_path, monkeypatch, streamed):
     """a4 = 45 in: the rod reaches the line where |45 + 12 cos theta1| <= 50, cos theta1 <= 5/12 (theta1 from
     65.4 to 294.6 deg); the table is written, exit 0, the ranges named,
-    and the worst closure residual is a closure's (not the reach's excess on the rows that do not close)."""
+    and the worst closure residual is a closure's (not the reach's excess on the rows that do not close), also
+    in the summary of a long case streamed into the file."""
+    if streamed:
+        # the module, not the command of the same name
+        monkeypatch.setattr(sys.modules["dualmech.cli.solve"], "STREAM_POSITIONS", 100)
     out = tmp_path / "out.csv"
     result = CliRunner().invoke(main, ["solve", str(_ideal_with_offset(tmp_path, 45.0)), "-o", str(out)])
     assert result.exit_code == 0, result.output
@@ -96,6 +102,7 @@ def test_solve_of_a_partly_assembling_design_names_the_ranges(tmp_path):
         in result.output
     worst = [line for line in result.output.splitlines() if line.startswith("worst closure residual: ")]
     assert len(worst) == 1 and float(worst[0].split(": ")[1]) < 1e-10, worst
+    assert ("streamed" in result.output) == streamed
     table = read_csv(out)
     assert (table.status == "no_assembly").sum() == 131
 
