@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 
 from dualmech.core.table import ResultTable
 from dualmech.models.case import Case
+from dualmech.models.plausibility import warn_implausible
 from dualmech.validation.engines import run_engine
 
 if TYPE_CHECKING:
@@ -57,7 +58,14 @@ def solve(case: Case, engine: str = "dualmech") -> ResultTable:
     ------
     ValueError
         ``engine`` is not one of :data:`~dualmech.validation.engines.ENGINES` (one line).
+
+    Warns
+    -----
+    ImplausibleUnitsWarning
+        A link, body mass or inertia of ``case`` is implausible for its ``units`` (lengths in mm under
+        ``m-kg-s``, say): :mod:`dualmech.models.plausibility`.
     """
+    warn_implausible(case)
     return run_engine(engine, case)
 
 
