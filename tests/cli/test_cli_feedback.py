@@ -73,3 +73,7 @@ def test_validate_of_one_case_names_masses_and_peaks(tmp_path, monkeypatch) -> N
     peak = r"peak joint 2 \(crank pin ball\) \|force\|: \S+ N at \S+ deg"
     assert any(re.fullmatch(peak, line) for line in lines)
     assert "warning" not in result.stderr
+    progress = result.stderr.splitlines()  # plain lines, not rich's bars
+    done = r".*: 1 cases x 2 engines: done, 2 of 2 results in \d+:\d\d"
+    assert any(re.fullmatch(done, line) for line in progress)
+    assert not re.search("\x1b|\r|…", result.stderr)

@@ -96,3 +96,13 @@ def test_masses_line_has_units() -> None:
     assert masses_line(load_case("iftomm/spatial-slider-crank")) == (
         "body masses: crank 0.12 kg, rod 0.5 kg, slider 2 kg")
     assert masses_line(load_case("thesis/ideal")).startswith("body masses: crank 0.0614659 lbf·s²/in")
+
+
+def test_the_api_solve_warns(tmp_path) -> None:
+    """``dualmech.validation.solve`` (the API) issues the warning and still solves."""
+    from dualmech.validation.api import solve
+
+    with pytest.warns(ImplausibleUnitsWarning) as record:
+        table = solve(_case(tmp_path, "m-kg-s", 7850.0))
+    assert str(record[0].message).startswith("mm-design: link a2 = 300 m") and len(record) == 4
+    assert len(table) == 36  # 0 .. 350 deg (the stop is excluded)
