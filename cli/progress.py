@@ -235,7 +235,9 @@ def note(message: str) -> None:
 
 class _CompileView(logging.Handler):
     """The kernel's compile (:class:`~dualmech.core.kernel.compiles.CompileEvent` records) as a notice, a
-    task that ticks every :data:`TICK` seconds (its first minutes name no function) and a closing line."""
+    task and a closing line.  The compile names no function for minutes, so the task counts this process's
+    CPU seconds against the compile's expected total (one core compiles; capped at 99 % until it ends), on
+    a ticker every :data:`TICK` seconds; its label is the function compiled last."""
 
     def __init__(self) -> None:
         super().__init__(logging.INFO)
@@ -250,16 +252,16 @@ class _CompileView(logging.Handler):
         if ev.kind == "start" and self._shown is None:
             stack = contextlib.ExitStack()
             board = stack.enter_context(_board(None, None))
-            task = board.add("compiling the dual-number kernel", "functions",
+            task = board.add("compiling the dual-number kernel", "CPU s",
                              first_line=f"dualmech: {record.getMessage()}")
             stop = threading.Event()
-            ticker = threading.Thread(target=self._tick, args=(board, task, stop), daemon=True,
-                                      name="dualmech-compile-progress")
+            ticker = threading.Thread(target=self._tick, args=(board, task, stop, ev.expected_cpu),
+                                      daemon=True, name="dualmech-compile-progress")
             ticker.start()
             self._shown = (stack, board, task, stop, ticker)
         elif ev.kind == "function" and self._shown is not None:
             _, board, task, _, _ = self._shown
-            board.update(task, ev.compiled, None, ".".join(ev.function.split(".")[-2:]))
+            board.update(task, task.done, task.total, ".".join(ev.function.split(".")[-2:]))
         elif ev.kind == "end" and self._shown is not None:
             (stack, board, task, stop, ticker), self._shown = self._shown, None
             stop.set()
@@ -268,9 +270,10 @@ class _CompileView(logging.Handler):
             stack.close()
 
     @staticmethod
-    def _tick(board: _Board, task: _Task, stop: threading.Event) -> None:
+    def _tick(board: _Board, task: _Task, stop: threading.Event, expected: float) -> None:
+        start = time.process_time()
         while not stop.wait(TICK):
-            board.update(task, task.done, task.total, task.label)
+            board.update(task, round(min(time.process_time() - start, 0.99 * expected)), expected, task.label)
 
 
 _VIEW = _CompileView()

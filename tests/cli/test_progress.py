@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import logging
 import re
+import time
 
 import pytest
 
@@ -121,3 +122,30 @@ def test_show_kernel_compiles_installs_one_handler() -> None:
     pm.show_kernel_compiles()
     log = logging.getLogger("dualmech.kernel")
     assert log.handlers.count(pm._VIEW) == 1 and log.isEnabledFor(logging.INFO)
+
+
+def test_the_compile_ticks_in_cpu_seconds(monkeypatch: pytest.MonkeyPatch,
+                                          capsys: pytest.CaptureFixture) -> None:
+    """The compile names no function for minutes: its task counts CPU seconds of the expected total, on a
+    ticker (here every 10 ms, and CPU time made to pass 20 s a tick)."""
+    ticks: list[float] = []
+
+    def process_time() -> float:
+        ticks.append(20.0 * len(ticks))
+        return ticks[-1]
+
+    monkeypatch.setattr(pm, "TICK", 0.01)
+    monkeypatch.setattr(pm.time, "process_time", process_time)
+    view = pm._CompileView()
+    view.emit(_compile_record("start", "compiling ..."))
+    deadline = time.monotonic() + 30.0
+    while len(ticks) < 12 and time.monotonic() < deadline:  # past the expected 175 s
+        time.sleep(0.01)
+    view.emit(_compile_record("end", "compiled ...", 31))
+    lines = capsys.readouterr().err.splitlines()
+    head = "compiling the dual-number kernel: "
+    done = [int(line[len(head):].split()[0]) for line in lines if line.startswith(head)]
+    assert lines[1].startswith(f"{head}20 of 175 CPU s (11 %), ")  # a line at each tenth
+    assert done == sorted(done) and len(done) <= 10 and done[-1] >= 160
+    assert max(done) <= 173  # capped at 99 % of the expected until the end
+    assert lines[-1] == "dualmech: compiled ..."
