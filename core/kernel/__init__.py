@@ -78,4 +78,3 @@ class _KernelInTreeLocator(_Digest, caching.InTreeCacheLocator):
 
 
 caching.CacheImpl._locator_classes[:0] = [_KernelUserLocator, _KernelInTreeLocator]
-
