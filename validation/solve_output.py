@@ -22,6 +22,7 @@ import numpy as np
 from dualmech.core.status import STATUSES
 from dualmech.core.table import ParquetWriter, ResultTable, write_parquet
 from dualmech.models.case import Case
+from dualmech.models.units import column_unit
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
     from dualmech.models.slider_crank_kernel import Chunk
@@ -77,8 +78,9 @@ class _Tally:
         if self.extremes:
             hi = max(self.extremes, key=lambda e: e[0])  # first of equal maxima, as nanargmax
             lo = min(self.extremes, key=lambda e: e[0])
+            unit = f" {column_unit('S4', case.units)}".rstrip()
             lines.append(
-                f"stroke: {hi[0] - lo[0]:.9g} (max S4 {hi[0]:.9g} at {hi[1]:g} deg, "
+                f"stroke: {hi[0] - lo[0]:.9g}{unit} (max S4 {hi[0]:.9g} at {hi[1]:g} deg, "
                 f"min S4 {lo[0]:.9g} at {lo[1]:g} deg)"
             )
         if np.isfinite(self.worst):
