@@ -12,6 +12,7 @@ import click
 import numpy as np
 
 from dualmech.cli.errors import one_line_errors
+from dualmech.cli.progress import progress
 from dualmech.core.assembly import reach
 from dualmech.core.status import Status
 from dualmech.core.table import ResultTable
@@ -20,6 +21,7 @@ from dualmech.models.case import Case, load_case, preset_names, preset_path
 from dualmech.models.inputs import CaseError, show
 from dualmech.models.linkages import bundled_names, bundled_path, is_linkage, linkage_kind, read_linkage
 from dualmech.models.mechanism import crank_pin
+from dualmech.models.plausibility import implausible, masses_line
 from dualmech.models.units import column_unit
 from dualmech.validation.engines import ENGINES, run_engine
 from dualmech.validation.solve_output import STREAM_POSITIONS, output_format, stream_solve, write_table
@@ -97,12 +99,13 @@ def assembly_failure(case: Case) -> str | None:
     return line
 
 
-def summarize(table: ResultTable, units: str = "consistent") -> str:
-    """What a designer reads first (:mod:`dualmech.models.design_summary`), the worst residual, the engine's
-    notes."""
+def summarize(table: ResultTable, case: Case) -> str:
+    """What a designer reads first (:mod:`dualmech.models.design_summary`) with the body masses, the worst
+    residual, the engine's notes; units from ``case.units``."""
     from dualmech.models.design_summary import design_summary
 
-    lines = design_summary(table, units).lines()
+    lines = design_summary(table, case.units).lines()
+    lines.insert(1, masses_line(case))
     res = table["residual"][table.status != Status.NO_ASSEMBLY]  # there: the reach's excess, not a closure's
     if np.isfinite(res).any():
         lines.append(f"worst closure residual: {np.nanmax(res):.3g}")
@@ -127,12 +130,15 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
         _solve_linkage(case, output, engine, frames)
         return
     c = load_case(case)
+    warn_units(c)
     failure = assembly_failure(c)
     if failure:
         raise CaseError(failure)
     if output and output_format(output) and engine == "dualmech" and frames == "world" \
             and len(c.motion.angles_deg) > STREAM_POSITIONS:  # long: streamed, chunk by chunk, into the file
-        click.echo(stream_solve(c, output))
+        with progress(f"solve {case}", unit="positions") as bar:
+            first, *rest = stream_solve(c, output, bar).split("\n")
+        click.echo("\n".join([first, masses_line(c), *rest]))
         return
     table = run_engine(engine, c)
     if output:
@@ -143,7 +149,14 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
             write_joint_frame_csv(c, table, Path(output).with_suffix(".joint.csv"))
     else:
         sys.stdout.write(table.to_csv())
-    click.echo(summarize(table, c.units), err=output is None)
+    click.echo(summarize(table, c), err=output is None)
+
+
+def warn_units(*cases: Case) -> None:
+    """One line on stderr per size of each case implausible for its units
+    (:mod:`~dualmech.models.plausibility`): a warning, never an error."""
+    for line in (line for case in cases for line in implausible(case)):
+        click.echo(f"dualmech: warning: {line}", err=True)
 
 
 def _solve_linkage(case: str, output: str | None, engine: str, frames: str) -> None:

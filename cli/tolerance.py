@@ -9,25 +9,43 @@ central differences of the solver (named on stderr); 2 bad input.
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 
 import click
 
 from dualmech.cli.errors import one_line_errors
+from dualmech.cli.progress import progress
+from dualmech.cli.solve import warn_units
+from dualmech.models.case import Case
+from dualmech.models.plausibility import masses_line
 
 
-def _print_summary(summary: dict) -> None:
+def output_units(mode: str, units: str) -> dict[str, str]:
+    """The unit of every output of a design in load mode ``mode`` under the unit label ``units``."""
+    from dualmech.models.tolerance.outputs import FORCES, MOMENTS, SOLVED_LOAD
+    from dualmech.models.units import column_unit
+
+    columns = {"stroke": "S4", **{n: f"{prefix}x" for n, prefix in FORCES + MOMENTS},
+               SOLVED_LOAD[mode][0]: SOLVED_LOAD[mode][1]}
+    return {name: column_unit(column, units) for name, column in columns.items()}
+
+
+def _print_summary(summary: dict, case: Case) -> None:
+    click.echo(f"nominal design: {masses_line(case)}")
     y = summary.get("yield")
     if y:
         click.echo(f"yield {y['value']:.4f} (95 % Wilson {y['ci'][0]:.4f}..{y['ci'][1]:.4f}), "
                    f"{y['ok']} of {y['n']} designs assemble over the whole cycle")
-    click.echo(f"{'output':20s} {'mean':>13s} {'std':>11s} {'linear std':>11s} {'p99':>13s}")
+    units = output_units(summary["mode"], case.units)
+    click.echo(f"{'output':20s} {'unit':>9s} {'mean':>13s} {'std':>11s} {'linear std':>11s} {'p99':>13s}")
     for name in summary["nominal"]:
         o = summary["outputs"].get(name, {})
         lin = (summary.get("linear_std") or {}).get(name)
         cells = [o.get("mean"), o.get("std"), lin, o.get("p99")]
-        click.echo(f"{name:20s} " + " ".join(f"{'-' if v is None else format(v, '.6g'):>{w}s}"
-                                            for v, w in zip(cells, (13, 11, 11, 13))))
+        click.echo(f"{name:20s} {units.get(name, ''):>9s} "
+                   + " ".join(f"{'-' if v is None else format(v, '.6g'):>{w}s}"
+                              for v, w in zip(cells, (13, 11, 11, 13))))
     for name, level in (summary.get("round_off") or {}).items():
         click.echo(f"{name}: 0 in every design (the solver's round-off, at most {level:.1e}): not a load")
 
@@ -49,12 +67,18 @@ def _print_summary(summary: dict) -> None:
 def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir: str, jobs: int,
               scheduler: str | None, judge_samples: int) -> None:
     """Tolerance study of CASE: Monte Carlo of SPEC and exact sensitivities, judged and reported."""
+    from dualmech.models.case import load_case
+    from dualmech.models.plausibility import ImplausibleUnitsWarning
     from dualmech.validation.api import tolerance_study
 
-    done = tolerance_study(case, spec_file, n=n, seed=seed, method=method, outdir=outdir, jobs=jobs,
-                           scheduler=scheduler, judge_samples=judge_samples)
+    nominal = load_case(case)
+    warn_units(nominal)  # the command's own one line each; the API's warning of the same is not repeated
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImplausibleUnitsWarning)
+        done = tolerance_study(nominal, spec_file, n=n, seed=seed, method=method, outdir=outdir, jobs=jobs,
+                               scheduler=scheduler, judge_samples=judge_samples, progress=progress)
     summary, files = done.summary, done.files
-    _print_summary(summary)
+    _print_summary(summary, nominal)
     click.echo(f"wrote {', '.join(str(Path(outdir) / f) for f in files)}")
     failed = [s for s in summary["judges"] if not s["passed"]]
     for s in failed:

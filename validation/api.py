@@ -29,6 +29,7 @@ from dualmech.core.table import ResultTable
 from dualmech.models.case import Case, case_from_dict, load_case
 from dualmech.models.inputs import show
 from dualmech.models.linkages import is_linkage
+from dualmech.models.plausibility import warn_implausible
 from dualmech.validation.engines import ENGINES, run_engine
 
 if TYPE_CHECKING:
@@ -40,7 +41,7 @@ if TYPE_CHECKING:
     from dualmech.validation.linkages.run import LinkageRun
     from dualmech.validation.matrix import Matrix
     from dualmech.validation.report.render import ReportFiles
-    from dualmech.validation.runner import ProgressCallback, RunOutcome
+    from dualmech.validation.runner import ProgressCallback, ProgressTasks, RunOutcome
 
 
 def as_case(case: Case | str | os.PathLike | dict, argument: str = "case") -> Case:
@@ -104,6 +105,12 @@ def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") ->
     TypeError, ValueError
         One line: ``case`` is not a case (or its file or table is invalid: the key, the value and what
         would be valid), ``engine`` is not one of :data:`~dualmech.validation.engines.ENGINES`.
+
+    Warns
+    -----
+    ImplausibleUnitsWarning
+        A link, body mass or inertia of ``case`` is implausible for its ``units`` (lengths in mm under
+        ``m-kg-s``, say): :mod:`dualmech.models.plausibility`.
     """
     if not isinstance(engine, str):
         raise TypeError(f"engine: expected an engine name (valid: {', '.join(ENGINES)}), got {show(engine)}")
@@ -111,7 +118,9 @@ def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") ->
         from dualmech.validation.linkages.engines import solve_linkage
 
         return solve_linkage(case, engine)
-    return run_engine(engine, as_case(case))
+    checked = as_case(case)
+    warn_implausible(checked)
+    return run_engine(engine, checked)
 
 
 @dataclass(frozen=True)
@@ -318,7 +327,7 @@ class ToleranceStudy:
 def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os.PathLike | dict, *,
                     n: int = 1000, seed: int = 0, method: str = "both",
                     outdir: str | os.PathLike = "runs/tolerance", jobs: int = 1, scheduler: str | None = None,
-                    judge_samples: int = 5) -> ToleranceStudy:
+                    judge_samples: int = 5, progress: ProgressTasks | None = None) -> ToleranceStudy:
     """Tolerance study of ``case``: Monte Carlo of ``spec`` and exact sensitivities, judged and reported, as
     ``dualmech tolerance`` does (without its console).
 
@@ -338,6 +347,9 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
     jobs, scheduler : processes solving chunks of designs (>= 1), or a Dask scheduler address.
     judge_samples : int
         Sampled designs re-solved by Pinocchio and MuJoCo rigid (>= 0).
+    progress : callable, optional
+        Shows the Monte Carlo chunks and the spot checks as they are done
+        (:data:`~dualmech.validation.runner.ProgressTasks`; the command line's display).
 
     Returns
     -------
@@ -350,6 +362,7 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
     from dualmech.validation.tolerance_study import run_study
 
     nominal = as_case(case)
+    warn_implausible(nominal)
     if isinstance(spec, (str, os.PathLike)):
         spec = load_spec(spec)
     elif isinstance(spec, dict):
@@ -366,7 +379,8 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
     drawing = FigureDrawing(parallel=judge_samples > 0)
     drawing.warm()
     try:
-        summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples, drawing)
+        summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples, drawing,
+                                        tasks=progress)
         files = write_tolerance_report(Path(outdir), summary, x, samples, drawing)
     finally:
         drawing.close()

@@ -22,9 +22,11 @@ import numpy as np
 from dualmech.core.status import STATUSES
 from dualmech.core.table import ParquetWriter, ResultTable, write_parquet
 from dualmech.models.case import Case
+from dualmech.models.units import column_unit
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
     from dualmech.models.slider_crank_kernel import Chunk
+    from dualmech.validation.runner import ProgressCallback
 
 #: Cases longer than this stream to their file (one chunk of the kernel each).
 STREAM_POSITIONS = 100_000
@@ -78,8 +80,9 @@ class _Tally:
         if self.extremes:
             hi = max(self.extremes, key=lambda e: e[0])  # first of equal maxima, as nanargmax
             lo = min(self.extremes, key=lambda e: e[0])
+            unit = f" {column_unit('S4', case.units)}".rstrip()
             lines.append(
-                f"stroke: {hi[0] - lo[0]:.9g} (max S4 {hi[0]:.9g} at {hi[1]:g} deg, "
+                f"stroke: {hi[0] - lo[0]:.9g}{unit} (max S4 {hi[0]:.9g} at {hi[1]:g} deg, "
                 f"min S4 {lo[0]:.9g} at {lo[1]:g} deg)"
             )
         if np.isfinite(self.worst):
@@ -128,8 +131,9 @@ def _remove_old_file(path: Path) -> None:
         threading.Thread(target=os.close, args=(held,), name="dualmech-free", daemon=True).start()
 
 
-def stream_solve(case: Case, path: str | Path) -> str:
-    """Solve ``case`` with the compiled in-house engine chunk by chunk into ``path``; return the summary.
+def stream_solve(case: Case, path: str | Path, progress: ProgressCallback | None = None) -> str:
+    """Solve ``case`` with the compiled in-house engine chunk by chunk into ``path``; return the summary;
+    ``progress(positions written, positions, "")`` after each chunk.
 
     Each chunk is written (and tallied) on a writer thread while the kernel computes the next
     (:func:`_pipelined`), the kernel's threads going on to the chunk after without waiting at a chunk's
@@ -141,15 +145,19 @@ def stream_solve(case: Case, path: str | Path) -> str:
     parquet = output_format(path) == ".parquet"
     _remove_old_file(Path(path))
     tally = _Tally()
+    written = [0]
     with ParquetWriter(path) if parquet else Path(path).open("w") as out:
 
         def sink(k: int, chunk: Chunk) -> None:
             tally.add(chunk.columns, chunk.status)
             if parquet:
                 out.write(chunk.columns, chunk.status)
-                return
-            text = to_table(case, chunk).to_csv()
-            out.write(text if k == 0 else text.split("\n", 1)[1])
+            else:
+                text = to_table(case, chunk).to_csv()
+                out.write(text if k == 0 else text.split("\n", 1)[1])
+            written[0] += chunk.status.size
+            if progress is not None:
+                progress(written[0], len(case.motion.angles_deg), "")
 
         _pipelined(iter_chunks(case, CHUNK_POSITIONS, buffers=3, ahead=1), sink)
     theta = np.asarray(case.motion.angles_deg, dtype=float)
