@@ -375,3 +375,24 @@ def test_the_first_figures_are_drawn_while_the_run_is_compared(small, tmp_path, 
         executors.end_shared_pool()
     assert seen and seen[0] == len(figures.SWEEP_FIGURES) * len(matrix.modes)  # the (first) sweep's
     assert files.verdict == "PASS" and len(files.figures) == sum(s.static for s in started[0].specs)
+
+
+def test_a_report_in_a_relative_folder_removes_the_figures_it_no_longer_draws(small, tmp_path, monkeypatch):
+    """Why: ``--report-dir reports/thesis-1991`` (a relative folder) listed its files in the manifest by their
+    path from the working folder, so a later report, drawing fewer PNGs, could not see its own old figures
+    as stale, and left them."""
+    from dualmech.validation.matrix import load_matrix
+    from dualmech.validation.report import write_report
+    from dualmech.validation.rundir import created_files
+    from dualmech.validation.runner import run_matrix
+
+    from .test_validate import FAKE_REGISTRY
+
+    run_matrix(load_matrix(small), tmp_path / "run", jobs=1, registry=FAKE_REGISTRY)
+    monkeypatch.chdir(tmp_path)
+    first = write_report(tmp_path / "run", "reports/small", jobs=1)
+    monkeypatch.setattr(figures, "STATIC_SWEEP_FIGURES", frozenset())
+    second = write_report(tmp_path / "run", "reports/small", jobs=1)
+    gone = {p.name for p in first.figures} - {p.name for p in second.figures}
+    assert gone and not any((tmp_path / "reports/small/figures" / name).exists() for name in gone)
+    assert all(not name.startswith("reports/") for name in created_files(tmp_path / "reports/small"))

@@ -60,7 +60,7 @@ COLOUR_BAR_PX = 25
 UNIFORM_STEP = 1e-9
 #: Hover text of every line and marker of a sweep figure (set once, in the layout's template): the series,
 #: the crank angle, and the value with the panel's axis title (the column and its unit).
-SWEEP_HOVER = "%{fullData.name}<br>θ1 = %{x}°<br>%{yaxis.title.text} = %{y:.7g}<extra></extra>"
+SWEEP_HOVER = "%{fullData.name}<br>θ1 = %{x}<br>%{yaxis.title.text} = %{y:.7g}<extra></extra>"
 #: Crank-angle axis of every panel.
 CRANK_AXIS = {"range": [0, 360], "tickvals": list(CRANK_TICKS), "ticksuffix": "°", "zeroline": False}
 
@@ -228,7 +228,7 @@ def _beyond(x: np.ndarray, y: np.ndarray, lim: tuple[float, float] | None, serie
     return [{"type": "scatter", "mode": "markers", "name": series, "legendgroup": series, "showlegend": False,
              "meta": engine, "x": _f4(x[rows]), "y": _f4(edge), "customdata": _f4(y[rows]),
              "marker": {"symbol": symbols.tolist(), "color": colour, "size": 8}, "cliponaxis": False,
-             "hovertemplate": (f"%{{fullData.name}}<br>θ1 = %{{x}}°<br>{col} = %{{customdata:.7g}} {unit}"
+             "hovertemplate": (f"%{{fullData.name}}<br>θ1 = %{{x}}<br>{col} = %{{customdata:.7g}} {unit}"
                                "<br>(beyond the axis)<extra></extra>"), **axes}]
 
 
@@ -284,7 +284,7 @@ def difference_plot(
                              "showlegend": m == 0 and k == 0, "meta": engine,
                              "line": {"color": CASE_COLOURS[1 + i % 10], "width": 1.2},
                              "xaxis": f"x{s}", "yaxis": f"y{s}", **_xy(x, y),
-                             "hovertemplate": f"{cid}<br>θ1 = %{{x}}°<br>r = %{{y:.3e}}<extra></extra>"})
+                             "hovertemplate": f"{cid}<br>θ1 = %{{x}}<br>r = %{{y:.3e}}<extra></extra>"})
             shapes.append({"type": "line", "xref": f"x{s} domain", "yref": f"y{s}", "x0": 0, "x1": 1,
                            "y0": tol, "y1": tol, "line": {"color": "red", "dash": "dash", "width": 1.5},
                            "name": "tolerance", "legendgroup": "tolerance", "showlegend": not shapes})

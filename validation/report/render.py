@@ -171,7 +171,7 @@ def write_report(
         write_text_atomic(files.html, templates[0].render(**context))
         write_text_atomic(files.markdown, templates[1].render(**context))
         write_text_durable(files.summary, summary)
-        record_files(outdir, [files.html, files.markdown, files.summary])
+        record_files(outdir, [p.name for p in (files.html, files.markdown, files.summary)])
     return replace(files, seconds=time.perf_counter() - start)
 
 
@@ -210,8 +210,9 @@ def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
     paths = [figdir / f"{f.key}.png" for f in static]
     for f, p in zip(static, paths):
         p.write_bytes(f.png)
-    record_files(outdir, paths)
-    remove_stale(outdir, paths, "figures")
+    names = [f"figures/{p.name}" for p in paths]  # by their names in outdir, also when outdir is relative
+    record_files(outdir, names)
+    remove_stale(outdir, names, "figures")
     return paths
 
 
