@@ -2,11 +2,12 @@
 engineer reads at a glance").
 
 In headless Chromium, with name resolution blocked and every request logged (Chromium's net log): the page
-requests no http(s) URL, draws every figure (plotly.js inlined once), and its engine switches hide and show
-an engine in every figure.  Without a browser: heat maps coloured by ratio to tolerance with the boundary at
-1 on the colour bar, every axis and colour bar labelled with its unit, dead centres marked in the
-interactive sweep figures.  Each check fails on a deliberate fault (a page that loads its library from the
-network, an engine switch that does nothing, a heat map coloured by the relative difference).
+requests no http(s) URL, draws every figure (plotly.js inlined once), hovers a value with its unit, and its
+engine switches hide and show an engine in every figure.  Without a browser: heat maps coloured by ratio
+to tolerance with the boundary at 1 on the colour bar, every axis and colour bar labelled with its unit,
+dead centres marked in the interactive sweep figures.  Each check fails on a deliberate fault (a page that
+loads its library from the network, an engine switch that does nothing, a heat map coloured by the relative
+difference).
 """
 
 from __future__ import annotations
@@ -44,9 +45,14 @@ window.addEventListener('load', () => {
     const out = {plots: plots.map(d => ({id: d.id, drawn: d.dataset.drawn === 'yes',
                                           svg: d.querySelectorAll('svg.main-svg').length})),
                  summary: document.querySelector('#summary-table') !== null, errors: errors};
+    const first = plots.find(d => d.data && d.data.length);
+    if (first) Plotly.Fx.hover(first, [{curveNumber: 0, pointNumber: 1}]);
     const box = document.querySelector('#engine-switches input[data-engine="' + ENGINE + '"]');
     out.before = {shown: shown(ENGINE), traces: drawnTraces()};
-    box.click();
+    setTimeout(() => {
+      out.hover = first ? Array.from(first.querySelectorAll('.hovertext')).map(e => e.textContent) : [];
+      box.click();
+    }, 300);
     setTimeout(() => {
       out.hidden = {shown: shown(ENGINE), traces: drawnTraces()};
       box.click();
@@ -55,7 +61,7 @@ window.addEventListener('load', () => {
         const p = document.createElement('pre'); p.id = 'probe'; p.textContent = JSON.stringify(out);
         document.body.appendChild(p);
       }, 500);
-    }, 500);
+    }, 800);
   }, DRAW_MS);
 });
 </script></body>"""
@@ -132,6 +138,8 @@ def check_interactive_page(page: Path, tmp_path: Path, engine: str = "pinocchio"
                       f"{found['errors']}")
     if not found["summary"]:
         failed.append("summary table missing")
+    if not any(re.search(r"θ1 = [\d.]+.*\[\w+\] = -?[\d.]", h) for h in found.get("hover", [])):
+        failed.append(f"hover: no value with its unit: {found.get('hover')}")
     before, hidden, again = found["before"], found["hidden"], found["again"]
     if not (before["shown"] > 0 and hidden["shown"] == 0 and hidden["traces"] < before["traces"]
             and again == before):
