@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import click
 
+from dualmech.cli.progress import show_kernel_compiles
 from dualmech.cli.selftest import selftest
 from dualmech.cli.simulate import simulate
 from dualmech.cli.solve import benchmark, case_path, cases, mjcf, solve
@@ -32,6 +33,7 @@ COMMANDS: tuple[click.Command, ...] = (
 def main(ctx: click.Context) -> None:
     """Dual-number solver for the generalized slider crank, judged by Pinocchio and MuJoCo."""
     ctx.call_on_close(end_all_pools)  # bounded: the interpreter's exit would join workers without a limit
+    show_kernel_compiles()  # a cold numba cache: a notice and progress while the kernel compiles
 
 
 for _command in COMMANDS:

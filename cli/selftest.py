@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from dualmech.cli.errors import one_line_errors
+from dualmech.cli.progress import note, progress
 from dualmech.validation.selftest import (
     CATALOGUE,
     Outcome,
@@ -41,11 +42,17 @@ def selftest(catalogue, jobs, timeout, only, source, keep) -> None:
     """
     root = check_source(Path(source) if source else source_root())
     cat = load_catalogue(Path(catalogue) if catalogue else root / CATALOGUE)
-    def progress(o: Outcome) -> None:
-        click.echo(f"  {o.mutant.id}: {o.run.verdict} ({o.run.seconds:.1f} s)", err=True)
+    total = len(only) if only else len(cat.mutants)
+    with progress("selftest", unit="mutants") as bar:
+        outcomes: list[Outcome] = []
 
-    report = run_selftest(cat, root, jobs=jobs, timeout=timeout, only=tuple(only),
-                          keep=Path(keep) if keep else None, progress=progress)
+        def finished(o: Outcome) -> None:
+            outcomes.append(o)
+            note(f"  {o.mutant.id}: {o.run.verdict} ({o.run.seconds:.1f} s)")
+            bar(len(outcomes), total, o.mutant.id)
+
+        report = run_selftest(cat, root, jobs=jobs, timeout=timeout, only=tuple(only),
+                              keep=Path(keep) if keep else None, progress=finished)
     click.echo(format_report(report, jobs))
     if not report.passed:
         sys.exit(1)

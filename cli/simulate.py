@@ -15,10 +15,13 @@ import numpy as np
 from click.core import ParameterSource
 
 from dualmech.cli.errors import one_line_errors
+from dualmech.cli.progress import progress
+from dualmech.cli.solve import warn_units
 from dualmech.models.case import load_case
 from dualmech.models.forward_dynamics import MAX_EVALUATIONS, TIME_LIMIT
 from dualmech.models.inputs import ANGLE_DEG, Range, show
 from dualmech.models.linkages import is_linkage
+from dualmech.models.plausibility import masses_line
 from dualmech.validation.durable import write_with
 
 #: Longest integer option text: beyond this many digits it is out of every range anyway.
@@ -45,8 +48,19 @@ def parse_count(option: str, text: str, low: int, high: int) -> int:
 
 
 def summarize_simulation(sim) -> str:
-    """A few lines: span, final state, energy balance, integrator facts."""
-    return _summary(sim, f"slider S4: {np.nanmin(sim.s4):.6g} .. {np.nanmax(sim.s4):.6g}", (sim.work_drive,))
+    """A few lines: span, final state, the body masses and the peak joint loads with units (over the samples;
+    at their crank angle, unwrapped), energy balance, integrator facts."""
+    from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
+    from dualmech.models.design_summary import design_summary
+
+    columns, nan = sim.columns(), np.full(sim.t.shape, np.nan)
+    table = ResultTable("dualmech", sim.case.name, {c: columns.get(c, nan) for c in NUMERIC_COLUMNS},
+                        sim.status)
+    summary = design_summary(table, sim.case.units)
+    span = f"slider S4: {np.nanmin(sim.s4):.6g} .. {np.nanmax(sim.s4):.6g} {summary.length_unit}".rstrip()
+    peaks = [f"peak {p}" for p in summary.peaks if np.isfinite(p.value)]
+    middle = "\n".join([span, masses_line(sim.case), *peaks])
+    return _summary(sim, middle, (sim.work_drive,))
 
 
 def summarize_linkage(sim) -> str:
@@ -125,13 +139,19 @@ def simulate(case: str, duration: str, torque: str | None, slider_load: str | No
         from dualmech.models.linkages import forward_dynamics as lfd
         from dualmech.models.linkages import linkage_case
 
-        sim = lfd.simulate(linkage_case(case), torque=torque, psi0=psi0_rad, **_settings(
-            duration, psidot0, damping, None, samples, method, rtol, atol, max_evaluations, time_limit))
+        settings = _settings(duration, psidot0, damping, None, samples, method, rtol, atol, max_evaluations,
+                             time_limit)
+        with progress(f"simulate {case}", unit="s") as bar:
+            sim = lfd.simulate(linkage_case(case), torque=torque, psi0=psi0_rad, progress=bar, **settings)
         summary = summarize_linkage(sim)
     else:
         settings = _settings(duration, psidot0, damping, slider_damping, samples, method, rtol, atol,
                              max_evaluations, time_limit)
-        sim = fd.simulate(load_case(case), torque=torque, slider_load=slider_load, psi0=psi0_rad, **settings)
+        c = load_case(case)
+        warn_units(c)
+        with progress(f"simulate {case}", unit="s") as bar:
+            sim = fd.simulate(c, torque=torque, slider_load=slider_load, psi0=psi0_rad, progress=bar,
+                              **settings)
         summary = summarize_simulation(sim)
     if output:
         write_with(output, sim.to_csv)

@@ -12,33 +12,102 @@ import click
 import numpy as np
 
 from dualmech.cli.errors import one_line_errors
+from dualmech.cli.progress import progress
+from dualmech.core.assembly import reach
+from dualmech.core.status import Status
 from dualmech.core.table import ResultTable
-from dualmech.models.case import load_case, preset_names, preset_path
-from dualmech.models.linkages import is_linkage
+from dualmech.core.thresholds import ASSEMBLY_REACH
+from dualmech.models.case import Case, load_case, preset_names, preset_path
+from dualmech.models.inputs import CaseError, show
+from dualmech.models.linkages import bundled_names, bundled_path, is_linkage, linkage_kind, read_linkage
+from dualmech.models.mechanism import crank_pin
+from dualmech.models.plausibility import implausible, masses_line
+from dualmech.models.units import column_unit
 from dualmech.validation.durable import write_text_durable, write_with
 from dualmech.validation.engines import ENGINES, run_engine
 from dualmech.validation.solve_output import STREAM_POSITIONS, output_format, stream_solve, write_table
 
+#: The kind ``dualmech cases`` lists for a slider crank (a case without ``[mechanism] kind``).
+SLIDER_CRANK = "slider-crank"
 
-@click.command()
-def cases() -> None:
-    """List the bundled case presets."""
+
+def bundled_cases() -> list[tuple[str, str, str]]:
+    """Every bundled preset of every kind as ``(name, kind, one line about it)``: the slider crank's
+    (``"thesis/ideal"``, its link-joint constants and description), then the other linkages' (``"rssr"``,
+    their ``[mechanism] kind`` and description).  Each name is what ``solve`` and ``case-path`` take."""
+    rows = []
     for name in preset_names():
         case = load_case(name)
         g = case.geometry
-        click.echo(
-            f"{name:28s} a1={g.crank_length:g} a2={g.rod_length:g} a4={g.slider_offset:g} "
-            f"alpha4={g.slider_twist_deg:g} S1={g.crank_axial_shift:g}  {case.raw.get('description', '')}"
-        )
+        rows.append((name, SLIDER_CRANK, f"a1={g.crank_length:g} a2={g.rod_length:g} a4={g.slider_offset:g} "
+                     f"alpha4={g.slider_twist_deg:g} S1={g.crank_axial_shift:g}  "
+                     f"{case.raw.get('description', '')}"))
+    for name in bundled_names():
+        data = read_linkage(name)
+        rows.append((name, str(linkage_kind(data)), str(data.get("description", ""))))
+    return rows
 
 
-def summarize(table: ResultTable, units: str = "consistent") -> str:
-    """What a designer reads first (:mod:`dualmech.models.design_summary`), the worst residual, the engine's
-    notes."""
+def bundled_case_path(name: str) -> Path:
+    """The file of the bundled preset ``name`` of any kind (a name of :func:`bundled_cases`, or a slider
+    crank's unique stem such as ``"ideal"``).
+
+    Raises
+    ------
+    CaseError
+        One line naming ``name`` and every valid name, where it is none of them.
+    """
+    if name in bundled_names():
+        return bundled_path(name)
+    try:
+        return preset_path(name)
+    except CaseError:
+        names = ", ".join(row[0] for row in bundled_cases())
+        raise CaseError(f"case: {show(name)} is not a bundled preset (presets: {names})") from None
+
+
+@click.command()
+def cases() -> None:
+    """List the bundled case presets of every kind (slider crank, RSSR, RCCC)."""
+    for name, kind, about in bundled_cases():
+        click.echo(f"{name:28s} {kind:12s} {about}")
+
+
+def assembly_failure(case: Case) -> str | None:
+    """Why ``case`` assembles at none of its crank angles, in one line with the reach's numbers, or ``None``
+    where it assembles at one at least.
+
+    The reach test of every engine (:func:`dualmech.core.assembly.reach`, ``docs/conventions.md``, "Edges of
+    assembly"): the loop closes where the crank pin ``P2`` is within ``a2 (1 + ASSEMBLY_REACH)`` of the slider
+    line.  The line names the crank pin's least distance from the line and where, and, when that is the
+    reason, that the offset alone puts the line out of reach (``|a4| - a1 > a2``: the distance is at least
+    ``|a4| - a1`` at every crank angle).
+    """
+    g, crank = case.geometry, case.own_crank_states()
+    rho = reach(crank_pin(g.crank_length, crank.theta, crank.s), g.foot, g.k4, g.rod_length)
+    if (rho <= 1.0 + ASSEMBLY_REACH.value).any():
+        return None
+    i = int(np.argmin(rho))
+    unit = column_unit("S4", case.units)
+    at = f" {unit}" if unit else ""
+    line = (f"{case.name}: the design assembles at no crank angle: the crank pin comes no nearer the slider "
+            f"line than {rho[i] * g.rod_length:.6g}{at} (theta1 = {np.degrees(crank.theta[i]):g} deg), "
+            f"beyond the rod's reach a2 = {g.rod_length:g}{at}")
+    a1, a4 = g.crank_length, abs(g.slider_offset)
+    if a4 - a1 > g.rod_length:
+        line += (f" (the offset |a4| = {a4:g}{at} exceeds the rod plus crank reach "
+                 f"a1 + a2 = {a1 + g.rod_length:g}{at})")
+    return line
+
+
+def summarize(table: ResultTable, case: Case) -> str:
+    """What a designer reads first (:mod:`dualmech.models.design_summary`) with the body masses, the worst
+    residual, the engine's notes; units from ``case.units``."""
     from dualmech.models.design_summary import design_summary
 
-    lines = design_summary(table, units).lines()
-    res = table["residual"]
+    lines = design_summary(table, case.units).lines()
+    lines.insert(1, masses_line(case))
+    res = table["residual"][table.status != Status.NO_ASSEMBLY]  # there: the reach's excess, not a closure's
     if np.isfinite(res).any():
         lines.append(f"worst closure residual: {np.nanmax(res):.3g}")
     lines += list(table.meta.get("messages", []))
@@ -62,9 +131,15 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
         _solve_linkage(case, output, engine, frames)
         return
     c = load_case(case)
+    warn_units(c)
+    failure = assembly_failure(c)
+    if failure:
+        raise CaseError(failure)
     if output and output_format(output) and engine == "dualmech" and frames == "world" \
             and len(c.motion.angles_deg) > STREAM_POSITIONS:  # long: streamed, chunk by chunk, into the file
-        click.echo(stream_solve(c, output))
+        with progress(f"solve {case}", unit="positions") as bar:
+            first, *rest = stream_solve(c, output, bar).split("\n")
+        click.echo("\n".join([first, masses_line(c), *rest]))
         return
     table = run_engine(engine, c)
     if output:
@@ -76,7 +151,14 @@ def solve(case: str, output: str | None, engine: str, frames: str) -> None:
             write_with(joint, lambda tmp: write_joint_frame_csv(c, table, tmp))
     else:
         sys.stdout.write(table.to_csv())
-    click.echo(summarize(table, c.units), err=output is None)
+    click.echo(summarize(table, c), err=output is None)
+
+
+def warn_units(*cases: Case) -> None:
+    """One line on stderr per size of each case implausible for its units
+    (:mod:`~dualmech.models.plausibility`): a warning, never an error."""
+    for line in (line for case in cases for line in implausible(case)):
+        click.echo(f"dualmech: warning: {line}", err=True)
 
 
 def _solve_linkage(case: str, output: str | None, engine: str, frames: str) -> None:
@@ -136,19 +218,32 @@ def mjcf(case: str, output: str) -> None:
               help="Positions of one case solved into Parquet, streamed (0: skip).")
 @click.option("--repeats", type=click.IntRange(min=1), default=3, show_default=True,
               help="Runs per figure (the median is quoted).")
+@click.option("--main-job", type=click.IntRange(min=0), default=5, show_default=True,
+              help="Timed runs of the main job (dualmech validate, default matrix) after a warm-up; 0: skip.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="Write the figures as a Markdown page (docs/performance.md) instead of printing them.")
 @one_line_errors
-def benchmark(cases: int, judge_cases: int, big: int, repeats: int) -> None:
-    """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, in one run
-    (Markdown)."""
-    from dualmech.validation.benchmark import run_benchmark
+def benchmark(cases: int, judge_cases: int, big: int, repeats: int, main_job: int,
+              output: str | None) -> None:
+    """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, and the main job's time,
+    in one run (Markdown)."""
+    from dualmech.validation.benchmark import performance_page, run_benchmark
+    from dualmech.validation.durable import write_text_durable
 
-    click.echo(run_benchmark(cases, judge_cases, big, repeats))
+    table = run_benchmark(cases, judge_cases, big, repeats, main_job)
+    if output is None:
+        click.echo(table)
+        return
+    command = (f"dualmech benchmark --cases {cases} --judge-cases {judge_cases} --big {big} "
+               f"--repeats {repeats} --main-job {main_job} -o {output}")
+    write_text_durable(Path(output), performance_page(table, command))
+    click.echo(f"wrote {output}")
 
 
 @click.command(name="case-path")
 @click.argument("name")
 @one_line_errors
 def case_path(name: str) -> None:
-    """Print the file of a bundled preset (to copy and edit)."""
-    click.echo(str(preset_path(name)))
+    """Print the file of a bundled preset of any kind (``dualmech cases``), to copy and edit."""
+    click.echo(str(bundled_case_path(name)))
 

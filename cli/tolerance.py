@@ -1,8 +1,7 @@
 """``dualmech tolerance``: distributions of the stroke and joint loads under manufacturing tolerances.
 
-A thin shell over :func:`dualmech.validation.tolerance_study.run_study` and
-:func:`dualmech.validation.tolerance_report.write_tolerance_report`; ``docs/conventions.md``
-("Tolerance analysis") defines the SPEC, every column and the summary.
+A thin shell over :func:`dualmech.validation.api.tolerance_study` (``dualmech.tolerance_study``);
+``docs/conventions.md`` ("Tolerance analysis") defines the SPEC, every column and the summary.
 Exit codes: 0 every spot check passed; 1 a judge disagreed, or the exact sensitivities disagree with
 central differences of the solver (named on stderr); 2 bad input (a folder that is not dualmech's, or
 one another study is writing: :mod:`dualmech.validation.rundir`).
@@ -11,25 +10,45 @@ one another study is writing: :mod:`dualmech.validation.rundir`).
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 
 import click
 
 from dualmech.cli.errors import one_line_errors
+from dualmech.cli.progress import progress
+from dualmech.cli.solve import warn_units
+from dualmech.models.case import Case
+from dualmech.models.plausibility import masses_line
 
 
-def _print_summary(summary: dict) -> None:
+def output_units(mode: str, units: str) -> dict[str, str]:
+    """The unit of every output of a design in load mode ``mode`` under the unit label ``units``."""
+    from dualmech.models.tolerance.outputs import FORCES, MOMENTS, SOLVED_LOAD
+    from dualmech.models.units import column_unit
+
+    columns = {"stroke": "S4", **{n: f"{prefix}x" for n, prefix in FORCES + MOMENTS},
+               SOLVED_LOAD[mode][0]: SOLVED_LOAD[mode][1]}
+    return {name: column_unit(column, units) for name, column in columns.items()}
+
+
+def _print_summary(summary: dict, case: Case) -> None:
+    click.echo(f"nominal design: {masses_line(case)}")
     y = summary.get("yield")
     if y:
         click.echo(f"yield {y['value']:.4f} (95 % Wilson {y['ci'][0]:.4f}..{y['ci'][1]:.4f}), "
                    f"{y['ok']} of {y['n']} designs assemble over the whole cycle")
-    click.echo(f"{'output':20s} {'mean':>13s} {'std':>11s} {'linear std':>11s} {'p99':>13s}")
+    units = output_units(summary["mode"], case.units)
+    click.echo(f"{'output':20s} {'unit':>9s} {'mean':>13s} {'std':>11s} {'linear std':>11s} {'p99':>13s}")
     for name in summary["nominal"]:
         o = summary["outputs"].get(name, {})
         lin = (summary.get("linear_std") or {}).get(name)
         cells = [o.get("mean"), o.get("std"), lin, o.get("p99")]
-        click.echo(f"{name:20s} " + " ".join(f"{'-' if v is None else format(v, '.6g'):>{w}s}"
-                                            for v, w in zip(cells, (13, 11, 11, 13))))
+        click.echo(f"{name:20s} {units.get(name, ''):>9s} "
+                   + " ".join(f"{'-' if v is None else format(v, '.6g'):>{w}s}"
+                              for v, w in zip(cells, (13, 11, 11, 13))))
+    for name, level in (summary.get("round_off") or {}).items():
+        click.echo(f"{name}: 0 in every design (the solver's round-off, at most {level:.1e}): not a load")
 
 
 @click.command()
@@ -49,32 +68,18 @@ def _print_summary(summary: dict) -> None:
 def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir: str, jobs: int,
               scheduler: str | None, judge_samples: int) -> None:
     """Tolerance study of CASE: Monte Carlo of SPEC and exact sensitivities, judged and reported."""
-    from dualmech.validation.tolerance_report import FigureDrawing
+    from dualmech.models.case import load_case
+    from dualmech.models.plausibility import ImplausibleUnitsWarning
+    from dualmech.validation.api import tolerance_study
 
-    if jobs < 1:
-        raise ValueError(f"jobs: expected 1 or more processes, got {jobs!r}")
-    if seed < 0:
-        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
-    # the figures are drawn by a worker process while this one runs the judges' spot checks; started
-    # first, it imports its libraries while this process imports the solver's and reads the inputs
-    drawing = FigureDrawing(parallel=judge_samples > 0)
-    drawing.warm()
-    try:
-        from dualmech.models.case import load_case
-        from dualmech.models.tolerance.spec import load_spec
-        from dualmech.models.tolerance.study import StudyInput
-        from dualmech.validation.rundir import locked
-        from dualmech.validation.tolerance_report import write_tolerance_report
-        from dualmech.validation.tolerance_study import run_study
-
-        study = StudyInput(load_case(case), load_spec(spec_file), n, seed)
-        with locked(outdir):  # one lock for the study and its report (a second study is refused)
-            summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples,
-                                            drawing)
-            files = write_tolerance_report(Path(outdir), summary, x, samples, drawing)
-    finally:
-        drawing.close()
-    _print_summary(summary)
+    nominal = load_case(case)
+    warn_units(nominal)  # the command's own one line each; the API's warning of the same is not repeated
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ImplausibleUnitsWarning)
+        done = tolerance_study(nominal, spec_file, n=n, seed=seed, method=method, outdir=outdir, jobs=jobs,
+                               scheduler=scheduler, judge_samples=judge_samples, progress=progress)
+    summary, files = done.summary, done.files
+    _print_summary(summary, nominal)
     click.echo(f"wrote {', '.join(str(Path(outdir) / f) for f in files)}")
     failed = [s for s in summary["judges"] if not s["passed"]]
     for s in failed:

@@ -8,16 +8,20 @@ exits with one of :data:`dualmech.validation.exit_codes.EXIT_CODES`.
 
 from __future__ import annotations
 
-import contextlib
 import sys
-from typing import IO, TYPE_CHECKING, Iterator
+from typing import IO, TYPE_CHECKING
 
 import click
 
 from dualmech.cli.errors import one_line_errors
+from dualmech.cli.progress import progress
+from dualmech.cli.solve import warn_units
+from dualmech.core.table import ResultTable
+from dualmech.models.case import Case, case_from_dict
+from dualmech.models.plausibility import masses_line
 from dualmech.validation.engines import ENGINES
 from dualmech.validation.exit_codes import EXIT_CLUSTER_LOST, EXIT_INTERRUPTED, exit_code
-from dualmech.validation.runner import ProgressCallback, run_versions
+from dualmech.validation.runner import run_versions
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -34,29 +38,6 @@ def _engine_list(values: tuple[str, ...]) -> tuple[str, ...]:
         if n not in ENGINES:
             raise ValueError(f"--engines: {n!r} is not an engine (valid: {', '.join(ENGINES)})")
     return names
-
-
-@contextlib.contextmanager
-def rich_progress(description: str = "solving") -> Iterator[ProgressCallback]:
-    """A rich progress bar (on stderr) as a :data:`~dualmech.validation.runner.ProgressCallback`.
-
-    It redraws only when called (no refresh thread), so that worker processes
-    forked while it is shown cannot inherit a lock held by another thread.
-    """
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    console = Console(stderr=True)
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.fields[last]}"), console=console, transient=False,
-                  auto_refresh=False) as bar:
-        task = bar.add_task(description, total=None, last="")
-
-        def update(done: int, total: int, label: str) -> None:
-            bar.update(task, completed=done, total=total, last=label)
-            bar.refresh()
-
-        yield update
 
 
 #: Console width when stdout is a pipe or a file: wide enough that no table cell is ever cut or wrapped.
@@ -161,13 +142,14 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
             "--resume": resume, "--scheduler": scheduler, "--junit": junit_file, "--baseline": baseline_file,
             "--write-baseline": write_baseline_file, "--report-dir": report_dir})
     matrix, outdir = open_run(matrix_file, outdir, _engine_list(engines))
+    warn_units(*_one_design(matrix))
     baseline = read_baseline(baseline_file, matrix.name) if baseline_file else None  # before the run
     if report_dir:
         check_output_folder(report_dir)
     console = summary_console(sys.stdout.isatty())
     try:
         progress_title = f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines"
-        with rich_progress(progress_title) as bar:
+        with progress(progress_title, unit="results") as bar:
             run = run_and_compare(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)
     except KeyboardInterrupt:
         click.echo(f"dualmech: interrupted; finished cases are kept in {outdir}; "
@@ -177,7 +159,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
         click.echo(f"dualmech: error: {err}", err=True)
         sys.exit(EXIT_CLUSTER_LOST)
     try:  # the run is compared in the report, once its first figures are being drawn
-        with rich_progress(f"report of {matrix.name}: figures") as bar:
+        with progress(f"report of {matrix.name}", unit="figures") as bar:
             files = write_report(outdir, report_dir, jobs=jobs or _cores(), comparison=lambda: run.comparison,
                                  results=run.results, progress=bar)
     finally:  # also after a failed report: the JUnit file and the baseline of the run
@@ -194,9 +176,28 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     title = (f"{matrix.name}: {len(matrix.cases)} cases, engines {', '.join(matrix.engines)} — "
              f"solved in {outcome.seconds:.1f} s ({how}; {outcome.ran} run, {outcome.skipped} resumed)")
     console.print(summary_table(matrix, comparison, title))
+    _print_design(console, matrix, outcome.results)
     _print_verdict(console, comparison, files, regressions, baseline_file, write_baseline_file, junit_file)
     console.print(f"report: {files.html} and {files.markdown} ({files.seconds:.1f} s)")
     sys.exit(exit_code(comparison.verdict, regressions))
+
+
+def _one_design(matrix: Matrix) -> tuple[Case, ...]:
+    """The case of a one-case matrix (a design of one's own, whose sizes and loads are shown), else none."""
+    return (case_from_dict(matrix.cases[0].raw),) if len(matrix.cases) == 1 else ()
+
+
+def _print_design(console: Console, matrix: Matrix, results: dict) -> None:
+    """A design of one's own (:func:`_one_design`): its body masses and the reference's peak loads, with
+    units (as ``solve`` prints them)."""
+    from dualmech.models.design_summary import design_summary
+
+    for case in _one_design(matrix):
+        table = results.get(matrix.cases[0].id, {}).get(matrix.reference)
+        lines = [masses_line(case)]
+        if isinstance(table, ResultTable):
+            lines += [line for line in design_summary(table, case.units).lines() if line.startswith("peak ")]
+        console.print("\n".join(lines), markup=False, highlight=False)
 
 
 def _print_verdict(console, comparison, files, regressions: list, baseline_file: str | None,
@@ -215,6 +216,11 @@ def _print_verdict(console, comparison, files, regressions: list, baseline_file:
         console.print(f"  [red]✗[/] {describe(c)}", markup=True, highlight=False)
     if len(failures) > SHOWN_FAILURES:
         console.print(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {files.markdown})")
+    near_lock = [c for c in comparison.checks if c.near_joint_lock and c.passed]
+    if near_lock:
+        where = sorted({f"{c.case} / {c.engine}" for c in near_lock})
+        console.print(f"near joint lock: {len(near_lock)} passing checks with their tolerance widened "
+                      f"({', '.join(where)}; see {files.markdown})", highlight=False)
     if baseline_file:
         if regressions:
             console.print(f"[red]REGRESSION[/] against {baseline_file}: {len(regressions)}")

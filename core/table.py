@@ -105,7 +105,7 @@ class ResultTable(ColumnTable):
     def to_pandas(self) -> Any:
         """A ``pandas.DataFrame`` of :data:`COLUMNS` (``n`` rows, float64 and ``status`` str).
 
-        pandas is optional (not a dependency): imported here only; if absent, a one-line ImportError.
+        pandas is a dependency, imported here only (at first use); if absent, a one-line ImportError.
         """
         return _optional("pandas", "to_pandas").DataFrame(self._column_dict())
 

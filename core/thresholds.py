@@ -42,6 +42,15 @@ EDGE_REFINE_CONDITION = Tolerance(
     0.1, "S4 carries the closure residual times 1/c, S4_ddot ~1/c^3: at c = 0.025 the residual CLOSURE_TOL "
     "(1e-14) left S4_ddot 3e-11 of its peak off the closed form; below c = 0.1 the closure goes on to "
     "rounding (a row or two of a revolution near an edge, so its cost is not measurable)")
+#: Structurally zero output: a load whose largest magnitude is at most this fraction of the case's own scale
+#: of its unit group (the largest force, or moment) is the solver's round-off, reported as 0 with its level
+#: (a peak that varies by no more than this is constant).
+ROUND_OFF_RELATIVE = Tolerance(
+    1e6 * 2.220446049250313e-16,
+    "10^6 eps: the in-house Newton-Euler solve leaves exact zeros at 0.5-5 eps of the case's scale (j4's "
+    "moment with a ball joint, 10 presets x 2 load modes), 1.4e4 eps where the lock's "
+    "1/sin amplifies it (the planar ideal case with a universal joint); the smallest genuine peak measured "
+    "is 1.3e-6 of its scale, 6e3 times above")
 #: Edge of reach, every engine: P2 farther than a2 from the slider line by more than this (relative to a2)
 #: is ``no_assembly``.
 ASSEMBLY_REACH = Tolerance(

@@ -17,7 +17,7 @@ the reasons).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -25,44 +25,53 @@ from typing import Any
 import numpy as np
 
 from dualmech.core.motion import CrankMotion, CrankState
-from dualmech.models.bodies import bodies_from_table
-from dualmech.models.inputs import (
-    ACCELERATION,
-    ANGLE_DEG,
-    AXIAL_CYCLES,
-    CRANK_ACCEL,
-    CRANK_RPM,
-    FORCE,
-    LENGTH,
-    MAX_CASE_NAME,
-    MAX_LENGTH_RATIO,
-    MAX_POSITIONS,
-    POSITIVE_LENGTH,
-    TORQUE,
-    CaseError,
-    NumberReader,
-    Range,
-    check_keys,
-    check_number,
-    check_text,
-    check_vector,
-    show,
-)
-from dualmech.models.mechanism import JOINT_TYPES, Bodies, Geometry, Joints, Loads
+from dualmech.models.case_format import KNOWN_UNITS, case_numbers, check_top_keys, deep_copy, parse_tables
+from dualmech.models.inputs import MAX_CASE_NAME, CaseError, show
+from dualmech.models.mechanism import Bodies, Geometry, Joints, Loads
 from dualmech.models.toml_input import read_toml
-from dualmech.models.units import UNIT_SYSTEMS
 
-#: The unit-system labels a case may state (``units = ...``; :mod:`dualmech.models.units`).
-#: Nothing is converted; the label only says what the numbers mean.
-KNOWN_UNITS: dict[str, str] = {label: system.description for label, system in UNIT_SYSTEMS.items()}
+__all__ = ["KNOWN_UNITS", "Case", "CaseError", "case_from_dict", "case_numbers", "load_case", "preset_names",
+           "preset_path", "with_loads"]
+
 #: |cos alpha4| below which the slider line lies in the crank plane (twist 90 or 270 deg): the cosine of
 #: a twist given in degrees is rounded to ~1e-16, so 1e-12 only admits the planar twists themselves.
 PLANAR_TWIST_COSINE = 1e-12
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Case:
-    """One slider-crank case: geometry, motion, bodies and loads."""
+    """One slider-crank case: geometry, motion, bodies and loads, validated.
+
+    Built from the tables of a case file, given as keyword arguments (the same keys, ranges and one-line
+    errors as the TOML reader; ``docs/conventions.md``, "Case files")::
+
+        case = Case("my-design", units="m-kg-s",
+                    geometry={"crank_length": 0.05, "rod_length": 0.2, "slider_offset": 0.01,
+                              "slider_twist_deg": 270, "crank_axial_shift": 0},
+                    motion={"crank_rpm": 600}, loads={"drive_torque": 2.0})
+
+    or by :func:`load_case` (a file or preset) and :func:`case_from_dict` (a parsed table).  A changed
+    copy is :meth:`with_values` (``dataclasses.replace`` is refused: it could not keep :attr:`raw`, from
+    which every engine and sweep rebuilds the case, consistent with the parts).
+
+    Parameters
+    ----------
+    name : str
+        The case's name (it becomes a file name in a run folder).
+    units : str
+        The unit-system label (:data:`KNOWN_UNITS`); nothing is converted.
+    geometry, motion, loads : dict
+        The ``[geometry]``, ``[motion]`` and ``[loads]`` tables.
+    bodies, joints, simulation, mechanism : dict, optional
+        The optional tables of the same names.
+    description : str, optional
+        Free text.
+
+    Raises
+    ------
+    CaseError
+        A ``ValueError`` of one line naming the key, the value and what would be valid.
+    """
 
     name: str
     units: str
@@ -75,6 +84,21 @@ class Case:
     #: ``[simulation] steps_per_degree``: the MuJoCo simulation judge's time step, in steps per degree of
     #: the fastest prescribed phase (``None``: its documented default, models/mjcf_settings.py).
     simulation_steps: int | None = None
+
+    def __init__(self, name: str = "design", *, geometry: dict | None = None, motion: dict | None = None,
+                 loads: dict | None = None, units: str = "consistent", bodies: dict | None = None,
+                 joints: dict | None = None,
+                 simulation: dict | None = None, mechanism: dict | None = None,
+                 description: str | None = None, **record: Any) -> None:
+        if record:
+            raise TypeError(f"Case: unexpected argument {', '.join(sorted(record))}; a changed case is "
+                            "case.with_values({'geometry.crank_length': ...}) (dataclasses.replace cannot "
+                            "keep a case's tables consistent)")
+        given = {"name": name, "units": units, "description": description, "mechanism": mechanism,
+                 "geometry": geometry, "motion": motion, "bodies": bodies, "loads": loads, "joints": joints,
+                 "simulation": simulation}
+        for field, value in parse_tables({k: v for k, v in given.items() if v is not None}).items():
+            object.__setattr__(self, field, value)
 
     def crank_state(self, theta: np.ndarray, theta_dot: np.ndarray | float,
                     theta_ddot: np.ndarray | float) -> CrankState:
@@ -97,7 +121,7 @@ class Case:
 
     def with_values(self, updates: dict[str, Any]) -> "Case":
         """Return a new case with dotted keys replaced, e.g. ``{"geometry.slider_offset": 10}``."""
-        raw = _deep_copy(self.raw)
+        raw = deep_copy(self.raw)
         for dotted, value in updates.items():
             node = raw
             *parents, leaf = dotted.split(".")
@@ -110,211 +134,20 @@ class Case:
             raw["name"] = (self.name + "".join(f"|{k}={v}" for k, v in updates.items()))[:MAX_CASE_NAME]
         return case_from_dict(raw)
 
-
-# ----------------------------------------------------------------------------- schema
-
-_SCHEMA: dict[str, dict[str, tuple[type | tuple, bool]]] = {
-    "geometry": {
-        "crank_length": ((int, float), True),
-        "rod_length": ((int, float), True),
-        "slider_offset": ((int, float), True),
-        "slider_twist_deg": ((int, float), True),
-        "crank_axial_shift": ((int, float), True),
-    },
-    "motion": {
-        "crank_rpm": ((int, float), True),
-        "crank_accel": ((int, float), False),
-        "axial_amplitude": ((int, float), False),
-        "axial_cycles": ((int, float), False),
-        "angles_deg": (dict, False),
-    },
-    "bodies": {
-        "crank_radius": ((int, float), False),
-        "rod_radius": ((int, float), False),
-        "slider_side": ((int, float), False),
-        "density": ((int, float), False),
-        "weight_density": ((int, float), False),
-        "gravity_constant": ((int, float), False),
-        "crank": (dict, False),
-        "rod": (dict, False),
-        "slider": (dict, False),
-    },
-    "mechanism": {"kind": (str, False)},
-    "joints": {name: (str, False) for name in JOINT_TYPES},
-    "loads": {
-        "drive_torque": ((int, float), False),
-        "slider_force": ((int, float), False),
-        "gravity": (list, False),
-    },
-    "simulation": {"steps_per_degree": ((int, float), False)},
-}
-_TOP = {"name": (str, True), "units": (str, False), "description": (str, False)}
-#: ``[mechanism] kind`` of this case format (optional; the other linkages: :mod:`dualmech.models.linkages`).
-SLIDER_CRANK = "slider-crank"
-
-
-def _deep_copy(d: Any) -> Any:
-    if isinstance(d, dict):
-        return {k: _deep_copy(v) for k, v in d.items()}
-    if isinstance(d, list):
-        return [_deep_copy(v) for v in d]
-    return d
-
-
-def _type_name(t: type | tuple) -> str:
-    if t == (int, float):
-        return "a number"
-    return {str: "a string", dict: "a table", list: "an array"}[t]
-
-
-def _check_keys(data: dict) -> None:
-    check_keys("", data, [*_TOP, *_SCHEMA])
-    for key, (typ, required) in _TOP.items():
-        if key in data and not isinstance(data[key], typ):
-            raise CaseError(f"{key}: expected {_type_name(typ)}, got {show(data[key])}")
-        if required and key not in data:
-            raise CaseError(f"{key}: required key missing")
-    for section, fields in _SCHEMA.items():
-        table = data.get(section, {})
-        if not isinstance(table, dict):
-            raise CaseError(f"{section}: expected a table, got {show(table)}")
-        check_keys(section, table, fields)
-        for key, value in table.items():
-            typ = fields[key][0]
-            if isinstance(value, bool) or not isinstance(value, typ):
-                raise CaseError(f"{section}.{key}: expected {_type_name(typ)}, got {show(value)}")
-        for key, (_, required) in fields.items():
-            if required and key not in table:
-                raise CaseError(f"{section}.{key}: required key missing")
-
-
-# ----------------------------------------------------------------------------- sections
-
-def _geometry(g: dict, number: NumberReader = check_number) -> Geometry:
-    a1 = number("geometry.crank_length", g["crank_length"], POSITIVE_LENGTH)
-    a2 = number("geometry.rod_length", g["rod_length"], POSITIVE_LENGTH)
-    a4 = number("geometry.slider_offset", g["slider_offset"], LENGTH)
-    alpha = number("geometry.slider_twist_deg", g["slider_twist_deg"], ANGLE_DEG)
-    s1 = number("geometry.crank_axial_shift", g["crank_axial_shift"], LENGTH)
-    return Geometry(a1, a2, a4, alpha, s1)
-
-
-#: ``[simulation] steps_per_degree``: whole steps, and few enough that a revolution stays seconds of MuJoCo.
-SIMULATION_STEPS = Range(1, 1024, "a whole number of steps per degree")
-
-
-def _simulation_steps(sim: dict) -> int | None:
-    """``[simulation] steps_per_degree`` (``None`` if not given); a one-line error outside
-    :data:`SIMULATION_STEPS`."""
-    value = sim.get("steps_per_degree")
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise CaseError(f"simulation.steps_per_degree: expected {SIMULATION_STEPS.describe()}, "
-                        f"got {show(value)}")
-    return int(SIMULATION_STEPS.check("simulation.steps_per_degree", value))
-
-
-def _slider_crank(kind: str) -> None:
-    """Refuse a ``[mechanism] kind`` other than the slider crank's (the other linkages have their own case
-    format: ``docs/conventions.md``, "Linkages")."""
-    from dualmech.models.linkages import KINDS
-
-    if kind in KINDS:
-        raise CaseError(f"mechanism.kind: {show(kind)} is read by dualmech solve or "
-                        f"dualmech.models.linkages, not as a slider crank (valid here: {SLIDER_CRANK})")
-    if kind != SLIDER_CRANK:
-        raise CaseError(f"mechanism.kind: {show(kind)} is not a known mechanism (valid: "
-                        f"{', '.join((SLIDER_CRANK, *KINDS))})")
-
-
-def _angles(spec: dict) -> np.ndarray:
-    check_keys("motion.angles_deg", spec, ("start", "stop", "step"))
-    start = check_number("motion.angles_deg.start", spec.get("start", 0.0), ANGLE_DEG)
-    stop = check_number("motion.angles_deg.stop", spec.get("stop", 360.0), ANGLE_DEG)
-    step = check_number("motion.angles_deg.step", spec.get("step", 1.0), ANGLE_DEG)
-    if step == 0:
-        raise CaseError("motion.angles_deg.step: expected a non-zero number of degrees, got 0")
-    span = stop - start  # finite: both ends are bounded
-    if abs(span) > abs(step) * MAX_POSITIONS:  # decided before dividing: a tiny step cannot overflow
-        raise CaseError(
-            f"motion.angles_deg.step: {step!r} deg from {start!r} to {stop!r} gives more than "
-            f"{MAX_POSITIONS:,} positions (the most per case); use a larger step"
-        )
-    count = math.ceil(span / step - 1e-9)
-    if count <= 0:
-        raise CaseError(
-            f"motion.angles_deg: start={start!r}, stop={stop!r}, step={step!r} gives no angle "
-            "(stop is exclusive; step must point from start to stop)"
-        )
-    return start + step * np.arange(count)
-
-
-def _motion(m: dict, number: NumberReader = check_number) -> CrankMotion:
-    rpm = number("motion.crank_rpm", m["crank_rpm"], CRANK_RPM)
-    return CrankMotion(
-        angles_deg=_angles(m.get("angles_deg", {})),
-        speed=2.0 * math.pi * rpm / 60.0,
-        accel=number("motion.crank_accel", m.get("crank_accel", 0.0), CRANK_ACCEL),
-        axial_amplitude=number("motion.axial_amplitude", m.get("axial_amplitude", 0.0), LENGTH),
-        axial_cycles=number("motion.axial_cycles", m.get("axial_cycles", 0.0), AXIAL_CYCLES),
-    )
-
-
-def _loads(ld: dict, number: NumberReader = check_number) -> Loads:
-    torque = ld.get("drive_torque")
-    force = ld.get("slider_force")
-    if (torque is None) == (force is None):
-        got = "both" if torque is not None else "neither"
-        raise CaseError(f"loads: got {got} of drive_torque / slider_force; give exactly one")
-    gravity = check_vector("loads.gravity", ld.get("gravity", [0.0, 0.0, 0.0]), ACCELERATION)
-    return Loads(
-        drive_torque=None if torque is None else number("loads.drive_torque", torque, TORQUE),
-        slider_force=None if force is None else number("loads.slider_force", force, FORCE),
-        gravity=gravity,
-    )
-
-
-def _joints(j: dict, motion: CrankMotion) -> Joints:
-    for key, value in j.items():
-        if value not in JOINT_TYPES[key]:
-            raise CaseError(f"joints.{key}: {show(value)} is not a joint type here "
-                            f"(valid: {', '.join(JOINT_TYPES[key])})")
-    joints = Joints(**j)
-    if joints.crank == "revolute" and motion.axial_amplitude != 0.0:
-        raise CaseError(f"motion.axial_amplitude: {motion.axial_amplitude!r} moves the crank along its axis, "
-                        "which a revolute crank (joints.crank) cannot; use 0 or crank = \"cylindrical\"")
-    return joints
-
-
-def _check_proportions(g: Geometry, m: CrankMotion) -> None:
-    size = max(g.crank_length, g.rod_length, abs(g.slider_offset), abs(g.crank_axial_shift),
-               abs(m.axial_amplitude))
-    for key, length in (("geometry.crank_length", g.crank_length), ("geometry.rod_length", g.rod_length)):
-        if length * MAX_LENGTH_RATIO < size:
-            raise CaseError(f"{key}: {length!r} is less than 1/{MAX_LENGTH_RATIO:g} of the mechanism's "
-                            f"largest length {size:g}; such a link is lost in the rounding of positions")
+    def with_parts(self, **parts: Any) -> "Case":
+        """A copy with some of its parts (``geometry``, ``motion``, ``bodies``, ``loads``) replaced as given,
+        unchecked, :attr:`raw` kept: for the solver's own derived cases (the same case at other crank angles,
+        numbers carrying a complex step), solved in this process.  A user's changed design is
+        :meth:`with_values`, which checks it."""
+        copy = object.__new__(Case)
+        object.__setattr__(copy, "__dict__", {**self.__dict__, **parts})
+        return copy
 
 
 # ----------------------------------------------------------------------------- public
 
-def case_numbers(data: dict,
-                 number: NumberReader = check_number) -> tuple[Geometry, CrankMotion, Bodies, Loads]:
-    """The numeric parts of a case table (keys known to be valid): geometry, motion, bodies, loads.
-
-    Every scalar is read by ``number`` (:data:`~dualmech.models.inputs.NumberReader`): the checked
-    float for :func:`case_from_dict`; the tolerance study's sensitivities read the checked float plus
-    an imaginary step on the varied key, so the case's derived numbers (the speed from the rpm, the
-    bodies' mass properties from their shapes) carry its derivative by the same code
-    (:mod:`dualmech.models.tolerance.sensitivity`).
-    """
-    geom = _geometry(data["geometry"], number)
-    motion, bodies = _motion(data["motion"], number), bodies_from_table(data.get("bodies", {}), geom, number)
-    return geom, motion, bodies, _loads(data.get("loads", {}), number)
-
-
 def case_from_dict(data: dict) -> Case:
-    """Validate a parsed case table and build the :class:`Case`.
+    """Validate a parsed case table (the TOML file's tables as a ``dict``) and build the :class:`Case`.
 
     Raises
     ------
@@ -323,21 +156,10 @@ def case_from_dict(data: dict) -> Case:
     """
     if not isinstance(data, dict):
         raise CaseError(f"case: expected a table, got {show(data)}")
-    mechanism = data.get("mechanism", {})
-    kind = mechanism.get("kind", SLIDER_CRANK) if isinstance(mechanism, dict) else None
-    if isinstance(kind, str):
-        _slider_crank(kind)  # first: another mechanism's keys are not this format's unknown keys
-    _check_keys(data)
-    geom, motion, bodies, loads = case_numbers(data)
-    _check_proportions(geom, motion)
-    joints = _joints(data.get("joints", {}), motion)
-    units = data.get("units", "consistent")
-    if units not in KNOWN_UNITS:
-        raise CaseError(f"units: {show(units)} is not a known unit label (valid: {', '.join(KNOWN_UNITS)})")
-    steps = _simulation_steps(data.get("simulation", {}))
-    name = check_text("name", data["name"], MAX_CASE_NAME)  # last: a derived name shows the values above
-    return Case(name=name, units=units, geometry=geom, motion=motion, bodies=bodies, loads=loads,
-                raw=_deep_copy(data), joints=joints, simulation_steps=steps)
+    check_top_keys(data)
+    if "name" not in data:
+        raise CaseError("name: required key missing")
+    return Case(**data)
 
 
 def preset_names() -> list[str]:
@@ -376,5 +198,9 @@ def load_case(source: str | Path) -> Case:
 
 
 def with_loads(case: Case, **updates: Any) -> Case:
-    """Copy of ``case`` with its loads replaced (e.g. switching torque/force mode)."""
-    return replace(case, loads=replace(case.loads, **updates))
+    """Copy of ``case`` with keys of its ``[loads]`` table replaced (``None`` removes one), e.g. switching
+    torque/force mode: ``with_loads(case, drive_torque=None, slider_force=0.0)``."""
+    loads = {**case.raw.get("loads", {}), **updates}
+    if "gravity" in updates:
+        loads["gravity"] = np.asarray(updates["gravity"], dtype=float).tolist()
+    return case_from_dict({**case.raw, "loads": {k: v for k, v in loads.items() if v is not None}})

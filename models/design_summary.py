@@ -4,16 +4,22 @@ Computed from a :class:`~dualmech.core.table.ResultTable` alone (any engine's), 
 report and ``dualmech solve`` print the same numbers; units come from the case's label
 (:mod:`dualmech.models.units`).  Peaks are taken over the ``ok`` rows: a dead centre
 has no finite reactions, and is listed instead.
+
+A peak is judged against the case's own scale of its unit group (the largest force peak, or the
+largest moment peak): at most :data:`~dualmech.core.thresholds.ROUND_OFF_RELATIVE` of it, the load
+is **structurally zero** (the solver's round-off: shown as 0 with that level, no angle); varying by
+no more than that over the ``ok`` rows, it is **constant** (its value, no angle).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import ResultTable
+from dualmech.core.thresholds import ROUND_OFF_RELATIVE
 from dualmech.models.units import column_unit
 
 #: |transmission| below this is a warning: the slider load (torque mode) or the drive torque (force mode)
@@ -32,19 +38,39 @@ PEAK_NAMES: tuple[str, ...] = tuple(
     f"{joint} |{kind}|" for joint, forces, moments in JOINTS
     for kind, cols in (("force", forces), ("moment", moments))
     if cols) + ("|drive_torque|", "|slider_load|")
+#: What a :class:`Peak` is: a genuine peak at an angle, a constant magnitude, or the solver's round-off.
+PEAK, CONSTANT, ZERO = "peak", "constant", "zero"
 
 
 @dataclass(frozen=True)
 class Peak:
-    """The largest magnitude of a quantity over the ok rows, and the crank angle where it occurs."""
+    """The largest magnitude of a quantity over the ok rows, and the crank angle where it occurs.
+
+    ``kind`` is :data:`PEAK`, :data:`CONSTANT` (``theta_deg`` NaN: every ok row has it) or :data:`ZERO`
+    (``value`` 0, ``theta_deg`` NaN, ``round_off`` the largest magnitude the solver left); ``scale`` is the
+    case's scale of the unit group it was judged against (module docstring).
+    """
 
     name: str
     value: float
     theta_deg: float
     unit: str
+    kind: str = PEAK
+    round_off: float = 0.0
+    scale: float = float("nan")
+
+    @property
+    def where(self) -> str:
+        """Where the peak is, for a table cell: ``at 55°``, ``constant``, or the round-off level."""
+        if self.kind == ZERO:
+            return f"round-off {self.round_off:.1e} {self.unit}" if self.round_off > 0 else "exactly 0"
+        return "constant" if self.kind == CONSTANT else f"at {self.theta_deg:g}°"
 
     def __str__(self) -> str:
-        return f"{self.name}: {self.value:.6g} {self.unit} at {self.theta_deg:g} deg".replace("  ", " ")
+        where = {ZERO: f"({self.where})", CONSTANT: "(constant)"}.get(
+            self.kind, f"at {self.theta_deg:g} deg")
+        value = "0" if self.kind == ZERO else f"{self.value:.6g}"
+        return f"{self.name}: {value} {self.unit} {where}".replace("  ", " ")
 
 
 @dataclass(frozen=True)
@@ -88,6 +114,20 @@ def _peak(name: str, magnitude: np.ndarray, theta: np.ndarray, unit: str) -> Pea
     return Peak(name, float(magnitude[i]), float(theta[i]), unit)
 
 
+def _judged(peak: Peak, magnitude: np.ndarray, scale: float) -> Peak:
+    """``peak`` as :data:`ZERO` or :data:`CONSTANT` when it is, against the group's ``scale``."""
+    if not np.isfinite(peak.value):
+        return peak
+    level = ROUND_OFF_RELATIVE.value * scale
+    nan = float("nan")
+    if peak.value <= level:
+        return replace(peak, value=0.0, theta_deg=nan, kind=ZERO, round_off=peak.value, scale=scale)
+    spread = peak.value - float(np.nanmin(magnitude))
+    if spread <= level:
+        return replace(peak, theta_deg=nan, kind=CONSTANT, scale=scale)
+    return replace(peak, scale=scale)
+
+
 def design_summary(table: ResultTable, units: str = "consistent") -> DesignSummary:
     """The :class:`DesignSummary` of ``table`` in the unit system ``units``."""
     ok = is_status(table.status, Status.OK)
@@ -96,14 +136,19 @@ def design_summary(table: ResultTable, units: str = "consistent") -> DesignSumma
     def on_ok(column: str) -> np.ndarray:
         return np.where(ok, table[column], np.nan)
 
-    peaks = []
+    found = []  # (peak, its magnitudes over the rows, its unit group)
     for joint, forces, moments in JOINTS:
         for kind, cols in (("force", forces), ("moment", moments)):
             if cols:
                 magnitude = np.linalg.norm(np.stack([on_ok(c) for c in cols]), axis=0)
-                peaks.append(_peak(f"{joint} |{kind}|", magnitude, theta, column_unit(cols[0], units)))
-    for column in ("drive_torque", "slider_load"):
-        peaks.append(_peak(f"|{column}|", np.abs(on_ok(column)), theta, column_unit(column, units)))
+                found.append((_peak(f"{joint} |{kind}|", magnitude, theta, column_unit(cols[0], units)),
+                              magnitude, kind))
+    for column, group in (("drive_torque", "moment"), ("slider_load", "force")):
+        magnitude = np.abs(on_ok(column))
+        found.append((_peak(f"|{column}|", magnitude, theta, column_unit(column, units)), magnitude, group))
+    scales = {g: max((p.value for p, _, pg in found if pg == g and np.isfinite(p.value)), default=0.0)
+              for g in ("force", "moment")}
+    peaks = [_judged(p, magnitude, scales[g]) for p, magnitude, g in found]
     s4 = table["S4"][is_status(table.status, Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT)]
     s4 = s4[np.isfinite(s4)]
     t = np.abs(table["transmission"])

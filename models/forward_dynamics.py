@@ -40,6 +40,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -92,6 +93,8 @@ MAX_EVALUATIONS = 200_000
 TIME_LIMIT = 60.0
 #: Range of the wall-time budget, seconds.
 TIME_BUDGET = Range(1e-3, 1e6, "a time limit in seconds")
+#: ``progress(t, duration, "")``: the simulated time reached, of the whole (the command line shows it).
+Progress = Callable[[float, float, str], None]
 
 
 # ----------------------------------------------------------------------------- loads
@@ -149,40 +152,39 @@ class Budget:
                               f"{self.evaluations:,} evaluations")
 
 
-def simulate(case: Case, duration: float, torque: float | str | LoadFunction | None = None,
+def simulate(case: Case, duration: float, *, torque: float | str | LoadFunction | None = None,
              psi0: float | None = None, psidot0: float | None = None, damping: float = 0.0,
              slider_damping: float = 0.0, slider_load: float | str | LoadFunction | None = None,
              samples: int = 1001, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
              interpolation_tol: float = 1e-12, model: CoefficientModel | None = None,
-             max_evaluations: int = MAX_EVALUATIONS, time_limit: float = TIME_LIMIT) -> Simulation:
+             max_evaluations: int = MAX_EVALUATIONS, time_limit: float = TIME_LIMIT,
+             progress: Progress | None = None) -> Simulation:
     """Integrate the crank's equation of motion from ``t = 0`` to ``duration`` (module docstring).
 
     Parameters
     ----------
-    case : Case
-        Geometry, bodies, gravity (``[loads].gravity``) and axial motion :math:`S_1(\\psi)`.
-    duration : float
-        End time (> 0), seconds.
+    case, duration : Case, float
+        Geometry, bodies, gravity and axial motion :math:`S_1(\\psi)`; the end time (> 0), seconds.
     torque, slider_load : number, expression or function, optional
         Motor torque :math:`\\tau^A` on the crank about +z, and :math:`F = k_4\\cdot` (force of the
         ground on the slider) excluding ``slider_damping``; a function is called as
         ``f(t, psi, psidot, s4, s4dot)``, an expression may use those names (:func:`load_expression`).
         Default: the case's ``drive_torque`` (torque mode) or ``slider_force`` (force mode), else 0.
     psi0, psidot0 : float, optional
-        Initial crank angle :math:`\\theta_1` (rad) and speed (rad/s); default the case's first
-        angle and ``crank_rpm``.
+        Initial crank angle :math:`\\theta_1` (rad), speed (rad/s); default the first angle, ``crank_rpm``.
     damping, slider_damping : float
         Viscous coefficients :math:`c_1` (torque·s/rad) of the crank bearing and :math:`c_4`
         (force·s/length) of the slider guide, >= 0.
-    samples, method, rtol, atol : equally spaced output times (>= 2, both ends included) and the
-        solve_ivp settings (``atol`` scaled per state component).
-    interpolation_tol, model : the relative accuracy asked of the coefficient table, or a
-        :class:`~dualmech.models.dynamics_coefficients.CoefficientModel` built before.
-    max_evaluations, time_limit : the integrator's budget: right-hand-side evaluations and wall
-        time (s); when either is used up the integration stops with a one-line ``ValueError``.
-
-    Every number is checked against its range first (:data:`DURATION`, :data:`RTOL`, ...;
-    ``docs/conventions.md``, "Input ranges").
+    samples, method, rtol, atol : int, str, float, float
+        Equally spaced output times (>= 2, both ends included) and the solve_ivp settings (``atol``
+        scaled per state component).
+    interpolation_tol, model : float, CoefficientModel, optional
+        The relative accuracy asked of the coefficient table, or a :class:`CoefficientModel` built before.
+    max_evaluations, time_limit : int, float
+        The integrator's budget: right-hand-side evaluations and wall time (s); when either is used
+        up the integration stops with a one-line ``ValueError``.
+    progress : callable, optional
+        ``progress(t, duration, "")`` at every right-hand-side evaluation (the command line's display).
 
     Returns
     -------
@@ -190,10 +192,13 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
 
     Raises
     ------
-    ValueError
-        One line: an input out of range, a load that is not a finite real number,
-        the budget used up, or a motion that runs away.
+    TypeError, ValueError
+        One line: ``case`` is not a Case, an input out of its range (every number is checked first:
+        ``docs/conventions.md``, "Input ranges"), a load that is not a finite real number, the budget
+        used up, or a motion that runs away.
     """
+    if not isinstance(case, Case):
+        raise TypeError(f"case: expected a dualmech.Case (from dualmech.Case or load_case), got {show(case)}")
     duration, damping, slider_damping, rtol, atol, interpolation_tol = checked_settings(
         duration, damping, slider_damping, rtol, atol, interpolation_tol, samples, method)
     budget, loads = Budget(max_evaluations, time_limit), case.loads
@@ -205,7 +210,7 @@ def simulate(case: Case, duration: float, torque: float | str | LoadFunction | N
     model = coefficient_model(case, interpolation_tol) if model is None else model
     rhs = _EquationOfMotion(model, tau_a, force, damping, slider_damping)
     sol = integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
-                     np.linspace(0.0, duration, int(samples)), method, rtol, atol)
+                     np.linspace(0.0, duration, int(samples)), method, rtol, atol, progress)
     info = {"method": method, "rtol": rtol, "atol": atol, "nfev": int(sol.nfev), "coefficients": model.mode,
             "table_size": model.size, "interpolation_error": model.error, "message": sol.message}
     return _trajectory(case, rhs, sol.t, sol.y, info)
@@ -252,13 +257,15 @@ class _EquationOfMotion:
 
 
 def integrate(rhs: _EquationOfMotion, budget: Budget, y0: np.ndarray, t_out: np.ndarray, method: str,
-               rtol: float, atol: float):
+               rtol: float, atol: float, progress: Progress | None = None):
     """``solve_ivp`` of ``rhs`` from ``y0`` over ``t_out`` within ``budget`` (``atol`` scaled per state);
-    a one-line ValueError where it stops early."""
+    a one-line ValueError where it stops early; ``progress(t, t_out[-1], "")`` at every evaluation."""
     from scipy.integrate import solve_ivp  # here: scipy costs 0.33 s of every command's start-up
 
     def counted_rhs(t: float, y: np.ndarray) -> np.ndarray:
         budget.spend(t)
+        if progress is not None:
+            progress(t, duration, "")
         dy = rhs(t, y)
         if not np.isfinite(dy).all():
             raise _Stopped(t, f"the state or its rate is not finite (psi = {y[0]:.6g} rad, "
@@ -283,6 +290,8 @@ def integrate(rhs: _EquationOfMotion, budget: Budget, y0: np.ndarray, t_out: np.
     if not sol.success:
         raise ValueError(f"simulate: the integrator stopped at t = {sol.t[-1]:.6g} s of {duration:g} s: "
                          f"{str(sol.message).splitlines()[0]}")
+    if progress is not None:  # the last evaluation may fall short of the end (a stage inside the last step)
+        progress(duration, duration, "")
     return sol
 
 
@@ -296,7 +305,7 @@ def _trajectory(case: Case, rhs: _EquationOfMotion, t: np.ndarray, y: np.ndarray
     f = np.array([rhs.slider_load(*v) for v in zip(t, psi, w, an.s4, s4dot)])
     bodies, gravity = case.bodies.ordered, case.loads.gravity
     reactions = solve_reactions(bodies, an.motions, an.p2, an.p3, case.geometry.k4, gravity,
-                                np.full(psi.shape, np.nan), f + rhs.slider_damping * s4dot)
+                                np.full(psi.shape, np.nan), f + rhs.slider_damping * s4dot, an.moment_axis)
     kinetic = sum(kinetic_energy(b, m) for b, m in zip(bodies, an.motions))
     masses = np.array([b.mass for b in bodies])
     potential = gi.potential_energy(masses, gravity, np.stack([m.com for m in an.motions]))

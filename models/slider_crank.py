@@ -44,7 +44,10 @@ class Analysis:
     ``iterations`` and ``closure_residual`` per position; ``closure_condition`` the
     ``|u·k4|`` of ``docs/conventions.md`` (geometric where the loop did not close); ``motions`` the crank,
     rod and slider :class:`BodyMotion`; ``rates`` the loop :class:`Rates`;
-    ``reactions`` the :class:`Reactions` (not masked: see :func:`to_table`).
+    ``reactions`` the :class:`Reactions` (not masked: see :func:`to_table`); ``moment_axis`` ``(n, 3)``
+    the universal joint's moment axis ``n`` the reactions were solved with (zero rows: a ball joint, or a
+    universal joint at its lock), for solving them again under other loads
+    (:func:`dualmech.models.forward_dynamics.simulate`).
     """
 
     case: Case
@@ -60,6 +63,7 @@ class Analysis:
     rates: Rates
     motions: tuple[BodyMotion, BodyMotion, BodyMotion]
     reactions: Reactions
+    moment_axis: np.ndarray
 
 
 def _take(obj, index: slice):
@@ -133,10 +137,11 @@ def analyze_closed(cases: Sequence[Case], cranks: Sequence[CrankState], batch: B
     given = np.array([[np.nan if k.loads.drive_torque is None else k.loads.drive_torque,
                        np.nan if k.loads.slider_force is None else k.loads.slider_force] for k in cases])
     gravity = np.repeat([k.loads.gravity for k in cases], counts, axis=0)
+    moment_axis = np.where(universal[:, None], joint_axes(u, k4)[1], 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         reactions = solve_reactions(bodies, motions, p2, p3, k4, gravity,
                                     np.repeat(given[:, 0], counts), np.repeat(given[:, 1], counts),
-                                    np.where(universal[:, None], joint_axes(u, k4)[1], 0.0))
+                                    moment_axis)
     torque_mode = np.repeat(np.isfinite(given[:, 0]), counts)
     dead = is_status(status, Status.OK) & torque_mode & (np.abs(transmission) < DEAD_CENTRE)
     status[dead] = Status.DEAD_CENTRE.value
@@ -147,7 +152,7 @@ def analyze_closed(cases: Sequence[Case], cranks: Sequence[CrankState], batch: B
         start += n
         out.append(Analysis(case, crank, s4[sl], status[sl], iters[sl], residual[sl], p2[sl], p3[sl],
                             transmission[sl], condition[sl], _take(rates, sl), _take(motions, sl),
-                            _take(reactions, sl)))
+                            _take(reactions, sl), moment_axis[sl]))
     return out
 
 

@@ -24,6 +24,7 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from dualmech.core.kernel.closure_nb import Work, make_work
+from dualmech.core.kernel.compiles import compile_session
 from dualmech.core.kernel.loop_nb import FlatLoop, flatten
 from dualmech.core.motion import CrankState
 from dualmech.core.status import STATUSES, Status
@@ -105,46 +106,31 @@ def _start(n: int, fl: FlatLoop, rules: Rules, args: tuple) -> list[Future]:
 
 
 @lru_cache(maxsize=1)
-def _setup() -> tuple[FlatLoop, Rules]:
-    """The flat loop and the :class:`Rules` (read from their homes) of the slider crank."""
+def load_kernel() -> tuple[FlatLoop, Rules]:
+    """The flat loop and the :class:`Rules` (read from their homes) of the slider crank, the kernel loaded
+    from numba's disk cache or, cold, compiled (minutes, once, logged as one compile: its run on no
+    positions, with the one signature of every call, :func:`start_positions`'s C-contiguous arrays)."""
+    from dualmech.core import thresholds as th
     from dualmech.core.kernel.closure_nb import closure_tols
     from dualmech.core.kernel.loop_nb import value_names
-    from dualmech.core.status import Status
-    from dualmech.core.thresholds import (
-        ASSEMBLY_LIMIT_CONDITION,
-        ASSEMBLY_REACH,
-        EDGE_REFINE_CONDITION,
-        JOINT_LOCK_CONDITION,
-    )
+    from dualmech.core.status import Status as S
     from dualmech.models import slider_crank_loop as sc
 
     names = value_names(sc.LOOP)
     vidx = np.array([names.index(k) for k in ("theta1", "S1", "a1", "a2", "a4", "alpha4")], dtype=np.int64)
-    order = (
-        Status.OK,
-        Status.DEAD_CENTRE,
-        Status.ASSEMBLY_LIMIT,
-        Status.BRANCH_JUMP,
-        Status.NOT_CONVERGED,
-        Status.NO_ASSEMBLY,
-        Status.NOT_FINITE,
-        Status.JOINT_LOCK,
-    )
+    order = (S.OK, S.DEAD_CENTRE, S.ASSEMBLY_LIMIT, S.BRANCH_JUMP, S.NOT_CONVERGED, S.NO_ASSEMBLY,
+             S.NOT_FINITE, S.JOINT_LOCK)
     codes = np.array([STATUSES.index(s.value) for s in order], dtype=np.int64)
     tols = closure_tols()
-    rules = Rules(
-        tols,
-        tols._replace(closure=0.0),
-        EDGE_REFINE_CONDITION.value,
-        vidx,
-        codes,
-        ASSEMBLY_REACH.value,
-        ASSEMBLY_LIMIT_CONDITION.value,
-        sc.DEAD_CENTRE,
-        JOINT_LOCK_CONDITION.value,
-        sc.CONTINUATION_STEPS,
-    )
-    return flatten(sc.LOOP), rules
+    rules = Rules(tols, tols._replace(closure=0.0), th.EDGE_REFINE_CONDITION.value, vidx, codes,
+                  th.ASSEMBLY_REACH.value, th.ASSEMBLY_LIMIT_CONDITION.value, sc.DEAD_CENTRE,
+                  th.JOINT_LOCK_CONDITION.value, sc.CONTINUATION_STEPS)
+    fl, z = flatten(sc.LOOP), np.empty
+    bodies = (z((0, 3)), z((0, 3, 3)), z((0, 3, 3, 3)), z((0, 3)), z(0), z(0))
+    with compile_session():
+        analyze_range(0, 0, *_scratch(fl, rules), fl, rules, z((6, 0)), z(0, np.int64), z((0, 5)), bodies,
+                      z((len(OUT_COLUMNS), 0)), z(0, np.int8), z(0, np.int64), z(0), z(0, bool))
+    return fl, rules
 
 
 #: Status words by code (:data:`dualmech.core.status.STATUSES`), for turning codes into words.
@@ -231,7 +217,8 @@ def analyze_chunk(
 ) -> Chunk:
     """Analyse the positions ``cranks[i]`` of every ``cases[i]``, concatenated, with the compiled kernel.
 
-    ``out`` ``(len(OUT_COLUMNS), >= n)``: a buffer to reuse (its first ``n`` columns are written).
+    ``out``: a C-contiguous buffer to reuse, of ``len(OUT_COLUMNS) * n`` elements or more (its first
+    ones are written, as a ``(len(OUT_COLUMNS), n)`` array).
     """
     return start_chunk(cases, cranks, out).result()
 
@@ -266,19 +253,29 @@ def start_positions(
     (a1, a2, a4, alpha4 [rad]) and of each array of ``bodies`` (the layout of :func:`case_arrays`:
     masses ``(designs, 3)``, centres of mass ``(designs, 3, 3)``, inertias ``(designs, 3, 3, 3)``
     of crank, rod and slider, gravity ``(designs, 3)``, given drive torque and slider load
-    ``(designs,)``, NaN where not given).  ``out``: a ``(len(OUT_COLUMNS), >= n)`` buffer to reuse.
+    ``(designs,)``, NaN where not given).  ``out``: a buffer to reuse, as in :func:`analyze_chunk`.
     ``index`` ``(n,)``: each position's index in its design (default: from its run's start), which
     fixes the cold starts (:func:`chain_starts`); a run that does not begin at a multiple of
     :data:`WARM_CHAIN` starts cold there, so its bits may differ from the whole design's.
     """
-    fl, rules = _setup()
+    fl, rules = load_kernel()
     n = crank.shape[1]
-    if out is None or out.shape[1] < n:
-        out = np.empty((len(OUT_COLUMNS), n))
-    out = out[:, :n]
+    out = _rows(out, n)
     status, iters, dyn = np.empty(n, np.int8), np.empty(n, np.int64), np.empty(n)
     args = (crank, case_of, geo, bodies, out, status, iters, dyn, chain_starts(case_of, index))
     return Running(Chunk(dict(zip(OUT_COLUMNS, out)), status, iters, dyn), _start(n, fl, rules, args))
+
+
+def _rows(buffer: np.ndarray | None, n: int) -> np.ndarray:
+    """A C-contiguous ``(len(OUT_COLUMNS), n)`` view of the first elements of ``buffer`` (new if there is
+    none or it is too small).  Not ``buffer[:, :n]``: that slice (a case's last, partial chunk) would reach
+    the kernel with numba's ``A`` layout, a second signature, compiled again for minutes."""
+    size = len(OUT_COLUMNS) * n
+    if buffer is None or buffer.size < size:
+        return np.empty((len(OUT_COLUMNS), n))
+    if not buffer.flags.c_contiguous:
+        raise ValueError(f"out: expected a C-contiguous buffer, got strides {buffer.strides}")
+    return buffer.reshape(-1)[:size].reshape(len(OUT_COLUMNS), n)
 
 
 def iter_chunks(case: Case, chunk_positions: int, buffers: int = 1, ahead: int = 0) -> Iterator[Chunk]:

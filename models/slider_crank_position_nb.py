@@ -140,7 +140,8 @@ def _reactions(
 
     :func:`dualmech.core.reactions.solve_reactions` for one position: ``need`` ``(3, 2, 3)``
     what the joints must supply to crank, rod and slider; ``axis`` the universal joint's moment
-    axis ``n`` (zero: a ball joint); ``v`` ``(16, 3)`` scratch.
+    axis ``n`` (zero: a ball joint); ``v`` ``(16, 3)`` scratch (rows 13 and 15 the residual's: row 14
+    holds the universal joint's moment until the residual has read it).
     """
     lam = _rod_force(need, p2, p3, k4, torque, load, axis, v)
     u, j3p, t, j3, j2 = v[1], v[3], v[5], v[6], v[7]
@@ -163,13 +164,13 @@ def _reactions(
         out[i], out[3 + i], out[6 + i] = j1f[i], j1m[i], j2[i]
         out[9 + i], out[12 + i], out[15 + i], out[18 + i] = j3[i], j3m[i], j4f[i], j4m[i]
     out[21], out[22] = dot(j4f, k4), j1m[2]
-    return _newton_euler_residual(need, p2, p3, j1f, j1m, j2, j3, j3m, j4f, j4mo, v[13:16])
+    return _newton_euler_residual(need, p2, p3, j1f, j1m, j2, j3, j3m, j4f, j4mo, v[13], v[15])
 
 
 @njit(**INLINE)
-def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, j3m, f4, m4o, v) -> float:
-    """Largest violation of the 18 equations (:func:`dualmech.core.reactions._newton_euler_residual`)."""
-    t2, t3 = v[0], v[1]
+def _newton_euler_residual(need, p2, p3, f1, m1, j2, j3, j3m, f4, m4o, t2, t3) -> float:
+    """Largest violation of the 18 equations (:func:`dualmech.core.reactions._newton_euler_residual`);
+    ``t2``, ``t3`` ``(3,)`` scratch, distinct from every other argument."""
     cross(p2, j2, t2)
     cross(p3, j3, t3)
     f_err, m_err, f_scale, m_big = 0.0, 0.0, 0.0, 0.0

@@ -3,6 +3,10 @@
 The closed-form kinematics oracle is ``tests/oracles.py``; test-only tolerances are in
 ``tests/tolerances.py``.
 
+The compiled kernel is loaded (or, with a cold numba cache, compiled, which takes minutes) once the
+tests are collected, before the first test, with the command line's notice and progress on stderr
+(:func:`pytest_collection_finish`): a first test that seems to hang for minutes is then explained.
+
 Hypothesis: the profile ``ci`` draws the same examples on every run (``derandomize``), so a red CI
 run is reproducible and a green one is not luck; it is loaded when the environment variable ``CI``
 is ``true`` (or ``HYPOTHESIS_PROFILE=ci``).  Locally the default profile explores new examples each
@@ -37,3 +41,16 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     from dualmech.validation.executors import end_all_pools
 
     end_all_pools()
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """Load the compiled kernel before the first test; a cold numba cache compiles it, with a notice and
+    progress on stderr (:func:`dualmech.cli.progress.show_kernel_compiles`; pytest's capture is off
+    between collection and the first test)."""
+    if session.config.option.collectonly or not session.items:
+        return
+    from dualmech.cli.progress import show_kernel_compiles
+    from dualmech.models.slider_crank_kernel import load_kernel
+
+    show_kernel_compiles()
+    load_kernel()

@@ -1,8 +1,10 @@
-"""The public Python API (issue 16): ``dualmech.models.load_case / solve``, ``dualmech.validation.validate``,
-the table's conversions, and the README's example, run as printed."""
+"""The package face (issue 30): ``import dualmech`` gives the documented names; a case is built in code with
+the TOML loader's checks; the verbs check their arguments in one line; the table's conversions; the
+README's Python blocks run as printed."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import subprocess
 import sys
@@ -12,9 +14,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-import dualmech.core
-import dualmech.models
-import dualmech.validation
+import dualmech
 from dualmech.core.status import ASSEMBLED
 from dualmech.core.table import COLUMNS, NUMERIC_COLUMNS, ResultTable
 from dualmech.validation.tolerances import MATRIX_KINEMATICS
@@ -23,30 +23,148 @@ ROOT = Path(__file__).resolve().parents[1]
 PRESET = "thesis/a4-30-s1-3"
 #: One case, the in-house reference judged by Pinocchio (docs/matrix-format.md, "A minimal matrix").
 ONE_CASE_MATRIX = 'name = "one-case"\nbase = "thesis/ideal"\nengines = ["dualmech", "pinocchio"]\n'
+#: A small SI design built in code (the README's "Your first design").
+SI_TABLES = {
+    "units": "m-kg-s",
+    "geometry": {"crank_length": 0.05, "rod_length": 0.2, "slider_offset": 0.01, "slider_twist_deg": 270.0,
+                 "crank_axial_shift": 0.0},
+    "motion": {"crank_rpm": 600.0, "angles_deg": {"start": 0.0, "stop": 360.0, "step": 2.0}},
+    "bodies": {"crank_radius": 0.01, "rod_radius": 0.005, "slider_side": 0.02, "density": 7850.0},
+    "loads": {"drive_torque": 2.0},
+}
 
 
-def readme_example() -> str:
-    """The ``python`` block of the README's "Python API" section."""
-    text = (ROOT / "README.md").read_text()
-    found = re.search(r"^## Python API\n.*?^```python\n(.*?)^```", text, re.S | re.M)
-    assert found, "README.md: no ```python block under '## Python API'"
-    return found.group(1)
+def readme_python_blocks() -> list[str]:
+    """Every ``python`` block of the README, in order."""
+    blocks = re.findall(r"^```python\n(.*?)^```", (ROOT / "README.md").read_text(), re.S | re.M)
+    assert blocks, "README.md: no ```python block"
+    return blocks
 
 
-def test_readme_example_runs_as_printed(tmp_path, monkeypatch, capsys) -> None:
-    monkeypatch.chdir(tmp_path)  # its outdir "runs/api" is relative
+def test_readme_python_runs_as_printed(tmp_path, monkeypatch, capsys) -> None:
+    """Every Python block of the README, in one namespace and a fresh folder (their outdirs are relative)."""
+    monkeypatch.chdir(tmp_path)
     names: dict = {}
-    exec(compile(readme_example(), "README.md", "exec"), names)
-    assert isinstance(names["table"], ResultTable) and names["table"].engine == "pinocchio"
+    for block in readme_python_blocks():
+        exec(compile(block, "README.md", "exec"), names)
+    assert isinstance(names["table"], ResultTable)
     assert names["run"].verdict == "PASS"
-    assert capsys.readouterr().out.startswith("PASS 360 ")
+
+
+def test_version_is_the_installed_distribution() -> None:
+    from importlib.metadata import version
+
+    assert dualmech.__version__ == version("dualmech")
+    assert re.fullmatch(r"\d+\.\d+\.\d+\S*", dualmech.__version__)
+
+
+def test_the_face_has_every_documented_name() -> None:
+    """``__all__`` of the face is what its docstring lists, each a real object, and an unknown name fails."""
+    listed = set(re.findall(r"^(\w[\w, ]*)\n    ", dualmech.__doc__.split("Names\n-----\n")[1], re.M))
+    documented = {n.strip() for line in listed for n in line.split(",")}
+    assert documented | {"__version__"} == set(dualmech.__all__)
+    for name in dualmech.__all__:
+        assert getattr(dualmech, name) is not None, name
+    assert set(dualmech.__all__) <= set(dir(dualmech))
+    with pytest.raises(AttributeError, match="no attribute 'no_such_name'"):
+        dualmech.no_such_name  # noqa: B018
+
+
+def test_a_case_built_in_code_is_the_case_of_the_same_file(tmp_path) -> None:
+    """``dualmech.Case(...)`` with a file's tables gives the same case as loading that file."""
+    import tomllib
+
+    path = ROOT / "models" / "cases" / "thesis" / "a4-30-s1-3.toml"
+    tables = tomllib.loads(path.read_text())
+    built = dualmech.Case(**tables)
+    loaded = dualmech.load_case(path)
+    assert built.name == loaded.name and built.raw == loaded.raw
+    assert built.geometry == loaded.geometry and built.joints == loaded.joints
+    assert built.bodies.crank.mass == loaded.bodies.crank.mass
+    assert dualmech.case_from_dict(tables).raw == loaded.raw
+    a, b = dualmech.solve(built), dualmech.solve(loaded)
+    assert_array_equal(a["S4"], b["S4"])
+
+
+def test_a_case_in_code_is_checked_as_a_file_is() -> None:
+    tables = {**SI_TABLES, "geometry": {**SI_TABLES["geometry"], "crank_length": -0.05}}
+    with pytest.raises(dualmech.CaseError, match=r"^geometry\.crank_length: .*-0\.05") as err:
+        dualmech.Case("bad", **tables)
+    assert "\n" not in str(err.value)
+    with pytest.raises(dualmech.CaseError, match=r"^geometry\.crank_lenght: unknown key"):
+        dualmech.Case("typo", **{**SI_TABLES, "geometry": {**SI_TABLES["geometry"], "crank_lenght": 1}})
+    with pytest.raises(TypeError, match=r"with_values"):
+        dataclasses.replace(dualmech.Case("ok", **SI_TABLES), name="other")
+
+
+def test_a_sweep_in_python_needs_no_file(tmp_path, monkeypatch) -> None:
+    """The face's example: the stroke grows with the offset a4 (docs/findings.md), from four cases in code."""
+    monkeypatch.chdir(tmp_path)
+    base = dualmech.load_case("thesis/ideal")
+    strokes = []
+    for a4 in (0.0, 10.0, 20.0, 30.0):
+        s4 = dualmech.solve(base.with_values({"geometry.slider_offset": a4}))["S4"]
+        strokes.append(np.nanmax(s4) - np.nanmin(s4))
+    assert_allclose(strokes[0], 24.0, rtol=1e-12)  # 2 a1: the in-line crank's stroke
+    assert np.all(np.diff(strokes) > 0)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_solve_takes_a_preset_a_file_or_a_table() -> None:
+    by_name = dualmech.solve("thesis/ideal")
+    by_file = dualmech.solve(ROOT / "models" / "cases" / "thesis" / "ideal.toml")
+    by_case = dualmech.solve(dualmech.load_case("thesis/ideal"))
+    by_table = dualmech.solve({"name": "si", **SI_TABLES})
+    assert_array_equal(by_name["S4"], by_case["S4"])
+    assert_array_equal(by_file["S4"], by_case["S4"])
+    assert len(by_table) == 180
+
+
+@pytest.mark.parametrize(("call", "error", "message"), [
+    (lambda: dualmech.solve(None), TypeError, r"^case: expected a dualmech\.Case.*got None$"),
+    (lambda: dualmech.solve(3.5), TypeError, r"^case: expected .*got 3\.5$"),
+    (lambda: dualmech.solve("no-such-preset"), ValueError, r"^case: 'no-such-preset' is neither"),
+    (lambda: dualmech.solve("thesis/ideal", engine=3), TypeError, r"^engine: expected an engine name"),
+    (lambda: dualmech.solve("thesis/ideal", engine="adams"), ValueError,
+     r"^engine: expected one of dualmech, pinocchio, mujoco, mujoco-sim, got 'adams'$"),
+    (lambda: dualmech.validate("thesis/ideal", engines=["dualmech", "adams"]), ValueError,
+     r"^engines: 'adams' is not an engine \(valid: dualmech, pinocchio, mujoco, mujoco-sim\)$"),
+    (lambda: dualmech.validate("thesis/ideal", engines=[1, 2]), TypeError,
+     r"^engines: expected engine names"),
+    (lambda: dualmech.validate("thesis/ideal", jobs="2"), TypeError, r"^jobs: expected a whole number >= 1, "
+                                                                     r"got '2'$"),
+    (lambda: dualmech.validate("thesis/ideal", jobs=0), ValueError, r"^jobs: expected a whole number >= 1"),
+    (lambda: dualmech.validate(42), TypeError, r"^source: expected a matrix or case file"),
+    (lambda: dualmech.validate("thesis/ideal", resume="yes"), TypeError, r"^resume: expected True or False"),
+    (lambda: dualmech.simulate("thesis/ideal", 1.0), TypeError, r"^case: expected a dualmech\.Case"),
+    (lambda: dualmech.tolerance_study("thesis/ideal", 7), TypeError, r"^spec: expected a tolerance SPEC"),
+])
+def test_the_verbs_check_their_arguments_in_one_line(tmp_path, monkeypatch, call, error, message) -> None:
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(error, match=message) as err:
+        call()
+    assert "\n" not in str(err.value)
+    assert list(tmp_path.iterdir()) == []  # refused before any folder is made
+
+
+def test_validate_takes_engines_as_the_command_line_does(tmp_path) -> None:
+    """A comma-separated string is the list the command line's ``--engines`` gives."""
+    run = dualmech.validate("thesis/ideal", tmp_path / "run", engines="dualmech, pinocchio", jobs=1)
+    assert run.matrix.engines == ("dualmech", "pinocchio") and run.verdict == "PASS"
+
+
+def test_validate_a_case_built_in_code(tmp_path) -> None:
+    case = dualmech.Case("si-design", **SI_TABLES)
+    run = dualmech.validate(case, tmp_path / "run", engines=["dualmech", "pinocchio"], jobs=1)
+    assert run.verdict == "PASS" and run.matrix.name == "si-design"
+    assert_array_equal(run.results["torque_design"]["dualmech"]["S4"], dualmech.solve(case)["S4"])
 
 
 def test_solve_pinocchio_agrees_with_dualmech_on_s4() -> None:
     """Two engines through the public names: S4 within 1e-9 of a2 (MATRIX_KINEMATICS) on every row."""
-    case = dualmech.models.load_case(PRESET)
-    own = dualmech.models.solve(case, engine="dualmech")
-    judge = dualmech.models.solve(case, engine="pinocchio")
+    case = dualmech.load_case(PRESET)
+    own = dualmech.solve(case, engine="dualmech")
+    judge = dualmech.solve(case, engine="pinocchio")
     assert (own.engine, judge.engine) == ("dualmech", "pinocchio")  # the engine argument is honoured
     assert len(own) == len(judge) == case.motion.angles_deg.shape[0]
     assert_array_equal(judge.status, own.status)
@@ -56,21 +174,14 @@ def test_solve_pinocchio_agrees_with_dualmech_on_s4() -> None:
     assert_allclose(judge["S4"][rows], own["S4"][rows], rtol=0.0, atol=MATRIX_KINEMATICS.value * a2)
 
 
-def test_solve_is_one_function_in_both_packages() -> None:
-    assert dualmech.models.solve is dualmech.validation.solve
-    with pytest.raises(ValueError, match=r"^engine: expected one of dualmech, pinocchio, mujoco, mujoco-sim, "
-                                         r"got 'adams'$"):
-        dualmech.models.solve(dualmech.models.load_case(PRESET), engine="adams")
-
-
 @pytest.mark.parametrize(("tolerances", "verdict"),
                          [("", "PASS"), ("[tolerances]\nkinematics = 0.0\n", "FAIL")])
 def test_validate_one_case_matrix(tmp_path, tolerances: str, verdict: str) -> None:
     """The default tolerances pass; a zero kinematics tolerance (Pinocchio differs by round-off) must fail."""
     matrix = tmp_path / "matrix.toml"
     matrix.write_text(ONE_CASE_MATRIX + tolerances)
-    run = dualmech.validation.validate(matrix, outdir=tmp_path / "run", jobs=1)
-    assert isinstance(run, dualmech.validation.ValidationRun)
+    run = dualmech.validate(matrix, outdir=tmp_path / "run", jobs=1)
+    assert isinstance(run, dualmech.ValidationRun)
     assert run.verdict == verdict
     assert list(run.results) == ["torque_base"]
     assert set(run.results["torque_base"]) == {"dualmech", "pinocchio"}
@@ -78,33 +189,21 @@ def test_validate_one_case_matrix(tmp_path, tolerances: str, verdict: str) -> No
     assert (tmp_path / "run" / "run.json").is_file()
 
 
-def test_validate_refuses_an_unknown_engine_in_one_line(tmp_path) -> None:
-    with pytest.raises(ValueError, match=r"engines") as err:
-        dualmech.validation.validate("thesis/ideal", outdir=tmp_path / "run", engines=["dualmech", "adams"])
-    assert "\n" not in str(err.value)
-
-
-def test_importing_the_packages_imports_no_engine() -> None:
-    """In a fresh interpreter: ``import dualmech.models`` (and validation, core) load no judge or plotting."""
-    heavy = ("pinocchio", "mujoco", "matplotlib", "pandas", "polars")
-    code = ("import sys, dualmech.core, dualmech.models, dualmech.validation\n"
-            f"print(' '.join(m for m in {heavy!r} if m in sys.modules))\n")
+def test_importing_the_face_imports_no_engine() -> None:
+    """In a fresh interpreter: ``import dualmech`` loads no judge, plotting or compiler, and solving with the
+    in-house engine loads no judge."""
+    heavy = ("pinocchio", "mujoco", "matplotlib", "pandas", "polars", "numba")
+    code = ("import sys, dualmech\n"
+            f"print(' '.join(m for m in {heavy!r} if m in sys.modules))\n"
+            "dualmech.solve('thesis/ideal')\n"
+            f"print(' '.join(m for m in {heavy[:3]!r} if m in sys.modules))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == ""
-
-
-def test_public_names_are_exported() -> None:
-    for package in (dualmech.core, dualmech.models, dualmech.validation):
-        assert package.__all__, package.__name__
-        for name in package.__all__:
-            assert getattr(package, name) is not None, f"{package.__name__}.{name}"
-    with pytest.raises(AttributeError):
-        dualmech.models.no_such_name  # noqa: B018
+    assert out.split("\n")[:2] == ["", ""]
 
 
 @pytest.fixture(scope="module")
 def table() -> ResultTable:
-    return dualmech.models.solve(dualmech.models.load_case(PRESET), engine="dualmech")
+    return dualmech.solve(dualmech.load_case(PRESET), engine="dualmech")
 
 
 def test_to_numpy_is_a_structured_array_of_every_column(table: ResultTable) -> None:
@@ -121,7 +220,6 @@ def test_to_numpy_is_a_structured_array_of_every_column(table: ResultTable) -> N
 
 
 def test_to_pandas(table: ResultTable) -> None:
-    pytest.importorskip("pandas")
     df = table.to_pandas()
     assert tuple(df.columns) == COLUMNS and len(df) == len(table)
     assert_array_equal(df["S4"].to_numpy(), table["S4"])
@@ -145,9 +243,8 @@ def test_a_missing_dataframe_library_is_named_in_one_line(table: ResultTable, mo
         getattr(table, method)()
 
 
-def test_validate_linkages_is_the_linkage_gate_from_python(tmp_path, monkeypatch) -> None:
-    pytest.importorskip("pinocchio")
-    run = dualmech.validation.validate_linkages("rssr", tmp_path / "run", engines=["dualmech", "pinocchio"])
+def test_validate_of_a_linkage_is_the_linkage_gate(tmp_path, monkeypatch) -> None:
+    run = dualmech.validate("rssr", tmp_path / "run", engines=["dualmech", "pinocchio"])
     assert run.verdict == "PASS" and (tmp_path / "run" / "summary.json").is_file()
     assert set(run.tables["rssr-crank-rocker"]) == {"dualmech", "pinocchio"}
     # the same gate fails when the judge's answer is off (a deliberate fault: the output angle 1e-6 deg off)
@@ -163,5 +260,4 @@ def test_validate_linkages_is_the_linkage_gate_from_python(tmp_path, monkeypatch
 
     monkeypatch.setattr(engines, "solve_case", shifted)
     monkeypatch.setattr("dualmech.validation.linkages.run.solve_case", shifted)
-    assert dualmech.validation.validate_linkages("rssr", tmp_path / "bad", engines=["dualmech", "pinocchio"]
-                                                 ).verdict == "FAIL"
+    assert dualmech.validate("rssr", tmp_path / "bad", engines=["dualmech", "pinocchio"]).verdict == "FAIL"

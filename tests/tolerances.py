@@ -47,6 +47,19 @@ KERNEL_VS_NUMPY_KINEMATICS = 1e-12
 #: The same for reactions, relative to the case's peak and condition-scaled by |t| in torque mode:
 #: 3x3 products summed in another order; measured <= 5.1e-14.
 KERNEL_VS_NUMPY_REACTIONS = 1e-11
+#: Newton-Euler residual of a table's reactions (the engines' ``meta["dynamics_residual"]``, and the 18
+#: equations of tests/models/newton_euler_oracle.py evaluated on the table's columns), relative to the
+#: position's force scale: a closed-form elimination, round-off only; measured <= 3.5e-16 (the engines' own),
+#: <= 2.9e-14 (the oracle's equations, whose closed-form kinematics differ from the engine's by round-off) on
+#: the presets.
+NEWTON_EULER_ROUND_OFF = 1e-12
+#: MuJoCo's simulation: the crank servo's largest lag against max |drive torque| / kp, relative: the servo's
+#: damping kv times the lag's rate adds to kp times the lag; measured 2e-4 on the thesis case at 50 N.
+SERVO_LAG = 1e-2
+#: MuJoCo's simulation of a linkage: the time between rows from their angles and rates (the trapezoid rule
+#: over a row's ~2 deg of a smoothly accelerating input) against the stated steps times the step, relative:
+#: measured <= 4.0e-6 (RSSR), 3.4e-6 (RCCC).
+ROW_SPACING = 1e-3
 #: S4 at assembly_limit rows (c < 1e-2), kernel against numpy, relative to a2: a closure residual r moves S4
 #: by ~r/c, and by ~sqrt(2 r) at c = 0 (r ~ 1e-14: 1.4e-7); measured 2.3e-10 at the exact edge.
 KERNEL_VS_NUMPY_AT_LIMIT = 1e-6

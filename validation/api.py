@@ -1,48 +1,95 @@
-"""The public Python API's two verbs: :func:`solve` one case on one engine, :func:`validate` a matrix.
+"""The public Python API's verbs: :func:`solve` one case on one engine, :func:`validate` a matrix,
+:func:`tolerance_study` a case under manufacturing tolerances.
 
-Both are re-exported by :mod:`dualmech.validation`; :func:`solve` also by :mod:`dualmech.models`
-(lazily, at first access), beside :func:`~dualmech.models.case.load_case`::
+They are the face :mod:`dualmech` re-exports (``api/__init__.py``)::
 
-    case = dualmech.models.load_case("thesis/a4-30-s1-3")          # a TOML path or a preset name
-    table = dualmech.models.solve(case, engine="pinocchio")         # a ResultTable
-    run = dualmech.validation.validate("thesis/a4-30-s1-3", outdir="runs/x")  # .verdict, .comparison
+    import dualmech
+    case = dualmech.load_case("thesis/a4-30-s1-3")           # a TOML path or a preset name
+    table = dualmech.solve(case, engine="pinocchio")          # a ResultTable
+    run = dualmech.validate("thesis/a4-30-s1-3", outdir="runs/x")  # .verdict, .comparison
 
 ``solve`` lives here, on the top floor, because three of its four engines (the judges: Pinocchio,
 MuJoCo rigid, MuJoCo simulation) are drivers in ``validation/``, and their one registry is
-:data:`~dualmech.validation.engines.ENGINES`; ``core/`` and ``models/`` may not import upwards
-(``tests/test_layout.py``), so ``dualmech.models.solve`` is a lazy alias of this function, not a second
-lookup.  ``validate`` is the body of ``dualmech validate`` without its console: the command calls
+:data:`~dualmech.validation.engines.ENGINES`.  Every verb checks its arguments as the command line does
+(type, range) and raises a one-line ``TypeError`` or ``ValueError`` naming the argument.
+``validate`` is the body of ``dualmech validate`` without its console: the command calls
 :func:`open_run` and :func:`run_and_compare`, then prints, writes JUnit, baseline and report.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from dualmech.core.table import ResultTable
-from dualmech.models.case import Case
-from dualmech.validation.engines import run_engine
+from dualmech.models.case import Case, case_from_dict, load_case
+from dualmech.models.inputs import show
+from dualmech.models.linkages import is_linkage
+from dualmech.models.plausibility import warn_implausible
+from dualmech.validation.engines import ENGINES, run_engine
 
 if TYPE_CHECKING:
+    import numpy as np
+
+    from dualmech.models.tolerance.spec import Spec
     from dualmech.validation.compare import Comparison, Verdict
     from dualmech.validation.linkages.report import LinkageReport
     from dualmech.validation.linkages.run import LinkageRun
     from dualmech.validation.matrix import Matrix
     from dualmech.validation.report.render import ReportFiles
-    from dualmech.validation.runner import ProgressCallback, RunOutcome
+    from dualmech.validation.runner import ProgressCallback, ProgressTasks, RunOutcome
 
 
-def solve(case: Case, engine: str = "dualmech") -> ResultTable:
+def as_case(case: Case | str | os.PathLike | dict, argument: str = "case") -> Case:
+    """``case`` as a :class:`Case`: itself, a case file or preset name (:func:`load_case`), or a case table
+    (:func:`case_from_dict`); anything else is a one-line ``TypeError`` naming ``argument``."""
+    if isinstance(case, Case):
+        return case
+    if isinstance(case, (str, os.PathLike)):
+        return load_case(case)
+    if isinstance(case, dict):
+        return case_from_dict(case)
+    raise TypeError(f"{argument}: expected a dualmech.Case, a case file, a preset name or a case table "
+                    f"(dict), got {show(case)}")
+
+
+def whole_number(argument: str, value: Any, least: int) -> int:
+    """``value`` as an ``int`` of at least ``least``: a one-line ``TypeError`` for a non-integer (a bool, a
+    float or a string included), a ``ValueError`` below ``least``."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TypeError(f"{argument}: expected a whole number >= {least}, got {show(value)}")
+    if value < least:
+        raise ValueError(f"{argument}: expected a whole number >= {least}, got {value!r}")
+    return value
+
+
+def engine_names(engines: Sequence[str] | str) -> tuple[str, ...]:
+    """``engines`` as a tuple of registered names; a comma-separated string is split, as the command line's
+    ``--engines`` is.  One-line ``TypeError``/``ValueError`` naming the first bad entry."""
+    names = tuple(e.strip() for e in engines.split(",") if e.strip()) if isinstance(engines, str) else engines
+    if not isinstance(names, Sequence) or not all(isinstance(e, str) for e in names):
+        raise TypeError(f"engines: expected engine names (a list of str, or one comma-separated str), "
+                        f"got {show(engines)}")
+    for name in names:
+        if name not in ENGINES:
+            raise ValueError(f"engines: {name!r} is not an engine (valid: {', '.join(ENGINES)})")
+    return tuple(names)
+
+
+def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") -> ResultTable:
     """Solve ``case`` over its crank positions with one engine.
 
     Parameters
     ----------
-    case : Case
-        From :func:`dualmech.models.load_case` (lengths in the case's units, angles in degrees).
+    case : Case, str, os.PathLike or dict
+        A :class:`~dualmech.models.case.Case` (lengths in the case's units, angles in degrees), a case
+        TOML file, a preset name (:func:`~dualmech.models.case.preset_names`) or a case table; the RSSR
+        and RCCC linkages (``"rssr"``, ``"rccc"``, or a case whose ``[mechanism] kind`` names one) give
+        their :class:`~dualmech.models.linkages.table.LinkageTable`.
     engine : str
         ``"dualmech"`` (the in-house dual-number solver), ``"pinocchio"``, ``"mujoco"`` (rigid) or
         ``"mujoco-sim"`` (a driven simulation); the judges import their library on first use.
@@ -55,10 +102,25 @@ def solve(case: Case, engine: str = "dualmech") -> ResultTable:
 
     Raises
     ------
-    ValueError
-        ``engine`` is not one of :data:`~dualmech.validation.engines.ENGINES` (one line).
+    TypeError, ValueError
+        One line: ``case`` is not a case (or its file or table is invalid: the key, the value and what
+        would be valid), ``engine`` is not one of :data:`~dualmech.validation.engines.ENGINES`.
+
+    Warns
+    -----
+    ImplausibleUnitsWarning
+        A link, body mass or inertia of ``case`` is implausible for its ``units`` (lengths in mm under
+        ``m-kg-s``, say): :mod:`dualmech.models.plausibility`.
     """
-    return run_engine(engine, case)
+    if not isinstance(engine, str):
+        raise TypeError(f"engine: expected an engine name (valid: {', '.join(ENGINES)}), got {show(engine)}")
+    if isinstance(case, (str, os.PathLike, dict)) and is_linkage(case):
+        from dualmech.validation.linkages.engines import solve_linkage
+
+        return solve_linkage(case, engine)
+    checked = as_case(case)
+    warn_implausible(checked)
+    return run_engine(engine, checked)
 
 
 @dataclass(frozen=True)
@@ -110,7 +172,7 @@ class ValidationRun:
                             results=self.results)
 
 
-def open_run(source: str | Path | None, outdir: str | Path | None,
+def open_run(source: str | Path | Case | None, outdir: str | Path | None,
              engines: Sequence[str] = ()) -> tuple[Matrix, Path]:
     """The matrix of ``source`` (on ``engines`` if given) and its checked output folder.
 
@@ -121,6 +183,11 @@ def open_run(source: str | Path | None, outdir: str | Path | None,
     from dualmech.validation.matrix import load_matrix
     from dualmech.validation.rundir import check_output_folder
 
+    if source is not None and not isinstance(source, (str, os.PathLike, Case)):
+        raise TypeError(f"source: expected a matrix or case file, a bundled name or a dualmech.Case, "
+                        f"got {show(source)}")
+    if outdir is not None and not isinstance(outdir, (str, os.PathLike)):
+        raise TypeError(f"outdir: expected a folder path, got {show(outdir)}")
     matrix = load_matrix(source)
     if engines:
         matrix = matrix.with_engines(tuple(engines))
@@ -140,20 +207,21 @@ def run_and_compare(matrix: Matrix, outdir: Path, *, jobs: int | None = None, re
     return ValidationRun(matrix, outdir, outcome)
 
 
-def validate(source: str | Path | None = None, outdir: str | Path | None = None, *,
-             engines: Sequence[str] = (), jobs: int | None = None, resume: bool = False,
+def validate(source: str | Path | Case | None = None, outdir: str | Path | None = None, *,
+             engines: Sequence[str] | str = (), jobs: int | None = None, resume: bool = False,
              scheduler: str | None = None) -> ValidationRun:
     """Run and compare a validation matrix, as ``dualmech validate`` does (without its console output).
 
     Parameters
     ----------
-    source : str or pathlib.Path, optional
-        A matrix TOML file or bundled matrix name (default ``thesis-1991``), or a case TOML file or
-        preset name (then one design, judged by every engine).
+    source : str, pathlib.Path or Case, optional
+        A matrix TOML file or bundled matrix name (default ``thesis-1991``), or one design (then judged
+        by every engine): a case TOML file, a preset name or a :class:`~dualmech.models.case.Case`.
     outdir : str or pathlib.Path, optional
         Run directory (new, empty, or an earlier dualmech run); default ``runs/<matrix name>``.
-    engines : sequence of str, optional
-        Run only these engines (the reference among them); default the matrix's.
+    engines : sequence of str or str, optional
+        Run only these engines (the reference among them), as a list or one comma-separated string;
+        default the matrix's.
     jobs : int, optional
         Worker processes (default all cores; 1 runs in this process).
     resume : bool
@@ -165,9 +233,18 @@ def validate(source: str | Path | None = None, outdir: str | Path | None = None,
     -------
     ValidationRun
         ``.verdict`` (``PASS``/``FAIL``/``INCOMPLETE``), ``.comparison``, ``.results``;
-        ``.write_report()`` renders it.
+        ``.write_report()`` renders it.  A linkage source (``"linkages"``, ``"rssr"``, ``"rccc"``, a
+        linkage case or matrix file) gives :func:`validate_linkages`'s run, its report already written.
     """
-    matrix, folder = open_run(source, outdir, engines)
+    from dualmech.validation.linkages.matrix import is_linkage_source
+
+    if jobs is not None:
+        whole_number("jobs", jobs, 1)
+    if not isinstance(resume, bool):
+        raise TypeError(f"resume: expected True or False, got {show(resume)}")
+    if isinstance(source, (str, os.PathLike)) and is_linkage_source(source):
+        return validate_linkages(source, outdir, engines=engine_names(engines))
+    matrix, folder = open_run(source, outdir, engine_names(engines))
     return run_and_compare(matrix, folder, jobs=jobs, resume=resume, scheduler=scheduler)
 
 
@@ -213,3 +290,100 @@ def validate_linkages(source: str | Path = "linkages", outdir: str | Path | None
         its :class:`~dualmech.models.linkages.table.LinkageTable`), ``.worst()`` per judge.
     """
     return run_linkage_validation(source, outdir, engines)[0]
+
+
+@dataclass(frozen=True)
+class ToleranceStudy:
+    """A finished tolerance study, as :func:`tolerance_study` returns it.
+
+    Attributes
+    ----------
+    outdir : pathlib.Path
+        The study folder: ``summary.json``, ``samples.csv``/``.parquet``, the report.
+    summary : dict
+        ``summary.json``'s content (``docs/conventions.md``, "Tolerance analysis").
+    x : numpy.ndarray or None
+        The sampled key values ``(n, k)`` (``None`` for ``method="linear"``).
+    samples : dict or None
+        Output name -> ``(n,)`` values of the sampled designs, and their ``status``.
+    files : list of str
+        The report's files, relative to :attr:`outdir`.
+    """
+
+    outdir: Path
+    summary: dict
+    x: np.ndarray | None
+    samples: dict[str, np.ndarray] | None
+    files: list[str]
+
+    @property
+    def passed(self) -> bool:
+        """Every judge's spot check agreed, and the exact sensitivities agree with central differences of
+        the solver (``dualmech tolerance`` exits 1 otherwise)."""
+        check = self.summary["sensitivity_check"]
+        return all(s["passed"] for s in self.summary["judges"]) and (check is None or check["passed"])
+
+
+def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os.PathLike | dict, *,
+                    n: int = 1000, seed: int = 0, method: str = "both",
+                    outdir: str | os.PathLike = "runs/tolerance", jobs: int = 1, scheduler: str | None = None,
+                    judge_samples: int = 5, progress: ProgressTasks | None = None) -> ToleranceStudy:
+    """Tolerance study of ``case``: Monte Carlo of ``spec`` and exact sensitivities, judged and reported, as
+    ``dualmech tolerance`` does (without its console).
+
+    Parameters
+    ----------
+    case : Case, str, os.PathLike or dict
+        The nominal design (as :func:`solve` takes it).
+    spec : Spec, str, os.PathLike or dict
+        The tolerance SPEC: a distribution per varied case key (``docs/conventions.md``, "Tolerance
+        analysis"), as a file or its table.
+    n, seed : int
+        Monte Carlo designs (>= 1) and the seed of their samples (>= 0; the same seed gives the same samples).
+    method : str
+        ``"mc"``, ``"linear"`` (exact sensitivities only) or ``"both"``.
+    outdir : str or os.PathLike
+        The study folder (new, empty, or an earlier study of the same inputs, which resumes).
+    jobs, scheduler : processes solving chunks of designs (>= 1), or a Dask scheduler address.
+    judge_samples : int
+        Sampled designs re-solved by Pinocchio and MuJoCo rigid (>= 0).
+    progress : callable, optional
+        Shows the Monte Carlo chunks and the spot checks as they are done
+        (:data:`~dualmech.validation.runner.ProgressTasks`; the command line's display).
+
+    Returns
+    -------
+    ToleranceStudy
+        ``.summary``, ``.samples``, ``.files``, ``.passed``.
+    """
+    from dualmech.models.tolerance.spec import Spec, load_spec, spec_from_dict
+    from dualmech.models.tolerance.study import StudyInput
+    from dualmech.validation.rundir import locked
+    from dualmech.validation.tolerance_report import FigureDrawing, write_tolerance_report
+    from dualmech.validation.tolerance_study import run_study
+
+    nominal = as_case(case)
+    warn_implausible(nominal)
+    if isinstance(spec, (str, os.PathLike)):
+        spec = load_spec(spec)
+    elif isinstance(spec, dict):
+        spec = spec_from_dict(spec)
+    elif not isinstance(spec, Spec):
+        raise TypeError(f"spec: expected a tolerance SPEC (a file, a table or a Spec), got {show(spec)}")
+    if not isinstance(outdir, (str, os.PathLike)):
+        raise TypeError(f"outdir: expected a folder path, got {show(outdir)}")
+    # n's range (1 to MAX_DESIGNS) is the study's own check
+    study = StudyInput(nominal, spec, whole_number("n", n, 0), whole_number("seed", seed, 0))
+    jobs, judge_samples = whole_number("jobs", jobs, 1), whole_number("judge_samples", judge_samples, 0)
+    # the figures are drawn by a worker process while this one runs the judges' spot checks; started
+    # first, it imports its libraries while this process solves
+    drawing = FigureDrawing(parallel=judge_samples > 0)
+    drawing.warm()
+    try:
+        with locked(outdir):  # one lock for the study and its report: a second study is refused
+            summary, x, samples = run_study(study, method, Path(outdir), jobs, scheduler, judge_samples,
+                                            drawing, tasks=progress)
+            files = write_tolerance_report(Path(outdir), summary, x, samples, drawing)
+    finally:
+        drawing.close()
+    return ToleranceStudy(Path(outdir), summary, x, samples, files)

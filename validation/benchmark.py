@@ -1,7 +1,8 @@
 """Speed of the in-house solver in one run beside a compiled closed-form yardstick, Pinocchio and MuJoCo.
 
 Not a test: timings depend on the machine.  ``dualmech benchmark`` prints a Markdown
-table; the README quotes one run with the command that produced it.  Every figure is
+table, or writes it as the page ``docs/performance.md`` (``-o``), with the command that produced it,
+so the page always holds one run's current figures.  Every figure is
 the median of ``repeats`` runs after one warm-up run (compilation, caches), with the
 process CPU time (all threads) beside the wall time.  Every engine solves the same
 seeded random cases (the thesis example with random offset, twist and axial shift).
@@ -20,13 +21,20 @@ seeded random cases (the thesis example with random offset, twist and axial shif
   driver's total, the time inside the engine: the seconds spent in the library's own
   functions (:func:`library_time`), measured in separate runs so that the timers do not
   slow the total.
+* **the main job** -- ``dualmech validate`` of the default matrix with its report, as a user runs it: a
+  fresh process into a fresh folder each time (:func:`time_main_job`), its wall time and the CPU time of
+  the process and its workers.
 """
 
 from __future__ import annotations
 
 import contextlib
+import datetime
 import platform
+import resource
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -247,8 +255,57 @@ def time_solve_parquet(positions: int, repeats: int) -> Timing:
         )
 
 
-def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000, repeats: int = 3) -> str:
-    """Run the benchmark and return a Markdown report."""
+@dataclass(frozen=True)
+class MainJobTiming:
+    """Wall and CPU seconds (the process and its workers) of each timed run of the main job."""
+
+    walls: tuple[float, ...]
+    cpus: tuple[float, ...]
+
+    def lines(self) -> list[str]:
+        """The Markdown table of the runs: median, fastest and slowest."""
+        w, c = self.walls, self.cpus
+        return ["| main job | runs | wall s, median | wall s, min-max | CPU s, median |",
+                "|---|---:|---:|---:|---:|",
+                f"| `dualmech validate` (thesis-1991, 4 engines, report) | {len(w)} | "
+                f"{statistics.median(w):.2f} | {min(w):.2f}-{max(w):.2f} | {statistics.median(c):.2f} |"]
+
+
+def time_main_job(runs: int) -> MainJobTiming:
+    """``dualmech validate`` of the default matrix ``runs`` times after a warm-up run, each in a fresh process
+    into a fresh folder; a run that does not PASS is a one-line ``RuntimeError`` (a failing job's time is
+    no figure)."""
+    walls, cpus = [], []
+    with tempfile.TemporaryDirectory(prefix="dualmech-main-job-") as tmp:
+        for i in range(runs + 1):
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            start = time.perf_counter()
+            proc = subprocess.run([sys.executable, "-m", "dualmech.cli", "validate", "-o", f"{tmp}/run{i}"],
+                                  capture_output=True, text=True, stdin=subprocess.DEVNULL)
+            wall = time.perf_counter() - start
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            if proc.returncode != 0:
+                last = (proc.stderr.strip() or proc.stdout.strip()).splitlines()[-1:] or [""]
+                raise RuntimeError(f"main job: dualmech validate exited {proc.returncode}: {last[0]}")
+            if i:
+                walls.append(wall)
+                cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+    return MainJobTiming(tuple(walls), tuple(cpus))
+
+
+def performance_page(table: str, command: str) -> str:
+    """``docs/performance.md``: the benchmark's ``table`` (Markdown) with the command that produced it."""
+    when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    return (f"# Performance\n\nCurrent figures: one run of `{command}` on {when}, written by that "
+            "command; run it again to regenerate this page. What each row measures: the module docstring of "
+            "`validation/benchmark.py`; the ratio column is each row's speed over the compiled closed-form "
+            "yardstick's, the machine's limit for the mechanism.\n\n" + table + "\n")
+
+
+def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000, repeats: int = 3,
+                  main_job: int = 0) -> str:
+    """Run the benchmark and return a Markdown report (``main_job`` > 0: that many timed runs of the main
+    job too)."""
     bench = random_cases(cases)
     n = _positions(bench)
     prepared = closed_form_inputs(bench)
@@ -283,4 +340,6 @@ def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000,
         "",
         f"kernel vs yardstick on 20 cases: largest difference {agreement(bench[:20]):.1e} of the peak",
     ]
+    if main_job:
+        lines += ["", *time_main_job(main_job).lines()]
     return "\n".join(lines)

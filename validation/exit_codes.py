@@ -2,12 +2,12 @@
 
 One home for them: the command line (:mod:`dualmech.cli`) exits with them, and the selftest's
 gate returns the code ``validate`` would (:func:`dualmech.validation.selftest.gate.gate_main`).
-The README's "Exit codes" table lists :data:`EXIT_CODES`.
+The "Exit codes" table of ``docs/validation.md`` lists :data:`EXIT_CODES`.
 """
 
 from __future__ import annotations
 
-#: Exit codes of ``validate`` and ``report`` (also in the README).
+#: Exit codes of ``validate`` and ``report`` (also in docs/validation.md, "Exit codes").
 EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT, EXIT_INCOMPLETE = 0, 1, 2, 3
 EXIT_CLUSTER_LOST, EXIT_INTERRUPTED = 4, 130
 EXIT_CODES: dict[int, str] = {

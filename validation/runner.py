@@ -27,6 +27,7 @@ import os
 import platform
 import time
 import traceback
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from importlib import import_module
@@ -62,6 +63,9 @@ ENGINE_COST = {"mujoco-sim": 5.0, "mujoco": 1.0, "pinocchio": 0.3, "dualmech": 0
 
 #: ``progress(done, total, label)``, called after each finished (case, engine).
 ProgressCallback = Callable[[int, int, str], None]
+#: ``tasks(description, unit=...)``: a context manager whose value is the :data:`ProgressCallback` of one
+#: stage of work, shown while inside (the command line's :func:`dualmech.cli.progress.progress`).
+ProgressTasks = Callable[..., AbstractContextManager[ProgressCallback]]
 
 
 @dataclass(frozen=True)

@@ -22,10 +22,12 @@ import numpy as np
 from dualmech.core.status import STATUSES
 from dualmech.core.table import ParquetWriter, ResultTable, write_parquet
 from dualmech.models.case import Case
+from dualmech.models.units import column_unit
 from dualmech.validation.durable import replacing, write_with
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
     from dualmech.models.slider_crank_kernel import Chunk
+    from dualmech.validation.runner import ProgressCallback
 
 #: Cases longer than this stream to their file (one chunk of the kernel each).
 STREAM_POSITIONS = 100_000
@@ -62,14 +64,16 @@ class _Tally:
 
     def add(self, columns: dict[str, np.ndarray], codes: np.ndarray) -> None:
         first = int(self.counts.sum())  # the chunk's first row in the case
-        self.no_assembly.append(first + np.flatnonzero(codes == STATUSES.index("no_assembly")))
+        beyond = codes == STATUSES.index("no_assembly")
+        self.no_assembly.append(first + np.flatnonzero(beyond))
         self.counts += np.bincount(codes, minlength=len(STATUSES))
         s4, theta = columns["S4"], columns["theta1_deg"]
         if np.isfinite(s4).any():
             for i in (int(np.nanargmax(s4)), int(np.nanargmin(s4))):
                 self.extremes.append((float(s4[i]), float(theta[i])))
-        if np.isfinite(columns["residual"]).any():
-            self.worst = max(self.worst, float(np.nanmax(columns["residual"])))
+        closed = columns["residual"][~beyond]  # beyond reach: the reach's excess, not a closure residual
+        if np.isfinite(closed).any():
+            self.worst = max(self.worst, float(np.nanmax(closed)))
 
     def text(self, case: Case, messages: list[str]) -> str:
         lines = [f"case {case.name} (dualmech): {int(self.counts.sum())} positions, streamed"]
@@ -77,8 +81,9 @@ class _Tally:
         if self.extremes:
             hi = max(self.extremes, key=lambda e: e[0])  # first of equal maxima, as nanargmax
             lo = min(self.extremes, key=lambda e: e[0])
+            unit = f" {column_unit('S4', case.units)}".rstrip()
             lines.append(
-                f"stroke: {hi[0] - lo[0]:.9g} (max S4 {hi[0]:.9g} at {hi[1]:g} deg, "
+                f"stroke: {hi[0] - lo[0]:.9g}{unit} (max S4 {hi[0]:.9g} at {hi[1]:g} deg, "
                 f"min S4 {lo[0]:.9g} at {lo[1]:g} deg)"
             )
         if np.isfinite(self.worst):
@@ -124,8 +129,9 @@ def _let_go(held: int | None) -> None:
         threading.Thread(target=os.close, args=(held,), name="dualmech-free", daemon=True).start()
 
 
-def stream_solve(case: Case, path: str | Path) -> str:
-    """Solve ``case`` with the compiled in-house engine chunk by chunk into ``path``; return the summary.
+def stream_solve(case: Case, path: str | Path, progress: ProgressCallback | None = None) -> str:
+    """Solve ``case`` with the compiled in-house engine chunk by chunk into ``path``; return the summary;
+    ``progress(positions written, positions, "")`` after each chunk.
 
     Each chunk is written (and tallied) on a writer thread while the kernel computes the next
     (:func:`_pipelined`), the kernel's threads going on to the chunk after without waiting at a chunk's
@@ -139,6 +145,7 @@ def stream_solve(case: Case, path: str | Path) -> str:
     parquet = output_format(path) == ".parquet"
     held = _hold_old_file(Path(path))
     tally = _Tally()
+    written = [0]
     try:
         with replacing(path) as (tmp, fd):
             out = ParquetWriter(tmp) if parquet else os.fdopen(os.dup(fd), "w")
@@ -147,9 +154,12 @@ def stream_solve(case: Case, path: str | Path) -> str:
                 tally.add(chunk.columns, chunk.status)
                 if parquet:
                     out.write(chunk.columns, chunk.status)
-                    return
-                text = to_table(case, chunk).to_csv()
-                out.write(text if k == 0 else text.split("\n", 1)[1])
+                else:
+                    text = to_table(case, chunk).to_csv()
+                    out.write(text if k == 0 else text.split("\n", 1)[1])
+                written[0] += chunk.status.size
+                if progress is not None:
+                    progress(written[0], len(case.motion.angles_deg), "")
 
             with out:
                 _pipelined(iter_chunks(case, CHUNK_POSITIONS, buffers=3, ahead=1), sink)

@@ -11,6 +11,7 @@ by the study's seed (:func:`~dualmech.models.tolerance.sampling.judge_picks`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,6 +21,9 @@ from dualmech.models.tolerance.outputs import DesignStatus, design_outputs, outp
 from dualmech.validation import engines
 from dualmech.validation.compare import compare_case
 from dualmech.validation.matrix import COMPARABLE, resolve_tolerances
+
+if TYPE_CHECKING:
+    from dualmech.validation.runner import ProgressCallback
 
 #: The judges of a tolerance study: the exact rigid-body engines (the simulation's tolerances are
 #: far looser than a design's spread, so it would not tell designs apart).
@@ -64,14 +68,18 @@ def spot_check(design: Case, reference: ResultTable, engine: str, judge: ResultT
                      failures, outputs)
 
 
-def run_spot_checks(designs: list[Case], judges: tuple[str, ...] = JUDGES) -> list[SpotCheck]:
-    """Every judge on every design (the reference solved once per design)."""
+def run_spot_checks(designs: list[Case], judges: tuple[str, ...] = JUDGES,
+                    progress: ProgressCallback | None = None) -> list[SpotCheck]:
+    """Every judge on every design (the reference solved once per design); ``progress(done, len(designs),
+    name)`` after each design."""
     from dualmech.models.slider_crank import solve_case
 
     out = []
-    for design in designs:
+    for k, design in enumerate(designs):
         reference = solve_case(design)
         out += [spot_check(design, reference, e, engines.run_engine(e, design)) for e in judges]
+        if progress is not None:
+            progress(k + 1, len(designs), design.name)
     return out
 
 

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from dualmech.core.thresholds import ROUND_OFF_RELATIVE
 from dualmech.models.tolerance.outputs import DesignStatus
 from dualmech.validation.rundir import locked, write_file
 
@@ -34,8 +35,9 @@ HIST_BINS = 40
 LOG_SPAN = 20.0
 #: Resolution of the PNGs (dots per inch).
 DPI = 80
-#: Histogram margins (fractions of the figure): room for 6-digit counts, the y label, log-axis powers.
-HIST_MARGINS = {"left": 0.16, "right": 0.965, "bottom": 0.13, "top": 0.88}
+#: Histogram margins (fractions of the figure): room for 6-digit counts, the y label, log-axis powers, the x
+#: label.
+HIST_MARGINS = {"left": 0.16, "right": 0.965, "bottom": 0.2, "top": 0.88}
 #: Tornado margins in inches: below (tick labels and x label), above (title), right, and beside the keys.
 TORNADO_BELOW, TORNADO_ABOVE, TORNADO_RIGHT, TORNADO_KEY_PAD = 0.56, 0.33, 0.25, 0.2
 
@@ -57,17 +59,19 @@ def _png(fig: Any) -> bytes:
     return buf.getvalue()
 
 
-def histogram_figure(name: str, values: np.ndarray, nominal: float | None, p99: float | None) -> Figure:
-    """Histogram of one output over the ``ok`` designs, nominal and p99 as vertical lines."""
+def histogram_figure(name: str, values: np.ndarray, nominal: float | None, p99: float | None,
+                     unit: str = "") -> Figure:
+    """Histogram of one output (in ``unit``) over the ``ok`` designs, nominal and p99 as vertical lines."""
     from dualmech.validation.report import Figure  # here: a command starts its figure worker sooner
 
-    fig = histogram_plot(name, values, nominal, p99)
+    fig = histogram_plot(name, values, nominal, p99, unit)
     n = int(np.isfinite(values).sum())
     return Figure(f"hist-{name}", "histogram", name, name, f"{name}: {n} fully assembling designs", _png(fig))
 
 
-def histogram_plot(name: str, values: np.ndarray, nominal: float | None, p99: float | None) -> Any:
-    """The matplotlib figure of :func:`histogram_figure` (not drawn)."""
+def histogram_plot(name: str, values: np.ndarray, nominal: float | None, p99: float | None,
+                   unit: str = "") -> Any:
+    """The matplotlib figure of :func:`histogram_figure` (not drawn); x label ``name [unit]``."""
     fig, ax = _pyplot().subplots(figsize=(4.2, 2.8), dpi=DPI)
     fig.subplots_adjust(**HIST_MARGINS)
     v = values[np.isfinite(values)]
@@ -81,6 +85,7 @@ def histogram_plot(name: str, values: np.ndarray, nominal: float | None, p99: fl
         if x is not None and np.isfinite(x):
             ax.axvline(x, color="#c62828" if label == "p99" else "#1565c0", ls=style, label=label)
     ax.set_title(name, fontsize=9)
+    ax.set_xlabel(f"{name} [{unit}]" if unit else name, fontsize=8)
     ax.set_ylabel("designs", fontsize=8)
     ax.tick_params(labelsize=7)
     ax.legend(fontsize=7)
@@ -128,18 +133,21 @@ def tornado_plot(name: str, keys: list[str], sobol: dict | None, linear: dict | 
 
 
 def figure_jobs(summary: dict, samples: dict[str, np.ndarray] | None) -> list[tuple]:
-    """What every figure is drawn from (picklable): ``("hist", name, values, nominal, p99)`` per output
-    over the ``ok`` designs, then ``("tornado", name, keys, sobol, linear)``.
+    """What every figure is drawn from (picklable): ``("hist", name, values, nominal, p99, unit)`` per
+    output over the ``ok`` designs, then ``("tornado", name, keys, sobol, linear)``; none for an output that
+    is round-off (``summary["round_off"]``: reported as 0, it has no distribution nor variance shares).
 
     ``summary`` needs ``nominal``, ``outputs``, ``keys``, ``contribution`` and ``linear_share``, non-finite
-    numbers as ``None`` (as in ``summary.json``).
+    numbers as ``None`` (as in ``summary.json``), and may give ``round_off`` and ``units``.
     """
-    names = list(summary["nominal"])
+    round_off = summary.get("round_off") or {}
+    names = [name for name in summary["nominal"] if name not in round_off]
+    units = summary.get("units") or {}
     jobs: list[tuple] = []
     if samples is not None:
         ok = np.asarray(samples["status"], dtype=str) == DesignStatus.OK.value
         jobs += [("hist", name, np.asarray(samples[name], float)[ok], summary["nominal"][name],
-                  summary["outputs"].get(name, {}).get("p99")) for name in names]
+                  summary["outputs"].get(name, {}).get("p99"), units.get(name, "")) for name in names]
     jobs += [("tornado", name, summary["keys"], (summary.get("contribution") or {}).get(name),
               (summary.get("linear_share") or {}).get(name)) for name in names]
     return jobs
@@ -224,7 +232,10 @@ def write_tolerance_report(outdir: Path, summary: dict, x: np.ndarray | None,
         figures = draw_figures(figure_jobs(summary, samples))
     elif isinstance(figures, FigureDrawing):
         figures = figures.collect()
-    context = {"s": summary, "figures": figures, "names": list(summary["nominal"])}
+    given = summary.get("units") or {}
+    units = {n: f"[{given[n]}]" if given.get(n) else "" for n in summary["nominal"]}
+    context = {"s": summary, "figures": figures, "names": list(summary["nominal"]), "units": units,
+               "round_off": summary.get("round_off") or {}, "round_off_relative": ROUND_OFF_RELATIVE.value}
     with locked(outdir) as outdir:  # the run folder's rules: inside it, no link followed, atomic files
         for f in figures:
             write_file(outdir, f"figures/{f.key}.png", f.png)

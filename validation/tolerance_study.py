@@ -25,7 +25,7 @@ import zlib
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Iterator
+from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 
@@ -33,7 +33,7 @@ from dualmech.models.slider_crank import solve_case
 from dualmech.models.tolerance import sensitivity
 from dualmech.models.tolerance.designs import design_name
 from dualmech.models.tolerance.differences import check_sensitivities
-from dualmech.models.tolerance.outputs import design_outputs, output_names
+from dualmech.models.tolerance.outputs import design_outputs, output_names, output_units
 from dualmech.models.tolerance.sampling import judge_picks, n_chunks
 from dualmech.models.tolerance.spec import design_case, nominal_values
 from dualmech.models.tolerance.study import (
@@ -55,6 +55,9 @@ from dualmech.validation.executors import execute
 from dualmech.validation.provenance import versions
 from dualmech.validation.tolerance_judges import candidates, run_spot_checks
 from dualmech.validation.tolerance_report import FigureDrawing
+
+if TYPE_CHECKING:
+    from dualmech.validation.runner import ProgressCallback, ProgressTasks
 
 #: Chunks solved at once in this process (``jobs = 1``): the kernel releases the GIL, so while its
 #: threads work on one chunk's positions this thread reduces, stores and writes another, and the
@@ -134,8 +137,9 @@ def in_process(calls: list[tuple], leftovers: list[dict]) -> Iterator[dict]:
 
 
 def run_chunks(outdir: Path, study: StudyInput, todo: list[int], jobs: int, scheduler: str | None,
-               stream: SampleStream | None = None) -> int:
-    """Solve the chunks ``todo``, storing each as it finishes (and handing it to ``stream``); how many ran."""
+               stream: SampleStream | None = None, progress: ProgressCallback | None = None) -> int:
+    """Solve the chunks ``todo``, storing each as it finishes (and handing it to ``stream``); how many ran.
+    ``progress(done, len(todo), "chunk <index>")`` after each."""
     calls = [(study.case.raw, study.spec.to_dict(), study.n, study.seed, c) for c in todo]
     leftovers: list[dict] = []
     if jobs <= 1 and not scheduler:
@@ -149,6 +153,8 @@ def run_chunks(outdir: Path, study: StudyInput, todo: list[int], jobs: int, sche
             if stream is not None:
                 stream.add(entry["index"], entry["x"], entry["outputs"])
             done += 1
+            if progress is not None:
+                progress(done, len(todo), f"chunk {entry['index']}")
     finally:
         entries.close()
         for entry in leftovers:
@@ -157,10 +163,12 @@ def run_chunks(outdir: Path, study: StudyInput, todo: list[int], jobs: int, sche
 
 
 def monte_carlo(outdir: Path, study: StudyInput, jobs: int, scheduler: str | None,
-                figures: FigureDrawing | None = None) -> tuple[dict, np.ndarray, dict[str, np.ndarray]]:
+                figures: FigureDrawing | None = None, tasks: ProgressTasks | None = None,
+                ) -> tuple[dict, np.ndarray, dict[str, np.ndarray]]:
     """Run (or resume) the Monte Carlo part: (timing facts, key values ``(n, k)``, outputs ``(n,)``).
 
-    ``figures`` is warmed once the folder is accepted (its worker starts while the chunks are solved).
+    ``figures`` is warmed once the folder is accepted (its worker starts while the chunks are solved);
+    ``tasks``: the chunks' progress is shown as its task ``"tolerance: Monte Carlo"``.
     """
     todo = prepare(outdir, study)
     if figures is not None:
@@ -180,7 +188,8 @@ def monte_carlo(outdir: Path, study: StudyInput, jobs: int, scheduler: str | Non
         stream = SampleStream(study, set(range(n_chunks(study.n))) - set(todo), paths[0],
                               paths[1] if len(paths) > 1 else None, load)
         try:
-            ran = run_chunks(outdir, study, todo, jobs, scheduler, stream)
+            with _task(tasks, "tolerance: Monte Carlo", "chunks") as bar:
+                ran = run_chunks(outdir, study, todo, jobs, scheduler, stream, bar)
             x, samples = stream.finish()
         except BaseException:
             stream.abort()
@@ -188,6 +197,12 @@ def monte_carlo(outdir: Path, study: StudyInput, jobs: int, scheduler: str | Non
     solve_s = time.perf_counter() - start
     return ({"chunks_run": ran, "chunks_resumed": n_chunks(study.n) - len(todo), "solve_s": solve_s,
              "files": files}, x, samples)
+
+
+def _task(tasks: ProgressTasks | None, description: str, unit: str
+          ) -> contextlib.AbstractContextManager[ProgressCallback | None]:
+    """``tasks(description, unit=unit)``, or nothing to report to."""
+    return contextlib.nullcontext() if tasks is None else tasks(description, unit=unit)
 
 
 def _check_inputs(study: StudyInput, method: str, judge_samples: int) -> None:
@@ -199,6 +214,7 @@ def _check_inputs(study: StudyInput, method: str, judge_samples: int) -> None:
 
 def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, scheduler: str | None = None,
               judge_samples: int = 5, figures: FigureDrawing | None = None,
+              tasks: ProgressTasks | None = None,
               ) -> tuple[dict, np.ndarray | None, dict[str, np.ndarray] | None]:
     """The whole study (module docstring): returns the summary (also in ``DIR/summary.json``) and the samples.
 
@@ -207,21 +223,22 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
 
     Sampled key values ``(n, k)`` and outputs are ``None`` for ``method = "linear"``.  ``figures``: started
     (:meth:`~dualmech.validation.tolerance_report.FigureDrawing.start`) once the statistics are known,
-    before the spot checks.
+    before the spot checks.  ``tasks``: the progress of the Monte Carlo chunks and of the spot checks is
+    shown as two of its tasks (:data:`~dualmech.validation.runner.ProgressTasks`).
     """
     _check_inputs(study, method, judge_samples)
     with rundir.locked(outdir) as outdir:
-        return _run_locked(study, method, outdir, jobs, scheduler, judge_samples, figures)
+        return _run_locked(study, method, outdir, jobs, scheduler, judge_samples, figures, tasks)
 
 
 def _run_locked(study: StudyInput, method: str, outdir: Path, jobs: int, scheduler: str | None,
-                judge_samples: int, figures: FigureDrawing | None,
+                judge_samples: int, figures: FigureDrawing | None, tasks: ProgressTasks | None,
                 ) -> tuple[dict, np.ndarray | None, dict[str, np.ndarray] | None]:
     """:func:`run_study` in its locked folder."""
     timing: dict = {}
     x = samples = None
     if method != "linear":
-        timing, x, samples = monte_carlo(outdir, study, jobs, scheduler, figures)
+        timing, x, samples = monte_carlo(outdir, study, jobs, scheduler, figures, tasks)
     start = time.perf_counter()
     table = solve_case(study.case)
     mode = study.case.loads.mode
@@ -232,17 +249,20 @@ def _run_locked(study: StudyInput, method: str, outdir: Path, jobs: int, schedul
     timing["sensitivity_s"] = time.perf_counter() - start
     stats = summarize(study.spec, nominal, x, samples, sens)
     if figures is not None:
-        figures.start(finite_json({**stats, "keys": list(study.spec.keys)}), samples)
+        figures.start(finite_json({**stats, "keys": list(study.spec.keys),
+                                   "units": output_units(mode, study.case.units)}), samples)
     if samples is not None:
         picks = judge_picks(judge_samples, study.seed, candidates(samples["status"]))
         designs = [design_case(study.case, study.spec, x[i], design_name(int(i))) for i in picks]
     else:
         designs = [study.case] if judge_samples else []
     start = time.perf_counter()
-    spots = run_spot_checks(designs)
+    with _task(tasks, "tolerance: judges' spot checks", "designs") as bar:
+        spots = run_spot_checks(designs, progress=bar)
     timing["judges_s"] = time.perf_counter() - start
     summary = {"n": study.n if samples is not None else 0, "seed": study.seed, "method": method,
                "case": study.case.name, "mode": study.case.loads.mode, "keys": list(study.spec.keys),
+               "units": output_units(mode, study.case.units),
                "nominal_values": dict(zip(study.spec.keys, nominal_values(study.case, study.spec).tolist())),
                "spec": study.spec.to_dict(), **stats, "sensitivity_check": check,
                "judges": [s.to_dict() for s in spots],

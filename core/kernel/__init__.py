@@ -22,6 +22,10 @@ Nothing here allocates or counts references (compiled without numba's runtime: s
 the caller.  Everything here is generic: the table is data
 (:func:`~dualmech.core.kernel.loop_nb.flatten`), and mechanism-specific start estimates, branch
 rules and reaction eliminations live with the mechanism in :mod:`dualmech.models`.
+
+Compiled code is cached on disk (beside the sources, or in ``NUMBA_CACHE_DIR``), keyed on the
+compiled modules (``*_nb.py``: :data:`_SOURCES`); a cold cache costs minutes of compiling at the first
+use, which :mod:`~dualmech.core.kernel.compiles` logs.
 """
 
 from __future__ import annotations
@@ -31,9 +35,11 @@ from pathlib import Path
 
 from numba.core import caching
 
-#: Source files whose compiled code the cached kernels carry: this package, then the modules that
-#: registered with :func:`depends_on_kernel` (in import order, so each sees its dependencies).
-_SOURCES: list[Path] = sorted(Path(__file__).resolve().parent.glob("*.py"))
+#: Source files whose compiled code the cached kernels carry: this package's compiled modules
+#: (``*_nb.py``; an edit of this file or of :mod:`~dualmech.core.kernel.compiles` recompiles nothing),
+#: then the modules that registered with :func:`depends_on_kernel` (in import order, so each sees its
+#: dependencies).
+_SOURCES: list[Path] = sorted(Path(__file__).resolve().parent.glob("*_nb.py"))
 
 
 def depends_on_kernel(path: str) -> None:

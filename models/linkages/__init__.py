@@ -35,19 +35,28 @@ def _function(home: tuple[str, str]) -> Any:
 CASES = Path(__file__).resolve().parent / "cases"
 
 
+def bundled_names() -> list[str]:
+    """Stems of the bundled linkage cases (``"rccc"``, ``"rssr"``), sorted."""
+    return sorted(p.stem for p in CASES.glob("*.toml"))
+
+
+def bundled_path(name: str) -> Path:
+    """File of the bundled linkage case ``name`` (a stem of :func:`bundled_names`); a one-line CaseError
+    naming the valid ones otherwise."""
+    bundled = bundled_names()
+    if name not in bundled:
+        raise CaseError(f"case: {show(name)} is neither a file nor a bundled linkage case "
+                        f"(bundled: {', '.join(bundled)})")
+    return CASES / f"{name}.toml"
+
+
 def read_linkage(source: str | Path | dict) -> dict:
     """The parsed case table of ``source``: a dict as is, else a TOML file or a bundled case's stem
     (``"rssr"``)."""
     if isinstance(source, dict):
         return source
     path = Path(source)
-    if not path.is_file():
-        bundled = sorted(p.stem for p in CASES.glob("*.toml"))
-        if str(source) not in bundled:
-            raise CaseError(f"case: {show(str(source))} is neither a file nor a bundled linkage case "
-                            f"(bundled: {', '.join(bundled)})")
-        path = CASES / f"{source}.toml"
-    return read_toml(path, CaseError)
+    return read_toml(path if path.is_file() else bundled_path(str(source)), CaseError)
 
 
 def linkage_kind(data: Any) -> str | None:

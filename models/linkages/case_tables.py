@@ -14,7 +14,7 @@ import numpy as np
 from dualmech.core.inertia import BodyInertia, solid_cylinder_x
 from dualmech.core.motion import CrankMotion
 from dualmech.models.bodies import _tensor as inertia_tensor
-from dualmech.models.case import KNOWN_UNITS, _motion
+from dualmech.models.case_format import KNOWN_UNITS, _motion
 from dualmech.models.inputs import (
     LENGTH,
     MAX_CASE_NAME,

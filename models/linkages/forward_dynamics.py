@@ -47,6 +47,7 @@ from dualmech.models.forward_dynamics import (  # the slider crank's integrator,
     MAX_EVALUATIONS,
     TIME_LIMIT,
     Budget,
+    Progress,
     as_load,
     checked_settings,
     integrate,
@@ -219,7 +220,7 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
              psi0: float | None = None, psidot0: float | None = None, damping: float = 0.0,
              samples: int = 1001, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
              coeffs: Coefficients | None = None, max_evaluations: int = MAX_EVALUATIONS,
-             time_limit: float = TIME_LIMIT) -> "LinkageSimulation":
+             time_limit: float = TIME_LIMIT, progress: Progress | None = None) -> "LinkageSimulation":
     """Integrate the input's equation of motion of a linkage case from ``t = 0`` to ``duration`` s.
 
     ``torque``: the drive torque about ``+z`` on the input link (default: an RSSR case's ``drive_torque``,
@@ -227,7 +228,8 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
     ``psidot0`` (rad/s): the start, default the case's first angle and ``crank_rpm``; ``damping``: the
     input bearing's viscous coefficient (F·L·s); ``samples`` equally spaced output times; ``method``,
     ``rtol``, ``atol``, ``max_evaluations``, ``time_limit`` as for the slider crank
-    (:func:`dualmech.models.forward_dynamics.simulate`, same ranges); ``coeffs`` a table built before.
+    (:func:`dualmech.models.forward_dynamics.simulate`, same ranges, and its ``progress``); ``coeffs`` a
+    table built before.
 
     Raises
     ------
@@ -246,7 +248,7 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
     c = coefficients(case) if coeffs is None else coeffs
     rhs = _EquationOfMotion(c.spline(), tau, output_torque, damping)
     sol = integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
-                     np.linspace(0.0, duration, int(samples)), method, rtol, atol)
+                     np.linspace(0.0, duration, int(samples)), method, rtol, atol, progress)
     info = {"method": method, "rtol": rtol, "atol": atol, "nfev": int(sol.nfev), "coefficients": "table",
             "table_size": c.theta.shape[0], "interpolation_error": interpolation_error(c),
             "message": sol.message}

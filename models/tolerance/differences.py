@@ -83,7 +83,7 @@ def central_differences(case: Case, spec: Spec, sens: Sensitivities) -> dict[str
         if not angles:
             out[name] = np.full(k, np.nan)
             continue
-        at = replace(case, motion=replace(case.motion, angles_deg=np.asarray(angles, dtype=float)))
+        at = case.with_parts(motion=replace(case.motion, angles_deg=np.asarray(angles, dtype=float)))
         y = analyse_designs(design_arrays(at, spec, x), mode)[name].reshape(2, k, 2)
         d = (y[..., 0] - y[..., 1]) / (2.0 * h / np.array([[1.0], [2.0]]))
         out[name] = (4.0 * d[1] - d[0]) / 3.0

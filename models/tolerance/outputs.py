@@ -32,6 +32,7 @@ import numpy as np
 
 from dualmech.core.status import ASSEMBLED, STATUSES, Status
 from dualmech.core.table import ResultTable
+from dualmech.models.units import column_unit
 
 
 class DesignStatus(StrEnum):
@@ -49,6 +50,14 @@ MOMENTS: tuple[tuple[str, str], ...] = (("peak_j1_moment", "j1_m"), ("peak_j4_mo
 #: The solved load's peak: its name and column, per load mode (the given one is not an output).
 SOLVED_LOAD: dict[str, tuple[str, str]] = {"torque": ("peak_slider_load", "slider_load"),
                                            "force": ("peak_drive_torque", "drive_torque")}
+#: A column of each output's unit, and so its unit group (the loads' round-off is judged within a group).
+OUTPUT_COLUMN: dict[str, str] = {"stroke": "S4", **{n: f"{p}x" for n, p in FORCES + MOMENTS},
+                                 **{n: c for n, c in SOLVED_LOAD.values()}}
+#: The loads' unit groups: an output is round-off against the largest peak of its group in the same design.
+LOAD_GROUPS: dict[str, tuple[str, ...]] = {
+    "force": tuple(n for n, _ in FORCES) + ("peak_slider_load",),
+    "moment": tuple(n for n, _ in MOMENTS) + ("peak_drive_torque",),
+}
 #: Count columns beside the outputs.
 COUNTS: tuple[str, ...] = ("assembled_fraction", "dead_centres", "failed_positions")
 #: Position status words that are engine failures.
@@ -73,6 +82,12 @@ def status_codes(words: np.ndarray) -> np.ndarray:
 def output_names(mode: str) -> tuple[str, ...]:
     """The outputs of a design in load mode ``mode`` (``"torque"`` or ``"force"``), in column order."""
     return ("stroke",) + tuple(n for n, _ in FORCES + MOMENTS) + (SOLVED_LOAD[mode][0],)
+
+
+def output_units(mode: str, units: str) -> dict[str, str]:
+    """Each output's unit in the unit system ``units`` (``""`` where unstated), in :func:`output_names`
+    order."""
+    return {name: column_unit(OUTPUT_COLUMN[name], units) for name in output_names(mode)}
 
 
 def needed_columns(mode: str) -> tuple[str, ...]:

@@ -33,7 +33,7 @@ Method (stated, as the issue asks): **a second nilpotent unit, carried through t
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -88,7 +88,7 @@ def _seeded(key: str):
 def _seeded_case(design: Case, key: str) -> Case:
     """``design`` with its numbers read again, ``key`` carrying the imaginary step."""
     geometry, motion, bodies, loads = case_numbers(design.raw, _seeded(key))
-    return replace(design, geometry=geometry, motion=motion, bodies=bodies, loads=loads)
+    return design.with_parts(geometry=geometry, motion=motion, bodies=bodies, loads=loads)
 
 
 def _derivative_runs(design: Case, keys: tuple[str, ...], angles_deg: np.ndarray) -> list[Analysis]:

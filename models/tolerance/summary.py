@@ -18,6 +18,13 @@ key's term over their sum.  ``contribution`` is the first-order Sobol index
 :math:`\\mathrm{Var}(E[y\\mid x_i])/\\mathrm{Var}(y)` estimated from the Monte Carlo samples by
 equal-count binning of :math:`x_i` into :math:`B = \\min(50, \\lfloor\\sqrt n\\rfloor)` bins, its
 null bias :math:`(B-1)/(n-1)` subtracted (floored at 0).
+
+A load that is the solver's round-off in the nominal design and in every sampled one -- its value at most
+:data:`~dualmech.core.thresholds.ROUND_OFF_RELATIVE` of the largest peak of its unit group in the same
+design (:data:`~dualmech.models.tolerance.outputs.LOAD_GROUPS`), e.g. j4's moment with a ball joint at the
+slider -- is **structurally zero**: ``round_off`` gives its level (the largest value seen), and it is
+reported as 0 (nominal, statistics, linear propagation, sensitivities: its exact derivative), with no
+variance shares (``None``).
 """
 
 from __future__ import annotations
@@ -27,7 +34,8 @@ import math
 import numpy as np
 from scipy.special import ndtri
 
-from dualmech.models.tolerance.outputs import DesignStatus
+from dualmech.core.thresholds import ROUND_OFF_RELATIVE
+from dualmech.models.tolerance.outputs import LOAD_GROUPS, DesignStatus
 from dualmech.models.tolerance.sensitivity import Sensitivities
 from dualmech.models.tolerance.spec import Spec
 
@@ -112,6 +120,42 @@ def linear_propagation(sens: Sensitivities, spec: Spec) -> dict:
     return out
 
 
+def round_off_outputs(nominal: dict[str, float], samples: dict[str, np.ndarray] | None) -> dict[str, float]:
+    """The structurally zero outputs (module docstring) and their round-off level: the largest value of each
+    over the nominal design and the sampled ones that assemble fully (``samples``: every output ``(n,)``
+    and ``status``; ``None``: the nominal design only)."""
+    designs = {name: np.array([value]) for name, value in nominal.items()}
+    if samples is not None:
+        ok = np.asarray(samples["status"], dtype=str) == DesignStatus.OK.value
+        designs = {name: np.append(v, np.asarray(samples[name], float)[ok]) for name, v in designs.items()}
+    out = {}
+    for group in LOAD_GROUPS.values():
+        names = [n for n in group if n in designs]
+        if not names:
+            continue
+        scale = np.nanmax(np.stack([designs[n] for n in names]), axis=0)
+        for n in names:
+            value = designs[n]
+            if np.all(np.isfinite(value) & (value <= ROUND_OFF_RELATIVE.value * scale)):
+                out[n] = float(value.max())
+    return out
+
+
+def _as_zero(out: dict, round_off: dict[str, float], keys: tuple[str, ...], n: int) -> None:
+    """Report the round-off outputs of ``out`` (:func:`summarize`'s) as 0, their variance shares as None."""
+    zero = describe(np.zeros(n)) if n else None
+    for name in round_off:
+        out["nominal"][name] = 0.0
+        if out["outputs"]:
+            out["outputs"][name] = zero
+        for part in ("contribution", "linear_share"):
+            if out[part] is not None:
+                out[part][name] = None
+        if out["sensitivity"] is not None:
+            out["sensitivity"][name] = dict.fromkeys(keys, 0.0)
+            out["linear_std"][name] = out["linear_mean"][name] = 0.0
+
+
 def summarize(spec: Spec, nominal: dict[str, float], x: np.ndarray | None,
               samples: dict[str, np.ndarray] | None, sens: Sensitivities | None) -> dict:
     """The statistics of ``summary.json`` (module docstring), without the study's identity fields.
@@ -121,16 +165,21 @@ def summarize(spec: Spec, nominal: dict[str, float], x: np.ndarray | None,
     ``None`` for ``--method linear``; ``sens`` is ``None`` for ``--method mc``.
     """
     names = tuple(nominal)
+    round_off = round_off_outputs(nominal, samples)
     out: dict = {"outputs": {}, "yield": None, "sensitivity": None, "sensitivity_positions_deg": None,
                  "linear_std": None, "linear_mean": None, "linear_share": None, "contribution": None,
-                 "nominal": nominal}
+                 "nominal": dict(nominal), "round_off": round_off}
+    n_ok = 0
     if samples is not None and x is not None:
         ok = np.asarray(samples["status"], dtype=str) == DesignStatus.OK.value
+        n_ok = int(ok.sum())
         out["outputs"] = {name: describe(samples[name][ok]) for name in names}
         out["yield"] = wilson(int(ok.sum()), int(ok.size))
         sobol = {name: sobol_first_order(x[ok], samples[name][ok]) for name in names}
         out["contribution"] = {name: dict(zip(spec.keys, map(float, s))) for name, s in sobol.items()}
     if sens is not None:
         lin = linear_propagation(sens, spec)
-        out.update(sensitivity=sens.values, sensitivity_positions_deg=sens.positions_deg, **lin)
+        out.update(sensitivity={n: dict(v) for n, v in sens.values.items()},
+                   sensitivity_positions_deg=sens.positions_deg, **lin)
+    _as_zero(out, round_off, spec.keys, n_ok)
     return out

@@ -1,5 +1,8 @@
 """The dualmech command line: solve and cases (other subcommands are tested beside their modules)."""
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -7,16 +10,101 @@ from numpy.testing import assert_allclose
 
 from dualmech.cli import main
 from dualmech.core.table import COLUMNS, read_csv
-from dualmech.models.case import load_case, preset_names
+from dualmech.models.case import load_case, preset_names, preset_path
+from dualmech.models.linkages import bundled_names, linkage_kind, read_linkage
 from dualmech.models.slider_crank import solve_case
+from dualmech.validation.exit_codes import EXIT_BAD_INPUT
 
 
 def test_cases_lists_every_preset():
+    """Every preset of every kind, with its kind: the slider crank's, then the RSSR's and RCCC's (issue 30:
+    no linkage was listed)."""
     result = CliRunner().invoke(main, ["cases"])
     assert result.exit_code == 0
     lines = result.output.strip().splitlines()
-    assert [line.split()[0] for line in lines] == preset_names()
+    assert [line.split()[0] for line in lines] == preset_names() + bundled_names()
+    kinds = {line.split()[0]: line.split()[1] for line in lines}
+    assert {kinds[n] for n in preset_names()} == {"slider-crank"}
+    assert [kinds[n] for n in bundled_names()] == ["rccc", "rssr"]
     assert "thesis/a4-30-s1-3.5" in result.output
+
+
+def test_case_path_gives_the_file_of_every_listed_preset():
+    """Each name ``cases`` lists: ``case-path`` prints a file of that kind, which ``solve`` reads as the name
+    (issue 30: ``case-path rssr`` exited 2 while ``solve rssr`` worked)."""
+    runner = CliRunner()
+    listed = [line.split()[:2] for line in runner.invoke(main, ["cases"]).output.strip().splitlines()]
+    for name, kind in listed:
+        result = runner.invoke(main, ["case-path", name])
+        assert result.exit_code == 0, f"{name}: {result.output}"
+        path = Path(result.output.strip())
+        assert path.is_file() and path.suffix == ".toml", name
+        data = read_linkage(path) if kind != "slider-crank" else load_case(path).raw
+        assert (linkage_kind(data) or "slider-crank") == kind, name
+    assert runner.invoke(main, ["case-path", "ideal"]).output.strip().endswith("thesis/ideal.toml")
+
+
+def test_case_path_of_an_unknown_name_is_one_line_naming_every_preset():
+    result = CliRunner().invoke(main, ["case-path", "no-such-case"])
+    assert result.exit_code == 2
+    assert len(result.output.strip().splitlines()) == 1
+    assert "'no-such-case'" in result.output and "thesis/ideal" in result.output and "rssr" in result.output
+
+
+def _ideal_with_offset(tmp_path: Path, offset: float) -> Path:
+    """The ``thesis/ideal`` preset's file with ``slider_offset`` changed (a design of the user's own)."""
+    text = preset_path("thesis/ideal").read_text()
+    assert "slider_offset = 0.0\n" in text
+    path = tmp_path / "design.toml"
+    path.write_text(text.replace("slider_offset = 0.0\n", f"slider_offset = {offset!r}\n"))
+    return path
+
+
+@pytest.mark.parametrize("engine", ["dualmech", "pinocchio"])
+def test_solve_of_a_design_that_assembles_nowhere_is_one_line_and_exit_2(tmp_path, engine):
+    """a4 = 100 in with a1 = 12, a2 = 50: the slider line is 88 in from the crank pin at best (at theta1 = 180
+    deg, the pin's distance being |a4 + a1 cos theta1|) (issue 30:
+    exit 0, "stroke: nan m", "worst closure residual: 4")."""
+    result = CliRunner().invoke(main, ["solve", str(_ideal_with_offset(tmp_path, 100.0)), "--engine", engine])
+    assert result.exit_code == EXIT_BAD_INPUT, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "nan" not in lines[0], lines
+    assert lines[0].startswith("dualmech: error: thesis-ideal: the design assembles at no crank angle")
+    assert "no nearer the slider line than 88 in (theta1 = 180 deg)" in lines[0]
+    assert "rod's reach a2 = 50 in" in lines[0] and "|a4| = 100 in exceeds" in lines[0]
+    assert "a1 + a2 = 62 in" in lines[0]
+
+
+def test_solve_of_a_spatial_design_out_of_reach_names_the_least_distance(tmp_path):
+    """Out of reach by the axial shift S1 = 60 in (the pin 60 in above the slider line's plane at least), not
+    by the offset: the line gives the least distance, and no offset clause."""
+    path = _ideal_with_offset(tmp_path, 5.0)
+    path.write_text(path.read_text().replace("crank_axial_shift = 0.0", "crank_axial_shift = 60.0"))
+    result = CliRunner().invoke(main, ["solve", str(path)])
+    assert result.exit_code == EXIT_BAD_INPUT, result.output
+    assert "no crank angle: the crank pin comes no nearer the slider line than 60" in result.output
+    assert "|a4|" not in result.output
+
+
+@pytest.mark.parametrize("streamed", [False, True])
+def test_solve_of_a_partly_assembling_design_names_the_ranges(tmp_path, monkeypatch, streamed):
+    """a4 = 45 in: the rod reaches the line where |45 + 12 cos theta1| <= 50, cos theta1 <= 5/12 (theta1 from
+    65.4 to 294.6 deg); the table is written, exit 0, the ranges named,
+    and the worst closure residual is a closure's (not the reach's excess on the rows that do not close), also
+    in the summary of a long case streamed into the file."""
+    if streamed:
+        # the module, not the command of the same name
+        monkeypatch.setattr(sys.modules["dualmech.cli.solve"], "STREAM_POSITIONS", 100)
+    out = tmp_path / "out.csv"
+    result = CliRunner().invoke(main, ["solve", str(_ideal_with_offset(tmp_path, 45.0)), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "no_assembly: the rod cannot reach the slider line at crank angles 0..65, 295..359 deg" \
+        in result.output
+    worst = [line for line in result.output.splitlines() if line.startswith("worst closure residual: ")]
+    assert len(worst) == 1 and float(worst[0].split(": ")[1]) < 1e-10, worst
+    assert ("streamed" in result.output) == streamed
+    table = read_csv(out)
+    assert (table.status == "no_assembly").sum() == 131
 
 
 def test_solve_writes_the_table_and_a_summary(tmp_path):

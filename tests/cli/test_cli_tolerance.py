@@ -26,6 +26,15 @@ def test_the_bundled_study_runs_judged_and_reported(tmp_path):
     result = _run(CASE, "--spec", SPEC, "-n", 40, "--seed", 2, "-o", tmp_path, "--judge-samples", 1)
     assert result.exit_code == 0, result.output + result.stderr
     assert "PASS: 2 spot checks" in result.output
+    progress = result.stderr.splitlines()  # not a terminal: plain lines, here the end of each stage
+    for done in ("tolerance: Monte Carlo: done, 1 of 1 chunks in ",
+                 "tolerance: judges' spot checks: done, 1 of 1 designs in "):
+        assert any(line.startswith(done) for line in progress), done
+    table = result.output.splitlines()
+    assert "nominal design: body masses: crank 0.0614659 lbf·s²/in, rod 0.113826 lbf·s²/in, " \
+           "slider 0.0195652 lbf·s²/in" in table
+    assert next(line for line in table if line.startswith("stroke ")).split()[1] == "in"
+    assert next(line for line in table if line.startswith("peak_j1_moment ")).split()[1] == "lbf·in"
     s = json.loads((tmp_path / "summary.json").read_text())
     assert (s["n"], s["seed"], s["method"]) == (40, 2, "both")
     assert set(s["outputs"]) == set(s["sensitivity"]) == set(s["linear_std"]) == set(s["contribution"])

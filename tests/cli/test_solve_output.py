@@ -35,9 +35,12 @@ def test_long_cases_stream_in_chunks_with_the_same_rows(tmp_path, monkeypatch) -
     whole = slider_crank_kernel.solve_case(case)
     assert "no_assembly" in set(whole.status) and "ok" in set(whole.status)
     for suffix, read in (("parquet", read_parquet), ("csv", read_csv)):
-        text = solve_output.stream_solve(case, tmp_path / f"s.{suffix}")
+        calls: list[tuple] = []
+        text = solve_output.stream_solve(case, tmp_path / f"s.{suffix}", lambda *a: calls.append(a))
         _same(read(tmp_path / f"s.{suffix}"), whole)
         assert "streamed" in text and whole.meta["messages"][0] in text
+        assert " in (max S4 " in text  # the stroke's unit, inches
+        assert calls == [(100, 360, ""), (200, 360, ""), (300, 360, ""), (360, 360, "")]  # positions written
     assert (tmp_path / "s.csv").read_text() == whole.to_csv()
 
 

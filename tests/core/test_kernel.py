@@ -20,7 +20,12 @@ from dualmech.core.thresholds import JOINT_LOCK_CONDITION
 from dualmech.models import slider_crank, slider_crank_kernel
 from dualmech.models.case import Case, load_case, preset_names, with_loads
 from dualmech.validation.compare import relative_differences
-from tests.tolerances import KERNEL_VS_NUMPY_AT_LIMIT, KERNEL_VS_NUMPY_KINEMATICS, KERNEL_VS_NUMPY_REACTIONS
+from tests.tolerances import (
+    KERNEL_VS_NUMPY_AT_LIMIT,
+    KERNEL_VS_NUMPY_KINEMATICS,
+    KERNEL_VS_NUMPY_REACTIONS,
+    NEWTON_EULER_ROUND_OFF,
+)
 
 KINEMATICS = ("S4", "S4_dot", "S4_ddot", "transmission")
 BASE = load_case("a4-30-s1-3.5")
@@ -74,6 +79,9 @@ def assert_kernel_agrees(case: Case) -> ResultTable:
             err_msg=f"{case.name}: {q}",
         )
     assert got.meta["messages"] == ref.meta["messages"]
+    ok = ref.status == "ok"  # both give the reactions, and so their Newton-Euler residual, there
+    assert_allclose(got.meta["dynamics_residual"][ok], ref.meta["dynamics_residual"][ok], rtol=0,
+                    atol=NEWTON_EULER_ROUND_OFF, err_msg=f"{case.name}: dynamics_residual")
     for q in ("S1", "theta1_deg"):
         assert_allclose(got[q], ref[q], rtol=0, atol=KERNEL_VS_NUMPY_KINEMATICS, equal_nan=True, err_msg=q)
     # c itself is as well conditioned as S4 away from the edge; at c ~ 0 it carries sqrt(r) like S4

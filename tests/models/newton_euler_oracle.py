@@ -157,3 +157,21 @@ def least_squares(a, b, given: dict[int, np.ndarray]):
 #: Column of the drive torque (z moment of joint 1) and of the axial force at joint 1.
 DRIVE_TORQUE_COLUMN = 3 * M1 + 2
 AXIAL_FORCE_COLUMN = 3 * F1 + 2
+
+
+def table_violation(case, table) -> np.ndarray:
+    """The largest violation of the 18 Newton-Euler equations by a result table's own reaction columns
+    (``(n,)``, NaN where a row gives no reactions), over the table's largest joint force at that row.
+
+    The equations are :func:`newton_euler_system`'s (closed-form kinematics and momentum rates, the rod's
+    zero spin: ball joints at the rod's ends only); the unknowns are read from the columns, the slider's
+    ground moment turned from about ``P3`` to about O.
+    """
+    theta = np.radians(table["theta1_deg"])
+    kin = kinematics(case, theta)
+    a, b = newton_euler_system(case, kin)
+    f1, m1, j2, j3, f4, m4 = (np.stack([table[f"{j}{axis}"] for axis in "xyz"], 1)
+                              for j in ("j1_f", "j1_m", "j2_f", "j3_f", "j4_f", "j4_m"))
+    x = np.concatenate([f1, m1, j2, j3, f4, m4 + np.cross(kin["P3"], f4)], 1)
+    err = np.abs(np.einsum("nmk,nk->nm", a, x) - b).max(1)
+    return err / np.abs(np.concatenate([f1, j2, j3, f4], 1)).max(1)

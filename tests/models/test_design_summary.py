@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.testing import assert_allclose
 
-from dualmech.models.case import load_case
+from dualmech.core.thresholds import ROUND_OFF_RELATIVE
+from dualmech.models.case import load_case, with_loads
 from dualmech.models.design_summary import NEAR_DEAD_CENTRE_TRANSMISSION, PEAK_NAMES, design_summary
 from dualmech.models.slider_crank import solve_case
 from dualmech.models.units import axis_label, column_unit
@@ -37,3 +38,49 @@ def test_dead_and_near_dead_centres_are_listed_not_hidden():
 def test_units_are_never_invented():
     assert column_unit("S4_ddot", "m-N-s") == "m/s²" and column_unit("j1_mz", "inch-lbf-s") == "lbf·in"
     assert axis_label("S4", "consistent") == "S4" and axis_label("j2_fx", "mm-N-s") == "j2_fx [N]"
+
+
+def _force_mode(preset: str):
+    """The preset in slider-load mode (the drive torque solved, the slider load given: constant)."""
+
+    case = load_case(preset)
+    return with_loads(case, drive_torque=None, slider_force=-100.0)
+
+
+def test_structurally_zero_peaks_show_as_zero_with_their_round_off_level():
+    """A ball joint at the slider carries no moment: j4's moment about P3 is round-off (~1e-16 of the case's
+    moment scale), and must read 0, not a peak at an angle (issue 30, "Noise shown as results")."""
+    case = load_case("thesis/a4-30-s1-3.5")
+    table = solve_case(case)
+    j4m = np.linalg.norm(np.stack([table[c] for c in ("j4_mx", "j4_my", "j4_mz")]), axis=0)
+    assert 0 < np.nanmax(np.where(table.status == "ok", j4m, np.nan))  # round-off, not exact zeros
+    s = design_summary(table, case.units)
+    peak = next(p for p in s.peaks if p.name.startswith("joint 4") and "moment" in p.name)
+    assert peak.kind == "zero" and peak.value == 0.0
+    assert 0 < peak.round_off <= ROUND_OFF_RELATIVE.value * max(p.scale for p in s.peaks)
+    assert "0 lbf·in" in str(peak) and "round-off" in str(peak) and " at " not in str(peak)
+    genuine = [p for p in s.peaks if p.name != "|drive_torque|"  # the given load: constant
+               and (not p.name.startswith(("joint 3", "joint 4")) or "force" in p.name)]
+    assert all(p.kind == "peak" and p.value > 0 for p in genuine)
+
+
+def test_a_constant_output_has_no_angle_of_its_peak():
+    """The given slider load is the same at every position: "constant", not "at 55 deg"."""
+    case = _force_mode("thesis/a4-30-s1-3.5")
+    s = design_summary(solve_case(case), case.units)
+    load = next(p for p in s.peaks if p.name == "|slider_load|")
+    assert load.kind == "constant" and "constant" in str(load) and " at " not in str(load)
+    assert_allclose(load.value, 100.0, rtol=ROUND_OFF_RELATIVE.value, atol=0)
+    torque = next(p for p in s.peaks if p.name == "|drive_torque|")
+    assert torque.kind == "peak" and " at " in str(torque)
+
+
+def test_round_off_is_relative_to_the_case_not_a_list_of_columns():
+    """The same rule makes a genuine moment (universal joint: j3 carries one) a peak: no column is zero by
+    name."""
+
+    case = load_case("thesis/a4-30-s1-3.5")
+    case = case.with_values({"joints.rod_slider": "universal"})
+    s = design_summary(solve_case(case), case.units)
+    j3 = next(p for p in s.peaks if p.name.startswith("joint 3") and "moment" in p.name)
+    assert j3.kind == "peak" and j3.value > 0

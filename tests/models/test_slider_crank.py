@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
@@ -10,6 +11,8 @@ from numpy.testing import assert_allclose
 from dualmech.core.motion import CrankState
 from dualmech.models.case import load_case
 from dualmech.models.slider_crank import analyze, analyze_many, no_assembly_ranges, solve_case, to_table
+from dualmech.validation.api import solve
+from dualmech.validation.engines import ENGINES
 from tests.oracles import assembly_margin, assert_slider_motion, exact_slider_motion
 from tests.tolerances import (
     BATCH_VS_SINGLE,
@@ -113,6 +116,19 @@ def test_no_assembly_reports_angle_ranges():
     assert "no_assembly" in message and "deg" in message
     first_bad = float(table["theta1_deg"][np.flatnonzero(cannot)[0]])
     assert f"{first_bad:g}" in message
+
+
+@pytest.mark.parametrize("engine", list(ENGINES))
+def test_a_design_that_assembles_nowhere_is_no_assembly_on_every_row(engine: str):
+    """a4 = 100 > a1 + a2 = 62: the Python API raises nothing (``dualmech solve`` refuses it, exit 2); every
+    engine's table says ``no_assembly`` on every row, gives no pose, and its message names the whole turn."""
+    case = BASE.with_values({"geometry.slider_offset": 100.0})
+    table = solve(case, engine=engine)
+    assert (table.status == "no_assembly").all()
+    for column in ("S4", "S4_dot", "j1_fx", "drive_torque", "transmission", "closure_condition"):
+        assert np.isnan(table[column]).all(), column
+    (message,) = table.meta["messages"]
+    assert message.startswith("no_assembly: ") and ("0..359 deg" in message or "360 positions" in message)
 
 
 def test_vertical_rod_pose_where_zy_angles_are_singular():

@@ -104,3 +104,46 @@ def test_large_tolerances_part_where_the_output_curves(tmp_path):
     second_order_mean = summary["nominal"]["stroke"] + 0.5 * curvature * 20.0**2 / 12.0
     half = (o["mean_ci"][1] - o["mean_ci"][0]) / 2
     assert_allclose(second_order_mean, o["mean"], rtol=0, atol=4 * half)  # the quartic term is left over
+
+
+def test_round_off_outputs_are_reported_as_zero_with_their_level(tmp_path):
+    """With a ball joint at the slider j4's moment about P3 is round-off (~1e-13 lbf·in): it is reported as 0
+    with its round-off level, no variance share, sensitivity 0 (its exact derivative), no histogram; the
+    other peaks are not (issue 30, "Noise shown as results")."""
+    from dualmech.core.thresholds import ROUND_OFF_RELATIVE
+    from dualmech.validation.tolerance_report import figure_jobs
+
+    raw = copy.deepcopy(load_case("a4-20-alpha-232").raw)  # the slider's mass centre at P3: no j4 moment
+    del raw["loads"]["drive_torque"]
+    raw["loads"]["slider_force"] = -500.0
+    raw["motion"]["angles_deg"] = {"start": 0.0, "stop": 360.0, "step": 4.0}
+    case = case_from_dict(raw)
+    spec = spec_from_dict({"tolerances": {
+        "geometry.slider_offset": {"dist": "normal", "sd": 0.02},
+        "bodies.rod.mass": {"dist": "normal", "sd": 1e-4}}})
+    summary, _, samples = run_study(StudyInput(case, spec, 60, 3), "both", tmp_path, judge_samples=0)
+    raw = np.asarray(samples["peak_j4_moment"], float)
+    assert 0 < np.nanmax(raw) <= ROUND_OFF_RELATIVE.value * np.nanmin(samples["peak_j1_moment"])
+    assert set(summary["round_off"]) == {"peak_j4_moment"}
+    assert_allclose(summary["round_off"]["peak_j4_moment"], np.nanmax(raw), rtol=0, atol=0)
+    assert summary["nominal"]["peak_j4_moment"] == 0.0
+    out = summary["outputs"]["peak_j4_moment"]
+    assert out["mean"] == 0.0 and out["std"] == 0.0 and out["p99"] == 0.0
+    assert summary["contribution"]["peak_j4_moment"] is None
+    assert summary["linear_share"]["peak_j4_moment"] is None
+    assert all(v == 0.0 for v in summary["sensitivity"]["peak_j4_moment"].values())
+    assert summary["linear_std"]["peak_j4_moment"] == 0.0
+    drawn = {(kind, name) for kind, name, *_ in figure_jobs(summary, samples)}
+    assert not {n for _, n in drawn} & {"peak_j4_moment"}
+    assert ("hist", "peak_j1_moment") in drawn and ("tornado", "peak_j1_moment") in drawn
+    assert summary["units"] == {"stroke": "in", **{f"peak_j{j}_force": "lbf" for j in range(1, 5)},
+                                "peak_j1_moment": "lbf·in", "peak_j4_moment": "lbf·in",
+                                "peak_drive_torque": "lbf·in"}
+    from dualmech.validation.tolerance_report import write_tolerance_report
+
+    write_tolerance_report(tmp_path, summary, None, samples)
+    text = (tmp_path / "report.md").read_text().replace("\\", "")  # Markdown's escapes
+    row = next(line for line in text.splitlines() if line.startswith("| peak_j4_moment"))
+    assert "[lbf·in]" in row and "round-off" in row and "—" in row
+    assert "| stroke [in] |" in text and "| peak_j1_force [lbf] |" in text
+    assert "hist-peak_j4_moment" not in text and "tornado-peak_j4_moment" not in text

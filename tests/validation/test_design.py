@@ -90,13 +90,13 @@ def test_solve_prints_peak_loads_with_units_and_refuses_a_lost_joint_table(desig
 def test_a_constant_or_round_off_panel_is_a_line_of_text_with_its_unit():
     from dualmech.models.case import load_case
     from dualmech.models.slider_crank import solve_case
-    from dualmech.validation.report.plots import _flat_note
+    from dualmech.validation.report.plots import flat_note
 
     case = load_case("thesis/ideal")
     table = solve_case(case)
-    assert _flat_note([table], "drive_torque", case.units).startswith("constant:\ndrive_torque = 100 lbf·in")
-    assert _flat_note([table], "j4_mz", case.units).startswith("zero to round-off")
-    assert _flat_note([table], "j1_fx", case.units) is None
+    assert flat_note([table], "drive_torque", case.units).startswith("constant:\ndrive_torque = 100 lbf·in")
+    assert flat_note([table], "j4_mz", case.units).startswith("zero to round-off")
+    assert flat_note([table], "j1_fx", case.units) is None
 
 
 def test_validate_bounds_the_positions_of_one_case(design, tmp_path):

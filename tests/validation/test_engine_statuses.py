@@ -81,7 +81,7 @@ def assert_honest(table: ResultTable) -> None:
                          ids=["rpm-1e307", "accel-minus-1e308"])
 def test_overflowing_motion_is_not_finite_never_ok(engine, motion):
     base = _case(30.0, {"start": 0.0, "stop": 360.0, "step": 60.0}, mode="drive_torque")
-    case = replace(base, motion=replace(base.motion, **motion))  # built directly: the loader may refuse it
+    case = base.with_parts(motion=replace(base.motion, **motion))  # built directly: the loader may refuse it
     table = _solver(engine)(case)
     assert_honest(table)
     assert (np.asarray(table.status, dtype=str) == Status.NOT_FINITE).all(), list(table.status)

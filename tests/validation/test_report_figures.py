@@ -1,5 +1,5 @@
-"""The report's figures (validation/report/figures.py, plots.py): drawn once each, in the run's workers,
-in plan order, nothing cut off."""
+"""The report's figures (validation/report/figures.py, plots.py, interactive.py): made once each, in the run's
+workers, in plan order, nothing cut off; the static ones (PNG) only those the Markdown report shows."""
 
 from __future__ import annotations
 
@@ -38,10 +38,12 @@ def test_figures_drawn_in_workers_come_back_in_plan_order(matrix, results):
     finally:
         executors.end_shared_pool()
     plan = [*figures.figure_specs(matrix, results, comparison), *extra]
-    assert [f.key for f in here] == [s[0] for s in plan]
-    assert {s[5][0] for s in plan} == set(figures._RENDER_ORDER)
+    assert [f.key for f in here] == [s.key for s in plan]
+    assert {s.job[0] for s in plan} == set(figures._RENDER_ORDER)
     assert [f.key for f in there] == [f.key for f in here]
     assert [f.png for f in there] == [f.png for f in here]
+    assert [f.plot for f in there] == [f.plot for f in here]
+    assert [f.png is not None for f in here] == [s.static for s in plan] and any(s.static for s in plan)
 
 
 def test_figures_collected_as_they_finish_are_seen(matrix, results, monkeypatch):
@@ -50,7 +52,7 @@ def test_figures_collected_as_they_finish_are_seen(matrix, results, monkeypatch)
 
     def as_finished(self, progress=None):
         futures = {job: spec for spec, job in zip(self.specs, self._rendered)}
-        return [plots.Figure(*futures[f][:5], f.result()) for f in cf.as_completed(futures)]
+        return [plots.Figure(*futures[f][:5], *f.result()) for f in cf.as_completed(futures)]
 
     monkeypatch.setattr(figures.PendingFigures, "collect", as_finished)
     try:
@@ -66,10 +68,10 @@ class _RecordingPool:
     def __init__(self) -> None:
         self.submitted: list[str] = []
 
-    def submit(self, func, job):
+    def submit(self, func, job, static):
         self.submitted.append(job[1][0] if job[0] == "sweep" else job[0])  # a sweep figure by its title
         future = cf.Future()
-        future.set_result(b"")
+        future.set_result((b"" if static else None, "{}"))
         return future
 
 
@@ -100,7 +102,7 @@ grid = { "geometry.crank_axial_shift" = [3.0, 6.0] }
     n_sweeps = len(figures.SWEEP_FIGURES) * len(matrix.sweeps) * len(matrix.modes)
     assert len(first) == n_sweeps // 2
     judged = pool.submitted[len(first):len(first) + 1 + 2 * len(matrix.judges)]
-    assert judged == ["balancing", *["difference"] * len(matrix.judges), *["heatmap"] * len(matrix.judges)]
+    assert judged == ["balancing", *["heatmap"] * len(matrix.judges), *["difference"] * len(matrix.judges)]
     rest = pool.submitted[len(first) + len(judged):]
     assert len(rest) == n_sweeps // 2 and all(": S1 sweep" in title for title in rest)
     assert [f.key for f in pending.collect()] == [s[0] for s in pending.specs]
@@ -137,15 +139,16 @@ def _cut_off(fig) -> list[str]:
 
 
 def _drawn(matrix, results, monkeypatch) -> dict:
-    """One figure of each kind, as matplotlib figures."""
+    """One figure of each kind that is drawn as PNG, as matplotlib figures."""
     kept = {}
     monkeypatch.setattr(plots, "fig_to_png", lambda fig, **kwargs: kept.setdefault("fig", fig) and b"")
     out = {}
-    for spec in _specs(matrix, results):
-        kind = spec[5][0]
-        if kind not in out:
+    specs = [*_specs(matrix, results), balancing_spec(derived.balancing(matrix))]
+    for spec in specs:
+        kind = spec.job[0]
+        if kind not in out and figures._FIGURE_FUNCTIONS[kind][0] is not None:
             kept.clear()
-            figures._render(spec[5])
+            figures._render(spec.job, static=True)
             out[kind] = kept["fig"]
     return out
 
@@ -154,7 +157,7 @@ def test_no_text_is_cut_off(matrix, results, monkeypatch):
     """Why: figures are saved whole (no tight bounding box: it drew each figure twice), so their fixed
     margins must hold every title, label, tick label and legend entry."""
     drawn = _drawn(matrix, results, monkeypatch)
-    assert set(drawn) == {"sweep", "difference", "heatmap"}
+    assert set(drawn) == {"sweep", "heatmap", "balancing"}
     for kind, fig in drawn.items():
         assert not _cut_off(fig), kind
 
@@ -171,6 +174,7 @@ def test_a_margin_too_small_is_seen(matrix, results, monkeypatch, margin):
 
     monkeypatch.setattr(Figure, "subplots_adjust", no_margin)
     drawn = _drawn(matrix, results, monkeypatch)
+    drawn.pop("balancing")  # a polar plot sits in the middle of its figure: no margin holds its labels
     assert all(_cut_off(fig) for fig in drawn.values())
 
 
@@ -279,15 +283,15 @@ def _without_values(matrix, results, column: str = "j2_fx") -> dict:
 def _reused_and_new(matrix, results) -> tuple[list[bytes], list[bytes]]:
     """Every figure drawn in plan order and then in reverse on the figures this process keeps per kind, and
     each drawn on a new figure."""
-    specs = _specs(matrix, results)
+    specs = [s for s in _specs(matrix, results) if figures._FIGURE_FUNCTIONS[s.job[0]][0] is not None]
     canvas._SKELETONS.clear()
-    reused = [figures._render(s[5]) for s in specs]
-    reused += [figures._render(s[5]) for s in reversed(specs)][::-1]
+    reused = [figures._render(s.job, static=True)[0] for s in specs]
+    reused += [figures._render(s.job, static=True)[0] for s in reversed(specs)][::-1]
     assert len(canvas._SKELETONS) < len(specs)  # kinds were shared: the check below compares reuses
     new = []
     for s in specs:
         canvas._SKELETONS.clear()
-        new.append(figures._render(s[5]))
+        new.append(figures._render(s.job, static=True)[0])
     canvas._SKELETONS.clear()
     return reused, new + new
 
@@ -338,9 +342,10 @@ def test_figures_are_drawn_under_the_report_settings_only(monkeypatch):
 
     seen = []
     monkeypatch.setitem(figures._FIGURE_FUNCTIONS, "probe",
-                        lambda: seen.append({k: matplotlib.rcParams[k] for k in canvas.FIGURE_RC}) or b"")
+                        (lambda: seen.append({k: matplotlib.rcParams[k] for k in canvas.FIGURE_RC}) or b"",
+                         lambda: "{}"))
     before = {k: matplotlib.rcParams[k] for k in canvas.FIGURE_RC}
-    assert figures._render(("probe", ())) == b""
+    assert figures._render(("probe", ()), static=True) == (b"", "{}")
     assert seen == [canvas.FIGURE_RC]
     assert {k: matplotlib.rcParams[k] for k in canvas.FIGURE_RC} == before != canvas.FIGURE_RC
 
@@ -369,4 +374,25 @@ def test_the_first_figures_are_drawn_while_the_run_is_compared(small, tmp_path, 
     finally:
         executors.end_shared_pool()
     assert seen and seen[0] == len(figures.SWEEP_FIGURES) * len(matrix.modes)  # the (first) sweep's
-    assert files.verdict == "PASS" and len(files.figures) == len(started[0].specs)
+    assert files.verdict == "PASS" and len(files.figures) == sum(s.static for s in started[0].specs)
+
+
+def test_a_report_in_a_relative_folder_removes_the_figures_it_no_longer_draws(small, tmp_path, monkeypatch):
+    """Why: ``--report-dir reports/thesis-1991`` (a relative folder) listed its files in the manifest by their
+    path from the working folder, so a later report, drawing fewer PNGs, could not see its own old figures
+    as stale, and left them."""
+    from dualmech.validation.matrix import load_matrix
+    from dualmech.validation.report import write_report
+    from dualmech.validation.rundir import created_files
+    from dualmech.validation.runner import run_matrix
+
+    from .test_validate import FAKE_REGISTRY
+
+    run_matrix(load_matrix(small), tmp_path / "run", jobs=1, registry=FAKE_REGISTRY)
+    monkeypatch.chdir(tmp_path)
+    first = write_report(tmp_path / "run", "reports/small", jobs=1)
+    monkeypatch.setattr(figures, "STATIC_SWEEP_FIGURES", frozenset())
+    second = write_report(tmp_path / "run", "reports/small", jobs=1)
+    gone = {p.name for p in first.figures} - {p.name for p in second.figures}
+    assert gone and not any((tmp_path / "reports/small/figures" / name).exists() for name in gone)
+    assert all(not name.startswith("reports/") for name in created_files(tmp_path / "reports/small"))

@@ -23,8 +23,9 @@ def _plots():
     values = _heavy_tail()
     shares = {k: 1.0 / len(LONG_KEYS) for k in LONG_KEYS}
     nominal, p99 = float(np.median(values)), float(np.quantile(values, 0.99))
-    return [report.histogram_plot("peak_j1_moment", values, nominal, p99),
-            report.histogram_plot("stroke", np.random.default_rng(1).normal(24.0, 2.0, 200_000), 24.0, 28.0),
+    return [report.histogram_plot("peak_j1_moment", values, nominal, p99, "lbf·in"),
+            report.histogram_plot("stroke", np.random.default_rng(1).normal(24.0, 2.0, 200_000), 24.0, 28.0,
+                                  "in"),
             report.tornado_plot("peak_slider_load", LONG_KEYS, shares, shares),
             report.tornado_plot("stroke", LONG_KEYS[:1], None, {LONG_KEYS[0]: 1.0})]
 
@@ -90,3 +91,9 @@ def test_a_drawing_never_started_or_collected_is_refused_and_its_worker_ended():
     for proc in processes:  # ended by close (a signal), not after finishing its import of matplotlib
         code = exit_code(proc, timeout=30)
         assert code is not None and code < 0, code
+
+
+def test_a_histogram_says_its_output_and_unit_on_its_x_axis():
+    fig = report.histogram_plot("peak_j1_moment", _heavy_tail(200), 3000.0, 9000.0, "lbf·in")
+    assert fig.axes[0].get_xlabel() == "peak_j1_moment [lbf·in]"
+    report._pyplot().close(fig)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import shutil
 import signal
 import subprocess
@@ -189,48 +188,6 @@ def test_baseline_catches_a_regression(small, tmp_path):
 
 def _chromium() -> str | None:
     return shutil.which("chromium") or shutil.which("chromium-browser")
-
-
-def test_report_loads_in_headless_chromium(small, tmp_path):
-    """Every figure of the generated page decodes, and the summary table is there (checked inside
-    Chromium)."""
-    browser = _chromium()
-    if browser is None:
-        if os.environ.get("CI"):
-            pytest.fail("chromium is required in CI (.ci/run installs Debian's chromium)")
-        pytest.skip("chromium not installed (apt-get install chromium)")
-    matrix = load_matrix(small)
-    out = tmp_path / "run"
-    run_matrix(matrix, out, jobs=1, registry=FAKE_REGISTRY)
-    files = write_report(out, None, jobs=1)
-    html = Path(files.html).read_text()
-    probe = """<script>
-window.addEventListener('load', () => {
-  const imgs = Array.from(document.images);
-  const bad = imgs.filter(i => !(i.complete && i.naturalWidth > 0)).length;
-  const summary = document.querySelector('table') !== null && document.body.innerText.includes('Summary');
-  const p = document.createElement('pre'); p.id = 'probe';
-  p.textContent = JSON.stringify({images: imgs.length, broken: bad, summary: summary});
-  document.body.appendChild(p);
-});
-</script></body>"""
-    # the report forbids scripts (Content-Security-Policy); the instrumented copy lifts that for the probe
-    checked = out / "checked.html"
-    checked.write_text(
-        re.sub(r'<meta http-equiv="Content-Security-Policy"[^>]*>', "", html).replace("</body>", probe)
-    )
-    assert "script-src 'none'" in html
-    profile = tmp_path / "profile"
-    dom = subprocess.run(
-        [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         f"--user-data-dir={profile}", "--virtual-time-budget=10000", "--dump-dom", checked.as_uri()],
-        capture_output=True, text=True, timeout=120,
-    ).stdout
-    start = dom.index('<pre id="probe">') + len('<pre id="probe">')
-    result = json.loads(dom[start:dom.index("</pre>", start)])
-    assert result["summary"] is True
-    assert result["images"] >= 10 and result["broken"] == 0, result
 
 
 def test_user_text_is_escaped_in_the_report(small, tmp_path):

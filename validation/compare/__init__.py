@@ -35,6 +35,11 @@ table ``J`` are compared row by row on the rows where both give the quantity:
   of that group, so every verdict is relative to the case's own scale and does not
   depend on its unit system.
 * A quantity with no row compared fails: a gate that compared nothing says so.
+* Near a universal joint's lock a judge's tolerance of a rate or reaction column is
+  multiplied row by row by ``f_i`` (at most the judge's ``joint_lock_cap``; 1 beyond 5 deg of
+  the lock), from the measured turning rate of the joint's cross
+  (:mod:`~dualmech.validation.compare.joint_lock`; ``docs/conventions.md``, "Near a joint
+  lock"); every check so widened says :data:`NEAR_JOINT_LOCK` in its detail.
 
 **Missing work.**  A case, or an engine of a case, absent from the results gives a
 failing ``engine`` check marked ``incomplete``; the run's :class:`Verdict` is then
@@ -61,9 +66,11 @@ from dualmech.validation.compare.differences import (
     stroke,
     unit_scales,
 )
+from dualmech.validation.compare.joint_lock import lock_factor, lock_rate
 from dualmech.validation.compare.results import (
     ENGINE,
     EXPECT_NO_ASSEMBLY,
+    NEAR_JOINT_LOCK,
     POSE_COLUMNS,
     RATE_COLUMNS,
     STATUS,
@@ -77,9 +84,9 @@ from dualmech.validation.compare.results import (
 )
 
 __all__ = [
-    "ENGINE", "EXPECT_NO_ASSEMBLY", "POSE_COLUMNS", "RATE_COLUMNS", "STATUS", "STATUS_RULES", "STROKE",
-    "STROKE_PROXY", "UNIT_GROUP", "VERDICTS", "Check", "Comparison", "StatusRule", "Verdict", "compare_case",
-    "compare_run", "condition_factor", "engine_failures", "first_line", "given_under", "quantity_check",
-    "reference_check", "relative_differences", "rows_given", "status_check", "stroke", "stroke_check",
-    "unit_scales",
+    "ENGINE", "EXPECT_NO_ASSEMBLY", "NEAR_JOINT_LOCK", "POSE_COLUMNS", "RATE_COLUMNS", "STATUS",
+    "STATUS_RULES", "STROKE", "STROKE_PROXY", "UNIT_GROUP", "VERDICTS", "Check", "Comparison", "StatusRule",
+    "Verdict", "compare_case", "compare_run", "condition_factor", "engine_failures", "first_line",
+    "given_under", "lock_factor", "lock_rate", "quantity_check", "reference_check", "relative_differences",
+    "rows_given", "status_check", "stroke", "stroke_check", "unit_scales",
 ]

@@ -12,6 +12,7 @@ import numpy as np
 
 from dualmech.core.status import ASSEMBLED, Status, is_status
 from dualmech.core.table import ResultTable
+from dualmech.models.case import case_from_dict
 from dualmech.validation.compare.differences import (
     compared_rows,
     engine_failures,
@@ -23,9 +24,16 @@ from dualmech.validation.compare.differences import (
     stroke,
     unit_scales,
 )
+from dualmech.validation.compare.joint_lock import (
+    JOINT_LOCK_CAP,
+    lock_factor,
+    lock_rate,
+    widened,
+)
 from dualmech.validation.compare.results import (
     ENGINE,
     EXPECT_NO_ASSEMBLY,
+    NEAR_JOINT_LOCK,
     POSE_COLUMNS,
     STATUS,
     STROKE,
@@ -179,13 +187,17 @@ def status_check(case_id: str, reference: ResultTable, judge: ResultTable, quant
 
 
 def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: ResultTable, quantity: str,
-                   rel: np.ndarray, scale: float, tol: ResolvedTolerance) -> Check:
+                   rel: np.ndarray, scale: float, tol: ResolvedTolerance,
+                   widening: np.ndarray | None = None) -> Check:
     """One column's check (module docstring): every row both engines give, none non-finite, at least one.
 
     The pose (S1, S4) of a row that either engine calls ``assembly_limit`` is held to
     ``ASSEMBLY_LIMIT_POSE`` instead of ``tol`` (where the rod is nearly normal to the
     slider line, S4 carries the closure's error divided by the closure condition);
     ``max_rel`` is then the row's difference scaled to ``tol`` (``r_i tol / tol_i``).
+    Likewise near a universal joint's lock, a rate or reaction row's tolerance is ``tol``
+    times ``widening`` (shape ``(n,)``, :func:`~dualmech.validation.compare.joint_lock.lock_factor`),
+    and the detail says :data:`~dualmech.validation.compare.joint_lock.NEAR_JOINT_LOCK`.
     """
     theta = reference["theta1_deg"]
     rows = compared_rows(reference, judge, quantity)
@@ -194,13 +206,18 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
             judge.status, (Status.ASSEMBLY_LIMIT,)
         )
         rel = np.where(limit, rel * tol.value / max(tol.value, ASSEMBLY_LIMIT_POSE.value), rel)
+    notes = []
+    if widening is not None and widened(quantity) and (rows & (widening > 1)).any():
+        near = rows & (widening > 1)
+        rel = rel / widening
+        notes.append(f"{NEAR_JOINT_LOCK}: tolerance x{widening[near].max():.3g} at most, at theta1 = "
+                     f"{_angles(near, theta)} deg ({JOINT_LOCK_CAP})")
     infinite = rows & np.isinf(rel)
     finite = rows & np.isfinite(rel)
     max_rel = float(rel[finite].max()) if finite.any() else float("nan")
     worst = float(theta[np.flatnonzero(finite)[np.argmax(rel[finite])]]) if finite.any() else float("nan")
     diff = np.abs(judge[quantity] - reference[quantity])[finite]
     n_dead = int((rows_given(reference, STROKE_PROXY) & rows_given(judge, STROKE_PROXY) & ~rows).sum())
-    notes = []
     if not rows.any():
         notes.append("no row compared: no position where both engines give it")
     if infinite.any():
@@ -260,6 +277,7 @@ def compare_case(
     tolerances: dict[str, ResolvedTolerance],
     expect: str | None = None,
     rel: dict[str, np.ndarray] | None = None,
+    lock: np.ndarray | None = None,
 ) -> list[Check]:
     """Every check of one judge on one case (module docstring).
 
@@ -277,6 +295,10 @@ def compare_case(
         ``"no_assembly"``: the case is declared to assemble nowhere; only statuses are checked.
     rel : dict, optional
         The judge's :func:`relative_differences`, when the caller has them already.
+    lock : numpy.ndarray, optional
+        ``kappa`` per row, shape ``(n,)`` (:func:`~dualmech.validation.compare.joint_lock.lock_rate`):
+        with the judge's ``joint_lock_cap`` in ``tolerances``, its rate and reaction tolerances are
+        widened near a universal joint's lock.
     """
     engine = judge.engine
     theta = reference["theta1_deg"]
@@ -289,8 +311,12 @@ def compare_case(
     if rel is None:
         rel = relative_differences(reference, judge, mode, quantities)
     scales = unit_scales(reference, judge, mode, quantities)
+    cap = tolerances.get(JOINT_LOCK_CAP)
+    widening = None if lock is None or cap is None else lock_factor(lock, reference["closure_condition"],
+                                                                    cap.value)
     checks += [
-        quantity_check(case_id, mode, reference, judge, q, rel[q], scales[UNIT_GROUP[q]], tolerances[q])
+        quantity_check(case_id, mode, reference, judge, q, rel[q], scales[UNIT_GROUP[q]], tolerances[q],
+                       widening)
         for q in quantities
     ]
     checks.append(stroke_check(case_id, mode, reference, judge, tolerances[STROKE]))
@@ -339,12 +365,12 @@ def _compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]
                              incomplete=why == "did not run") for e in matrix.judges if e in tables]
             continue
         checks.append(reference_check(mc.id, ref, matrix.quantities, mc.expect))
+        lock = lock_rate(case_from_dict(mc.raw), ref)
         for e in matrix.judges:
             if e in tables:
                 rel = _relative_rows(mc.id, e, mc.mode, ref, tables[e], matrix.quantities, rows)
-                checks += compare_case(
-                    mc.id, mc.mode, ref, tables[e], matrix.quantities, matrix.tolerances[e], mc.expect, rel
-                )
+                checks += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities,
+                                       matrix.tolerances[e], mc.expect, rel, lock)
     return Comparison(tuple(checks), strokes, dead, errors, rows)
 
 

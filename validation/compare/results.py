@@ -33,6 +33,9 @@ VERDICTS: frozenset[str] = frozenset(
 )
 #: Pseudo-quantities of :class:`Check` besides the table columns.
 STROKE, STATUS, ENGINE = "stroke", "status", "engine"
+#: The words every check whose tolerance was widened near a universal joint's lock carries in its detail
+#: (:mod:`~dualmech.validation.compare.joint_lock`; the report and the summary look for them).
+NEAR_JOINT_LOCK = "near joint lock"
 #: The only declared expectation a matrix case may carry (``[[sweep]] expect = ...``).
 EXPECT_NO_ASSEMBLY = "no_assembly"
 
@@ -99,6 +102,11 @@ class Check:
             return 0.0
         return self.max_rel / self.tolerance.value if self.tolerance.value > 0 else (
             0.0 if self.max_rel == 0 else float("inf"))
+
+    @property
+    def near_joint_lock(self) -> bool:
+        """Whether the check's tolerance was widened near a universal joint's lock (its detail says so)."""
+        return NEAR_JOINT_LOCK in self.detail
 
     def to_dict(self) -> dict:
         """JSON-ready form."""

@@ -25,7 +25,7 @@ COMPARABLE: tuple[str, ...] = (
 EXPECTATIONS: dict[str, str] = {"no_assembly": "every case assembles at no crank position, on every engine"}
 #: Most cases one matrix may expand to (modes x sweep points): each runs on every engine,
 #: and 1,000 cases of 360 positions take ~8 min on the slowest judge (MuJoCo simulation,
-#: 1.3 ms per position, README "Speed") on one core.
+#: 1.3 ms per position, docs/performance.md) on one core.
 MAX_MATRIX_CASES = 1000
 #: Most crank positions of one case in a validation run: every engine's whole table of a case is
 #: held, stored and compared at once (~30 columns x 4 engines x 8 bytes x this, well under 1 GiB

@@ -149,6 +149,8 @@ def _text(key: str, value: Any) -> str:
 
 
 def _load_base(spec: Any, matrix_file: Path | None) -> Case:
+    if isinstance(spec, Case):  # a design built in Python (design_matrix)
+        return spec
     if not isinstance(spec, str):
         raise MatrixError(f"base: expected a preset name or a case file, got {show(spec)}")
     if matrix_file is not None:
@@ -189,7 +191,7 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
         name=name,
         description=description,
         source=source,
-        base=data["base"],
+        base=data["base"].name if isinstance(data["base"], Case) else data["base"],
         reference=reference,
         engines=engines,
         quantities=quantities,
@@ -283,12 +285,12 @@ def _sweep_specs(sweeps_in: Any, n_modes: int) -> list[SweepSpec]:
     return specs
 
 
-def load_matrix(source: str | Path | None = None) -> Matrix:
+def load_matrix(source: str | Path | Case | None = None) -> Matrix:
     """Read and expand a matrix file, or a bundled matrix by name (default: ``thesis-1991``).
 
-    A case file or a case preset is also accepted: it becomes :func:`design_matrix`.
+    A case file, a case preset or a :class:`Case` is also accepted: it becomes :func:`design_matrix`.
     """
-    if source is not None and is_case_source(source):
+    if isinstance(source, Case) or (source is not None and is_case_source(source)):
         return design_matrix(source)
     path = matrix_path(DEFAULT_MATRIX if source is None else source)
     return parse_matrix(read_toml(path, MatrixError), source=str(path), matrix_file=path)
@@ -302,20 +304,21 @@ def is_case_source(source: str | Path) -> bool:
     return path.is_file() and "geometry" in read_toml(path, MatrixError)
 
 
-def design_matrix(source: str | Path) -> Matrix:
-    """The matrix of one design: case ``source`` (file or preset) in its own load, on every engine.
+def design_matrix(source: str | Path | Case) -> Matrix:
+    """The matrix of one design: case ``source`` (file, preset or a :class:`Case` built in Python) in its
+    own load, on every engine.
 
     Its name (and so the default output folder ``runs/<name>``) is the case's name made
     file-name safe; the reference is ``dualmech`` and every other engine judges it.
     """
-    case = load_case(source)
+    case = source if isinstance(source, Case) else load_case(source)
     name = ID_SAFE.sub("_", case.name).strip("._-")[:MAX_DESIGN_NAME] or "design"
     data = {
         "name": name,
         "description": f"one design: {case.name}",
-        "base": str(source),
+        "base": case if isinstance(source, Case) else str(source),
         "base_label": "design",
         "engines": list(ENGINES),
         "reference": "dualmech",
     }
-    return parse_matrix(data, source=str(source), matrix_file=None)
+    return parse_matrix(data, source=case.name if isinstance(source, Case) else str(source), matrix_file=None)

@@ -25,9 +25,13 @@ GROUPS: dict[str, tuple[str, ...]] = {
     # status agreement bands (validation/compare.py): not columns, but judged per engine like them
     "dead_centre_band": ("dead_centre_band",),
     "assembly_limit_band": ("assembly_limit_band",),
+    # the largest widening near a universal joint's lock (validation/compare/joint_lock.py)
+    "joint_lock_cap": ("joint_lock_cap",),
 }
 #: Pseudo-quantities of the status agreement rules (validation/compare.py), resolved per judge like columns.
 STATUS_BANDS: tuple[str, ...] = ("dead_centre_band", "assembly_limit_band")
+#: Pseudo-quantities that scale a judge's tolerances row by row (validation/compare/joint_lock.py).
+FACTORS: tuple[str, ...] = ("joint_lock_cap",)
 #: Default tolerance names (in ``validation/tolerances.py``) per engine and group;
 #: ``"*"`` is every judge not listed.  The rigid-body judges are held to the
 #: issues' figures (1e-10 kinematics, 1e-9 reactions); the simulation more loosely:
@@ -39,6 +43,7 @@ DEFAULT_TOLERANCES: dict[str, dict[str, str]] = {
         "stroke": "MATRIX_KINEMATICS",
         "dead_centre_band": "DEAD_CENTRE_STATUS_BAND",
         "assembly_limit_band": "ASSEMBLY_LIMIT_STATUS_BAND",
+        "joint_lock_cap": "RIGID_JOINT_LOCK_CAP",
     },
     "pinocchio": {
         "kinematics": "PINOCCHIO_KINEMATICS",
@@ -46,6 +51,7 @@ DEFAULT_TOLERANCES: dict[str, dict[str, str]] = {
         "stroke": "PINOCCHIO_KINEMATICS",
         "dead_centre_band": "DEAD_CENTRE_STATUS_BAND",
         "assembly_limit_band": "ASSEMBLY_LIMIT_STATUS_BAND",
+        "joint_lock_cap": "RIGID_JOINT_LOCK_CAP",
     },
     "mujoco": {
         "kinematics": "MUJOCO_RIGID_KINEMATICS",
@@ -53,6 +59,7 @@ DEFAULT_TOLERANCES: dict[str, dict[str, str]] = {
         "stroke": "MUJOCO_RIGID_KINEMATICS",
         "dead_centre_band": "DEAD_CENTRE_STATUS_BAND",
         "assembly_limit_band": "ASSEMBLY_LIMIT_STATUS_BAND",
+        "joint_lock_cap": "RIGID_JOINT_LOCK_CAP",
     },
     "mujoco-sim": {
         "kinematics": "MATRIX_SIM_KINEMATICS",
@@ -60,6 +67,7 @@ DEFAULT_TOLERANCES: dict[str, dict[str, str]] = {
         "stroke": "SIM_STROKE",
         "dead_centre_band": "SIM_DEAD_CENTRE_STATUS_BAND",
         "assembly_limit_band": "SIM_ASSEMBLY_LIMIT_STATUS_BAND",
+        "joint_lock_cap": "SIM_JOINT_LOCK_CAP",
     },
 }
 
@@ -124,7 +132,7 @@ def resolve_tolerances(
         mine = per_engine.get(e, {})
         defaults = DEFAULT_TOLERANCES.get(e, DEFAULT_TOLERANCES["*"])
         resolved[e] = {}
-        for q in (*quantities, "stroke", *STATUS_BANDS):
+        for q in (*quantities, "stroke", *STATUS_BANDS, *FACTORS):
             g = _group_of(q)
             for where, src, key in (
                 (f"tolerances.{e}.{q}", mine, q),

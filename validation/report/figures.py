@@ -1,16 +1,19 @@
 """Which figures a report draws, and drawing them in processes.
 
 :func:`figure_specs` plans every figure of a run (what to draw and from which tables);
-:func:`start_figures` starts drawing them with :mod:`~dualmech.validation.report.plots` in the run's worker
-processes, those that need the results only first, and :meth:`PendingFigures.add_judged` those that need the
-comparison (:func:`render_figures`: all, and waits for them).
+:func:`start_figures` starts making them in the run's worker processes, those that need the results only
+first, and :meth:`PendingFigures.add_judged` those that need the comparison (:func:`render_figures`: all, and
+waits for them).  Every figure is made interactive (:mod:`~dualmech.validation.report.interactive`, for the
+HTML page); those the Markdown report shows (:attr:`FigureSpec.static`: :data:`STATIC_SWEEP_FIGURES`, the heat
+maps, the balancing plot) are also drawn as PNG (:mod:`~dualmech.validation.report.plots`).  Rasterising is
+most of a report's cost, so the others are not drawn at all.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import re
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -18,14 +21,9 @@ from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation.compare import STROKE, Comparison
 from dualmech.validation.executors import shared_pool
 from dualmech.validation.matrix import Matrix
+from dualmech.validation.report import interactive
 from dualmech.validation.report.canvas import drawing
-from dualmech.validation.report.plots import (
-    Figure,
-    difference_figure,
-    heatmap_figure,
-    shaking_force_figure,
-    sweep_figure,
-)
+from dualmech.validation.report.plots import Figure, heatmap_figure, shaking_force_figure, sweep_figure
 from dualmech.validation.runner import ProgressCallback
 
 #: Figures of each sweep and load mode: (key, title, columns, panel grid (rows, cols)).
@@ -49,8 +47,22 @@ SWEEP_FIGURES: tuple[tuple[str, str, tuple[str, ...], tuple[int, int]], ...] = (
 )
 
 
-#: One planned figure: (file key, section, group, title, caption, (drawing function name, its arguments)).
-FigureSpec = tuple[str, str, str, str, str, tuple[str, tuple]]
+#: The sweep figures also drawn as PNG for the Markdown report, as (key of SWEEP_FIGURES, load mode): the
+#: slider load and drive torque of each sweep in drive-torque mode, the thesis's headline result (the torque
+#: a drive must give); every sweep figure is in the HTML report, interactive.
+STATIC_SWEEP_FIGURES = frozenset({("loads", "torque")})
+
+
+class FigureSpec(NamedTuple):
+    """One planned figure."""
+
+    key: str  # file stem under figures/ (and the HTML element's id)
+    section: str  # "sweep", "difference", "heatmap" or "balancing"
+    group: str  # the sweep's name, or the judge's
+    title: str
+    caption: str
+    job: tuple[str, tuple]  # (kind: a key of _FIGURE_FUNCTIONS, its arguments)
+    static: bool = False  # also drawn as PNG (for the Markdown report)
 
 
 def figure_specs(matrix: Matrix, results: dict, comparison: Comparison) -> list[FigureSpec]:
@@ -82,28 +94,10 @@ def _sweep_specs(matrix: Matrix, results: dict) -> list[FigureSpec]:
                     f"{', '.join(matrix.judges)}. Dotted verticals: dead centres; "
                     "triangles: values beyond the axis."
                 )
-                specs.append(
-                    (
-                        _file_key(f"{sw.name}-{mode}-{key}"),
-                        "sweep",
-                        sw.name,
-                        title,
-                        caption,
-                        (
-                            "sweep",
-                            (
-                                title,
-                                cols,
-                                grid,
-                                cases,
-                                matrix.reference,
-                                matrix.judges,
-                                mode == "torque",
-                                units,
-                            ),
-                        ),
-                    )
-                )
+                job = ("sweep", (title, cols, grid, cases, matrix.reference, matrix.judges, mode == "torque",
+                                 units))
+                specs.append(FigureSpec(_file_key(f"{sw.name}-{mode}-{key}"), "sweep", sw.name, title,
+                                        caption, job, (key, mode) in STATIC_SWEEP_FIGURES))
     return specs
 
 
@@ -124,49 +118,49 @@ def _difference_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec
             tols = matrix.tolerances[e]
             kt = min((tols[q].value for q in kin_q), default=float("nan"))
             rt = min((tols[q].value for q in rea_q), default=float("nan"))
-            specs.append(
-                (
-                    _file_key(f"difference-{e}"),
-                    "difference",
-                    e,
-                    f"{e}: relative difference against {matrix.reference}",
-                    "Worst relative difference r over the compared columns at each crank position "
-                    "(log scale); dashed: the tolerance. Gaps: rows not compared (dead centres, "
-                    "unassembled).",
-                    ("difference", (e, rows, (kt, rt))),
-                )
-            )
+            specs.append(FigureSpec(
+                _file_key(f"difference-{e}"),
+                "difference",
+                e,
+                f"{e}: relative difference against {matrix.reference}",
+                "Worst relative difference r over the compared columns at each crank position "
+                "(log scale); dashed: the tolerance. Gaps: rows not compared (dead centres, "
+                "unassembled).",
+                ("difference", (e, rows, (kt, rt))),
+            ))
     return specs
 
 
 def _heatmap_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec]:
-    """Per judge: the worst relative difference per case and quantity, with its failures."""
+    """Per judge: the ratio to tolerance per case and quantity (with the worst relative difference and the
+    tolerance, for the interactive figure's hover), and its failures."""
     specs: list[FigureSpec] = []
     for e in matrix.judges:
         ids = [mc.id for mc in matrix.cases if comparison.for_engine(mc.id, e)]
         if not ids:
             continue
         qs = list(matrix.quantities) + [STROKE]
-        vals = np.full((len(ids), len(qs)), np.nan)
+        ratios, max_rel, tolerance = (np.full((len(ids), len(qs)), np.nan) for _ in range(3))
         failed = np.zeros((len(ids), len(qs)), dtype=bool)
         for i, cid in enumerate(ids):
             for c in comparison.for_engine(cid, e):
                 if c.quantity in qs:
                     j = qs.index(c.quantity)
-                    vals[i, j] = c.max_rel
+                    ratios[i, j], max_rel[i, j], tolerance[i, j] = c.ratio, c.max_rel, c.tolerance.value
                     failed[i, j] = not c.passed
                 elif not c.passed:  # status or engine failure: the whole row
                     failed[i, :] = True
-        specs.append(
-            (
-                _file_key(f"heatmap-{e}"),
-                "heatmap",
-                e,
-                f"{e}: agreement per case and quantity",
-                "log10 of the worst relative difference; red boxes: out of tolerance (or the engine failed).",
-                ("heatmap", (e, ids, qs, vals, failed)),
-            )
-        )
+        specs.append(FigureSpec(
+            _file_key(f"heatmap-{e}"),
+            "heatmap",
+            e,
+            f"{e}: agreement per case and quantity",
+            "Ratio of the worst relative difference to its tolerance: blue to pale below 1 (pass), red above "
+            "(fail), the boundary marked on the colour bar; ✗: out of tolerance (a whole row: a status or "
+            "the engine failed); grey: not compared.",
+            ("heatmap", (e, ids, qs, ratios, failed, max_rel, tolerance)),
+            static=True,
+        ))
     return specs
 
 
@@ -175,16 +169,26 @@ def _file_key(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9.-]", "-", text)
 
 
-_FIGURE_FUNCTIONS = {"sweep": sweep_figure, "difference": difference_figure, "heatmap": heatmap_figure,
-                     "balancing": shaking_force_figure}
-#: Kinds of figure from the slowest to draw to the fastest.
-_RENDER_ORDER = ("balancing", "difference", "heatmap", "sweep")
+#: Per kind of figure: the function drawing it as PNG (None: interactive only), the one making it interactive.
+_FIGURE_FUNCTIONS = {
+    "sweep": (sweep_figure, interactive.sweep_plot),
+    "difference": (None, interactive.difference_plot),
+    "heatmap": (heatmap_figure, interactive.heatmap_plot),
+    "balancing": (shaking_force_figure, interactive.shaking_force_plot),
+}
+#: Kinds of figure from the slowest to make to the fastest.
+_RENDER_ORDER = ("balancing", "heatmap", "difference", "sweep")
 
 
-def _render(job: tuple[str, tuple]) -> bytes:
+def _render(job: tuple[str, tuple], static: bool = False) -> tuple[bytes | None, str]:
+    """The figure of ``job``: its PNG if ``static`` (else None), and its interactive figure's JSON text."""
     name, args = job
-    with drawing():
-        return _FIGURE_FUNCTIONS[name](*args)
+    draw, plot = _FIGURE_FUNCTIONS[name]
+    png = None
+    if static:
+        with drawing():
+            png = draw(*args)
+    return png, plot(*args)
 
 
 class PendingFigures:
@@ -207,7 +211,7 @@ class PendingFigures:
         and hold the others for :meth:`start_held`."""
         first = len(self.specs)
         self.specs += specs
-        self._rendered += [spec[5] for spec in specs]
+        self._rendered += [(spec.job, spec.static) for spec in specs]
         end = first + (len(specs) if start is None else start)
         self._start(list(range(first, end)))
         self._held += range(end, len(self.specs))
@@ -226,18 +230,18 @@ class PendingFigures:
     def _start(self, indices: list[int]) -> None:
         if self._pool is None:
             return
-        for i in sorted(indices, key=lambda i: _RENDER_ORDER.index(self.specs[i][5][0])):  # stable
-            self._rendered[i] = self._pool.submit(_render, self.specs[i][5])
+        for i in sorted(indices, key=lambda i: _RENDER_ORDER.index(self.specs[i].job[0])):  # stable
+            self._rendered[i] = self._pool.submit(_render, *self._rendered[i])
 
     def collect(self, progress: ProgressCallback | None = None) -> list[Figure]:
         """Every figure in plan order (held ones started first); ``progress(done, total, key)`` after each."""
         self.start_held()
-        pngs: list[bytes] = []
+        made: list[tuple[bytes | None, str]] = []
         for spec, job in zip(self.specs, self._rendered):
-            pngs.append(job.result() if isinstance(job, cf.Future) else _render(job))
+            made.append(job.result() if isinstance(job, cf.Future) else _render(*job))
             if progress is not None:
-                progress(len(pngs), len(self.specs), spec[0])
-        return [Figure(*spec[:5], png) for spec, png in zip(self.specs, pngs)]
+                progress(len(made), len(self.specs), spec.key)
+        return [Figure(*spec[:5], png, plot) for spec, (png, plot) in zip(self.specs, made)]
 
     def cancel(self) -> None:
         """Drop the figures not started yet (the report failed elsewhere)."""
@@ -260,7 +264,7 @@ def start_figures(matrix: Matrix, results: dict, jobs: int = 1) -> PendingFigure
     """
     pending = PendingFigures(jobs)
     specs = _sweep_specs(matrix, results)
-    pending.add(specs, start=sum(spec[2] == specs[0][2] for spec in specs) if specs else 0)
+    pending.add(specs, start=sum(spec.group == specs[0].group for spec in specs) if specs else 0)
     return pending
 
 

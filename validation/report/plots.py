@@ -6,12 +6,12 @@
   crank angle, the base (ideal) case in each. Dead-centre positions are marked with dotted vertical
   lines; values beyond the axis range (the ``1/t`` spikes beside a dead centre) are drawn as triangles
   on the axis edge -- never silently removed;
-* :func:`difference_figure`: per judge, the relative difference ``r_i``
-  (:mod:`dualmech.validation.compare`) against the crank angle on a log scale, worst over kinematics
-  and over reactions;
-* :func:`heatmap_figure`: per judge, the worst relative difference per case and quantity;
-* :func:`shaking_force_figure`: the balancing section's polar plot of the shaking force
-  (:func:`dualmech.models.balancing.draw_shaking_force_polar`).
+* :func:`heatmap_figure`: per judge, the ratio to tolerance per case and quantity, on a two-part colour
+  scale that changes at the pass/fail boundary (ratio 1, :data:`RATIO_SCALE`);
+* :func:`shaking_force_figure`: the balancing section's polar plot of the shaking force.
+
+The report's interactive figures (:mod:`.interactive`) share this module's choices: axis ranges, flat panels,
+judge markers, the ratio scale.
 """
 
 from __future__ import annotations
@@ -37,6 +37,14 @@ LOG_FLOOR = 1e-17
 #: or its size below this fraction of the case's largest value of the same dimension (round-off of zero).
 FLAT_RELATIVE = 1e-9
 JUDGE_MARKERS = ("o", "x", "+", "s", "^", "v", "d")
+#: A judge is drawn as about this many markers per curve (every step-th row), the reference as a line.
+JUDGE_STRIDE = 36
+#: Range of the heat maps' ratio-to-tolerance scale (log): ratios beyond it take its end colours.  Below 1
+#: (pass) the scale runs from dark blue (1e-6: far inside the tolerance) to pale yellow-green; at 1 it
+#: jumps to orange-red and darkens to 100 times the tolerance (fail).
+RATIO_SCALE = (1e-6, 1e2)
+#: The two parts of the ratio scale: (matplotlib colormap, its first and last fraction used), pass then fail.
+RATIO_PARTS = (("YlGnBu_r", 0.0, 0.85), ("Reds", 0.5, 1.0))
 #: Panel titles sit at the top of their axes (matplotlib would otherwise measure every tick label of
 #: the panel at each draw to see whether an offset text is in the way; a panel's title is short and
 #: centred, its offset text at the left edge).
@@ -47,21 +55,27 @@ CRANK_TICKS = (0, 90, 180, 270, 360)
 
 @dataclass(frozen=True)
 class Figure:
-    """One rendered figure."""
+    """One made figure: interactive, and drawn as PNG if the Markdown report shows it."""
 
-    key: str  # file stem under figures/
-    section: str  # "sweep", "difference" or "heatmap"
+    key: str  # file stem under figures/ (and the HTML element's id)
+    section: str  # "sweep", "difference", "heatmap" or "balancing"
     group: str  # the sweep's name, or the judge's
     title: str
     caption: str
-    png: bytes
+    png: bytes | None  # None: interactive only
+    plot: str | None = None  # the interactive figure: plotly.js JSON, safe inside a <script> element
 
     @property
     def data_uri(self) -> str:
+        """The PNG as a ``data:`` URI."""
+        if self.png is None:
+            raise ValueError(f"figure {self.key!r} has no PNG: it is interactive only")
         return "data:image/png;base64," + base64.b64encode(self.png).decode("ascii")
 
 
-def _axis_range(tables: list[ResultTable], column: str, torque: bool) -> tuple[float, float] | None:
+def axis_range(tables: list[ResultTable], column: str, torque: bool) -> tuple[float, float] | None:
+    """The y range of ``column``'s panel: every finite value (in torque mode, of a reaction, those of rows
+    with |transmission| >= :data:`AXIS_RANGE_TRANSMISSION`), padded; None if there is none."""
     vals = []
     for t in tables:
         v = t[column]
@@ -77,7 +91,7 @@ def _axis_range(tables: list[ResultTable], column: str, torque: bool) -> tuple[f
     return lo - pad, hi + pad
 
 
-def _flat_note(tables: list[ResultTable], column: str, units: str) -> str | None:
+def flat_note(tables: list[ResultTable], column: str, units: str) -> str | None:
     """A line that replaces a panel whose curve would show nothing: a constant, or round-off of zero.
 
     Constant: the spread of the values is below :data:`FLAT_RELATIVE` of their size.
@@ -202,13 +216,13 @@ def _sweep_panel(
     from matplotlib.ticker import AutoLocator
 
     tabs = [t for _, per in cases for t in per.values()]
-    note = _flat_note(tabs, col, units)
+    note = flat_note(tabs, col, units)
     if note is not None:
         ax.text(0.5, 0.5, note, transform=ax.transAxes, ha="center", va="center", fontsize=8, wrap=True)
         ax.set_yticks([])
         return
     ax.yaxis.set_major_locator(AutoLocator())  # the panel may have been a flat one of an earlier figure
-    lim = _axis_range(tabs, col, torque)
+    lim = axis_range(tabs, col, torque)
     for i, (label, per) in enumerate(cases):
         color = colors[i % len(colors)]
         ref = per.get(reference)
@@ -225,7 +239,7 @@ def _sweep_panel(
             if t is None:
                 continue
             x = t["theta1_deg"]
-            step = max(1, len(x) // 36)
+            step = max(1, len(x) // JUDGE_STRIDE)
             sel = slice(j % step, None, step)
             kept_line(ax, ("judge", i, j), x[sel], t[col][sel], linestyle="None",
                       marker=JUDGE_MARKERS[j % len(JUDGE_MARKERS)], color=color, markersize=4,
@@ -250,96 +264,107 @@ def _frame(ax: Any, column: str, units: str) -> None:
     ax.ticklabel_format(axis="y", useOffset=False, style="sci", scilimits=(-3, 4))
 
 
-def difference_figure(
-    engine: str,
-    rows: dict[str, list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]],
-    tolerances: tuple[float, float],
-) -> bytes:
-    """Log-scale relative difference of one judge against the crank angle.
-
-    Parameters
-    ----------
-    rows : dict
-        Load mode -> list of (case id, theta1_deg, worst kinematic r_i, worst reaction r_i), each (n,).
-    tolerances : (float, float)
-        Kinematic and reaction tolerance (drawn as dashed lines; the strictest if they vary).
-    """
+def ratio_colormap() -> Any:
+    """The heat maps' colormap over log10 of :data:`RATIO_SCALE`: :data:`RATIO_PARTS` joined at ratio 1."""
     from matplotlib import colormaps
+    from matplotlib.colors import ListedColormap
 
-    modes = tuple(rows)
-    figsize = (12, 3.2 * len(modes) + 0.6)
-    fig = skeleton(("difference", modes), figsize, lambda fig: _difference_axes(fig, modes))
-    cmap = colormaps["tab20"]
-    for m, mode in enumerate(modes):
-        for k, tol in enumerate(tolerances):
-            ax = fig.axes[2 * m + k]
-            for i, (cid, x, kin, rea) in enumerate(rows[mode]):
-                y = kin if k == 0 else rea
-                y = np.where(np.isfinite(y), np.maximum(y, LOG_FLOOR), np.where(np.isinf(y), 1e3, np.nan))
-                ax.plot(x, y, "-", lw=0.9, color=cmap(i % 20), label=cid)
-            ax.axhline(tol, color="red", ls="--", lw=1.0, label="tolerance")
-            ax.legend(fontsize=6, ncol=2, loc="upper right")
-    fig.suptitle(f"{engine} against the reference: relative difference per crank position", fontsize=11)
-    fig.subplots_adjust(
-        left=0.07,
-        right=0.98,
-        top=1 - 0.6 / fig.get_figheight(),
-        bottom=0.55 / fig.get_figheight(),
-        hspace=0.45,
-        wspace=0.08,
-    )
-    return fig_to_png(fig, tight=False)
+    lo, hi = (math.log10(v) for v in RATIO_SCALE)
+    n_pass = round(256 * -lo / (hi - lo))
+    parts = zip(RATIO_PARTS, (n_pass, 256 - n_pass))
+    colours = [colormaps[name](np.linspace(a, b, n)) for (name, a, b), n in parts]
+    return ListedColormap(np.concatenate(colours), name="ratio_to_tolerance")
 
 
-def _difference_axes(fig: Any, modes: tuple[str, ...]) -> None:
-    """The panels of a :func:`difference_figure` without data: per load mode, kinematics and reactions on
-    one shared log scale."""
-    axes = fig.subplots(len(modes), 2, squeeze=False, sharey=True)
-    for m, mode in enumerate(modes):
-        for k, what in enumerate(("kinematics", "reactions")):
-            ax = axes[m, k]
-            ax.set_yscale("log")
-            ax.set_xlim(0, 360)
-            ax.set_xticks(CRANK_TICKS)
-            ax.set_title(f"{mode} mode: {what} (worst column per row)", fontsize=10, y=TITLE_Y)
-            ax.set_xlabel("crank angle theta1 [deg]", fontsize=8)
-            ax.grid(True, which="major", alpha=0.3)
-            ax.tick_params(labelsize=8)
-    axes[0, 0].set_ylabel("relative difference r")
+def ratio_colour_stops() -> list[list]:
+    """:func:`ratio_colormap` as plotly.js colour-scale stops: each part by its ends and middle, the jump at
+    ratio 1 as two stops at the same place."""
+    from matplotlib import colormaps
+    from matplotlib.colors import to_hex
+
+    lo, hi = (math.log10(v) for v in RATIO_SCALE)
+    boundary = -lo / (hi - lo)
+    stops = []
+    for (name, a, b), (start, end) in zip(RATIO_PARTS, ((0.0, boundary), (boundary, 1.0))):
+        for f in np.linspace(0.0, 1.0, 5):
+            stops.append([start + f * (end - start), to_hex(colormaps[name](a + f * (b - a)))])
+    return stops
+
+
+def ratio_ticks() -> tuple[list[float], list[str]]:
+    """Ticks of the ratio scale's colour bar: log10 of each decade of :data:`RATIO_SCALE`, labelled with the
+    ratio, the boundary as "1 = tolerance"."""
+    lo, hi = (round(math.log10(v)) for v in RATIO_SCALE)
+    ticks = [float(k) for k in range(lo, hi + 1)]
+    return ticks, ["1 = tolerance" if k == 0 else f"1e{k:+d}".replace("+", "") for k in range(lo, hi + 1)]
+
+
+def heatmap_ratios(ratios: np.ndarray) -> np.ndarray:
+    """log10 of ``ratios`` clipped to :data:`RATIO_SCALE` (0, exact agreement, at its floor); NaN stays NaN
+    (not compared)."""
+    lo, hi = RATIO_SCALE
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.log10(np.clip(ratios, lo, hi))
 
 
 def heatmap_figure(
-    engine: str, cases: list[str], quantities: list[str], values: np.ndarray, failed: np.ndarray
+    engine: str, cases: list[str], quantities: list[str], ratios: np.ndarray, failed: np.ndarray,
+    max_rel: np.ndarray, tolerance: np.ndarray,
 ) -> bytes:
-    """Heat map of log10(worst relative difference), cases x quantities; failures boxed in red.
+    """Heat map of the ratio to tolerance (worst relative difference / tolerance), cases x quantities.
 
-    ``values`` and ``failed`` have shape ``(len(cases), len(quantities))``; NaN = not compared.
+    Coloured on :func:`ratio_colormap`: blue to pale below 1 (pass), red above (fail), the boundary drawn
+    across the colour bar; failures (also of a status or an engine: the whole row) boxed in red with a ✗.
+    Arrays have shape ``(len(cases), len(quantities))``; NaN = not compared (grey).  ``max_rel`` and
+    ``tolerance`` are the interactive twin's (:func:`.interactive.heatmap_plot`) hover values.
     """
     from matplotlib.patches import Rectangle
 
-    fig = new_figure((0.36 * len(quantities) + 4.0, 0.3 * len(cases) + 2.2))
+    del max_rel, tolerance  # the static figure shows the ratio only
+    fig = new_figure((0.36 * len(quantities) + 4.6, 0.3 * len(cases) + 2.4))
     ax = fig.subplots()
-    with np.errstate(divide="ignore", invalid="ignore"):
-        logv = np.log10(np.maximum(values, LOG_FLOOR))
-    im = ax.imshow(np.ma.masked_invalid(logv), cmap="viridis", aspect="auto", vmin=-17, vmax=0)
+    ax.set_facecolor("#d9d9d9")  # not compared
+    lo, hi = (math.log10(v) for v in RATIO_SCALE)
+    im = ax.imshow(np.ma.masked_invalid(heatmap_ratios(ratios)), cmap=ratio_colormap(), aspect="auto",
+                   vmin=lo, vmax=hi, interpolation="nearest")
     for i, j in zip(*np.nonzero(failed)):
         ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, ec="red", lw=2))
-        ax.text(j, i, "✗", ha="center", va="center", color="red", fontsize=8)
+        ax.text(j, i, "✗", ha="center", va="center", color="black", fontsize=8)
     ax.set_xticks(range(len(quantities)), quantities, rotation=70, fontsize=7)
     ax.set_yticks(range(len(cases)), cases, fontsize=7)
-    fig.colorbar(im, ax=ax, label="log10 max relative difference")
-    ax.set_title(f"{engine}: worst relative difference per case and quantity", fontsize=10, y=TITLE_Y)
+    ax.set_xlabel("quantity (output column)", fontsize=8)
+    ax.set_ylabel("case", fontsize=8)
+    bar = fig.colorbar(im, ax=ax, label="ratio to tolerance [1] (log scale)")
+    ticks, labels = ratio_ticks()
+    bar.set_ticks(ticks, labels=labels, fontsize=7)
+    bar.ax.axhline(0.0, color="black", lw=2.5)  # the pass/fail boundary
+    ax.set_title(f"{engine}: ratio to tolerance per case and quantity (> 1 fails)", fontsize=10, y=TITLE_Y)
     w, h = fig.get_figwidth(), fig.get_figheight()
-    fig.subplots_adjust(left=1.9 / w, right=1 - 0.2 / w, top=1 - 0.4 / h, bottom=1.1 / h)
+    fig.subplots_adjust(left=1.9 / w, right=1 - 0.3 / w, top=1 - 0.4 / h, bottom=1.3 / h)
     return fig_to_png(fig, tight=False)
 
 
+def polar_components(force: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """The shaking force ``(m, 3)`` in its x-y plane: magnitude ``(m,)``, direction in degrees ``(m,)``, and
+    the peak of the full magnitude |f|."""
+    return (np.hypot(force[:, 0], force[:, 1]), np.degrees(np.arctan2(force[:, 1], force[:, 0])),
+            float(np.linalg.norm(force, axis=1).max()))
+
+
 def shaking_force_figure(forces: tuple[np.ndarray, np.ndarray], name: str, units: str) -> bytes:
-    """PNG of :func:`~dualmech.models.balancing.draw_shaking_force_polar` (original, then balanced)."""
-    import tempfile
-    from pathlib import Path
-
-    from dualmech.models.balancing import draw_shaking_force_polar
-
-    with tempfile.TemporaryDirectory() as tmp:
-        return draw_shaking_force_polar(forces, name, units, Path(tmp) / "shaking.png").read_bytes()
+    """Polar plot of the shaking force on the frame (its x-y components, ``forces``: original, then balanced,
+    each ``(m, 3)``), the radial axis and the peaks in the case's force unit (``units``: its unit label)."""
+    unit = column_unit("j1_fx", units)
+    suffix = f" {unit}" if unit else ""
+    fig = new_figure((6.0, 6.4))
+    ax = fig.add_subplot(projection="polar")
+    for f, label, style in zip(forces, ("original", "balanced"), ("-", "--")):
+        r, theta, peak = polar_components(f)
+        ax.plot(np.radians(theta), r, style, lw=1.5, label=f"{label}: peak |f| = {peak:.3g}{suffix}")
+    ax.set_title(f"shaking force on the frame, {name}: x-y components", fontsize=10)
+    ax.text(np.radians(22.5), ax.get_rmax() * 1.2, f"|f_xy| [{unit or 'force unit'}]", fontsize=8,
+            ha="center")
+    ax.tick_params(labelsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.06), fontsize=9, frameon=False)
+    fig.subplots_adjust(left=0.1, right=0.9, top=0.88, bottom=0.16)
+    return fig_to_png(fig, tight=False)

@@ -1,8 +1,9 @@
 """Writing a report: the Jinja2 templates of ``validation/templates/`` filled with the sections.
 
-:func:`write_report` renders a self-contained HTML page (autoescaped, figures embedded as base64
-PNG; nothing loaded from the network) and a Markdown summary (every value escaped by
-:func:`markdown_escape`, figures beside it under ``figures/``), and writes ``summary.json``.
+:func:`write_report` renders a self-contained HTML page (autoescaped; every figure interactive, plotly.js
+inlined once and each figure's data beside it; nothing loaded from the network, which the page's
+Content-Security-Policy forbids) and a Markdown summary (every value escaped by :func:`markdown_escape`, the
+static figures beside it under ``figures/``), and writes ``summary.json``.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from dualmech.validation.durable import json_text
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.provenance import key_versions
 from dualmech.validation.report.figures import PendingFigures, start_figures
+from dualmech.validation.report.interactive import plotly_js
 from dualmech.validation.report.plots import Figure
 from dualmech.validation.report.sections import (
     balancing_spec,
@@ -137,8 +139,8 @@ def write_report(
 ) -> ReportFiles:
     """Render the report of the run in ``rundir`` into ``outdir`` (default: ``rundir``).
 
-    Writes ``report.html`` (self-contained), ``report.md``, ``summary.json`` and
-    ``figures/*.png``, and lists them in the folder's manifest
+    Writes ``report.html`` (self-contained, its figures interactive), ``report.md``, ``summary.json`` and
+    ``figures/*.png`` (the figures the Markdown report shows), and lists them in the folder's manifest
     (:mod:`~dualmech.validation.rundir`: only a dualmech folder, one writer at a time,
     and only figures it wrote before are removed when they are no longer drawn).
     ``comparison`` and ``results`` (case id -> engine -> table or error text), if given, are the run's as
@@ -162,7 +164,7 @@ def write_report(
             pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
         paths = _write_figures(outdir, figures)
         context.update(figures=figures, errata=copy_errata(outdir) if context["findings"] else None,
-                       report_seconds=time.perf_counter() - start)
+                       plotly_js=plotly_js(), report_seconds=time.perf_counter() - start)
         files = ReportFiles(outdir / "report.html", outdir / "report.md", outdir / "summary.json",
                             tuple(paths), 0.0, str(comparison.verdict))
         for target, text in ((files.html, templates[0].render(**context)),
@@ -198,11 +200,13 @@ def _compared(matrix: Matrix, results: dict, comparison: Comparison | Callable[[
 
 
 def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
-    """Write the figures' PNGs; remove those this folder's earlier reports wrote that are no longer drawn
-    (:mod:`~dualmech.validation.rundir`: inside the folder, never through a link)."""
-    paths = [write_file(outdir, f"figures/{f.key}.png", f.png, record=False) for f in figures]
-    record_files(outdir, paths)
-    remove_stale(outdir, paths, "figures")
+    """Write the PNGs of the figures drawn as PNG; remove those this folder's earlier reports wrote that are
+    no longer drawn (:mod:`~dualmech.validation.rundir`: inside the folder, never through a link)."""
+    static = [f for f in figures if f.png is not None]
+    names = [f"figures/{f.key}.png" for f in static]  # by their names in outdir, also when outdir is relative
+    paths = [write_file(outdir, name, f.png, record=False) for name, f in zip(names, static)]
+    record_files(outdir, names)
+    remove_stale(outdir, names, "figures")
     return paths
 
 
@@ -219,6 +223,7 @@ def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison) -
         "n_checks": len(comparison.checks),
         "failures": failures[:200],
         "n_failures": len(failures),
+        "near_lock": [c for c in comparison.checks if c.near_joint_lock],
         "summary": summary_rows(matrix, comparison),
         "strokes": stroke_rows(matrix, comparison),
         "tolerances": tolerance_rows(matrix),

@@ -81,7 +81,7 @@ def balancing_spec(balance: Balancing) -> FigureSpec | None:
     force, original and balanced."""
     if balance.forces is None:
         return None
-    return (
+    return FigureSpec(
         "balancing-shaking-force",
         "balancing",
         "balancing",
@@ -90,6 +90,7 @@ def balancing_spec(balance: Balancing) -> FigureSpec | None:
         "Balanced: crank and rod mass centres at xi1 = -(1 + mu2)/mu1, xi2 = -1/mu2 "
         "(docs/conventions.md; errata S7).",
         ("balancing", (balance.forces, balance.name, balance.units)),
+        static=True,
     )
 
 

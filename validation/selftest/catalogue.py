@@ -7,7 +7,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-#: Fault classes of the catalogue (README "The gate proves it can fail").
+#: Fault classes of the catalogue (docs/validation.md, "The gate proves it can fail").
 CLASSES: tuple[str, ...] = ("solver", "shared-input", "judge", "comparison")
 #: Default catalogue, relative to the source root.
 CATALOGUE = "validation/mutants.toml"

@@ -8,6 +8,7 @@ simulation of the RSSR (no servo, the drive torque applied) follows it.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import replace
 
 import numpy as np
@@ -16,7 +17,7 @@ from numpy.testing import assert_allclose
 
 from dualmech.core.motion import CrankState
 from dualmech.core.thresholds import Tolerance
-from dualmech.models.linkages import forward_dynamics, linkage_case
+from dualmech.models.linkages import forward_dynamics, linkage_case, read_linkage, solve_linkage
 from dualmech.models.linkages.forward_dynamics import (
     POINTS,
     Coefficients,
@@ -29,6 +30,7 @@ from dualmech.models.linkages.forward_dynamics import (
     simulate,
 )
 from dualmech.models.linkages.rssr_case import RssrCase
+from dualmech.validation.linkages.run import SPECS
 
 KINDS = ("rssr", "rccc")
 #: Free motion (no torques, 1 s): peak-to-peak total energy over the peak kinetic energy.
@@ -58,6 +60,11 @@ HALF_DERIVATIVE = Tolerance(
 SPLINE_MIDPOINTS = Tolerance(
     1e-12, "a degree-7 spline on 0.5 deg (error ~h^8) down to the table's rounding; measured 9.4e-14 (RSSR), "
     "7.6e-14 (RCCC); a cubic one misses by 7.1e-9, 8.3e-8")
+#: The table along a simulated motion against the case solved at each simulated state, relative to the peak of
+#: each column's unit group (the closure and dynamics residuals absolutely: they are ratios).
+SIMULATED_VS_SOLVED = Tolerance(
+    1e-12, "the same analysis at the same states, the rate passed through rpm: round-off; measured <= "
+    "5.7e-14 absolute (RSSR branch -1, phi4_ddot), the peaks O(1) to O(100)")
 #: Q with the output torque T minus Q without it, against -T G, relative to |T| max |G|.
 OUTPUT_VIRTUAL_WORK = Tolerance(
     1e-11, "an identity of the linear inverse dynamics: round-off; measured 1.0e-14 (RSSR), 7.1e-15 (RCCC)")
@@ -233,3 +240,28 @@ def test_the_coefficient_spline_is_exact_to_rounding(kind: str, monkeypatch: pyt
     assert _spline_midpoints(kind) <= SPLINE_MIDPOINTS.value
     monkeypatch.setattr(forward_dynamics, "SPLINE_DEGREE", 3)  # deliberate fault: a cubic spline
     assert _spline_midpoints(kind) > 1e3 * SPLINE_MIDPOINTS.value
+
+
+@pytest.mark.parametrize("branch", [1, -1])
+def test_the_simulated_table_is_the_solved_one_at_each_simulated_state(kind: str, branch: int) -> None:
+    """Oracle: each simulated state (theta1, its rate and acceleration) solved again by ``dualmech solve``'s
+    path, the raw case table with its ``[mechanism]`` options (the branch) and its ``[motion]`` set to that
+    state.  The slider crank's simulate dropped its universal joint's moment on the way (issue 30); here
+    every option of the case must reach the table along the motion, on both branches."""
+    raw = copy.deepcopy(read_linkage(kind))
+    raw["mechanism"]["branch"] = branch
+    sim = simulate(linkage_case(raw), 0.2, torque=1.0, damping=0.05, samples=6)
+    spec = SPECS[kind]
+    rows = []
+    for psi, rate, accel in zip(sim.psi, sim.psi_dot, sim.psi_ddot):
+        deg = float(np.degrees(psi))
+        raw["motion"] = {"crank_rpm": float(rate * 30.0 / np.pi), "crank_accel": float(accel),
+                         "angles_deg": {"start": deg, "stop": deg + 0.5, "step": 1.0}}
+        rows.append(solve_linkage(raw))
+    assert all(len(r) == 1 and r.status[0] == "ok" for r in rows) and (sim.table.status == "ok").all()
+    assert sim.table.meta["branch"] == branch
+    solved = {c: np.array([r[c][0] for r in rows]) for c in spec.columns}
+    for c in spec.columns:
+        group = [g for g in spec.columns if spec.unit_group(g) == spec.unit_group(c)]
+        scale = 1.0 if c.endswith("residual") else max(np.abs(solved[g]).max() for g in group)
+        assert_allclose(sim.table[c], solved[c], rtol=0, atol=SIMULATED_VS_SOLVED.value * scale, err_msg=c)
