@@ -9,7 +9,6 @@ comment, and the name and file name quoted in it must read back with ``ast.liter
 from __future__ import annotations
 
 import ast
-import dataclasses
 import xml.parsers.expat
 
 import numpy as np
@@ -53,7 +52,7 @@ PLAIN = _parse(runnable_mjcf(BASE, START, 1e-4, "m.xml"))[1]
 
 def test_three_dashes_do_not_close_the_comment():
     """Why: ``---><mujoco model="injected"/>`` closed the comment and MuJoCo loaded the injected model."""
-    text = runnable_mjcf(dataclasses.replace(BASE, name=INJECTION), START, 1e-4, "m.xml")
+    text = runnable_mjcf(BASE.with_parts(name=INJECTION), START, 1e-4, "m.xml")
     comments, elements = _parse(text)
     assert len(comments) == 1 and elements[0] == ("mujoco", {"model": f"dualmech {INJECTION}"})
     assert "--" not in comments[0]
@@ -62,7 +61,7 @@ def test_three_dashes_do_not_close_the_comment():
 
 @given(name=NAMES, file_name=NAMES)
 def test_any_name_changes_no_structure_and_reads_back(name, file_name):
-    text = runnable_mjcf(dataclasses.replace(BASE, name=name), START, 1e-4, file_name)
+    text = runnable_mjcf(BASE.with_parts(name=name), START, 1e-4, file_name)
     comments, elements = _parse(text)
     assert len(comments) == 1
     assert elements[0] == ("mujoco", {"model": f"dualmech {xml_text(name)}"})
@@ -74,5 +73,5 @@ def test_any_name_changes_no_structure_and_reads_back(name, file_name):
 
 @given(name=NAMES)
 def test_the_judges_model_of_any_name_is_one_document(name):
-    comments, elements = _parse(case_to_mjcf(dataclasses.replace(BASE, name=name)))
+    comments, elements = _parse(case_to_mjcf(BASE.with_parts(name=name)))
     assert len(comments) == 1 and elements[0] == ("mujoco", {"model": f"dualmech {xml_text(name)}"})
