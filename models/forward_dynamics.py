@@ -173,16 +173,14 @@ def simulate(case: Case, duration: float, *, torque: float | str | LoadFunction 
     psi0, psidot0 : float, optional
         Initial crank angle :math:`\\theta_1` (rad), speed (rad/s); default the first angle, ``crank_rpm``.
     damping, slider_damping : float
-        Viscous coefficients :math:`c_1` (torque·s/rad) of the crank bearing and :math:`c_4`
-        (force·s/length) of the slider guide, >= 0.
+        Viscous :math:`c_1` (torque·s/rad) of the crank bearing, :math:`c_4` (force·s/length) of the guide.
     samples, method, rtol, atol : int, str, float, float
         Equally spaced output times (>= 2, both ends included) and the solve_ivp settings (``atol``
         scaled per state component).
     interpolation_tol, model : float, CoefficientModel, optional
         The relative accuracy asked of the coefficient table, or a :class:`CoefficientModel` built before.
     max_evaluations, time_limit : int, float
-        The integrator's budget: right-hand-side evaluations and wall time (s); when either is used
-        up the integration stops with a one-line ``ValueError``.
+        The budget: right-hand-side evaluations and wall time (s), then a one-line ``ValueError``.
     progress : callable, optional
         ``progress(t, duration, "")`` at every right-hand-side evaluation (the command line's display).
 

@@ -57,6 +57,20 @@ def as_case(case: Case | str | os.PathLike | dict, argument: str = "case") -> Ca
                     f"(dict), got {show(case)}")
 
 
+def as_spec(spec: Spec | str | os.PathLike | dict) -> Spec:
+    """``spec`` as a tolerance :class:`~dualmech.models.tolerance.spec.Spec`: itself, a SPEC file or its
+    table; anything else is a one-line ``TypeError``."""
+    from dualmech.models.tolerance.spec import Spec, load_spec, spec_from_dict
+
+    if isinstance(spec, (str, os.PathLike)):
+        return load_spec(spec)
+    if isinstance(spec, dict):
+        return spec_from_dict(spec)
+    if not isinstance(spec, Spec):
+        raise TypeError(f"spec: expected a tolerance SPEC (a file, a table or a Spec), got {show(spec)}")
+    return spec
+
+
 def whole_number(argument: str, value: Any, least: int) -> int:
     """``value`` as an ``int`` of at least ``least``: a one-line ``TypeError`` for a non-integer (a bool, a
     float or a string included), a ``ValueError`` below ``least``."""
@@ -356,7 +370,6 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
     ToleranceStudy
         ``.summary``, ``.samples``, ``.files``, ``.passed``.
     """
-    from dualmech.models.tolerance.spec import Spec, load_spec, spec_from_dict
     from dualmech.models.tolerance.study import StudyInput
     from dualmech.validation.rundir import locked
     from dualmech.validation.tolerance_report import FigureDrawing, write_tolerance_report
@@ -364,12 +377,7 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
 
     nominal = as_case(case)
     warn_implausible(nominal)
-    if isinstance(spec, (str, os.PathLike)):
-        spec = load_spec(spec)
-    elif isinstance(spec, dict):
-        spec = spec_from_dict(spec)
-    elif not isinstance(spec, Spec):
-        raise TypeError(f"spec: expected a tolerance SPEC (a file, a table or a Spec), got {show(spec)}")
+    spec = as_spec(spec)
     if not isinstance(outdir, (str, os.PathLike)):
         raise TypeError(f"outdir: expected a folder path, got {show(outdir)}")
     # n's range (1 to MAX_DESIGNS) is the study's own check
