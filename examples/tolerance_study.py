@@ -5,17 +5,11 @@ spot checks (``judge_samples=0``), into a temporary folder.  Run: ``python toler
 """
 
 import tempfile
+from pathlib import Path
 
 import dualmech
 
-case = dualmech.Case(
-    "first-design", units="m-kg-s",
-    geometry={"crank_length": 0.05, "rod_length": 0.20, "slider_offset": 0.01,
-              "slider_twist_deg": 270.0, "crank_axial_shift": 0.0},
-    motion={"crank_rpm": 600.0},
-    bodies={"crank_radius": 0.008, "rod_radius": 0.005, "slider_side": 0.025, "density": 7850.0},
-    loads={"slider_force": 200.0, "gravity": [0.0, -9.81, 0.0]},
-)
+case = dualmech.load_case(Path(__file__).with_name("first-design.toml"))  # first_design.py builds it in code
 spec = {"tolerances": {                     # offsets from the nominal values, in the case's units
     "geometry.slider_offset": {"dist": "normal", "sd": 0.0005},          # ±0.5 mm (1 sd)
     "geometry.slider_twist_deg": {"dist": "uniform", "low": -0.5, "high": 0.5},

@@ -4,16 +4,11 @@
 The run folder is ``runs/validate-design`` under the current folder.  Run: ``python validate_design.py``.
 """
 
+from pathlib import Path
+
 import dualmech
 
-case = dualmech.Case(
-    "first-design", units="m-kg-s",
-    geometry={"crank_length": 0.05, "rod_length": 0.20, "slider_offset": 0.01,
-              "slider_twist_deg": 270.0, "crank_axial_shift": 0.0},
-    motion={"crank_rpm": 600.0},
-    bodies={"crank_radius": 0.008, "rod_radius": 0.005, "slider_side": 0.025, "density": 7850.0},
-    loads={"slider_force": 200.0, "gravity": [0.0, -9.81, 0.0]},
-)
+case = dualmech.load_case(Path(__file__).with_name("first-design.toml"))  # first_design.py builds it in code
 
 if __name__ == "__main__":
     run = dualmech.validate(case, "runs/validate-design", engines=["dualmech", "pinocchio"], jobs=1)
