@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 import subprocess
 from dataclasses import replace
@@ -28,7 +27,7 @@ from dualmech.validation.matrix import load_matrix
 from dualmech.validation.report import figures, interactive, plots, write_report
 from dualmech.validation.runner import run_matrix
 
-from .test_validate import FAKE_REGISTRY, _chromium
+from .test_validate import FAKE_REGISTRY, chromium
 
 #: Virtual time Chromium gives the page to draw every figure after load (ms; no real time passes idle).
 DRAW_MS = 5000
@@ -67,15 +66,6 @@ window.addEventListener('load', () => {
 </script></body>"""
 
 
-def _browser() -> str:
-    browser = _chromium()
-    if browser is None:
-        if os.environ.get("CI"):
-            pytest.fail("chromium is required in CI (.ci/run installs Debian's chromium)")
-        pytest.skip("chromium not installed (apt-get install chromium)")
-    return browser
-
-
 def load_in_chromium(page: Path, tmp_path: Path, engine: str) -> tuple[dict, list[str]]:
     """Load ``page``, with :data:`PROBE` (toggling ``engine``) added, in headless Chromium that resolves no
     host name; the probe's findings and every http(s) URL the browser requested (its net log)."""
@@ -84,7 +74,7 @@ def load_in_chromium(page: Path, tmp_path: Path, engine: str) -> tuple[dict, lis
     probed.write_text(page.read_text(encoding="utf-8").replace("</body>", probe), encoding="utf-8")
     netlog = tmp_path / "netlog.json"
     dom = subprocess.run(
-        [_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+        [chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          "--host-resolver-rules=MAP * ~NOTFOUND", f"--log-net-log={netlog}",
          f"--user-data-dir={tmp_path / 'profile'}", f"--virtual-time-budget={DRAW_MS + 20000}",

@@ -13,7 +13,6 @@ fault: a blank figure, the thesis's findings forced in, a design without a unit 
 from __future__ import annotations
 
 import json
-import os
 import re
 import subprocess
 from pathlib import Path
@@ -24,7 +23,7 @@ from click.testing import CliRunner
 
 from dualmech.cli import main
 from tests.validation.test_design import SI_DESIGN
-from tests.validation.test_validate import _chromium
+from tests.validation.test_validate import chromium
 
 #: Page width of the screenshot, CSS pixels (a laptop screen; device scale factor 1).
 WIDTH = 1280
@@ -59,15 +58,6 @@ window.addEventListener('load', () => {
 </script></body>"""
 
 
-def _browser() -> str:
-    browser = _chromium()
-    if browser is None:
-        if os.environ.get("CI"):
-            pytest.fail("chromium is required in CI (.ci/run installs Debian's chromium)")
-        pytest.skip("chromium not installed (apt-get install chromium)")
-    return browser
-
-
 def _run_chromium(browser: str, profile: Path, height: int, *args: str) -> str:
     flags = [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
              "--disable-background-networking", "--disable-component-update", "--disable-sync",
@@ -91,7 +81,7 @@ def check_report_page(report: Path, tmp_path: Path) -> None:
     """Lay out and screenshot ``report`` in headless Chromium; one AssertionError names every failed check."""
     import matplotlib.image
 
-    browser = _browser()
+    browser = chromium()
     html = report.read_text(encoding="utf-8")
     probed = tmp_path / "probed.html"
     probed.write_text(html.replace("</body>", PROBE), encoding="utf-8")

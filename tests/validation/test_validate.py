@@ -186,8 +186,14 @@ def test_baseline_catches_a_regression(small, tmp_path):
 # ----------------------------------------------------------------------------- report
 
 
-def _chromium() -> str | None:
-    return shutil.which("chromium") or shutil.which("chromium-browser")
+def chromium() -> str:
+    """Debian's chromium for the report's browser tests: required in CI (.ci/run installs it), else a skip."""
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    if browser is None:
+        if os.environ.get("CI"):
+            pytest.fail("chromium is required in CI (.ci/run installs Debian's chromium)")
+        pytest.skip("chromium not installed (apt-get install chromium)")
+    return browser
 
 
 def test_user_text_is_escaped_in_the_report(small, tmp_path):
