@@ -261,3 +261,16 @@ def test_validate_of_a_linkage_is_the_linkage_gate(tmp_path, monkeypatch) -> Non
     monkeypatch.setattr(engines, "solve_case", shifted)
     monkeypatch.setattr("dualmech.validation.linkages.run.solve_case", shifted)
     assert dualmech.validate("rssr", tmp_path / "bad", engines=["dualmech", "pinocchio"]).verdict == "FAIL"
+
+
+@pytest.mark.parametrize(("judges", "check", "passed"), [
+    ([{"passed": True}], None, True),
+    ([{"passed": True}], {"passed": True}, True),
+    ([{"passed": True}, {"passed": False}], {"passed": True}, False),
+    ([], {"passed": False}, False),
+])
+def test_a_tolerance_study_passes_as_the_command_exits_0(tmp_path, judges, check, passed) -> None:
+    """``ToleranceStudy.passed`` is ``dualmech tolerance``'s exit rule: every spot check agreed and the
+    sensitivities agree with central differences (or were not checked)."""
+    summary = {"judges": judges, "sensitivity_check": check}
+    assert dualmech.ToleranceStudy(tmp_path, summary, None, None, []).passed is passed
