@@ -340,12 +340,15 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
     calls = [(cid, raws[cid], e, registry[e]) for cid, e in tasks]
     calls.sort(key=lambda call: -ENGINE_COST.get(call[2], 1.0))  # the longest first (stable)
 
+    listed: set[str] = set()  # case files already in the manifest (listing one rereads and checks it)
+
     def store(entry: dict) -> None:
         """Write the entry's case file at once (a case whose other engines are still running is partial)."""
         cid = entry["case"]
         if entry.get("error"):
             _log_failure(outdir, entry)
-        rundir.write_file(outdir, case_name(cid), files[cid].add(entry))
+        rundir.write_file(outdir, case_name(cid), files[cid].add(entry), record=cid not in listed)
+        listed.add(cid)
 
     leftovers: list[dict] = []
     stream = execute(run_task, calls, jobs, scheduler, leftovers, here=lambda c: runs_here(c[2], c[3], c[1]))
