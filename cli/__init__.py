@@ -19,6 +19,7 @@ from dualmech.cli.solve import benchmark, case_path, cases, mjcf, solve
 from dualmech.cli.tolerance import tolerance
 from dualmech.cli.validate import report, validate
 from dualmech.validation.executors import end_all_pools
+from dualmech.validation.warning_lines import show_warnings_as_lines
 
 #: Every subcommand of ``dualmech``, by module: one case (cases, case-path, solve, mjcf, benchmark),
 #: forward dynamics, the tolerance study, the validation run and its report, the mutation selftest.
@@ -32,6 +33,7 @@ COMMANDS: tuple[click.Command, ...] = (
 @click.pass_context
 def main(ctx: click.Context) -> None:
     """Dual-number solver for the generalized slider crank, judged by Pinocchio and MuJoCo."""
+    show_warnings_as_lines()  # one line each, never Python's file:line and source
     ctx.call_on_close(end_all_pools)  # bounded: the interpreter's exit would join workers without a limit
     show_kernel_compiles()  # a cold numba cache: a notice and progress while the kernel compiles
 

@@ -165,8 +165,9 @@ def shaking(case: Case, crank: CrankState | None = None) -> Shaking:
     an = analyze(regular, crank)
     r = an.reactions
     given = (an.status == Status.OK)[:, None]  # reactions of positions that do not assemble are not answers
-    force = np.where(given, -(r.j1_force + r.j4_force), np.nan)
-    moment = np.where(given, -(r.j1_moment + r.j4_moment + np.cross(an.p3, r.j4_force)), np.nan)
+    with np.errstate(invalid="ignore"):  # rows without an answer carry NaN (inf - inf too): not results
+        force = np.where(given, -(r.j1_force + r.j4_force), np.nan)
+        moment = np.where(given, -(r.j1_moment + r.j4_moment + np.cross(an.p3, r.j4_force)), np.nan)
     return Shaking(an.crank.theta, force, moment, an.status)
 
 

@@ -149,11 +149,14 @@ def _simulation_steps(sim: dict) -> int | None:
     return int(SIMULATION_STEPS.check("simulation.steps_per_degree", value))
 
 
-def _slider_crank(kind: str) -> None:
+def _slider_crank(kind: Any) -> None:
     """Refuse a ``[mechanism] kind`` other than the slider crank's (the other linkages have their own case
     format: ``docs/conventions.md``, "Linkages")."""
     from dualmech.models.linkages import KINDS
 
+    if not isinstance(kind, str):
+        raise CaseError(f"mechanism.kind: expected a string, one of {', '.join((SLIDER_CRANK, *KINDS))}; "
+                        f"got {show(kind)}")
     if kind in KINDS:
         raise CaseError(f"mechanism.kind: {show(kind)} is read by dualmech solve or "
                         f"dualmech.models.linkages, not as a slider crank (valid here: {SLIDER_CRANK})")
@@ -249,9 +252,10 @@ def parse_tables(data: dict) -> dict[str, Any]:
     """The validated parts of a case table (the fields of :class:`~dualmech.models.case.Case`), or a one-line
     :class:`CaseError`."""
     mechanism = data.get("mechanism", {})
-    kind = mechanism.get("kind", SLIDER_CRANK) if isinstance(mechanism, dict) else None
-    if isinstance(kind, str):
-        _slider_crank(kind)  # first: another mechanism's keys are not this format's unknown keys
+    if not isinstance(mechanism, dict):
+        raise CaseError(f"mechanism: expected a table such as [mechanism] kind = {SLIDER_CRANK!r}, "
+                        f"got {show(mechanism)}")
+    _slider_crank(mechanism.get("kind", SLIDER_CRANK))  # first: another kind's keys are not unknown keys here
     _check_keys(data)
     geom, motion, bodies, loads = case_numbers(data)
     _check_proportions(geom, motion)

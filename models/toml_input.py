@@ -14,6 +14,7 @@ key is ``sweep[i].cases[j].geometry.slider_offset``: 6 levels).
 from __future__ import annotations
 
 import re
+import sys
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,9 @@ from typing import Any
 MAX_TOML_BYTES = 1 << 20
 #: Deepest nesting of tables and arrays, and most parts of one dotted key.
 MAX_TOML_DEPTH = 16
+#: Most digits in one integer literal: Python refuses to convert more (``sys.get_int_max_str_digits``), with
+#: a message that names no key; a longer one is refused here, by its key.
+MAX_NUMBER_DIGITS = sys.get_int_max_str_digits() or 4300
 
 #: Strings (multi-line first, with up to two quotes before the closing delimiter) and comments.
 _STRINGS_AND_COMMENTS = re.compile(
@@ -34,19 +38,38 @@ _STRINGS_AND_COMMENTS = re.compile(
 )
 #: A float literal with a decimal point (its dot is not a key separator).
 _FLOAT = re.compile(r"(?<![\w.+-])[+-]?\d[\d_]*\.\d[\d_]*(?:[eE][+-]?\d[\d_]*)?(?![\w.])")
+#: A run of digits (with TOML's ``_`` separators) longer than :data:`MAX_NUMBER_DIGITS`.
+_LONG_NUMBER = re.compile(r"\d(?:_?\d){%d,}" % MAX_NUMBER_DIGITS)
 #: A (possibly dotted) bare key; quoted parts were blanked to ``s``.
 _KEY_CHAIN = re.compile(r"[\w-]+(?:[ \t]*\.[ \t]*[\w-]+)*")
 
 
-def _skeleton(text: str) -> str:
-    """The text with every string replaced by ``s``, every comment by nothing, every float by ``0``."""
-    blanked = _STRINGS_AND_COMMENTS.sub(lambda m: "" if m.group().startswith("#") else "s", text)
-    return _FLOAT.sub("0", blanked)
+def _blanked(text: str) -> str:
+    """The text with every string replaced by ``s`` and every comment by nothing (lines kept)."""
+    return _STRINGS_AND_COMMENTS.sub(lambda m: "" if m.group().startswith("#") else "s", text)
+
+
+def _key_at(blanked: str, offset: int) -> str:
+    """The dotted key of the value at ``offset`` of the blanked text: the last ``[table]`` header before it,
+    the line's key and, inside an inline table, the last key before the value (``motion.angles_deg.step``)."""
+    before = blanked[:offset]
+    headers = re.findall(r"^[ \t]*\[\[?[ \t]*([\w.-]+)", before, re.MULTILINE)
+    keys = re.findall(r"([\w.-]+)[ \t]*=", before.rsplit("\n", 1)[-1])
+    inner = keys[-1:] if len(keys) > 1 else []
+    parts = headers[-1:] + keys[:1] + inner
+    return ".".join(parts) if keys else "a value"
 
 
 def _check_text(text: str, where: str, error: type[ValueError]) -> None:
-    """Bracket depth and key parts of ``text`` within :data:`MAX_TOML_DEPTH`, before ``tomllib`` sees it."""
-    skeleton = _skeleton(text)
+    """Number literals within :data:`MAX_NUMBER_DIGITS`, bracket depth and key parts within
+    :data:`MAX_TOML_DEPTH`, before ``tomllib`` sees ``text``."""
+    blanked = _blanked(text)
+    long = _LONG_NUMBER.search(blanked)
+    if long:
+        digits = sum(c.isdigit() for c in long.group())
+        raise error(f"{_key_at(blanked, long.start())}: a number of {digits:,} digits; at most "
+                    f"{MAX_NUMBER_DIGITS:,} (line {blanked.count(chr(10), 0, long.start()) + 1} of {where})")
+    skeleton = _FLOAT.sub("0", blanked)  # a float's dot is no key separator
     depth = deepest = 0
     for char in re.sub(r"[^\[\]{}]", "", skeleton):
         depth += 1 if char in "[{" else -1

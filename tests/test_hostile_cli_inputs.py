@@ -11,6 +11,8 @@ import pytest
 
 from tests.hostile_inputs import ideal_case, run_cli
 
+ROOT = Path(__file__).resolve().parents[1]
+
 
 def _write_case(tmp_path: Path, edit) -> Path:
     data = ideal_case()
@@ -27,7 +29,13 @@ def _write_case(tmp_path: Path, edit) -> Path:
     return path
 
 
+class Raw(str):
+    """TOML text written as is (a number Python's ``str`` would refuse to print)."""
+
+
 def _toml(v: object) -> str:
+    if isinstance(v, Raw):
+        return str.__str__(v)
     if isinstance(v, bool):
         return str(v).lower()
     if isinstance(v, str):
@@ -47,6 +55,13 @@ CASE_EDITS = {
     "huge integer": (lambda d: d["geometry"].update(rod_length=10**400), "geometry.rod_length"),
     "overflowing step": (lambda d: d["motion"].update(angles_deg={"step": 5e-324}), "motion.angles_deg.step"),
     "unknown units": (lambda d: d.update(units="parsec-stone-fortnight"), "units"),
+    # issue 31: Python's own refusal ("Exceeds the limit (4300 digits) for integer string conversion")
+    "5001-digit twist": (lambda d: d["geometry"].update(slider_twist_deg=Raw("2" + "7" * 5000)),
+                         "geometry.slider_twist_deg"),
+    "5001-digit step": (lambda d: d["motion"].update(angles_deg={"step": Raw("1" + "0" * 5000)}),
+                        "motion.angles_deg.step"),
+    "kind = 42": (lambda d: d.update(mechanism={"kind": 42}), "mechanism.kind"),
+    "mechanism = 3": (lambda d: d.update(mechanism=3), "mechanism"),
 }
 
 
@@ -58,6 +73,17 @@ def test_cli_solve_refuses_the_issues_case_inputs_in_one_line(tmp_path, what):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"dualmech: error: {key}:"), proc.stderr
     assert not (tmp_path / "out.csv").exists()
+
+
+def test_cli_solve_names_a_linkage_files_bad_kind_not_its_keys(tmp_path):
+    """Issue 31: ``kind = 42`` in an RCCC file was reported as an unknown geometry key."""
+    text = (ROOT / "models" / "linkages" / "cases" / "rccc.toml").read_text()
+    path = tmp_path / "rccc.toml"
+    path.write_text(text.replace('kind = "rccc"', "kind = 42"))
+    proc = run_cli("solve", str(path), cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().splitlines() == [
+        "dualmech: error: mechanism.kind: expected a string, one of slider-crank, rssr, rccc; got 42"]
 
 
 def test_cli_solve_refuses_deeply_nested_toml(tmp_path):

@@ -70,6 +70,9 @@ def worker_init() -> None:
     import atexit
     import signal
 
+    from dualmech.validation.warning_lines import show_warnings_as_lines
+
+    show_warnings_as_lines()  # a task's warnings as the command line shows its own
     parent = os.getppid()
     atexit.register(_leave)  # before any task: the handlers that tasks' libraries add run before it
     signal.signal(signal.SIGINT, signal.SIG_IGN)
