@@ -17,6 +17,7 @@ the reasons).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -121,6 +122,9 @@ class Case:
 
     def with_values(self, updates: dict[str, Any]) -> "Case":
         """Return a new case with dotted keys replaced, e.g. ``{"geometry.slider_offset": 10}``."""
+        if not isinstance(updates, dict) or not all(isinstance(k, str) for k in updates):
+            raise TypeError(f"updates: expected a dict of dotted keys such as "
+                            f"{{'geometry.rod_length': 50.0}}, got {show(updates)}")
         raw = deep_copy(self.raw)
         for dotted, value in updates.items():
             node = raw
@@ -191,6 +195,9 @@ def load_case(source: str | Path) -> Case:
     source : str or pathlib.Path
         A path to a ``.toml`` file, or a preset name as listed by :func:`preset_names`.
     """
+    if not isinstance(source, (str, os.PathLike)):
+        raise TypeError(f"source: expected a case file path or a preset name (dualmech cases lists them), "
+                        f"got {show(source)}")
     path = Path(source)
     if not path.is_file():
         path = preset_path(str(source))

@@ -138,6 +138,9 @@ def test_solve_takes_a_preset_a_file_or_a_table() -> None:
     (lambda: dualmech.validate("thesis/ideal", resume="yes"), TypeError, r"^resume: expected True or False"),
     (lambda: dualmech.simulate("thesis/ideal", 1.0), TypeError, r"^case: expected a dualmech\.Case"),
     (lambda: dualmech.tolerance_study("thesis/ideal", 7), TypeError, r"^spec: expected a tolerance SPEC"),
+    (lambda: dualmech.load_case(None), TypeError, r"^source: expected a case file path or a preset name"),
+    (lambda: dualmech.load_case("thesis/ideal").with_values(3), TypeError, r"^updates: expected a dict"),
+    (lambda: dualmech.load_case("thesis/ideal").with_values({1: 2}), TypeError, r"^updates: expected a dict"),
 ])
 def test_the_verbs_check_their_arguments_in_one_line(tmp_path, monkeypatch, call, error, message) -> None:
     monkeypatch.chdir(tmp_path)
