@@ -49,6 +49,8 @@ def _print_summary(summary: dict, case: Case) -> None:
                               for v, w in zip(cells, (13, 11, 11, 13))))
     for name, level in (summary.get("round_off") or {}).items():
         click.echo(f"{name}: 0 in every design (the solver's round-off, at most {level:.1e}): not a load")
+    for name, spread in (summary.get("constant") or {}).items():
+        click.echo(f"{name}: constant over the designs (spread {spread:.1e}): no distribution")
 
 
 @click.command()

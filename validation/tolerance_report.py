@@ -23,6 +23,7 @@ import numpy as np
 
 from dualmech.core.thresholds import ROUND_OFF_RELATIVE
 from dualmech.models.tolerance.outputs import DesignStatus
+from dualmech.models.tolerance.summary import CONSTANT_RELATIVE
 from dualmech.validation.rundir import locked, write_file
 
 if TYPE_CHECKING:
@@ -134,14 +135,15 @@ def tornado_plot(name: str, keys: list[str], sobol: dict | None, linear: dict | 
 
 def figure_jobs(summary: dict, samples: dict[str, np.ndarray] | None) -> list[tuple]:
     """What every figure is drawn from (picklable): ``("hist", name, values, nominal, p99, unit)`` per
-    output over the ``ok`` designs, then ``("tornado", name, keys, sobol, linear)``; none for an output that
-    is round-off (``summary["round_off"]``: reported as 0, it has no distribution nor variance shares).
+    output over the ``ok`` designs, then ``("tornado", name, keys, sobol, linear)``; none for an output
+    that is round-off (``summary["round_off"]``: reported as 0) or constant (``summary["constant"]``):
+    neither has a distribution nor variance shares.
 
     ``summary`` needs ``nominal``, ``outputs``, ``keys``, ``contribution`` and ``linear_share``, non-finite
-    numbers as ``None`` (as in ``summary.json``), and may give ``round_off`` and ``units``.
+    numbers as ``None`` (as in ``summary.json``), and may give ``round_off``, ``constant`` and ``units``.
     """
-    round_off = summary.get("round_off") or {}
-    names = [name for name in summary["nominal"] if name not in round_off]
+    flat = {**(summary.get("round_off") or {}), **(summary.get("constant") or {})}
+    names = [name for name in summary["nominal"] if name not in flat]
     units = summary.get("units") or {}
     jobs: list[tuple] = []
     if samples is not None:
@@ -235,7 +237,8 @@ def write_tolerance_report(outdir: Path, summary: dict, x: np.ndarray | None,
     given = summary.get("units") or {}
     units = {n: f"[{given[n]}]" if given.get(n) else "" for n in summary["nominal"]}
     context = {"s": summary, "figures": figures, "names": list(summary["nominal"]), "units": units,
-               "round_off": summary.get("round_off") or {}, "round_off_relative": ROUND_OFF_RELATIVE.value}
+               "round_off": summary.get("round_off") or {}, "round_off_relative": ROUND_OFF_RELATIVE.value,
+               "constant": summary.get("constant") or {}, "constant_relative": CONSTANT_RELATIVE}
     with locked(outdir) as outdir:  # the run folder's rules: inside it, no link followed, atomic files
         for f in figures:
             write_file(outdir, f"figures/{f.key}.png", f.png)

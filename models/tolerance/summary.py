@@ -25,6 +25,11 @@ design (:data:`~dualmech.models.tolerance.outputs.LOAD_GROUPS`), e.g. j4's momen
 slider -- is **structurally zero**: ``round_off`` gives its level (the largest value seen), and it is
 reported as 0 (nominal, statistics, linear propagation, sensitivities: its exact derivative), with no
 variance shares (``None``).
+
+An output that does not vary beyond round-off over the nominal design and the sampled ones -- its spread at
+most :data:`CONSTANT_RELATIVE` of its magnitude, e.g. joint 1's moment when it is the given drive torque --
+is **constant**: ``constant`` gives its spread; it has no distribution to draw and no variance shares
+(``None``: a share of a variance that is round-off is noise).
 """
 
 from __future__ import annotations
@@ -141,6 +146,30 @@ def round_off_outputs(nominal: dict[str, float], samples: dict[str, np.ndarray] 
     return out
 
 
+#: Largest spread of a constant output, relative to its magnitude (module docstring): 10^4 eps.  A constant
+#: load (the given drive torque as joint 1's moment, 100 lbf·in) spreads by 1-3 eps over sampled designs;
+#: a histogram needs distinct bin edges, which ``np.histogram`` cannot make below ~50 eps (its 50 bins).
+CONSTANT_RELATIVE = 1e4 * float(np.finfo(float).eps)
+
+
+def constant_outputs(nominal: dict[str, float], samples: dict[str, np.ndarray] | None,
+                     skip: dict[str, float]) -> dict[str, float]:
+    """The constant outputs (module docstring) but those in ``skip``, with their spread (max - min) over the
+    nominal design and the sampled ones that assemble fully; none without ``samples``."""
+    if samples is None:
+        return {}
+    ok = np.asarray(samples["status"], dtype=str) == DesignStatus.OK.value
+    out = {}
+    for name, y0 in nominal.items():
+        values = np.append(y0, np.asarray(samples[name], float)[ok])
+        if name in skip or not np.all(np.isfinite(values)):
+            continue
+        spread, scale = float(values.max() - values.min()), float(np.abs(values).max())
+        if scale > 0 and spread <= CONSTANT_RELATIVE * scale:
+            out[name] = spread
+    return out
+
+
 def _as_zero(out: dict, round_off: dict[str, float], keys: tuple[str, ...], n: int) -> None:
     """Report the round-off outputs of ``out`` (:func:`summarize`'s) as 0, their variance shares as None."""
     zero = describe(np.zeros(n)) if n else None
@@ -182,4 +211,8 @@ def summarize(spec: Spec, nominal: dict[str, float], x: np.ndarray | None,
         out.update(sensitivity={n: dict(v) for n, v in sens.values.items()},
                    sensitivity_positions_deg=sens.positions_deg, **lin)
     _as_zero(out, round_off, spec.keys, n_ok)
+    out["constant"] = constant_outputs(nominal, samples, round_off)
+    for part in ("contribution", "linear_share"):
+        if out[part] is not None:
+            out[part].update(dict.fromkeys(out["constant"]))
     return out

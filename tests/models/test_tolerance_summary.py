@@ -147,3 +147,30 @@ def test_round_off_outputs_are_reported_as_zero_with_their_level(tmp_path):
     assert "[lbf·in]" in row and "round-off" in row and "—" in row
     assert "| stroke [in] |" in text and "| peak_j1_force [lbf] |" in text
     assert "hist-peak_j4_moment" not in text and "tornado-peak_j4_moment" not in text
+
+
+def test_a_constant_output_gets_no_distribution_and_no_shares(tmp_path):
+    """The given drive torque is joint 1's moment in the planar ideal case whatever the crank length: it
+    spreads by round-off only (~3e-14 of 100 lbf·in), and its histogram crashed the study ("Too many bins
+    for data range", issue 31's fuzz): it is reported as constant, with its spread, no figure and no
+    variance share."""
+    from dualmech.models.tolerance.summary import CONSTANT_RELATIVE
+    from dualmech.validation.tolerance_report import figure_jobs, write_tolerance_report
+
+    raw = copy.deepcopy(load_case("ideal").raw)
+    raw["motion"]["angles_deg"] = {"start": 0.0, "stop": 360.0, "step": 10.0}
+    spec = spec_from_dict({"tolerances": {"geometry.crank_length": {"dist": "normal", "sd": 0.01}}})
+    study = StudyInput(case_from_dict(raw), spec, 6, 0)
+    summary, _, samples = run_study(study, "mc", tmp_path, judge_samples=0)
+    moment = np.append(summary["nominal"]["peak_j1_moment"], samples["peak_j1_moment"])
+    assert set(summary["constant"]) == {"peak_j1_moment"}
+    assert_allclose(summary["constant"]["peak_j1_moment"], np.ptp(moment), rtol=0, atol=0)
+    assert np.ptp(moment) <= CONSTANT_RELATIVE * 100.0
+    assert np.ptp(samples["peak_j1_force"]) > 1e3 * CONSTANT_RELATIVE * np.max(samples["peak_j1_force"])
+    assert summary["contribution"]["peak_j1_moment"] is None
+    assert summary["contribution"]["peak_j1_force"] is not None
+    assert not {name for _, name, *_ in figure_jobs(summary, samples)} & {"peak_j1_moment"}
+    write_tolerance_report(tmp_path, summary, None, samples)
+    text = (tmp_path / "report.md").read_text().replace("\\", "")
+    row = next(line for line in text.splitlines() if line.startswith("| peak_j1_moment"))
+    assert "| 100 (constant: spread" in row and "—" in row
