@@ -10,6 +10,9 @@ The subcommands are registered here, in :data:`COMMANDS`, and nowhere else.
 
 from __future__ import annotations
 
+import sys
+from typing import Any
+
 import click
 
 from dualmech.cli.progress import show_kernel_compiles
@@ -19,6 +22,7 @@ from dualmech.cli.solve import benchmark, case_path, cases, mjcf, solve
 from dualmech.cli.tolerance import tolerance
 from dualmech.cli.validate import report, validate
 from dualmech.validation.executors import end_all_pools
+from dualmech.validation.exit_codes import EXIT_INTERRUPTED
 from dualmech.validation.warning_lines import show_warnings_as_lines
 
 #: Every subcommand of ``dualmech``, by module: one case (cases, case-path, solve, mjcf, benchmark),
@@ -28,7 +32,30 @@ COMMANDS: tuple[click.Command, ...] = (
 )
 
 
-@click.group()
+class OneLineUsage(click.Group):
+    """The ``dualmech`` group: a usage error (unknown option, bad or missing value) is one line on stderr,
+    ``dualmech: error: <what> (dualmech <command> --help)``, exit code 2, as every other refusal
+    (:mod:`dualmech.cli.errors`); click would print the usage, a hint and the error on four lines."""
+
+    def main(self, *args: Any, **kwargs: Any) -> Any:  # noqa: D102 (click's entry point)
+        kwargs.update(standalone_mode=False, prog_name="dualmech")  # also as python -m dualmech.cli
+        try:
+            code = super().main(*args, **kwargs)
+        except click.exceptions.UsageError as err:
+            where = err.ctx.command_path if err.ctx is not None else "dualmech"
+            message = " ".join(err.format_message().split())
+            click.echo(f"dualmech: error: {message} ({where} --help)", err=True)
+            sys.exit(err.exit_code)
+        except click.exceptions.ClickException as err:
+            click.echo(f"dualmech: error: {' '.join(err.format_message().split())}", err=True)
+            sys.exit(err.exit_code)
+        except click.exceptions.Abort:  # Ctrl-C while click itself reads (a command's own: cli.errors)
+            click.echo("dualmech: interrupted", err=True)
+            sys.exit(EXIT_INTERRUPTED)
+        sys.exit(code if isinstance(code, int) else 0)  # --help, --version, ctx.exit(n): their code
+
+
+@click.group(cls=OneLineUsage)
 @click.version_option(package_name="dualmech")
 @click.pass_context
 def main(ctx: click.Context) -> None:

@@ -110,3 +110,17 @@ def test_cli_simulate_refuses_the_issues_options_in_one_line(tmp_path, option, v
     assert len(lines) == 1 and lines[0].startswith("dualmech: error: "), proc.stderr
     for w in words:
         assert w in lines[0], (w, lines[0])
+
+
+@pytest.mark.parametrize(("args", "line"), [
+    (("solve", "ideal", "--duration", "3"),
+     "dualmech: error: No such option '--duration'. (dualmech solve --help)"),
+    (("nope",), "dualmech: error: No such command 'nope'. (dualmech --help)"),
+    (("validate", "--jobs", "0"),
+     "dualmech: error: Invalid value for '--jobs': 0 is not in the range x>=1. (dualmech validate --help)"),
+])
+def test_a_usage_error_is_one_line_naming_the_help(tmp_path, args, line):
+    """Issue 31's fuzz: click printed a usage error on four lines (usage, hint, blank, error)."""
+    proc = run_cli(*args, cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.splitlines() == [line]
