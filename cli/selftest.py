@@ -12,6 +12,7 @@ import click
 
 from dualmech.cli.errors import one_line_errors
 from dualmech.cli.progress import note, progress
+from dualmech.validation.api import MAX_JOBS
 from dualmech.validation.selftest import (
     CATALOGUE,
     Outcome,
@@ -25,7 +26,7 @@ from dualmech.validation.selftest import (
 
 @click.command()
 @click.option("--catalogue", type=click.Path(dir_okay=False), help=f"Fault catalogue [default: {CATALOGUE}].")
-@click.option("--jobs", type=click.IntRange(min=1), default=2, show_default=True,
+@click.option("--jobs", type=click.IntRange(1, MAX_JOBS), default=2, show_default=True,
               help="Mutants gated side by side.")
 @click.option("--timeout", type=float, default=300.0, show_default=True,
               help="Seconds each gate step may take (a step that outlives it counts as killed by timeout).")

@@ -20,6 +20,7 @@ from dualmech.cli.progress import progress
 from dualmech.cli.solve import warn_units
 from dualmech.models.case import Case
 from dualmech.models.plausibility import masses_line
+from dualmech.validation.api import MAX_JOBS
 
 
 def output_units(mode: str, units: str) -> dict[str, str]:
@@ -62,7 +63,8 @@ def _print_summary(summary: dict, case: Case) -> None:
 @click.option("--method", type=click.Choice(["mc", "linear", "both"]), default="both", show_default=True)
 @click.option("-o", "--output", "outdir", default="runs/tolerance", show_default=True,
               type=click.Path(file_okay=False), help="Study folder (samples, summary, report); resumable.")
-@click.option("--jobs", default=1, show_default=True, help="Processes solving chunks of designs.")
+@click.option("--jobs", type=click.IntRange(1, MAX_JOBS), default=1, show_default=True,
+              help="Processes solving chunks of designs.")
 @click.option("--scheduler", default=None, help="Dask scheduler address (tcp://127.0.0.1:8786).")
 @click.option("--judge-samples", default=5, show_default=True,
               help="Sampled designs re-solved by Pinocchio and MuJoCo rigid.")

@@ -19,6 +19,7 @@ from dualmech.cli.solve import warn_units
 from dualmech.core.table import ResultTable
 from dualmech.models.case import Case, case_from_dict
 from dualmech.models.plausibility import masses_line
+from dualmech.validation.api import MAX_JOBS
 from dualmech.validation.engines import ENGINES
 from dualmech.validation.exit_codes import EXIT_CLUSTER_LOST, EXIT_INTERRUPTED, exit_code
 from dualmech.validation.runner import run_versions
@@ -104,7 +105,7 @@ def _length_unit(matrix: Matrix) -> str:
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False),
               help="Run directory: one result file per case, run.json, the report "
                    "[default: runs/<matrix name>].")
-@click.option("--jobs", type=click.IntRange(min=1), default=None,
+@click.option("--jobs", type=click.IntRange(1, MAX_JOBS), default=None,
               help="Worker processes [default: all cores].")
 @click.option("--resume", is_flag=True, help="Keep finished cases stored in the run directory; run the rest.")
 @click.option("--scheduler", metavar="ADDRESS", help="Run the cases on a Dask distributed scheduler (tcp://host:port).")
@@ -301,7 +302,7 @@ def _cores() -> int:
 @click.argument("rundir", type=click.Path(file_okay=False, exists=True))
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False),
               help="Write the report here [default: RUNDIR].")
-@click.option("--jobs", type=click.IntRange(min=1), default=None,
+@click.option("--jobs", type=click.IntRange(1, MAX_JOBS), default=None,
               help="Processes for the figures [default: all cores].")
 @one_line_errors
 def report(rundir, outdir, jobs) -> None:

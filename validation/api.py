@@ -71,13 +71,19 @@ def as_spec(spec: Spec | str | os.PathLike | dict) -> Spec:
     return spec
 
 
-def whole_number(argument: str, value: Any, least: int) -> int:
-    """``value`` as an ``int`` of at least ``least``: a one-line ``TypeError`` for a non-integer (a bool, a
-    float or a string included), a ``ValueError`` below ``least``."""
+#: Most worker processes a run, a report or a study may ask for: far above any machine this runs on, and
+#: below what the operating system refuses (2^31 - 1 jobs raised an OverflowError deep in multiprocessing).
+MAX_JOBS = 1024
+
+
+def whole_number(argument: str, value: Any, least: int, most: int | None = None) -> int:
+    """``value`` as an ``int`` from ``least`` to ``most`` (no bound if ``None``): a one-line ``TypeError`` for
+    a non-integer (a bool, a float or a string included), a ``ValueError`` outside the range."""
+    valid = f">= {least}" if most is None else f"from {least} to {most}"
     if isinstance(value, bool) or not isinstance(value, int):
-        raise TypeError(f"{argument}: expected a whole number >= {least}, got {show(value)}")
-    if value < least:
-        raise ValueError(f"{argument}: expected a whole number >= {least}, got {value!r}")
+        raise TypeError(f"{argument}: expected a whole number {valid}, got {show(value)}")
+    if value < least or most is not None and value > most:
+        raise ValueError(f"{argument}: expected a whole number {valid}, got {value!r}")
     return value
 
 
@@ -253,7 +259,7 @@ def validate(source: str | Path | Case | None = None, outdir: str | Path | None 
     from dualmech.validation.linkages.matrix import is_linkage_source
 
     if jobs is not None:
-        whole_number("jobs", jobs, 1)
+        whole_number("jobs", jobs, 1, MAX_JOBS)
     if not isinstance(resume, bool):
         raise TypeError(f"resume: expected True or False, got {show(resume)}")
     if isinstance(source, (str, os.PathLike)) and is_linkage_source(source):
@@ -382,7 +388,8 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
         raise TypeError(f"outdir: expected a folder path, got {show(outdir)}")
     # n's range (1 to MAX_DESIGNS) is the study's own check
     study = StudyInput(nominal, spec, whole_number("n", n, 0), whole_number("seed", seed, 0))
-    jobs, judge_samples = whole_number("jobs", jobs, 1), whole_number("judge_samples", judge_samples, 0)
+    jobs = whole_number("jobs", jobs, 1, MAX_JOBS)
+    judge_samples = whole_number("judge_samples", judge_samples, 0)
     # the figures are drawn by a worker process while this one runs the judges' spot checks; started
     # first, it imports its libraries while this process solves
     drawing = FigureDrawing(parallel=judge_samples > 0)
