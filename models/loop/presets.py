@@ -1,0 +1,78 @@
+"""Today's mechanisms as loop tables: the slider crank of a :class:`~dualmech.models.case.Case`.
+
+The slider crank's table (thesis Table 1; ``docs/conventions.md``, "Mechanism"): joint 1 cylindrical (its
+angle driven, its slide by the axial law; a revolute crank: R with the constant offset ``S1``), joints 2 and 3
+balls (joint 3 with ``alpha = pi/2``), joint 4 prismatic with ``alpha4``, ``a4`` closing onto the ground.  The
+slider's mass properties, given in world axes at ``P3``, are turned into its link frame (the frame after ball
+3, ``Rx(-(pi/2 + alpha4))`` in world axes: a constant, the slider only translates).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dualmech.core.inertia import BodyInertia
+from dualmech.core.loop import LoopState
+from dualmech.models.case import Case
+from dualmech.models.loop.description import Drive, Joint, Load, LoopMechanism
+
+
+def _rx(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def slider_frame(case: Case) -> np.ndarray:
+    """Rotation ``(3, 3)`` of the slider's link frame in world axes (module docstring)."""
+    return _rx(-(math.pi / 2 + case.geometry.slider_twist))
+
+
+def slider_crank_table(case: Case) -> LoopMechanism:
+    """The slider crank ``case`` as a :class:`LoopMechanism` (ball-ball rod; a universal joint 3 is refused).
+
+    Loads: the drive torque is joint 1's effort; the slider load ``k4 · f`` (``f`` the ground's force on the
+    slider) is joint 4's effort along its axis ``z4``: with :math:`z_4 = -k_4` (the table's P3 = F - S4 k4)
+    the effort on the ground from the slider is :math:`-z_4\\cdot f = k_4 \\cdot f`.
+    """
+    if case.joints.rod_slider != "ball":
+        raise ValueError(f"joints.rod_slider: {case.joints.rod_slider!r} has no loop table yet (only 'ball')")
+    g, m = case.geometry, case.motion
+    cylindrical = case.joints.crank == "cylindrical"
+    joints = (
+        Joint("C" if cylindrical else "R", a=g.crank_length, s=0.0 if cylindrical else g.crank_axial_shift),
+        Joint("S", a=g.rod_length),
+        Joint("S", alpha=math.pi / 2),
+        Joint("P", alpha=g.slider_twist, a=g.slider_offset),
+    )
+    drive = Drive(0, "theta", np.radians(m.angles_deg), m.speed, m.accel,
+                  g.crank_axial_shift if cylindrical else 0.0, m.axial_amplitude, m.axial_cycles,
+                  case.loads.drive_torque)
+    slider = case.bodies.slider
+    rot = slider_frame(case)
+    bodies = (case.bodies.crank, case.bodies.rod,
+              BodyInertia(slider.mass, rot.T @ slider.com, rot.T @ slider.inertia @ rot))
+    force = case.loads.slider_force
+    load = Load(3, "s", None if force is None else -force)
+    return LoopMechanism(case.name, joints, drive, bodies, (load,), case.loads.gravity)
+
+
+def slider_crank_start(case: Case, s4: float) -> LoopState:
+    """An assembled pose at the case's first crank angle from its slider coordinate ``s4`` there (e.g. the
+    thesis's closed form): the rod frame pointed from ``P2`` at ``P3 = F - S4 k4``."""
+    g = case.geometry
+    crank = case.own_crank_states(case.motion.angles_deg[:1])
+    theta, s1 = crank.theta[0], crank.s[0]
+    p2 = np.array([g.crank_length * math.cos(theta), g.crank_length * math.sin(theta), s1])
+    p3 = g.foot - s4 * g.k4
+    u = (p3 - p2) / np.linalg.norm(p3 - p2)
+    ref = np.array([1.0, 0.0, 0.0]) if abs(u[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
+    v = np.cross(ref, u)
+    v /= np.linalg.norm(v)
+    rod = np.stack([u, v, np.cross(u, v)], axis=1)
+    crank_rot = np.array([[math.cos(theta), -math.sin(theta), 0.0], [math.sin(theta), math.cos(theta), 0.0],
+                          [0.0, 0.0, 1.0]])
+    ball2 = crank_rot.T @ rod
+    ball3 = rod.T @ slider_frame(case)
+    return LoopState(np.array([[s4]]), np.stack([ball2, ball3])[None])
