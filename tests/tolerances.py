@@ -183,9 +183,10 @@ LINKAGE_SIM_FREE_ANGLE = Tolerance(
 #: The same, crank rate relative to its peak.
 LINKAGE_SIM_FREE_RATE = Tolerance(
     2e-3, "O(dt) as the angle: measured 1.7e-3 (dt = 1e-4), 3.4e-4 (2e-5), 1.7e-4 (1e-5)")
-#: The generic loop engine against the slider crank's own engine, kinematics (S4 and its rates), relative to
-#: the case's peak: both close the same table to rounding (measured <= 2.4e-14 on the thesis presets).
-LOOP_VS_SLIDER_CRANK = 1e-12
+#: The generic loop engine against a mechanism's own engine (the slider crank's kinematics; the RSSR's and the
+#: RCCC's kinematics and reactions), relative to the peak: both close the same table to rounding and solve the
+#: same equations (measured <= 2.4e-14 on the thesis presets, 2.7e-14 on the bundled RSSR and RCCC).
+LOOP_VS_OWN_ENGINE = 1e-12
 #: Its reactions, relative to the case's peak: the larger of this and LOOP_REACTIONS_ROUNDING / |t| (t the
 #: transmission). Near a dead centre the least squares loses rounding times 1/|t| that the slider crank's
 #: closed-form elimination of the axial rod force does not (measured 8.9e-12 at |t| = 2.9e-5 on

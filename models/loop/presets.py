@@ -1,10 +1,17 @@
-"""Today's mechanisms as loop tables: the slider crank of a :class:`~dualmech.models.case.Case`.
+"""Today's mechanisms as loop tables: the slider crank of a :class:`~dualmech.models.case.Case`, the RSSR
+and the RCCC of ``models/linkages/``.
 
 The slider crank's table (thesis Table 1; ``docs/conventions.md``, "Mechanism"): joint 1 cylindrical (its
 angle driven, its slide by the axial law; a revolute crank: R with the constant offset ``S1``), joints 2 and 3
 balls (joint 3 with ``alpha = pi/2``), joint 4 prismatic with ``alpha4``, ``a4`` closing onto the ground.  The
 slider's mass properties, given in world axes at ``P3``, are turned into its link frame (the frame after ball
 3, ``Rx(-(pi/2 + alpha4))`` in world axes: a constant, the slider only translates).
+
+The RSSR (``docs/conventions.md``, "RSSR") is R, S, S, R with the output axis's ``alpha4``, ``a4`` and offset
+``-h`` in the last row; its output crank's body frame (origin ``Q4``, x toward ``P3``) is the link frame of
+ball 3 (origin ``P3``, x toward ``Q4``) turned by pi about z and moved by ``a3``.  The RCCC (``"RCCC"``) is
+its own table, R, C, C, C, with the link frames as body frames.  Each output torque (the ground's moment on
+the output link about the last axis ``z4``) is minus joint 4's effort (on the ground, from the output link).
 """
 
 from __future__ import annotations
@@ -15,8 +22,15 @@ import numpy as np
 
 from dualmech.core.inertia import BodyInertia
 from dualmech.core.loop import LoopState
+from dualmech.core.motion import CrankMotion
 from dualmech.models.case import Case
+from dualmech.models.linkages import rccc, rssr
+from dualmech.models.linkages.rccc_case import RcccCase
+from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.loop.description import Drive, Joint, Load, LoopMechanism
+
+#: The RSSR's output crank frame in its ball-3 link frame: turned by pi about z (x toward P3).
+FLIP = np.diag([-1.0, -1.0, 1.0])
 
 
 def _rx(angle: float) -> np.ndarray:
@@ -76,3 +90,47 @@ def slider_crank_start(case: Case, s4: float) -> LoopState:
     ball2 = crank_rot.T @ rod
     ball3 = rod.T @ slider_frame(case)
     return LoopState(np.array([[s4]]), np.stack([ball2, ball3])[None])
+
+
+def _crank_drive(motion: CrankMotion, effort: float | None) -> Drive:
+    """Joint 1 driven by its angle at the case's crank angles, speed and acceleration."""
+    return Drive(0, "theta", np.radians(motion.angles_deg), motion.speed, motion.accel, effort=effort)
+
+
+def _output_load(torque: float | None) -> Load:
+    """Joint 4's effort about ``z4`` from a given output torque (``None``: solved)."""
+    return Load(3, "theta", None if torque is None else -torque)
+
+
+def rssr_table(case: RssrCase) -> LoopMechanism:
+    """The RSSR ``case`` as a :class:`LoopMechanism` (module docstring)."""
+    g = case.geometry
+    joints = (Joint("R", a=g.a1, s=g.s1), Joint("S", a=g.a2), Joint("S", a=g.a3),
+              Joint("R", alpha=g.alpha4, a=g.a4, s=-g.h))
+    crank, coupler, out = case.bodies
+    output = BodyInertia(out.mass, FLIP @ out.com + np.array([g.a3, 0.0, 0.0]), FLIP @ out.inertia @ FLIP)
+    return LoopMechanism(case.name, joints, _crank_drive(case.motion, case.drive_torque),
+                         (crank, coupler, output), (_output_load(case.output_torque),), case.gravity)
+
+
+def rssr_start(case: RssrCase) -> LoopState:
+    """The RSSR's closed-form pose at its first crank angle, on its branch
+    (:func:`dualmech.models.linkages.rssr.closed_form_phi`)."""
+    theta = np.radians(case.motion.angles_deg[:1])
+    return rssr.estimate(case.geometry, theta, rssr.closed_form_phi(case.geometry, theta, case.branch)[0])
+
+
+def rccc_table(case: RcccCase) -> LoopMechanism:
+    """The RCCC ``case`` as a :class:`LoopMechanism` (module docstring); the drive torque is solved."""
+    g = case.geometry
+    joints = tuple(Joint("R" if i == 0 else "C", alpha=g.alpha[i], a=g.a[i], s=g.s1 if i == 0 else 0.0)
+                   for i in range(4))
+    return LoopMechanism(case.name, joints, _crank_drive(case.motion, None), case.bodies,
+                         (_output_load(case.output_torque),), case.gravity)
+
+
+def rccc_start(case: RcccCase) -> LoopState:
+    """The RCCC's spherical estimate at its first crank angle, on its branch
+    (:func:`dualmech.models.linkages.rccc.spherical_estimate`)."""
+    theta = np.radians(case.motion.angles_deg[:1])
+    return rccc.estimate(case.geometry, theta, rccc.spherical_estimate(case.geometry, theta, case.branch)[0])
