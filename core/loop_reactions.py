@@ -3,8 +3,9 @@
 Thesis section 2.8 (eq. 44-64) for any table, in world axes with moments about the world origin O
 (:mod:`dualmech.core.reactions` for the dual momentum).  Row ``r``'s joint exerts the wrench
 :math:`\\hat W_r = f_r + \\varepsilon(P_r\\times f_r + m_r)` on the link row ``r`` carries, from the link
-before it (:math:`P_r` the joint's point, the origin of the frame before the row; :math:`m_r` the moment about
-it), and :math:`-\\hat W_{r+1}` is what the next joint exerts back; so D'Alembert's principle (eq. 62-64) for
+before it (:math:`P_r` the joint's point: the origin of the frame before the row, for a U joint the point
+where its two axes meet, :func:`joint_points`; :math:`m_r` the moment about it), and :math:`-\\hat W_{r+1}` is
+what the next joint exerts back; so D'Alembert's principle (eq. 62-64) for
 the link of row ``r`` reads
 
 .. math:: \\hat W_r - \\hat W_{r+1} = \\dot{\\hat H}_r - m_r\\,\\hat g_r
@@ -51,7 +52,7 @@ class JointWrenches:
     moment : numpy.ndarray, shape (n, J, 3)
         Its moment about the joint's point :math:`P_r`, world axes (efforts included).
     point : numpy.ndarray, shape (n, J, 3)
-        The joints' points :math:`P_r` (origins of the frames before the rows), world.
+        The joints' points :math:`P_r` (:func:`joint_points`), world.
     efforts : dict of name -> numpy.ndarray, shape (n,)
         The effort along every joint coordinate of the table (given and solved).
     residual : numpy.ndarray, shape (n,)
@@ -86,11 +87,19 @@ def link_frames(chain: Chain, loop: Loop,
     return out
 
 
-def joint_points(chain: Chain) -> np.ndarray:
-    """Origins of the frames before the rows (frame {1} = world for the first), ``(n, J, 3)``."""
+def joint_points(chain: Chain, loop: Loop, inputs: dict[str, np.ndarray]) -> np.ndarray:
+    """Each row's joint point ``(n, J, 3)``, world: the origin of the frame before the row (frame {1} = world
+    for the first), moved by the row's constant offset ``s`` along ``z`` where the row also turns about its y
+    axis (a U joint: the point where its two axes meet)."""
     n = chain.closure.re.shape[0]
-    before = [np.zeros((n, 3))] + [origin(f) for f in chain.frames[:-1]]
-    return np.stack(before, axis=1)
+    points = []
+    for r, row in enumerate(loop.rows):
+        point = np.zeros((n, 3)) if r == 0 else origin(chain.frames[r - 1])
+        if isinstance(row.eta, Var) and row.eta.kind != "param":
+            z = np.broadcast_to(np.eye(3), (n, 3, 3))[:, :, 2] if r == 0 else chain.frames[r - 1].re[:, :, 2]
+            point = point + _value(row.s, inputs, n)[:, None] * z
+        points.append(point)
+    return np.stack(points, axis=1)
 
 
 def _screw(chain: Chain, loop: Loop, var: Var):
@@ -154,7 +163,7 @@ def solve_joint_wrenches(chain: Chain, loop: Loop, inputs: dict[str, np.ndarray]
     transmission_effort : the solved effort whose singularity is the transmission (module docstring)
     length : ``(n,)`` the length the moment rows are divided by
     """
-    points = joint_points(chain)
+    points = joint_points(chain, loop, inputs)
     columns, known = _columns(chain, loop, points, efforts, transmission_effort)
     a, b = _equations(chain, loop, inputs, rates, bodies, gravity, columns, known)
     rows = len(loop.rows) - 1
