@@ -15,6 +15,8 @@ four-bar's :math:`M = -2`) is not recognised: the count is the generic one.
 
 from __future__ import annotations
 
+import numpy as np
+
 from dualmech.models.loop.description import Joint, LoopMechanism
 
 
@@ -30,16 +32,35 @@ def mobility(joints: tuple[Joint, ...]) -> int:
     return sum(j.freedoms for j in joints) - 6 - len(idle_spins(joints))
 
 
-def check_mobility(mechanism: LoopMechanism) -> None:
-    """Raise a one-line :class:`ValueError` unless the loop's mobility equals its prescribed coordinates.
+def check_idle_links(mechanism: LoopMechanism) -> None:
+    """Raise a one-line :class:`ValueError` unless every idly spinning link (:func:`idle_spins`) has its mass
+    axisymmetric about its x axis, the line of its two ball centres: ``com = [x, 0, 0]`` and inertia
+    ``diag(I_a, I_t, I_t)``, to 1e-12 of its size.  Otherwise the spin would be a real degree of freedom and
+    the zero-spin gauge would not be harmless (``docs/conventions.md``, "Rod spin")."""
+    for k in idle_spins(mechanism.joints):
+        body = mechanism.bodies[k]
+        i = body.inertia
+        size = max(np.abs(i).max(), 1e-300)
+        off = max(abs(i[0, 1]), abs(i[0, 2]), abs(i[1, 2]), abs(i[1, 1] - i[2, 2]))
+        length = max(abs(body.com[0]), abs(mechanism.joints[k].a))
+        if off > 1e-12 * size or max(abs(body.com[1]), abs(body.com[2])) > 1e-12 * length:
+            raise ValueError(f"body[{k + 1}]: link {k + 1} spins idly between two S joints, so its mass must "
+                             "be axisymmetric about its x axis (com [x, 0, 0], inertia diag(Ia, It, It)); "
+                             f"got com {body.com.tolist()}, inertia {i.tolist()}")
 
-    The message names the count and why, e.g. ``mobility 2 (freedoms 9 - 6), one idle spin of link 2
-    (S-S): the drive prescribes 1``.
+
+def check_mobility(mechanism: LoopMechanism) -> None:
+    """Raise a one-line :class:`ValueError` unless the loop's mobility equals its prescribed coordinates (and
+    its idle links are axisymmetric: :func:`check_idle_links`).
+
+    The message names the count and why, e.g. ``joint: mobility 2 (freedoms 9 - 6 - 1), 1 idle spin of link
+    2 (S-S): a single loop needs 1 (one driven coordinate); remove 1 freedom``.
     """
     joints = mechanism.joints
     m = mobility(joints)
     need = len(mechanism.prescribed)
     if m == need:
+        check_idle_links(mechanism)
         return
     idle = idle_spins(joints)
     total = sum(j.freedoms for j in joints)

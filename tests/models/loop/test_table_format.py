@@ -100,3 +100,12 @@ def test_overconstrained_loop_is_refused() -> None:
     data["load"] = []
     with pytest.raises(CaseError, match=r"^joint: mobility -2 \(freedoms 4 - 6\): a single loop needs 1"):
         loop_from_dict(data)
+
+
+def test_an_idly_spinning_link_must_be_axisymmetric() -> None:
+    data = _with("body.1.com", [25.0, 0.5, 0.0])
+    with pytest.raises(CaseError, match=r"^body\[2\]: link 2 spins idly between two S joints"):
+        loop_from_dict(data)
+    data = _with("body.1.inertia", [1.0, 5.0, 5.5])
+    with pytest.raises(CaseError, match=r"^body\[2\]: link 2 spins idly"):
+        loop_from_dict(data)
