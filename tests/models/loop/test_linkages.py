@@ -26,9 +26,10 @@ def _wrapped(angle: np.ndarray) -> np.ndarray:
     return np.mod(angle + np.pi, 2 * np.pi) - np.pi
 
 
-@pytest.mark.parametrize("mode", ["torque", "output"])
-def test_rssr(mode: str) -> None:
+@pytest.mark.parametrize(("mode", "branch"), [("torque", 1), ("output", 1), ("output", -1)])
+def test_rssr(mode: str, branch: int) -> None:
     data = read_linkage("rssr")
+    data = {**data, "mechanism": {**data["mechanism"], "branch": branch}}
     if mode == "torque":
         data = {**data, "loads": {**{k: v for k, v in data["loads"].items() if k != "output_torque"},
                                   "drive_torque": 3.0}}
