@@ -10,16 +10,18 @@ the link of row ``r`` reads
 
 .. math:: \\hat W_r - \\hat W_{r+1} = \\dot{\\hat H}_r - m_r\\,\\hat g_r
 
-(the link of the last row is the ground: no equation).  Each wrench is split into
+(the link of the last row is the ground: no equation; each joint's wrench enters its two links with opposite
+signs, errata E9).  Each wrench is split into
 
 * its **constraint** part: in the joint's frame (x, y, z; for a U joint x', y', z with y' the second axis),
   a force along every axis the joint does not slide along and a moment about every axis it does not turn
   about: :math:`6 - f_i` unknowns (a ball: three forces);
 * its **efforts** along the joint's own coordinates: a torque :math:`\\tau z` about a turning axis, a force
   :math:`F z` through :math:`P_r` along a sliding axis; each given (a load, 0 for a passive joint) or solved
-  (the drive effort, or the load left to balance a given drive, and the axial force of a prescribed slide).
+  (the drive effort, or the load left to balance a given drive, and the axial force of a prescribed slide,
+  a reaction: errata E10).
 
-The batched linear system (moment rows over the length scale) is solved per position by SVD least squares.
+The batched linear system (moment rows over the length scale) is solved per position by QR least squares.
 An S-S link's spin (fixed by the zero-spin gauge, ``docs/conventions.md``, "Rod spin") makes one equation
 ``0 = 0`` for an axisymmetric link: the system has one row more than unknowns and the solution is exact;
 the relative Newton-Euler residual is reported (it is not small for a link that is not axisymmetric).
@@ -230,16 +232,22 @@ def _equations(chain, loop, inputs, rates, bodies, gravity, columns, known) -> t
 
 
 def _least_squares(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """SVD least squares of ``a x = b`` per position; the relative residual; the last column's distance from
-    the others' span over its length (QR)."""
+    """Least squares of ``a x = b`` per position by one QR factorization ``a = QR``: ``x = R^-1 Q^T b``; the
+    relative residual; the last column's distance from the others' span over its length, ``|R_kk| / |a_k|``.
+    Where ``R`` is singular (a dead centre) ``x`` is not finite."""
     tiny = np.finfo(float).tiny
-    u, s, vt = np.linalg.svd(a, full_matrices=False)
+    q, r = np.linalg.qr(a)
+    diag = np.einsum("nii->ni", r)
+    singular = np.abs(diag) <= tiny
+    if singular.any():  # solve anyway, batched: those rows' answers are meaningless (and flagged)
+        r = r.copy()
+        idx = np.nonzero(singular)
+        r[idx[0], idx[1], idx[1]] = tiny
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        x = np.einsum("nji,nj->ni", vt, np.einsum("nji,nj->ni", u, b) / s)
+        x = np.linalg.solve(r, np.einsum("nmk,nm->nk", q, b)[..., None])[..., 0]
         residual = np.linalg.norm(np.einsum("nij,nj->ni", a, x) - b, axis=1) / np.maximum(
             np.linalg.norm(b, axis=1), tiny)
-    r_factor = np.linalg.qr(a)[1]
-    return x, residual, np.abs(r_factor[:, -1, -1]) / np.maximum(np.linalg.norm(a[:, :, -1], axis=1), tiny)
+    return x, residual, np.abs(diag[:, -1]) / np.maximum(np.linalg.norm(a[:, :, -1], axis=1), tiny)
 
 
 def _effort_unit(chain: Chain, loop: Loop, r: int, name: str, slide: bool, point: np.ndarray) -> Dual:

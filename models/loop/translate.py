@@ -5,7 +5,8 @@ Joint ``i`` (0-based) becomes row ``i``,
 :math:`Z(\\theta_i + \\varepsilon S_i)Y(\\eta_i)X(\\alpha_i + \\varepsilon a_i)` (thesis eq. 1-4): an R
 row has ``theta`` unknown and ``s`` constant, a P row ``s`` unknown and ``theta`` constant, a C row both
 unknown, a U row ``theta`` and ``eta`` unknown (its second axis is the y axis the first rotation turned:
-perpendicular to the first and intersecting it), an S row a free rotation.  The
+perpendicular to the first and intersecting it), an S row a free rotation (not the thesis's Z-Y angles,
+errata E2).  The
 driven coordinates are inputs instead (a C joint driven by its angle: both).  Each S row followed by
 an S row gets the zero-spin gauge (:func:`~dualmech.models.loop.mobility.idle_spins`).
 """
