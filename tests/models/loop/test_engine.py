@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from dualmech.models.case import load_case, preset_names, with_loads
 from dualmech.models.loop.engine import analyze_loop
 from dualmech.models.loop.presets import slider_crank_start, slider_crank_table
+from dualmech.models.loop.table_format import loop_from_dict
 from dualmech.models.slider_crank import analyze
 from tests.tolerances import (
+    BATCH_VS_SINGLE,
     LOOP_EDGE_ROUNDING,
     LOOP_REACTIONS_ROUNDING,
     LOOP_VS_OWN_ENGINE,
@@ -92,3 +96,47 @@ def test_same_reactions(pair) -> None:
         scale = scale if scale > 1e-9 * family else family
         err = np.abs(mine - theirs).reshape(theirs.shape[0], -1).max(axis=1) / scale
         np.testing.assert_array_less(err[ok], bound[ok], err_msg=name)
+
+
+def test_a_table_file_solves_as_the_preset_table() -> None:
+    """The thesis's ideal slider crank written as a ``kind = "loop"`` file (``docs/conventions.md``, "Loop
+    tables": degrees, rows from 1) reads into the same description as :func:`slider_crank_table`, so the
+    engine gives the same numbers."""
+    case = load_case("thesis/ideal")
+    g = case.geometry
+    data = {
+        "name": "ideal-as-table", "mechanism": {"kind": "loop"}, "gravity": [0.0, 0.0, 0.0],
+        "joint": [{"type": "C", "a": g.crank_length}, {"type": "S", "a": g.rod_length},
+                  {"type": "S", "alpha_deg": 90.0},
+                  {"type": "P", "alpha_deg": g.slider_twist_deg, "a": g.slider_offset}],
+        "drive": {"joint": 1, "positions": {"start": 0.0, "stop": 360.0, "step": 1.0},
+                  "speed": case.motion.speed, "effort": case.loads.drive_torque},
+        "body": [{"mass": body.mass, "com": body.com.tolist(), "inertia": body.inertia.tolist()}
+                 for body in slider_crank_table(case).bodies],
+        "load": [{"joint": 4, "coordinate": "s"}],
+    }
+    start = slider_crank_start(case, analyze(case).s4[0])
+    mine = analyze_loop(loop_from_dict(data), start)
+    theirs = analyze_loop(slider_crank_table(case), start)
+    np.testing.assert_array_equal(mine.status, theirs.status)
+    ok = theirs.status == "ok"
+    np.testing.assert_allclose(mine.state.scalars[ok], theirs.state.scalars[ok], rtol=0,
+                               atol=LOOP_VS_OWN_ENGINE * g.rod_length)
+    scale = np.abs(theirs.wrenches.force[ok]).max()
+    np.testing.assert_allclose(mine.wrenches.force[ok], theirs.wrenches.force[ok], rtol=0,
+                               atol=LOOP_VS_OWN_ENGINE * scale)
+
+
+def test_batched_as_one_position_at_a_time() -> None:
+    """Every position solved alone (from the batch's own pose) gives the batch's answer."""
+    case = load_case("thesis/a4-20-alpha-310")
+    mech = slider_crank_table(case)
+    batch = analyze_loop(mech, slider_crank_start(case, analyze(case).s4[0]))
+    for i in (0, 97, 251):
+        drive = dataclasses.replace(mech.drive, positions=mech.drive.positions[i:i + 1])
+        alone = analyze_loop(dataclasses.replace(mech, drive=drive), batch.state.take(slice(i, i + 1)))
+        np.testing.assert_allclose(alone.rates.q_ddot[0], batch.rates.q_ddot[i], rtol=0,
+                                   atol=BATCH_VS_SINGLE * np.abs(batch.rates.q_ddot).max())
+        for got, want in ((alone.wrenches.force[0], batch.wrenches.force[i]),
+                          (alone.wrenches.moment[0], batch.wrenches.moment[i])):
+            np.testing.assert_allclose(got, want, rtol=0, atol=BATCH_VS_SINGLE * np.abs(want).max())

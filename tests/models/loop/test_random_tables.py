@@ -22,8 +22,9 @@ from dualmech.models.loop.engine import analyze_loop
 from dualmech.models.loop.mobility import idle_spins, mobility
 from tests.tolerances import BALANCE, S4_VS_CLOSED_FORM
 
-#: Single loops of one degree of freedom, joint 1 driven by its angle.
-TOPOLOGIES = ("RSSR", "RCCC", "RSCR", "RSSP", "RRSRR", "RSUR")
+#: Single loops of one degree of freedom, joint 1 driven by its angle (by its slide: P; a C by its angle with
+#: its slide by the axial law, so of mobility 2).
+TOPOLOGIES = ("RSSR", "RCCC", "RSCR", "RSSP", "RRSRR", "RSUR", "PSSR", "CSSP")
 
 
 def _body(rng: np.random.Generator, axisymmetric: bool) -> BodyInertia:
@@ -37,15 +38,18 @@ def _body(rng: np.random.Generator, axisymmetric: bool) -> BodyInertia:
 
 
 def random_table(seed: int, topology: str) -> LoopMechanism:
-    """A random table of ``topology``: lengths 0.2-1, any twists, offsets within 0.3, a short arc of the
-    first joint's angle, random bodies, gravity and a given effort at the last joint."""
+    """A random table of ``topology``: lengths 0.2-1, any twists, offsets within 0.3, a short stretch of the
+    first joint's coordinate (0.6 rad or length units), random bodies, gravity and a given effort at the last
+    joint."""
     rng = np.random.default_rng(seed)
     joints = tuple(Joint(t, alpha=rng.uniform(-np.pi, np.pi), a=rng.uniform(0.2, 1.0),
                          theta=rng.uniform(-np.pi, np.pi) if t == "P" else 0.0,
                          s=rng.uniform(-0.3, 0.3) if t in ("R", "U") else 0.0) for t in topology)
     start = rng.uniform(-np.pi, np.pi)
-    drive = Drive(0, "theta", np.linspace(start, start + 0.6, 16), rng.uniform(-5.0, 5.0),
-                  rng.uniform(-3.0, 3.0))
+    law = (rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2), rng.uniform(-2.0, 2.0)) if topology[0] == "C" \
+        else (0.0, 0.0, 0.0)
+    drive = Drive(0, "s" if topology[0] == "P" else "theta", np.linspace(start, start + 0.6, 16),
+                  rng.uniform(-5.0, 5.0), rng.uniform(-3.0, 3.0), *law)
     idle = idle_spins(joints)
     bodies = tuple(_body(rng, k in idle) for k in range(len(joints) - 1))
     last = len(joints) - 1
@@ -74,7 +78,7 @@ def power_terms(an) -> tuple[np.ndarray, np.ndarray]:
 @given(seed=st.integers(0, 2**32 - 1), topology=st.sampled_from(TOPOLOGIES))
 def test_random_tables_close_and_balance_power(seed: int, topology: str) -> None:
     mech = random_table(seed, topology)
-    assert mobility(mech.joints) == 1
+    assert mobility(mech.joints) == len(mech.prescribed)
     try:
         an = analyze_loop(mech)
     except ValueError as err:  # no assembly found at the first position: not a counterexample
