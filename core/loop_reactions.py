@@ -61,6 +61,11 @@ class JointWrenches:
         :math:`|Ax - b| / |b|` of the weighted Newton-Euler equations.
     transmission : numpy.ndarray, shape (n,)
         Distance of the transmission effort's column from the others' span, over its length (0: singular).
+    components : tuple of dict, one per row
+        The constraint wrench's components in the joint's frame (x, y, z of :func:`_joint_axes`: frame
+        ``{i}``, for a U joint ``x', y', z``), ``(n,)`` each, keyed ``fx`` ... ``mz``: the forces along the
+        axes the joint does not slide along, the moments (about the joint's point) about those it does not
+        turn about -- the thesis's joint-frame reactions, :math:`6 - f_i` of them.
     """
 
     force: np.ndarray
@@ -69,6 +74,7 @@ class JointWrenches:
     efforts: dict[str, np.ndarray]
     residual: np.ndarray
     transmission: np.ndarray
+    components: tuple[dict[str, np.ndarray], ...]
 
 
 def _value(v: float | Var, inputs: dict[str, np.ndarray], n: int) -> np.ndarray:
@@ -173,38 +179,42 @@ def solve_joint_wrenches(chain: Chain, loop: Loop, inputs: dict[str, np.ndarray]
         np.tile(np.r_[np.zeros(3), np.ones(3)], rows)[None, :] / length[:, None]
     x, residual, transmission = _least_squares(a * weight[:, :, None], b * weight)
     wrench = [Dual(k.re.copy(), k.du.copy()) for k in known]
-    for c, (r, unit, _) in enumerate(columns):
+    components: tuple[dict[str, np.ndarray], ...] = tuple({} for _ in loop.rows)
+    for c, (r, unit, name, label) in enumerate(columns):
         wrench[r] = wrench[r] + unit * x[:, c, None]
+        if name is None:
+            components[r][label] = x[:, c]
     force = np.stack([w.re for w in wrench], axis=1)
     moment = np.stack([w.du for w in wrench], axis=1) - np.cross(points, force)
     values = {name: np.asarray(v, dtype=float) for name, v in efforts.items() if v is not None}
-    for c, (_, _, name) in enumerate(columns):
+    for c, (_, _, name, _) in enumerate(columns):
         if name is not None:
             values[name] = x[:, c]
-    return JointWrenches(force, moment, points, values, residual, transmission)
+    return JointWrenches(force, moment, points, values, residual, transmission, components)
 
 
 def _columns(chain: Chain, loop: Loop, points: np.ndarray, efforts: dict[str, np.ndarray | None],
-             transmission_effort: str) -> tuple[list[tuple[int, Dual, str | None]], list[Dual]]:
-    """The unknown wrench columns ``(row, unit wrench, effort name or None)`` -- constraints, then the solved
-    efforts with the transmission's last -- and each row's known (given effort) wrench."""
+             transmission_effort: str) -> tuple[list[tuple[int, Dual, str | None, str]], list[Dual]]:
+    """The unknown wrench columns ``(row, unit wrench, effort name or None, label)`` -- constraints (labels
+    ``fx`` ... ``mz``), then the solved efforts with the transmission's last -- and each row's known (given
+    effort) wrench."""
     n = chain.closure.re.shape[0]
-    columns: list[tuple[int, Dual, str | None]] = []
+    columns: list[tuple[int, Dual, str | None, str]] = []
     known = [Dual(np.zeros((n, 3)), np.zeros((n, 3))) for _ in loop.rows]
     for r in range(len(loop.rows)):
         axes = _joint_axes(chain, loop, r)
         turns, slides = _free(loop, r)
         for k in range(3):
             if k not in slides:
-                columns.append((r, force_at(points[:, r], axes[:, :, k]), None))
+                columns.append((r, force_at(points[:, r], axes[:, :, k]), None, "f" + "xyz"[k]))
             if k not in turns:
-                columns.append((r, Dual(np.zeros((n, 3)), axes[:, :, k]), None))
+                columns.append((r, Dual(np.zeros((n, 3)), axes[:, :, k]), None, "m" + "xyz"[k]))
     solved = []
     for r, name, slide in effort_slots(loop):
         unit = _effort_unit(chain, loop, r, name, slide, points[:, r])
         value = efforts.get(name, np.zeros(n))
         if value is None:
-            solved.append((r, unit, name))
+            solved.append((r, unit, name, name))
         else:
             known[r] = known[r] + unit * np.asarray(value, dtype=float)[:, None]
     solved.sort(key=lambda c: c[2] == transmission_effort)
@@ -216,7 +226,7 @@ def _equations(chain, loop, inputs, rates, bodies, gravity, columns, known) -> t
     n, n_rows = chain.closure.re.shape[0], len(loop.rows)
     a = np.zeros((n, 6 * (n_rows - 1), len(columns)), scalar_type(chain.closure.re))
     b = np.zeros(a.shape[:2], a.dtype)
-    for c, (r, unit, _) in enumerate(columns):
+    for c, (r, unit, _, _) in enumerate(columns):
         for target, sign in ((r, 1.0), (r - 1, -1.0)):
             if 0 <= target < n_rows - 1:
                 a[:, 6 * target:6 * target + 3, c] += sign * unit.re

@@ -140,3 +140,16 @@ def test_batched_as_one_position_at_a_time() -> None:
         for got, want in ((alone.wrenches.force[0], batch.wrenches.force[i]),
                           (alone.wrenches.moment[0], batch.wrenches.moment[i])):
             np.testing.assert_allclose(got, want, rtol=0, atol=BATCH_VS_SINGLE * np.abs(want).max())
+
+
+def test_joint_frame_components_rebuild_the_wrench() -> None:
+    """A joint's constraint components (its frame's axes) plus its efforts are its wrench; a ball has three
+    forces and no moment, the prismatic slider joint two forces and three moments (6 - f each)."""
+    case = load_case("thesis/a4-20-alpha-232")
+    an = analyze_loop(slider_crank_table(case), slider_crank_start(case, analyze(case).s4[0]))
+    w = an.wrenches
+    assert [sorted(c) for c in w.components] == [["fx", "fy", "mx", "my"], ["fx", "fy", "fz"],
+                                                 ["fx", "fy", "fz"], ["fx", "fy", "mx", "my", "mz"]]
+    axes = an.chain.frames[1].re  # joint 3's frame {3}: the rod's end
+    force = sum(w.components[2][f"f{a}"][:, None] * axes[:, :, k] for k, a in enumerate("xyz"))
+    np.testing.assert_allclose(force, w.force[:, 2], rtol=0, atol=BATCH_VS_SINGLE * np.abs(w.force).max())
