@@ -106,36 +106,39 @@ def _stations(n: int, count: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(n, count)).round().astype(int))
 
 
-def continue_closure(loop: Loop, inputs: dict[str, np.ndarray], start: LoopState,
+def continue_closure(loop: Loop, inputs: dict[str, np.ndarray], start: LoopState, at: int = 0,
                      stations: int = STATIONS) -> Continuation:
     """Close ``loop`` at every position of ``inputs`` (``(n,)`` each, in the order the input moves) from
-    ``start``, an estimate at the first position (module docstring).
+    ``start``, an estimate at position ``at`` (module docstring): the stations after ``at`` are closed in
+    turn forward from it, those before it backward.
 
     Raises
     ------
     ValueError
-        If the first position does not close from ``start`` (give or search another start pose).
+        If position ``at`` does not close from ``start`` (give or search another start pose).
     """
     n = next(iter(inputs.values())).shape[0]
-    first = solve_closure(loop, {k: v[:1] for k, v in inputs.items()}, start)
+    here = {k: v[at:at + 1] for k, v in inputs.items()}
+    first = solve_closure(loop, here, start)
     if first.status[0] != ClosureStatus.OK:
-        raise ValueError(f"start: the loop does not close at the first position from the start pose "
+        raise ValueError(f"start: the loop does not close at position {at + 1} from the start pose "
                          f"(residual {first.residual[0]:.3g}); give an assembled pose")
-    branch = int(branch_sign(loop, {k: v[:1] for k, v in inputs.items()}, first.state)[0])
+    branch = int(branch_sign(loop, here, first.state)[0])
     idx = _stations(n, stations)
     state = LoopState(np.repeat(first.state.scalars, n, axis=0), np.repeat(first.state.rotations, n, axis=0))
     good = np.zeros(n, dtype=bool)
-    good[0] = True
-    last = first.state
-    for i in idx[1:]:  # sequential: each station from the last good one (a fixed, small number)
-        res = solve_closure(loop, {k: v[i:i + 1] for k, v in inputs.items()}, last)
-        if res.status[0] == ClosureStatus.OK and \
-                branch_sign(loop, {k: v[i:i + 1] for k, v in inputs.items()}, res.state)[0] == branch:
-            state, good[i], last = state.put(np.array([i]), res.state), True, res.state
+    good[at] = True
+    for way in (idx[idx > at], idx[idx < at][::-1]):
+        last = first.state
+        for i in way:  # sequential: each station from the last good one (a fixed, small number)
+            res = solve_closure(loop, {k: v[i:i + 1] for k, v in inputs.items()}, last)
+            if res.status[0] == ClosureStatus.OK and \
+                    branch_sign(loop, {k: v[i:i + 1] for k, v in inputs.items()}, res.state)[0] == branch:
+                state, good[i], last = state.put(np.array([i]), res.state), True, res.state
     # every position from the stations around it, in one batch
     ok_idx = np.flatnonzero(good)
     right = np.clip(np.searchsorted(ok_idx, np.arange(n)), 0, ok_idx.size - 1)
-    left = np.clip(right - 1, 0, ok_idx.size - 1)
+    left = np.clip(right - 1, 0, ok_idx.size - 1)  # before the first good station: both ends are that one
     lo, hi = ok_idx[left], ok_idx[right]
     t = np.where(hi > lo, (np.arange(n) - lo) / np.maximum(hi - lo, 1), 0.0)
     t = np.clip(t, 0.0, 1.0)

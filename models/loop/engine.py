@@ -99,30 +99,40 @@ def efforts_of(mechanism: LoopMechanism, n: int) -> tuple[dict[str, np.ndarray |
     return efforts, solved
 
 
-def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState, seed: int = 0) -> LoopState:
-    """The joints' ``start`` pose if any joint gives one, else a searched assembly at the first position
-    (:func:`~dualmech.core.continuation.search_assembly`; the first pose found)."""
+#: Drive positions tried, evenly spread, when searching for an assembled start pose.
+SEARCH_POSITIONS = 8
+
+
+def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
+               seed: int = 0) -> tuple[LoopState, int]:
+    """A start pose and the drive position it belongs to: the joints' ``start`` values at the first position
+    if any joint gives one, else the first assembly found
+    (:func:`~dualmech.core.continuation.search_assembly`) at the first of :data:`SEARCH_POSITIONS` evenly
+    spread positions where one exists."""
     if any(j.start for j in mechanism.joints):
-        return start_state(mechanism, loop)
-    found = search_assembly(loop, drive.take(slice(0, 1)).values, seed, size=length_scale(mechanism))
-    if found.scalars.shape[0] == 0:
-        raise ValueError("start: no assembled pose found at the first drive position; give the joints' "
-                         "start values")
-    return found.take(slice(0, 1))
+        return start_state(mechanism, loop), 0
+    n = mechanism.drive.positions.shape[0]
+    for at in np.unique(np.linspace(0, n - 1, min(n, SEARCH_POSITIONS)).round().astype(int)):
+        values = drive.take(slice(at, at + 1)).values
+        found = search_assembly(loop, values, seed, size=length_scale(mechanism))
+        if found.scalars.shape[0]:
+            return found.take(slice(0, 1)), int(at)
+    raise ValueError(f"start: no assembled pose found at {min(n, SEARCH_POSITIONS)} drive positions; give "
+                     "the joints' start values")
 
 
-def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None) -> LoopAnalysis:
+def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: int = 0) -> LoopAnalysis:
     """Closure, rates, reactions and statuses at every drive position of ``mechanism``.
 
-    ``start`` ``(1,)`` positions: a pose at the first drive position (assembled or nearly); default
-    :func:`find_start`.
+    ``start`` ``(1,)`` positions: a pose at drive position ``at`` (0-based; assembled or nearly), whose
+    branch is followed; default :func:`find_start`.
     """
     check_mobility(mechanism)
     loop = to_loop(mechanism)
     drive = drive_state(mechanism)
     n = drive.values[variable(*mechanism.driven_coordinate)].shape[0]
-    closed: Continuation = continue_closure(loop, drive.values,
-                                            find_start(mechanism, loop, drive) if start is None else start)
+    pose, at = find_start(mechanism, loop, drive) if start is None else (start, at)
+    closed: Continuation = continue_closure(loop, drive.values, pose, at)
     chain = evaluate(loop, drive.values, closed.state)
     rates = solve_rates(chain, loop, drive.rates, drive.accels)
     efforts, solved = efforts_of(mechanism, n)

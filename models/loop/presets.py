@@ -87,12 +87,13 @@ def slider_crank_table(case: Case) -> LoopMechanism:
     return LoopMechanism(case.name, joints, drive, bodies, (load,), case.loads.gravity)
 
 
-def slider_crank_start(case: Case, s4: float) -> LoopState:
-    """An assembled pose at the case's first crank angle from its slider coordinate ``s4`` there (e.g. the
-    thesis's closed form): the rod frame pointed from ``P2`` at ``P3 = F - S4 k4`` (with a universal joint 3,
-    its z along the rod-side axis ``a``, and the joint's two angles from the rod and slider frames)."""
+def slider_crank_start(case: Case, s4: float, at: int = 0) -> LoopState:
+    """An assembled pose at the case's crank angle number ``at`` (0-based) from its slider coordinate ``s4``
+    there (e.g. the thesis's closed form): the rod frame pointed from ``P2`` at ``P3 = F - S4 k4`` (with a
+    universal joint 3, its z along the rod-side axis ``a``, and the joint's two angles from the rod and
+    slider frames)."""
     g = case.geometry
-    crank = case.own_crank_states(case.motion.angles_deg[:1])
+    crank = case.own_crank_states(case.motion.angles_deg[at:at + 1])
     theta, s1 = crank.theta[0], crank.s[0]
     p2 = np.array([g.crank_length * math.cos(theta), g.crank_length * math.sin(theta), s1])
     p3 = g.foot - s4 * g.k4

@@ -76,5 +76,5 @@ def test_follows_the_start_branch_and_flags_a_jump(monkeypatch: pytest.MonkeyPat
 def test_a_start_that_does_not_close_is_refused() -> None:
     far = loop_values(GEOMETRY, np.array([0.0]))
     far["a2"] = far["a2"] * 10.0  # the coupler is far too long: no assembly
-    with pytest.raises(ValueError, match="^start: the loop does not close at the first position"):
+    with pytest.raises(ValueError, match="^start: the loop does not close at position 1 "):
         continue_closure(LOOP, far, estimate(GEOMETRY, np.array([0.0]), np.array([0.0])))

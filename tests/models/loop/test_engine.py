@@ -153,3 +153,22 @@ def test_joint_frame_components_rebuild_the_wrench() -> None:
     axes = an.chain.frames[1].re  # joint 3's frame {3}: the rod's end
     force = sum(w.components[2][f"f{a}"][:, None] * axes[:, :, k] for k, a in enumerate("xyz"))
     np.testing.assert_allclose(force, w.force[:, 2], rtol=0, atol=BATCH_VS_SINGLE * np.abs(w.force).max())
+
+
+@pytest.mark.parametrize("given", [True, False])
+def test_starting_past_an_unassembled_first_position(given: bool) -> None:
+    """The loop does not assemble at the first angles: the start pose is given at a later position (or
+    searched at evenly spread ones: its branch is the first found, so only the statuses are the slider
+    crank's), and the stations run backward and forward from there."""
+    case = load_case("thesis/ideal").with_values({"geometry.slider_offset": 45.0})
+    ref = analyze(case)
+    assert ref.status[0] == "no_assembly"
+    at = int(np.argmax(ref.status == "ok"))
+    mech = slider_crank_table(case)
+    an = analyze_loop(mech, slider_crank_start(case, ref.s4[at], at), at) if given else analyze_loop(mech)
+    np.testing.assert_array_equal(an.status.astype(str), ref.status.astype(str))
+    ok = ref.status == "ok"
+    np.testing.assert_array_less(an.residual[ok], LOOP_VS_OWN_ENGINE)
+    if given:
+        np.testing.assert_allclose(an.coordinate(3, "s")[0][ok], ref.s4[ok], rtol=0,
+                                   atol=LOOP_VS_OWN_ENGINE * np.abs(ref.s4[ok]).max())
