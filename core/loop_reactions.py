@@ -40,7 +40,7 @@ import numpy as np
 from dualmech.core.dual import Dual, origin, rot_x, scalar_type
 from dualmech.core.loop import Chain, Loop, Var
 from dualmech.core.rates import Rates
-from dualmech.core.reactions import Body, BodyMotion, body_motion, force_at, momentum_rate
+from dualmech.core.reactions import Body, body_motion, force_at, momentum_rate
 
 
 @dataclass(frozen=True)
@@ -272,5 +272,4 @@ def _effort_unit(chain: Chain, loop: Loop, r: int, name: str, slide: bool, point
     return Dual(np.zeros_like(screw.line.re), screw.line.re)
 
 
-__all__ = ["JointWrenches", "BodyMotion", "link_frames", "joint_points", "effort_slots",
-           "solve_joint_wrenches"]
+__all__ = ["JointWrenches", "link_frames", "joint_points", "effort_slots", "solve_joint_wrenches"]

@@ -13,7 +13,7 @@ from dualmech.core.loop import LoopState, closure_residual, evaluate, rodrigues
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rssr import LOOP, closed_form_phi, estimate, loop_values
 from dualmech.models.linkages.rssr_case import rssr_from_dict
-from tests.tolerances import S4_VS_CLOSED_FORM
+from tests.tolerances import LOOP_CLOSURE, LOOP_VS_OWN_ENGINE
 
 GEOMETRY = rssr_from_dict(read_linkage("rssr")).geometry
 
@@ -53,7 +53,7 @@ def test_search_finds_both_assemblies() -> None:
     values = loop_values(GEOMETRY, np.array([0.3]))
     found = search_assembly(LOOP, values, seed=3)
     many = {k: np.repeat(v, found.scalars.shape[0]) for k, v in values.items()}
-    np.testing.assert_array_less(closure_residual(evaluate(LOOP, many, found), LOOP), S4_VS_CLOSED_FORM)
+    np.testing.assert_array_less(closure_residual(evaluate(LOOP, many, found), LOOP), LOOP_CLOSURE)
     assert set(branch_sign(LOOP, many, found)) == {-1, 1}
 
 
@@ -64,7 +64,7 @@ def test_follows_the_start_branch_and_flags_a_jump(monkeypatch: pytest.MonkeyPat
     result = continue_closure(LOOP, values, up.take(slice(0, 1)))
     assert (result.status == ClosureStatus.OK).all() and not result.branch_jump.any()
     turn = np.mod(result.state.scalars - up.scalars + np.pi, 2 * np.pi) - np.pi  # the angle, modulo 2 pi
-    np.testing.assert_allclose(turn, 0.0, rtol=0, atol=S4_VS_CLOSED_FORM)
+    np.testing.assert_allclose(turn, 0.0, rtol=0, atol=LOOP_VS_OWN_ENGINE)
     # a batch start on the other branch at position 7 closes there: a jump, reported, not followed
     real = continuation.interpolate
     monkeypatch.setattr(continuation, "interpolate",
