@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from dualmech.core.inertia import BodyInertia
+from dualmech.core.inertia import BodyInertia, solid_cube, solid_cylinder_x
 from dualmech.models.bodies import _tensor as inertia_tensor
 from dualmech.models.inputs import (
     ACCELERATION,
@@ -23,6 +23,7 @@ from dualmech.models.inputs import (
     LENGTH,
     MAX_CASE_NAME,
     MAX_POSITIONS,
+    POSITIVE_LENGTH,
     POSITIVE_MASS,
     CaseError,
     Range,
@@ -39,7 +40,7 @@ TOP_KEYS = ("name", "units", "description", "gravity", "mechanism", "joint", "dr
 JOINT_KEYS = ("type", "alpha_deg", "a", "theta_deg", "s", "start")
 DRIVE_KEYS = ("joint", "positions", "speed", "accel", "axial_shift", "axial_amplitude", "axial_cycles",
               "effort")
-BODY_KEYS = ("mass", "com", "inertia")
+BODY_KEYS = ("mass", "com", "inertia", "radius", "side")
 LOAD_KEYS = ("joint", "coordinate", "value")
 #: A drive's speed and acceleration: rad/s and rad/s^2, or length/s and length/s^2.
 RATE = Range(-1e15, 1e15, "a rate (rad/s or length/s)")
@@ -137,16 +138,32 @@ def _joint_index(key: str, value: Any, n: int) -> int:
     return value - 1
 
 
-def _body(k: int, b: dict) -> BodyInertia:
+def _body(k: int, b: dict, length: float) -> BodyInertia:
+    """``[[body]]`` number ``k`` (0-based), link ``k + 1`` of length ``length`` (its joint's ``a``): ``mass``
+    and one of ``inertia`` (about the centre of mass), ``radius`` (a uniform solid cylinder along the link
+    frame's x from the joint to the next axis; ``com`` default its middle ``[a/2, 0, 0]``) or ``side`` (a
+    uniform solid cube; ``com`` default the link frame's origin)."""
     where = f"body[{k + 1}]"
     check_keys(where, b, BODY_KEYS)
-    for key in ("mass", "inertia"):
-        if key not in b:
-            raise CaseError(f"{where}.{key}: required key missing")
+    if "mass" not in b:
+        raise CaseError(f"{where}.mass: required key missing")
+    shapes = [key for key in ("inertia", "radius", "side") if key in b]
+    if len(shapes) != 1:
+        raise CaseError(f"{where}: give exactly one of inertia (3 moments or 3x3), radius (a solid cylinder) "
+                        f"or side (a solid cube), got {', '.join(shapes) or 'none'}")
     mass = check_number(f"{where}.mass", b["mass"], POSITIVE_MASS)
-    com = check_vector(f"{where}.com", b["com"], LENGTH) if "com" in b else np.zeros(3)
+    if shapes == ["radius"]:
+        radius = check_number(f"{where}.radius", b["radius"], POSITIVE_LENGTH)
+        inertia = solid_cylinder_x(mass, abs(length), radius)
+        middle = np.array([length / 2.0, 0.0, 0.0])
+    elif shapes == ["side"]:
+        inertia = solid_cube(mass, check_number(f"{where}.side", b["side"], POSITIVE_LENGTH))
+        middle = np.zeros(3)
+    else:
+        inertia, middle = inertia_tensor(f"{where}.inertia", b["inertia"]), np.zeros(3)
+    com = check_vector(f"{where}.com", b["com"], LENGTH) if "com" in b else middle
     try:
-        return BodyInertia(mass, com, inertia_tensor(f"{where}.inertia", b["inertia"]))
+        return BodyInertia(mass, com, inertia)
     except CaseError:
         raise
     except ValueError as err:
@@ -188,7 +205,8 @@ def loop_from_dict(data: dict) -> LoopMechanism:
     if len(joints) < 2:
         raise CaseError(f"joint: a loop needs at least 2 [[joint]] rows, got {len(joints)}")
     drive = _drive(data.get("drive"), joints)
-    bodies = tuple(_body(k, b) for k, b in enumerate(_rows(data, "body")))
+    rows = _rows(data, "body")
+    bodies = tuple(_body(k, b, joints[min(k, len(joints) - 1)].a) for k, b in enumerate(rows))
     if len(bodies) != len(joints) - 1:
         raise CaseError(f"body: expected one [[body]] per moving link ({len(joints) - 1}), got {len(bodies)}")
     loads = tuple(_load(k, row, joints) for k, row in enumerate(_rows(data, "load")))

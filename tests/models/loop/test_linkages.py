@@ -12,6 +12,7 @@ from dualmech.models.linkages.rssr import analyze_rssr
 from dualmech.models.linkages.rssr_case import rssr_from_dict
 from dualmech.models.loop.engine import analyze_loop
 from dualmech.models.loop.presets import rccc_start, rccc_table, rssr_start, rssr_table
+from dualmech.models.loop.table_format import loop_from_dict
 from tests.tolerances import LOOP_VS_OWN_ENGINE
 
 
@@ -80,3 +81,30 @@ def test_rccc() -> None:
         _assert_close(joint + "_f", sign * w.force[:, k], r.force[joint], ok)
         _assert_close(joint + "_m", sign * moment, r.moment[joint], ok)
     _assert_close("drive_torque", w.efforts["theta1"], r.moment["j1"][:, 2], ok)
+
+
+def test_rssr_file_as_loop_table() -> None:
+    """The bundled RSSR written as a ``kind = "loop"`` file (its cylinders by ``radius``, the output crank's
+    mass turned into its link frame) gives the preset table's numbers."""
+    case = rssr_from_dict(read_linkage("rssr"))
+    g, table = case.geometry, rssr_table(case)
+    out = table.bodies[2]
+    data = {
+        "name": "rssr-as-table", "mechanism": {"kind": "loop"}, "gravity": case.gravity.tolist(),
+        "joint": [{"type": "R", "a": g.a1, "s": g.s1}, {"type": "S", "a": g.a2}, {"type": "S", "a": g.a3},
+                  {"type": "R", "alpha_deg": np.degrees(g.alpha4), "a": g.a4, "s": -g.h}],
+        "drive": {"joint": 1, "positions": {"start": 0.0, "stop": 360.0, "step": 2.0},
+                  "speed": case.motion.speed, "accel": case.motion.accel},
+        "body": [{"mass": 0.8, "radius": 0.015}, {"mass": 1.2, "radius": 0.01},
+                 {"mass": out.mass, "com": out.com.tolist(), "inertia": out.inertia.tolist()}],
+        "load": [{"joint": 4, "value": -case.output_torque}],
+    }
+    mech = loop_from_dict(data)
+    for mine, theirs in zip(mech.bodies, table.bodies):
+        np.testing.assert_allclose(mine.inertia, theirs.inertia, rtol=1e-14, atol=0)
+        np.testing.assert_allclose(mine.com, theirs.com, rtol=1e-14, atol=0)
+    start = rssr_start(case)
+    mine, theirs = analyze_loop(mech, start), analyze_loop(table, start)
+    ok = theirs.status == "ok"
+    np.testing.assert_array_equal(mine.status, theirs.status)
+    _assert_close("wrenches", mine.wrenches.force, theirs.wrenches.force, ok)

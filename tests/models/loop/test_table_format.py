@@ -109,3 +109,16 @@ def test_an_idly_spinning_link_must_be_axisymmetric() -> None:
     data = _with("body.1.inertia", [1.0, 5.0, 5.5])
     with pytest.raises(CaseError, match=r"^body\[2\]: link 2 spins idly"):
         loop_from_dict(data)
+
+
+def test_simple_shapes() -> None:
+    data = _with("body.0", {"mass": 2.0, "radius": 0.5})
+    data["body"][2] = {"mass": 3.0, "side": 2.0}
+    mech = loop_from_dict(data)
+    np.testing.assert_allclose(mech.bodies[0].com, [6.0, 0.0, 0.0], rtol=0, atol=0)  # the crank's middle
+    transverse = 2.0 * (0.5**2 / 4 + 12.0**2 / 12)
+    np.testing.assert_allclose(mech.bodies[0].inertia, np.diag([0.25, transverse, transverse]), rtol=1e-15,
+                               atol=0)
+    np.testing.assert_allclose(mech.bodies[2].inertia, np.eye(3) * 2.0, rtol=1e-15, atol=0)
+    with pytest.raises(CaseError, match=r"^body\[1\]: give exactly one of inertia .* got inertia, radius$"):
+        loop_from_dict(_with("body.0.radius", 0.5))
