@@ -21,7 +21,7 @@ import numpy as np
 from dualmech.core.closure import ClosureStatus, refine, solve_closure
 from dualmech.core.closure import _gauge_block as gauge_block  # the gauge rows over the tangent step
 from dualmech.core.dual import vee
-from dualmech.core.loop import Loop, LoopState, evaluate, rodrigues, screw_jacobian
+from dualmech.core.loop import Loop, LoopState, Var, evaluate, rodrigues, screw_jacobian
 
 #: Stations closed one after the other (at most; fewer positions: every position is a station).
 STATIONS = 24
@@ -82,6 +82,14 @@ def interpolate(a: LoopState, b: LoopState, t: np.ndarray) -> LoopState:
     return LoopState(scalars, rodrigues(turn * t[:, None, None]) @ a.rotations)
 
 
+def _slides(loop: Loop) -> np.ndarray:
+    """Which scalar unknowns of ``loop`` are lengths (in a row's ``s`` or ``a`` slot), shape
+    ``(len(loop.unknowns),)``."""
+    lengths = {getattr(row, f).name for row in loop.rows for f in ("s", "a")
+               if isinstance(getattr(row, f), Var)}
+    return np.array([name in lengths for name in loop.unknowns], dtype=bool)
+
+
 def search_assembly(loop: Loop, inputs: dict[str, np.ndarray], seed: int = 0,
                     starts: int = SEARCH_STARTS, size: float = 1.0) -> LoopState:
     """Closed poses at one position (``inputs`` of length 1) from ``starts`` random estimates, batched:
@@ -90,8 +98,7 @@ def search_assembly(loop: Loop, inputs: dict[str, np.ndarray], seed: int = 0,
     rng = np.random.default_rng(seed)
     k = len(loop.unknowns)
     scalars = rng.uniform(-np.pi, np.pi, (starts, k))
-    slides = np.array([name.startswith("s") for name in loop.unknowns], dtype=bool)
-    scalars[:, slides] *= size / np.pi
+    scalars[:, _slides(loop)] *= size / np.pi
     quats = rng.normal(size=(starts, len(loop.spherical_rows), 4))
     quats /= np.linalg.norm(quats, axis=-1, keepdims=True)
     vectors = 2.0 * np.arctan2(np.linalg.norm(quats[..., 1:], axis=-1), quats[..., 0])[..., None] * \

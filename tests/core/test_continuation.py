@@ -13,6 +13,7 @@ from dualmech.core.loop import LoopState, closure_residual, evaluate, rodrigues
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rssr import LOOP, closed_form_phi, estimate, loop_values
 from dualmech.models.linkages.rssr_case import rssr_from_dict
+from dualmech.models.slider_crank_loop import LOOP as SLIDER_CRANK
 from tests.tolerances import LOOP_CLOSURE, LOOP_VS_OWN_ENGINE
 
 GEOMETRY = rssr_from_dict(read_linkage("rssr")).geometry
@@ -78,3 +79,10 @@ def test_a_start_that_does_not_close_is_refused() -> None:
     far["a2"] = far["a2"] * 10.0  # the coupler is far too long: no assembly
     with pytest.raises(ValueError, match="^start: the loop does not close at position 1 "):
         continue_closure(LOOP, far, estimate(GEOMETRY, np.array([0.0]), np.array([0.0])))
+
+
+def test_search_scales_the_slides_whatever_their_names() -> None:
+    """The random starts draw slides within the given size and angles within pi, by the slot a variable sits
+    in, not by its name (the slider crank's own table calls its slide ``S4``)."""
+    assert continuation._slides(SLIDER_CRANK).tolist() == [True]
+    assert continuation._slides(LOOP).tolist() == [False]  # the RSSR's theta4
