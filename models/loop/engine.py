@@ -29,6 +29,7 @@ from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.mobility import check_mobility
 from dualmech.models.loop.translate import (
+    SCALE,
     DriveState,
     drive_state,
     length_scale,
@@ -136,7 +137,7 @@ def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: i
     chain = evaluate(loop, drive.values, closed.state)
     rates = solve_rates(chain, loop, drive.rates, drive.accels)
     efforts, solved = efforts_of(mechanism, n)
-    scale = drive.values["length_scale"]
+    scale = drive.values[SCALE]
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         wrenches = solve_joint_wrenches(chain, loop, drive.values, rates, mechanism.bodies, mechanism.gravity,
                                         efforts, solved, scale)
