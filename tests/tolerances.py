@@ -183,3 +183,21 @@ LINKAGE_SIM_FREE_ANGLE = Tolerance(
 #: The same, crank rate relative to its peak.
 LINKAGE_SIM_FREE_RATE = Tolerance(
     2e-3, "O(dt) as the angle: measured 1.7e-3 (dt = 1e-4), 3.4e-4 (2e-5), 1.7e-4 (1e-5)")
+#: The generic loop engine against a mechanism's own engine (the slider crank's kinematics; the RSSR's and the
+#: RCCC's kinematics and reactions), relative to the peak: both close the same table to rounding and solve the
+#: same equations (measured <= 2.4e-14 on the thesis presets, 2.7e-14 on the bundled RSSR and RCCC).
+LOOP_VS_OWN_ENGINE = 1e-12
+#: Its reactions, relative to the case's peak: the larger of this and LOOP_REACTIONS_ROUNDING / (|t| s), t the
+#: transmission, s = 1 (balls) or the sine of the rod's angle to the slider axis (a universal joint, whose
+#: moment carries 1/s). Near a dead centre the least squares loses rounding times 1/|t| that the slider
+#: crank's closed-form elimination of the axial rod force does not (measured 8.9e-12 at |t| = 2.9e-5 on
+#: a4-30-s1-3.5; error x |t| x s <= 3.3e-15 of the peak on the thesis presets, 6.7e-15 on the IFToMM one).
+LOOP_VS_SLIDER_CRANK_REACTIONS = 1e-12
+LOOP_REACTIONS_ROUNDING = 1e-14
+#: ... and near an edge of assembly (closure condition c) the larger of these and LOOP_EDGE_ROUNDING / c^3:
+#: the closure's rounding reaches the reactions times 1/c^3 there (as NEAR_EDGE_VS_CLOSED_FORM's kinematics;
+#: measured 3.7e-12 at c = 0.069, error x c^3 = 1.2e-15 of the peak).
+LOOP_EDGE_ROUNDING = 5e-15
+#: Closure residual of the generic loop engine on its closed rows (lengths over the loop's length): it refines
+#: to the rounding level (measured <= 2e-15 on random tables).
+LOOP_CLOSURE = 1e-13

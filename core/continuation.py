@@ -1,0 +1,163 @@
+"""Start estimates for any table without a closed form: continuation along the input sequence.
+
+The closure (thesis eq. 5, solved by :func:`~dualmech.core.closure.solve_closure`: Newton on the dual loop
+equation, eq. 11 and 23a, with the DFP fallback) needs a start near the wanted assembly.  Where no closed form
+gives one, the pose at the first position is closed from a given estimate (or searched: many random starts,
+batched), then a few *stations* along the positions are closed one after the other, each from the last; the
+other positions are closed in one batch from guesses interpolated between the two stations around them.
+
+**Branch.** A one-degree-of-freedom loop's closure Jacobian with its spin-gauge rows is square
+(:func:`closure_jacobian`); its determinant changes sign only through a singular pose (an edge of
+assembly), so its sign labels the assembly branch.  A position closed with the other sign than the start
+pose's is a *branch jump*: reported, never followed (a station past it is not used as a start).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dualmech.core.closure import ClosureStatus, refine, solve_closure
+from dualmech.core.closure import _gauge_block as gauge_block  # the gauge rows over the tangent step
+from dualmech.core.dual import vee
+from dualmech.core.loop import Loop, LoopState, Var, evaluate, rodrigues, screw_jacobian
+
+#: Stations closed one after the other (at most; fewer positions: every position is a station).
+STATIONS = 24
+#: Random starts of :func:`search_assembly`.
+SEARCH_STARTS = 64
+
+
+@dataclass(frozen=True)
+class Continuation:
+    """A loop closed at ``n`` positions by continuation.
+
+    Attributes
+    ----------
+    state : LoopState
+    status : numpy.ndarray of ClosureStatus codes, shape (n,)
+    branch_jump : numpy.ndarray of bool, shape (n,)
+        Closed, but on another branch than the start pose (the Jacobian's determinant changed sign).
+    residual : numpy.ndarray, shape (n,)
+    iterations : numpy.ndarray of int, shape (n,)
+    branch : int
+        Sign of the start pose's Jacobian determinant (:func:`branch_sign`).
+    """
+
+    state: LoopState
+    status: np.ndarray
+    branch_jump: np.ndarray
+    residual: np.ndarray
+    iterations: np.ndarray
+    branch: int
+
+
+def closure_jacobian(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState) -> np.ndarray:
+    """The unknowns' screws with the spin-gauge rows, ``(n, 6 + g, loop.n_unknown)`` (square for a
+    one-degree-of-freedom table; dual rows over the length scale)."""
+    chain = evaluate(loop, inputs, state)
+    jac = screw_jacobian(chain, loop)
+    return np.concatenate([jac, gauge_block(chain, loop)], axis=1) if loop.spin_gauges else jac
+
+
+def branch_sign(loop: Loop, inputs: dict[str, np.ndarray], state: LoopState) -> np.ndarray:
+    """Sign of the closure Jacobian's determinant, ``(n,)`` of -1, 0, 1 (module docstring)."""
+    return np.sign(np.linalg.det(closure_jacobian(loop, inputs, state))).astype(int)
+
+
+def _log(rotation: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``(..., 3)`` of rotations ``(..., 3, 3)`` by less than pi."""
+    cos = np.clip((np.trace(rotation, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+    angle = np.arccos(cos)
+    factor = np.where(angle < 1e-8, 0.5, angle / (2.0 * np.sin(np.maximum(angle, 1e-8))))
+    return vee(rotation - np.swapaxes(rotation, -1, -2)) * factor[..., None]
+
+
+def interpolate(a: LoopState, b: LoopState, t: np.ndarray) -> LoopState:
+    """States between ``a`` and ``b`` (each ``n`` positions) at fractions ``t`` ``(n,)``: scalars linearly,
+    rotations along the shortest turn from ``a``'s to ``b``'s."""
+    scalars = a.scalars + t[:, None] * (b.scalars - a.scalars)
+    turn = _log(b.rotations @ np.swapaxes(a.rotations, -1, -2))
+    return LoopState(scalars, rodrigues(turn * t[:, None, None]) @ a.rotations)
+
+
+def _slides(loop: Loop) -> np.ndarray:
+    """Which scalar unknowns of ``loop`` are lengths (in a row's ``s`` or ``a`` slot), shape
+    ``(len(loop.unknowns),)``."""
+    lengths = {getattr(row, f).name for row in loop.rows for f in ("s", "a")
+               if isinstance(getattr(row, f), Var)}
+    return np.array([name in lengths for name in loop.unknowns], dtype=bool)
+
+
+def search_assembly(loop: Loop, inputs: dict[str, np.ndarray], seed: int = 0,
+                    starts: int = SEARCH_STARTS, size: float = 1.0) -> LoopState:
+    """Closed poses at one position (``inputs`` of length 1) from ``starts`` random estimates, batched:
+    angles uniform in (-pi, pi], slides in (-size, size), rotations uniform.  Returns the distinct closed
+    poses found (possibly none), ``(k,)`` positions."""
+    rng = np.random.default_rng(seed)
+    k = len(loop.unknowns)
+    scalars = rng.uniform(-np.pi, np.pi, (starts, k))
+    scalars[:, _slides(loop)] *= size / np.pi
+    quats = rng.normal(size=(starts, len(loop.spherical_rows), 4))
+    quats /= np.linalg.norm(quats, axis=-1, keepdims=True)
+    vectors = 2.0 * np.arctan2(np.linalg.norm(quats[..., 1:], axis=-1), quats[..., 0])[..., None] * \
+        quats[..., 1:] / np.maximum(np.linalg.norm(quats[..., 1:], axis=-1, keepdims=True), 1e-300)
+    guess = LoopState(scalars, rodrigues(vectors))
+    many = {name: np.repeat(v, starts) for name, v in inputs.items()}
+    res = solve_closure(loop, many, guess)
+    return res.state.take(np.flatnonzero(res.status == ClosureStatus.OK))
+
+
+def _stations(n: int, count: int) -> np.ndarray:
+    return np.unique(np.linspace(0, n - 1, min(n, count)).round().astype(int))
+
+
+def continue_closure(loop: Loop, inputs: dict[str, np.ndarray], start: LoopState, at: int = 0,
+                     stations: int = STATIONS) -> Continuation:
+    """Close ``loop`` at every position of ``inputs`` (``(n,)`` each, in the order the input moves) from
+    ``start``, an estimate at position ``at`` (module docstring): the stations after ``at`` are closed in
+    turn forward from it, those before it backward.
+
+    Raises
+    ------
+    ValueError
+        If position ``at`` does not close from ``start`` (give or search another start pose).
+    """
+    n = next(iter(inputs.values())).shape[0]
+    here = {k: v[at:at + 1] for k, v in inputs.items()}
+    first = solve_closure(loop, here, start)
+    if first.status[0] != ClosureStatus.OK:
+        raise ValueError(f"start: the loop does not close at position {at + 1} from the start pose "
+                         f"(residual {first.residual[0]:.3g}); give an assembled pose")
+    branch = int(branch_sign(loop, here, first.state)[0])
+    idx = _stations(n, stations)
+    state = LoopState(np.repeat(first.state.scalars, n, axis=0), np.repeat(first.state.rotations, n, axis=0))
+    good = np.zeros(n, dtype=bool)
+    good[at] = True
+    for way in (idx[idx > at], idx[idx < at][::-1]):
+        last = first.state
+        for i in way:  # sequential: each station from the last good one (a fixed, small number)
+            res = solve_closure(loop, {k: v[i:i + 1] for k, v in inputs.items()}, last)
+            if res.status[0] == ClosureStatus.OK and \
+                    branch_sign(loop, {k: v[i:i + 1] for k, v in inputs.items()}, res.state)[0] == branch:
+                state, good[i], last = state.put(np.array([i]), res.state), True, res.state
+    # every position from the stations around it, in one batch
+    ok_idx = np.flatnonzero(good)
+    right = np.clip(np.searchsorted(ok_idx, np.arange(n)), 0, ok_idx.size - 1)
+    left = np.clip(right - 1, 0, ok_idx.size - 1)  # before the first good station: both ends are that one
+    lo, hi = ok_idx[left], ok_idx[right]
+    t = np.where(hi > lo, (np.arange(n) - lo) / np.maximum(hi - lo, 1), 0.0)
+    t = np.clip(t, 0.0, 1.0)
+    guess = interpolate(state.take(lo), state.take(hi), t)
+    res = solve_closure(loop, inputs, guess)
+    closed = res.status == ClosureStatus.OK
+    at = np.flatnonzero(closed)
+    polished, more, residual = refine(loop, {k: v[at] for k, v in inputs.items()}, res.state.take(at))
+    final = res.state.put(at, polished)
+    res_all = res.residual.copy()
+    res_all[at] = residual
+    iters = res.iterations.copy()
+    iters[at] += more
+    jump = closed & (branch_sign(loop, inputs, final) != branch)
+    return Continuation(final, res.status, jump, res_all, iters, branch)

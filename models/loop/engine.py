@@ -1,0 +1,150 @@
+"""The in-house engine on any loop table: closure, rates, every joint's reaction, statuses.
+
+The generic pieces of ``core/`` on a :class:`~dualmech.models.loop.description.LoopMechanism`:
+:func:`~dualmech.models.loop.translate.to_loop` (the table),
+:func:`~dualmech.core.continuation.continue_closure`
+(closure from a start pose along the drive, the branch followed by continuity),
+:func:`~dualmech.core.rates.solve_rates` (velocities, accelerations) and
+:func:`~dualmech.core.loop_reactions.solve_joint_wrenches` (Newton-Euler of every moving link).
+
+Statuses (:mod:`dualmech.core.status`): ``no_assembly`` where the closure's DFP fallback stops at a non-zero
+stationary error, ``not_converged`` where it stops otherwise, ``branch_jump`` where the loop closed on another
+branch than the start pose's, ``dead_centre`` where the solved effort's transmission is below
+:data:`~dualmech.core.thresholds.DEAD_CENTRE_TRANSMISSION` (its reactions are then NaN), else ``ok``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dualmech.core.closure import ClosureStatus
+from dualmech.core.continuation import Continuation, continue_closure, search_assembly
+from dualmech.core.loop import Chain, Loop, LoopState, evaluate
+from dualmech.core.loop_reactions import JointWrenches, solve_joint_wrenches
+from dualmech.core.rates import Rates, solve_rates
+from dualmech.core.status import Status
+from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
+from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.loop.mobility import check_mobility
+from dualmech.models.loop.translate import (
+    SCALE,
+    DriveState,
+    drive_state,
+    length_scale,
+    start_state,
+    to_loop,
+    variable,
+)
+
+
+@dataclass(frozen=True)
+class LoopAnalysis:
+    """The in-house answer at the ``n`` drive positions of a loop.
+
+    Attributes
+    ----------
+    mechanism : LoopMechanism
+    loop : Loop
+        Its table (:func:`~dualmech.models.loop.translate.to_loop`).
+    drive : DriveState
+    state : LoopState
+        The closed joint variables (meaningful where the status assembles).
+    chain : Chain
+        The table evaluated at ``state``.
+    rates : Rates
+        ``q_dot``, ``q_ddot`` in the order of ``loop.unknowns`` (then 3 per ball); link twists.
+    wrenches : JointWrenches
+    status : numpy.ndarray of str, shape (n,)
+    residual : numpy.ndarray, shape (n,)
+        Closure residual (lengths over the loop's length scale).
+    iterations : numpy.ndarray of int, shape (n,)
+    """
+
+    mechanism: LoopMechanism
+    loop: Loop
+    drive: DriveState
+    state: LoopState
+    chain: Chain
+    rates: Rates
+    wrenches: JointWrenches
+    status: np.ndarray
+    residual: np.ndarray
+    iterations: np.ndarray
+
+    def coordinate(self, joint: int, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Value, rate and acceleration ``(n,)`` each of joint ``joint``'s (0-based) coordinate ``name``
+        (``theta``, ``s`` or ``eta``), prescribed or solved."""
+        key = variable(joint, name)
+        if key in self.drive.values:
+            return self.drive.values[key], self.drive.rates[key], self.drive.accels[key]
+        j = self.loop.unknowns.index(key)
+        return self.state.scalars[:, j], self.rates.q_dot[:, j], self.rates.q_ddot[:, j]
+
+
+def efforts_of(mechanism: LoopMechanism, n: int) -> tuple[dict[str, np.ndarray | None], str]:
+    """Given and solved efforts by variable name (``None``: solved), and the name of the solved load that
+    decides the transmission.  A C joint's prescribed slide has its axial force solved (a reaction)."""
+    d = mechanism.drive
+    efforts: dict[str, np.ndarray | None] = {
+        variable(d.joint, d.coordinate): None if d.effort is None else np.full(n, d.effort)}
+    if mechanism.joints[d.joint].type == "C":
+        efforts[variable(d.joint, "s")] = None
+    solved = variable(d.joint, d.coordinate) if d.effort is None else ""
+    for load in mechanism.loads:
+        name = variable(load.joint, load.coordinate)
+        efforts[name] = None if load.value is None else np.full(n, load.value)
+        if load.value is None:
+            solved = name
+    return efforts, solved
+
+
+#: Drive positions tried, evenly spread, when searching for an assembled start pose.
+SEARCH_POSITIONS = 8
+
+
+def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
+               seed: int = 0) -> tuple[LoopState, int]:
+    """A start pose and the drive position it belongs to: the joints' ``start`` values at the first position
+    if any joint gives one, else the first assembly found
+    (:func:`~dualmech.core.continuation.search_assembly`) at the first of :data:`SEARCH_POSITIONS` evenly
+    spread positions where one exists."""
+    if any(j.start for j in mechanism.joints):
+        return start_state(mechanism, loop), 0
+    n = mechanism.drive.positions.shape[0]
+    for at in np.unique(np.linspace(0, n - 1, min(n, SEARCH_POSITIONS)).round().astype(int)):
+        values = drive.take(slice(at, at + 1)).values
+        found = search_assembly(loop, values, seed, size=length_scale(mechanism))
+        if found.scalars.shape[0]:
+            return found.take(slice(0, 1)), int(at)
+    raise ValueError(f"start: no assembled pose found at {min(n, SEARCH_POSITIONS)} drive positions; give "
+                     "the joints' start values")
+
+
+def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: int = 0) -> LoopAnalysis:
+    """Closure, rates, reactions and statuses at every drive position of ``mechanism``.
+
+    ``start`` ``(1,)`` positions: a pose at drive position ``at`` (0-based; assembled or nearly), whose
+    branch is followed; default :func:`find_start`.
+    """
+    check_mobility(mechanism)
+    loop = to_loop(mechanism)
+    drive = drive_state(mechanism)
+    n = drive.values[variable(*mechanism.driven_coordinate)].shape[0]
+    pose, at = find_start(mechanism, loop, drive) if start is None else (start, at)
+    closed: Continuation = continue_closure(loop, drive.values, pose, at)
+    chain = evaluate(loop, drive.values, closed.state)
+    rates = solve_rates(chain, loop, drive.rates, drive.accels)
+    efforts, solved = efforts_of(mechanism, n)
+    scale = drive.values[SCALE]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        wrenches = solve_joint_wrenches(chain, loop, drive.values, rates, mechanism.bodies, mechanism.gravity,
+                                        efforts, solved, scale)
+    status = np.full(n, Status.OK.value, dtype=object)
+    status[(wrenches.transmission < DEAD_CENTRE_TRANSMISSION.value)] = Status.DEAD_CENTRE.value
+    status[closed.branch_jump] = Status.BRANCH_JUMP.value
+    status[closed.status == ClosureStatus.NOT_CONVERGED] = Status.NOT_CONVERGED.value
+    status[closed.status == ClosureStatus.NO_ASSEMBLY] = Status.NO_ASSEMBLY.value
+    return LoopAnalysis(mechanism, loop, drive, closed.state, chain, rates, wrenches, status, closed.residual,
+                        closed.iterations)

@@ -1,0 +1,88 @@
+"""Continuation closure of any table: interpolated starts, searched assemblies, the branch by the Jacobian's
+sign, branch jumps flagged (on the RSSR's table, whose closed form gives both branches)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dualmech.core import continuation
+from dualmech.core.closure import ClosureStatus, solve_closure
+from dualmech.core.continuation import branch_sign, continue_closure, interpolate, search_assembly
+from dualmech.core.loop import LoopState, closure_residual, evaluate, rodrigues
+from dualmech.models.linkages import read_linkage
+from dualmech.models.linkages.rssr import LOOP, closed_form_phi, estimate, loop_values
+from dualmech.models.linkages.rssr_case import rssr_from_dict
+from dualmech.models.slider_crank_loop import LOOP as SLIDER_CRANK
+from tests.tolerances import LOOP_CLOSURE, LOOP_VS_OWN_ENGINE
+
+GEOMETRY = rssr_from_dict(read_linkage("rssr")).geometry
+
+
+def _closed(theta: np.ndarray, branch: int) -> tuple[dict, LoopState]:
+    values = loop_values(GEOMETRY, theta)
+    guess = estimate(GEOMETRY, theta, closed_form_phi(GEOMETRY, theta, branch)[0])
+    res = solve_closure(LOOP, values, guess)
+    assert (res.status == ClosureStatus.OK).all()
+    return values, res.state
+
+
+def test_interpolate_ends_and_middle() -> None:
+    rng = np.random.default_rng(1)
+    a = LoopState(rng.normal(size=(4, 2)), rodrigues(rng.normal(size=(4, 2, 3)) * 0.5))
+    b = LoopState(rng.normal(size=(4, 2)), rodrigues(rng.normal(size=(4, 2, 3)) * 0.5))
+    for t, want in ((0.0, a), (1.0, b)):
+        got = interpolate(a, b, np.full(4, t))
+        np.testing.assert_allclose(got.scalars, want.scalars, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(got.rotations, want.rotations, rtol=0, atol=1e-12)
+    half = interpolate(a, b, np.full(4, 0.5)).rotations
+    # halfway: the same turn takes a to the middle and the middle to b
+    np.testing.assert_allclose(half @ np.swapaxes(a.rotations, -1, -2),
+                               b.rotations @ np.swapaxes(half, -1, -2), rtol=0, atol=1e-12)
+
+
+def test_the_two_branches_have_opposite_signs() -> None:
+    theta = np.radians(np.arange(0.0, 360.0, 30.0))
+    values, up = _closed(theta, 1)
+    _, down = _closed(theta, -1)
+    signs = branch_sign(LOOP, values, up)
+    assert (signs != 0).all() and (signs == signs[0]).all()
+    np.testing.assert_array_equal(branch_sign(LOOP, values, down), -signs)
+
+
+def test_search_finds_both_assemblies() -> None:
+    values = loop_values(GEOMETRY, np.array([0.3]))
+    found = search_assembly(LOOP, values, seed=3)
+    many = {k: np.repeat(v, found.scalars.shape[0]) for k, v in values.items()}
+    np.testing.assert_array_less(closure_residual(evaluate(LOOP, many, found), LOOP), LOOP_CLOSURE)
+    assert set(branch_sign(LOOP, many, found)) == {-1, 1}
+
+
+def test_follows_the_start_branch_and_flags_a_jump(monkeypatch: pytest.MonkeyPatch) -> None:
+    theta = np.radians(np.arange(0.0, 360.0, 5.0))
+    values, down = _closed(theta, -1)
+    _, up = _closed(theta, 1)
+    result = continue_closure(LOOP, values, up.take(slice(0, 1)))
+    assert (result.status == ClosureStatus.OK).all() and not result.branch_jump.any()
+    turn = np.mod(result.state.scalars - up.scalars + np.pi, 2 * np.pi) - np.pi  # the angle, modulo 2 pi
+    np.testing.assert_allclose(turn, 0.0, rtol=0, atol=LOOP_VS_OWN_ENGINE)
+    # a batch start on the other branch at position 7 closes there: a jump, reported, not followed
+    real = continuation.interpolate
+    monkeypatch.setattr(continuation, "interpolate",
+                        lambda a, b, t: real(a, b, t).put(np.array([7]), down.take(np.array([7]))))
+    jumped = continue_closure(LOOP, values, up.take(slice(0, 1)))
+    np.testing.assert_array_equal(np.flatnonzero(jumped.branch_jump), [7])
+
+
+def test_a_start_that_does_not_close_is_refused() -> None:
+    far = loop_values(GEOMETRY, np.array([0.0]))
+    far["a2"] = far["a2"] * 10.0  # the coupler is far too long: no assembly
+    with pytest.raises(ValueError, match="^start: the loop does not close at position 1 "):
+        continue_closure(LOOP, far, estimate(GEOMETRY, np.array([0.0]), np.array([0.0])))
+
+
+def test_search_scales_the_slides_whatever_their_names() -> None:
+    """The random starts draw slides within the given size and angles within pi, by the slot a variable sits
+    in, not by its name (the slider crank's own table calls its slide ``S4``)."""
+    assert continuation._slides(SLIDER_CRANK).tolist() == [True]
+    assert continuation._slides(LOOP).tolist() == [False]  # the RSSR's theta4
