@@ -40,6 +40,11 @@ table ``J`` are compared row by row on the rows where both give the quantity:
   the lock), from the measured turning rate of the joint's cross
   (:mod:`~dualmech.validation.compare.joint_lock`; ``docs/conventions.md``, "Near a joint
   lock"); every check so widened says :data:`NEAR_JOINT_LOCK` in its detail.
+* Where a row is ill-conditioned (the double root of the closure at an edge of assembly, beside a
+  dead centre, an extreme aspect ratio) its tolerance grows by the allowances ``a_i`` of
+  :mod:`~dualmech.validation.compare.conditioning`, derived laws with stated bounds: a row passes at
+  ``r_i <= f_i tol + a_i`` (``docs/conventions.md``, "Conditioning of a row"); a check so widened says
+  ``conditioned`` and names the law in its detail.
 
 **Missing work.**  A case, or an engine of a case, absent from the results gives a
 failing ``engine`` check marked ``incomplete``; the run's :class:`Verdict` is then
