@@ -187,3 +187,91 @@ def test_a_fault_just_above_the_tolerance_is_still_caught(column):
     comparison = compare_run(matrix, results)
     failed = {(c.engine, c.quantity) for c in comparison.failures()}
     assert ("pinocchio", column) in failed, [c.detail for c in comparison.failures()]
+
+
+# ------------------------------------------------------------------ d: the odd one out
+
+def _shifted(table: ResultTable, column: str, size: float) -> ResultTable:
+    return _faulty(table, column, size, np.ones(len(table), dtype=bool))
+
+
+@pytest.fixture(scope="module")
+def thesis_run():
+    """The thesis case a4 = 30, S1 = 3.5 (10-degree steps) on the three rigid engines."""
+    case = load_case("thesis/a4-30-s1-3.5").with_values(
+        {"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 10.0}})
+    return _run(case)
+
+
+def test_two_judges_agreeing_against_the_reference_name_the_reference(thesis_run, tmp_path):
+    """Why: the verdict blamed nobody in particular; when Pinocchio and MuJoCo agree with each other and
+    both disagree with dualmech, the failure says dualmech is the odd one out (check, summary, report)."""
+    from dualmech.validation.report.render import comparison_summary
+
+    matrix, results = thesis_run
+    cid = matrix.cases[0].id
+    tables = dict(results[cid])
+    peak = np.nanmax(np.abs(tables["dualmech"]["S4_dot"]))
+    tables["dualmech"] = _shifted(tables["dualmech"], "S4_dot", 1e-6 * peak)
+    comparison = compare_run(matrix, {cid: tables})
+    failed = [c for c in comparison.failures() if c.quantity == "S4_dot"]
+    assert {c.engine for c in failed} == {"pinocchio", "mujoco"}
+    assert all(c.odd_one_out == "dualmech" and c.detail.startswith("odd one out: dualmech") for c in failed)
+    summary = comparison_summary(matrix, comparison, {})
+    assert {c["odd_one_out"] for c in summary["checks"] if not c["passed"]} == {"dualmech"}
+
+
+def test_one_judge_disagreeing_with_the_others_is_named(thesis_run):
+    """Only MuJoCo disagrees, Pinocchio agrees with dualmech: MuJoCo is the odd one out."""
+    matrix, results = thesis_run
+    cid = matrix.cases[0].id
+    tables = dict(results[cid])
+    scale = np.nanmax(np.abs(tables["mujoco"]["j2_fx"]))
+    tables["mujoco"] = _shifted(tables["mujoco"], "j2_fx", 1e-6 * scale)
+    comparison = compare_run(matrix, {cid: tables})
+    failed = comparison.failures()
+    assert [(c.engine, c.quantity, c.odd_one_out) for c in failed] == [("mujoco", "j2_fx", "mujoco")]
+    assert "pinocchio agrees with dualmech" in failed[0].detail
+
+
+def test_nobody_is_named_when_every_pair_disagrees(thesis_run):
+    matrix, results = thesis_run
+    cid = matrix.cases[0].id
+    tables = dict(results[cid])
+    scale = np.nanmax(np.abs(tables["mujoco"]["S4"]))
+    tables["mujoco"] = _shifted(tables["mujoco"], "S4", 1e-6 * scale)
+    tables["pinocchio"] = _shifted(tables["pinocchio"], "S4", -1e-6 * scale)
+    failed = [c for c in compare_run(matrix, {cid: tables}).failures() if c.quantity == "S4"]
+    assert len(failed) == 2 and all(c.odd_one_out == "" for c in failed)
+
+
+def wrong_reference(case: Case) -> ResultTable:
+    """The stand-in reference of ``matrix_fakes`` with ``S4_dot`` 1e-6 of its peak off (both judges agree)."""
+    from tests.validation import matrix_fakes
+
+    table = matrix_fakes.solve_case(case)
+    return _shifted(table, "S4_dot", 1e-6 * np.nanmax(np.abs(table["S4_dot"])))
+
+
+def test_the_report_names_the_odd_one_out(small, tmp_path):
+    """The report's failure table (HTML) has an "odd one out" column; summary.json and the Markdown list
+    name the engine."""
+    import json
+
+    from click.testing import CliRunner
+
+    from dualmech.cli import main
+    from dualmech.validation.matrix import load_matrix
+    from dualmech.validation.runner import run_matrix
+    from tests.validation.test_validate import FAKE_REGISTRY
+
+    out = tmp_path / "run"
+    registry = dict(FAKE_REGISTRY, dualmech=f"{__name__}:wrong_reference")
+    run_matrix(load_matrix(small), out, jobs=1, registry=registry)
+    result = CliRunner().invoke(main, ["report", str(out), "--jobs", "1"])
+    assert result.exit_code == 1, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    assert {c["odd_one_out"] for c in summary["checks"] if not c["passed"]} == {"dualmech"}
+    html = (out / "report.html").read_text()
+    assert "<th>odd one out</th>" in html and "<td>dualmech</td>" in html
+    assert "odd one out: dualmech" in (out / "report.md").read_text()

@@ -35,6 +35,7 @@ from dualmech.validation.compare.joint_lock import (
     lock_rate,
     widened,
 )
+from dualmech.validation.compare.odd_one_out import name_odd_one_out
 from dualmech.validation.compare.results import (
     ENGINE,
     EXPECT_NO_ASSEMBLY,
@@ -378,11 +379,14 @@ def _compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]
         checks.append(reference_check(mc.id, ref, matrix.quantities, mc.expect))
         case = case_from_dict(mc.raw)
         lock, conditioning = lock_rate(case, ref), Conditioning.of(case, ref)
+        judged: list[Check] = []
         for e in matrix.judges:
             if e in tables:
                 rel = _relative_rows(mc.id, e, mc.mode, ref, tables[e], matrix.quantities, rows)
-                checks += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities,
+                judged += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities,
                                        matrix.tolerances[e], mc.expect, rel, lock, conditioning)
+        same_rows = {e: t for e, t in tables.items() if e in matrix.judges and len(t) == len(ref)}
+        checks += name_odd_one_out(judged, ref, same_rows, mc.mode, matrix.tolerances, conditioning)
     return Comparison(tuple(checks), strokes, dead, errors, rows)
 
 
