@@ -275,3 +275,29 @@ def test_the_report_names_the_odd_one_out(small, tmp_path):
     html = (out / "report.html").read_text()
     assert "<th>odd one out</th>" in html and "<td>dualmech</td>" in html
     assert "odd one out: dualmech" in (out / "report.md").read_text()
+
+
+@pytest.mark.parametrize("column, angles, edge", [
+    ("S4", {"start": -2.0, "stop": 3.0, "step": 1.0}, EDGE_CASE),  # the exact edge at 0 deg
+    ("slider_load", {"start": 90.0000002, "stop": 90.000001, "step": 2e-7}, {}),  # |t| 2.6e-9 to 1.3e-8
+])
+def test_a_fault_just_beyond_the_widened_tolerance_is_caught_at_the_edge(column, angles, edge):
+    """The laws are bounds, not excuses: at the rows they widen, a fault of 3 times the widened tolerance
+    (ordinary tolerance plus the law) FAILs."""
+    case = _case("edge", angles, **edge)
+    matrix, results = _run(case, ("dualmech", "pinocchio"))
+    cid = matrix.cases[0].id
+    ref, judge = results[cid]["dualmech"], results[cid]["pinocchio"]
+    tol = matrix.tolerances["pinocchio"][column].value
+    scale = unit_scales(ref, judge, "torque", matrix.quantities)[UNIT_GROUP[column]]
+    if column == "S4":  # the laws restated here (a fault in conditioning.py must not move the fault)
+        c = np.fmin(ref["closure_condition"], judge["closure_condition"])
+        low = np.sqrt(np.maximum(c**2 - 4.0 * CLOSURE_PRECISION.value, 0.0))
+        extra, law = 2.0 * case.geometry.rod_length * edge_error(low) / scale, EDGE
+    else:
+        extra, law = TRANSMISSION_ROUNDING.value / np.abs(ref["transmission"]), DEAD_CENTRE
+    assert np.nanmax(extra) > 10.0 * tol  # the law widens these rows
+    size = 3.0 * (tol + extra) * scale * condition_factor(ref, "torque", column)
+    results[cid]["pinocchio"] = _faulty(judge, column, np.nan_to_num(size), np.isfinite(size))
+    failed = [c for c in compare_run(matrix, results).failures() if c.quantity == column]
+    assert failed and failed[0].engine == "pinocchio", (law, [c.detail for c in failed])
