@@ -65,10 +65,10 @@ CLOSURE_PRECISION = Tolerance(1e-13, "the in-house closure stops at 1e-14 (CLOSU
                                      "8.7e-8 a2 apart (bound 1.3e-6 a2)")
 #: tau of the dead-centre law: the absolute rounding of the transmission t (a lever arm of order 1), so a
 #: reaction R_hat / t carries R_hat tau / t^2.
-TRANSMISSION_ROUNDING = Tolerance(1e-15, "t is a sum of products of unit vectors, ~4 eps; measured |t_judge "
-                                         "- t_dualmech| <= 2.0e-16 at 90 deg and 90 deg + 1e-7 of the "
-                                         "ideal case, and reactions 3.7e-17 / t^2 apart (1.7e-8 r at |t| = "
-                                         "2.2e-9): the tolerance 1e-9 holds only for |t| > 4e-8")
+TRANSMISSION_ROUNDING = Tolerance(2e-15, "t is a sum of products of unit vectors, a few eps: every rigid "
+                                         "engine's t within 4.2e-16 of 60-digit values 1e-7 deg from the "
+                                         "ideal case's dead centres (pairs <= 8.4e-16, 2.4x margin); "
+                                         "reactions there 7.4e-9 and 1.7e-8 r apart, over the 1e-9 tolerance")
 #: K of the aspect law: kinematics carry K eps A of their scale, A = (a1 + a2 + |a4| + max|S1|) / min(a1, a2).
 ASPECT_KINEMATICS = Tolerance(8.0, "worst kinematic r / (eps A) measured at a2/a1 = 1e2..1e6 (a4 = "
                                    "a2/2, both rigid judges): 0.34 to 0.61, so 13x margin; the base "
