@@ -13,12 +13,7 @@ import numpy as np
 from dualmech.core.status import ASSEMBLED, Status, is_status
 from dualmech.core.table import ResultTable
 from dualmech.models.case import case_from_dict
-from dualmech.validation.compare.conditioning import (
-    CONDITIONED,
-    Conditioning,
-    allowances,
-    stroke_allowance,
-)
+from dualmech.validation.compare.conditioning import Conditioning, allowances, stroke_allowance, within
 from dualmech.validation.compare.differences import (
     compared_rows,
     engine_failures,
@@ -200,8 +195,8 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
     (shape ``(n,)``, :func:`~dualmech.validation.compare.joint_lock.lock_factor`; the detail then says
     :data:`~dualmech.validation.compare.joint_lock.NEAR_JOINT_LOCK`), and ``a_i`` is the sum of the
     ``allowance`` laws (:func:`~dualmech.validation.compare.conditioning.allowances`, each ``(n,)``);
-    where a law was needed to pass a row, the detail names it after
-    :data:`~dualmech.validation.compare.conditioning.CONDITIONED`.  ``max_rel`` is then the row's
+    where the laws were needed to pass a row, the detail names them
+    (:func:`~dualmech.validation.compare.conditioning.within`).  ``max_rel`` is then the row's
     difference scaled to ``tol`` (``r_i tol / tol_i``).
     """
     theta = reference["theta1_deg"]
@@ -213,15 +208,9 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
         factor = widening
         notes.append(f"{NEAR_JOINT_LOCK}: tolerance x{widening[near].max():.3g} at most, at theta1 = "
                      f"{_angles(near, theta)} deg ({JOINT_LOCK_CAP})")
-    extra = sum(allowance.values()) if allowance else np.zeros(len(reference))
     if tol.value > 0:
-        with np.errstate(invalid="ignore"):
-            needed = rows & (rel > factor * tol.value) & (rel <= factor * tol.value + extra)
-        if needed.any():
-            laws = [name for name, a in (allowance or {}).items() if (a[needed] > 0).any()]
-            notes.append(f"{CONDITIONED} ({', '.join(laws)}): tolerance +{extra[needed].max():.3g} at "
-                         f"theta1 = {_angles(needed, theta)} deg")
-        rel = rel * tol.value / (factor * tol.value + extra)
+        rel, needed, phrase = within(rel, rows, tol.value, factor, allowance or {})
+        notes += [f"{phrase} at theta1 = {_angles(needed, theta)} deg"] if phrase else []
     infinite = rows & np.isinf(rel)
     finite = rows & np.isfinite(rel)
     max_rel = float(rel[finite].max()) if finite.any() else float("nan")
@@ -237,21 +226,8 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
     if n_dead:
         notes.append(f"{n_dead} assembled rows without it (dead centres, assembly limits) excluded")
     passed = bool(rows.any()) and not infinite.any() and max_rel <= tol.value
-    return Check(
-        case_id,
-        judge.engine,
-        quantity,
-        float(diff.max()) if diff.size else float("nan"),
-        max_rel,
-        worst,
-        tol,
-        scale,
-        int(finite.sum()),
-        n_dead,
-        int(infinite.sum()),
-        passed,
-        "; ".join(notes),
-    )
+    return Check(case_id, judge.engine, quantity, float(diff.max()) if diff.size else float("nan"), max_rel,
+                 worst, tol, scale, int(finite.sum()), n_dead, int(infinite.sum()), passed, "; ".join(notes))
 
 
 def stroke_check(case_id: str, mode: str, reference: ResultTable, judge: ResultTable,
@@ -264,14 +240,14 @@ def stroke_check(case_id: str, mode: str, reference: ResultTable, judge: ResultT
     ref_stroke, judge_stroke = stroke(reference), stroke(judge)
     length = unit_scales(reference, judge, mode, (STROKE_PROXY,))["length"]
     d = abs(judge_stroke - ref_stroke)
-    extra = stroke_allowance(reference, judge, length, conditioning) if conditioning else {}
-    allowed = tol.value + sum(extra.values())
-    rel = d / length * (tol.value / allowed if allowed > 0 else 1.0)
+    rel, phrase = d / length, ""
+    if tol.value > 0 and conditioning is not None:
+        laws = stroke_allowance(reference, judge, length, conditioning)
+        scaled, _, phrase = within(np.array([rel]), np.array([True]), tol.value, 1.0,
+                                   {k: np.array([a]) for k, a in laws.items()})
+        rel = float(scaled[0])
     ok = bool(np.isfinite(d) and rel <= tol.value)
-    notes = [] if ok else [f"stroke {judge_stroke:.12g} against {ref_stroke:.12g}"]
-    if np.isfinite(d) and d / length > tol.value and ok:
-        laws = [name for name, a in extra.items() if a > 0]
-        notes.append(f"{CONDITIONED} ({', '.join(laws)}): tolerance +{allowed - tol.value:.3g}")
+    notes = ([phrase] if phrase else []) if ok else [f"stroke {judge_stroke:.12g} against {ref_stroke:.12g}"]
     return Check(case_id, judge.engine, STROKE, d, rel, float("nan"), tol, length, int(np.isfinite(d)), 0,
                  int(not np.isfinite(d)), ok, "; ".join(notes))
 

@@ -118,3 +118,19 @@ def stroke_allowance(reference: ResultTable, judge: ResultTable, length: float,
     edge = edge_allowance(reference, judge, conditioning.rod_length)[both]
     return {ASPECT: aspect_allowance("stroke", conditioning.aspect),
             EDGE: 2.0 * float(edge.max()) / length if edge.size else 0.0}
+
+
+def within(rel: np.ndarray, rows: np.ndarray, tol: float, factor: np.ndarray | float,
+           allowance: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, str]:
+    """``r_i`` scaled to ``tol`` by each row's tolerance ``f_i tol + a_i`` (``r_i tol / tol_i``), the
+    ``rows`` where the laws were needed to pass, and the phrase naming the laws that give a tenth or more
+    of the allowance there (``""`` if none was needed).  ``tol > 0``; arrays ``(n,)``."""
+    extra = sum(allowance.values()) if allowance else np.zeros_like(rel)
+    base = factor * tol
+    with np.errstate(invalid="ignore"):
+        needed = rows & (rel > base) & (rel <= base + extra)
+    phrase = ""
+    if needed.any():
+        laws = [name for name, a in allowance.items() if (a[needed] >= 0.1 * extra[needed]).any()]
+        phrase = f"{CONDITIONED} ({', '.join(laws)}): tolerance +{extra[needed].max():.3g}"
+    return rel * tol / (base + extra), needed, phrase
