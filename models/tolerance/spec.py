@@ -77,6 +77,14 @@ class Tolerance:
             return (self.high - self.low) ** 2 / 12.0
         return float(_truncnorm(self).var())
 
+    def std(self) -> float:
+        """Standard deviation of the offset (key units), without squaring (an sd of 1e-300 stays 1e-300)."""
+        if self.dist == "normal":
+            return self.sd
+        if self.dist == "uniform":
+            return (self.high - self.low) / math.sqrt(12.0)
+        return float(_truncnorm(self).std())
+
     def mean(self) -> float:
         """Mean of the offset (key units)."""
         if self.dist == "normal":
@@ -111,16 +119,49 @@ class Spec:
                     if not (isinstance(v, float) and math.isnan(v))} for t in self.tolerances}}
 
 
-def _flatten(table: dict, prefix: str) -> dict[str, Any]:
-    """Dotted keys of nested tables; a table with a ``dist`` key is a leaf."""
+def _flatten(table: dict, prefix: str, lines: dict[str, list[int]] | None = None) -> dict[str, Any]:
+    """Dotted keys of nested tables; a table with a ``dist`` key is a leaf.
+
+    A key reached twice (``"geometry.rod_length"`` and ``[tolerances.geometry] rod_length``, which TOML
+    allows) is a :class:`SpecError` naming it and, with ``lines`` (:func:`key_lines`), its lines.
+    """
     out: dict[str, Any] = {}
     for k, v in table.items():
         dotted = f"{prefix}{k}"
-        if isinstance(v, dict) and "dist" not in v and v:
-            out.update(_flatten(v, dotted + "."))
-        else:
-            out[dotted] = v
+        nested = isinstance(v, dict) and "dist" not in v and v
+        leaves = _flatten(v, dotted + ".", lines) if nested else {dotted: v}
+        for key, entry in leaves.items():
+            if key in out:
+                where = (lines or {}).get(key, [])
+                at = f" (lines {', '.join(map(str, where))})" if len(where) > 1 else ""
+                raise SpecError(f"tolerances.{key_text(key)}: given twice{at}; give each key once")
+            out[key] = entry
     return out
+
+
+def key_lines(text: str) -> dict[str, list[int]]:
+    """Line numbers (from 1) where each dotted key under ``tolerances`` is given, by a plain scan of the
+    SPEC's text (``[table]`` headers and ``key = ...`` lines; for naming a repeated key)."""
+    out: dict[str, list[int]] = {}
+    table = ""
+    for number, line in enumerate(text.splitlines(), 1):
+        code = line.split("#", 1)[0].strip()
+        header = code.startswith("[") and not code.startswith("[[")
+        if header:
+            table = name = _dotted(code.strip("[] "))
+        elif "=" in code:
+            name = ".".join(p for p in (table, _dotted(code.split("=", 1)[0])) if p)
+        else:
+            continue
+        key = name.removeprefix("tolerances.")
+        if name.startswith("tolerances.") and (not header or key in KEYS):
+            out.setdefault(key, []).append(number)
+    return out
+
+
+def _dotted(key: str) -> str:
+    """A TOML key as the dotted text :func:`_flatten` makes of it (quotes and spaces around dots dropped)."""
+    return ".".join(p.strip().strip("\"'") for p in key.split("."))
 
 
 def _tolerance(key: str, entry: Any) -> Tolerance:
@@ -158,8 +199,9 @@ def _tolerance(key: str, entry: Any) -> Tolerance:
     return Tolerance(key, dist, values.get("sd", nan), values.get("low", nan), values.get("high", nan))
 
 
-def spec_from_dict(data: Any) -> Spec:
-    """Validate a parsed SPEC table (module docstring) and build the :class:`Spec`."""
+def spec_from_dict(data: Any, lines: dict[str, list[int]] | None = None) -> Spec:
+    """Validate a parsed SPEC table (module docstring) and build the :class:`Spec`; ``lines``
+    (:func:`key_lines` of its text) lets an error name the lines of a key given twice."""
     if not isinstance(data, dict):
         raise SpecError(f"spec: expected a table, got {show(data)}")
     check_keys("", data, ("tolerances", "description"), SpecError)
@@ -169,7 +211,7 @@ def spec_from_dict(data: Any) -> Spec:
     table = data.get("tolerances")
     if not isinstance(table, dict) or not table:
         raise SpecError(f"tolerances: expected a table of at least one key, got {show(table)}")
-    flat = _flatten(table, "")
+    flat = _flatten(table, "", lines)
     if len(flat) > MAX_KEYS:
         raise SpecError(f"tolerances: {len(flat)} keys; at most {MAX_KEYS}")
     return Spec(tuple(_tolerance(k, v) for k, v in flat.items()), description)
@@ -179,7 +221,8 @@ def load_spec(path: str | Path) -> Spec:
     """Read a SPEC file (TOML)."""
     if not Path(path).is_file():
         raise SpecError(f"spec: {show(str(path))} is not a file")
-    return spec_from_dict(read_toml(Path(path), SpecError))
+    data = read_toml(Path(path), SpecError)
+    return spec_from_dict(data, key_lines(Path(path).read_text(encoding="utf-8")))
 
 
 def _get(raw: dict, dotted: str) -> Any:

@@ -64,6 +64,8 @@ def test_linear_method_needs_no_samples(tmp_path):
     ('[tolerances]\n"geometry.crank_length" = { dist = "uniform", low = -20, high = -15 }\n', [],
      ["design-0000000", "geometry.crank_length", "positive length"]),
     ('[tolerances\n', [], ["spec", "TOML"]),
+    ('[tolerances]\n"geometry.slider_offset" = { dist = "normal", sd = 1 }\n[tolerances.geometry]\n'
+     'slider_offset = { dist = "normal", sd = 2 }\n', [], ["geometry.slider_offset", "twice", "lines 2, 4"]),
     ('[tolerances]\n"geometry.slider_offset" = { dist = "normal", sd = 1 }\n', ["-n", "0"], ["n:", "1 to"]),
     ('[tolerances]\n"geometry.slider_offset" = { dist = "normal", sd = 1 }\n', ["--jobs", "0"], ["jobs"]),
     ('[tolerances]\n"geometry.slider_offset" = { dist = "normal", sd = 1 }\n', ["--scheduler", "nowhere"],
@@ -143,3 +145,14 @@ def test_spot_check_passes_on_the_same_design_and_fails_on_a_perturbed_one():
     moved = design.with_values({"geometry.crank_length": design.geometry.crank_length * (1 + 1e-6)})
     check = spot_check(design, reference, "pinocchio", pin.solve_case(moved))
     assert not check.passed and check.failures and check.worst_ratio > 1
+
+
+@pytest.mark.parametrize("sd", [0.001, 1e9, 1e-300])
+def test_a_rod_tolerance_of_any_size_checks_its_sensitivities(tmp_path, sd):
+    """Why: sd = 0.001 on the 50 in rod FAILed the sensitivity check (its step 50 + 1e-9 not
+    representable), sd = 1e9 collapsed its bound, sd = 1e-300 crashed (NoneType.__format__)."""
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'[tolerances]\n"geometry.rod_length" = {{ dist = "normal", sd = {sd!r} }}\n')
+    result = _run(CASE, "--spec", spec, "--method", "linear", "-o", tmp_path / "out", "--judge-samples", 0)
+    assert result.exit_code == 0, result.output + result.stderr
+    assert "sensitivities agree" in result.output

@@ -188,3 +188,35 @@ def test_the_solver_path_and_the_restatement_agree_on_random_geometries(a4, twis
     assume((table.status == "ok").any())
     _assert_same_derivatives(case, spec, sensitivities(case, spec, table),
                              closed_form_sensitivities(case, spec, table), SENSITIVITY_VS_RESTATEMENT)
+
+
+def test_the_steps_are_exactly_representable():
+    """Why: a 0.001 in tolerance on a 50 in rod asked for 50 + 1e-9, which is 50 + 1.00044e-9; the
+    quotient divided by 1e-9 and the check FAILed a right derivative."""
+    from dualmech.models.tolerance.differences import steps
+
+    case = load_case("a4-30-s1-3.5")
+    for sd in (0.001, 0.1, 1e9, 1e-300):
+        spec = spec_from_dict({"tolerances": {k: {"dist": "normal", "sd": sd} for k in KEYS}})
+        x0 = nominal_values(case, spec)
+        for h in steps(spec, x0):
+            assert np.all(h > 0)
+            assert np.all(((x0 + h) - x0 == h) & ((x0 - h) + h == x0) & (x0 - (x0 - h) == h))
+
+
+@pytest.mark.parametrize("sd", [0.001, 1e9, 1e-300])
+def test_a_realistic_or_extreme_sd_passes_right_derivatives_and_a_wrong_one_fails(sd):
+    """Why: sd = 0.001 on the 50 in rod FAILed (7.2 x its bound), sd = 1e9 collapsed the bound (7.8e3 x),
+    sd = 1e-300 took a zero step (NaN, then a TypeError in the message).  The bound is now the check's own
+    truncation and rounding; a derivative 1e-3 off still fails."""
+    case = load_case("a4-30-s1-3.5")
+    spec = spec_from_dict({"tolerances": {"geometry.rod_length": {"dist": "normal", "sd": sd},
+                                          "geometry.slider_offset": {"dist": "normal", "sd": sd}}})
+    exact = sensitivities(case, spec)
+    check = check_sensitivities(case, spec, exact)
+    assert check.passed and np.isfinite(check.worst_ratio), check
+    name, key = "peak_j2_force", "geometry.rod_length"
+    values = {n: dict(v) for n, v in exact.values.items()}
+    values[name][key] *= 1.0 + 1e-3
+    wrong = check_sensitivities(case, spec, replace(exact, values=values))
+    assert not wrong.passed and (wrong.output, wrong.key) == (name, key)

@@ -121,3 +121,20 @@ def test_the_bundled_thesis_spec_reads():
 
     spec = load_spec(Path(dualmech.models.__file__).parent / "cases/thesis/tolerances/tolerances-thesis.toml")
     assert spec.keys == ("geometry.slider_offset", "geometry.crank_axial_shift", "geometry.slider_twist_deg")
+
+
+@pytest.mark.parametrize("text, lines", [
+    ('[tolerances]\n"geometry.rod_length" = { dist = "normal", sd = 0.01 }\n[tolerances.geometry]\n'
+     'rod_length = { dist = "normal", sd = 0.5 }\n', "lines 2, 4"),
+    ('tolerances.geometry.rod_length = { dist = "normal", sd = 0.01 }\n\n[tolerances."geometry.rod_length"]\n'
+     'dist = "normal"\nsd = 0.5\n', "lines 1, 3"),
+])
+def test_a_key_given_twice_is_one_line_naming_it_and_its_lines(tmp_path, text, lines):
+    """Why: the same key given twice (dotted and nested, which TOML allows) was silently merged."""
+    path = tmp_path / "spec.toml"
+    path.write_text(text)
+    with pytest.raises(SpecError) as err:
+        load_spec(path)
+    message = str(err.value)
+    assert "\n" not in message and "geometry.rod_length" in message and "twice" in message
+    assert lines in message

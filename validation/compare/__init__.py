@@ -40,6 +40,16 @@ table ``J`` are compared row by row on the rows where both give the quantity:
   the lock), from the measured turning rate of the joint's cross
   (:mod:`~dualmech.validation.compare.joint_lock`; ``docs/conventions.md``, "Near a joint
   lock"); every check so widened says :data:`NEAR_JOINT_LOCK` in its detail.
+* Where a row is ill-conditioned (the double root of the closure at an edge of assembly, beside a
+  dead centre, an extreme aspect ratio) its tolerance grows by the allowances ``a_i`` of
+  :mod:`~dualmech.validation.compare.conditioning`, derived laws with stated bounds: a row passes at
+  ``r_i <= f_i tol + a_i`` (``docs/conventions.md``, "Conditioning of a row"); a check so widened says
+  ``conditioned`` and names the law in its detail.
+
+**The odd one out.**  Where three or more engines compare a quantity, a failing check names the
+engine that disagrees with the others (its ``odd_one_out``, leading its detail): the reference when
+two judges agree with each other and both disagree with it, a judge when another judge, as precise,
+agrees with the reference and not with it (:mod:`~dualmech.validation.compare.odd_one_out`).
 
 **Missing work.**  A case, or an engine of a case, absent from the results gives a
 failing ``engine`` check marked ``incomplete``; the run's :class:`Verdict` is then

@@ -13,13 +13,13 @@ import numpy as np
 from dualmech.core.status import ASSEMBLED, Status, is_status
 from dualmech.core.table import ResultTable
 from dualmech.models.case import case_from_dict
+from dualmech.validation.compare.conditioning import Conditioning, allowances, stroke_allowance, within
 from dualmech.validation.compare.differences import (
     compared_rows,
     engine_failures,
     relative_differences,
     row_differences,
     rows_given,
-    status_mask,
     status_memo,
     stroke,
     unit_scales,
@@ -30,11 +30,11 @@ from dualmech.validation.compare.joint_lock import (
     lock_rate,
     widened,
 )
+from dualmech.validation.compare.odd_one_out import name_odd_one_out
 from dualmech.validation.compare.results import (
     ENGINE,
     EXPECT_NO_ASSEMBLY,
     NEAR_JOINT_LOCK,
-    POSE_COLUMNS,
     STATUS,
     STROKE,
     STROKE_PROXY,
@@ -46,7 +46,6 @@ from dualmech.validation.compare.results import (
 from dualmech.validation.matrix import Matrix, ResolvedTolerance
 from dualmech.validation.tolerances import (
     ASSEMBLY_LIMIT_CONDITION,
-    ASSEMBLY_LIMIT_POSE,
     DEAD_CENTRE_TRANSMISSION,
     JOINT_LOCK_CONDITION,
 )
@@ -188,30 +187,30 @@ def status_check(case_id: str, reference: ResultTable, judge: ResultTable, quant
 
 def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: ResultTable, quantity: str,
                    rel: np.ndarray, scale: float, tol: ResolvedTolerance,
-                   widening: np.ndarray | None = None) -> Check:
+                   widening: np.ndarray | None = None,
+                   allowance: dict[str, np.ndarray] | None = None) -> Check:
     """One column's check (module docstring): every row both engines give, none non-finite, at least one.
 
-    The pose (S1, S4) of a row that either engine calls ``assembly_limit`` is held to
-    ``ASSEMBLY_LIMIT_POSE`` instead of ``tol`` (where the rod is nearly normal to the
-    slider line, S4 carries the closure's error divided by the closure condition);
-    ``max_rel`` is then the row's difference scaled to ``tol`` (``r_i tol / tol_i``).
-    Likewise near a universal joint's lock, a rate or reaction row's tolerance is ``tol``
-    times ``widening`` (shape ``(n,)``, :func:`~dualmech.validation.compare.joint_lock.lock_factor`),
-    and the detail says :data:`~dualmech.validation.compare.joint_lock.NEAR_JOINT_LOCK`.
+    A row's tolerance is ``f_i tol + a_i``: near a universal joint's lock ``f_i`` is ``widening``
+    (shape ``(n,)``, :func:`~dualmech.validation.compare.joint_lock.lock_factor`; the detail then says
+    :data:`~dualmech.validation.compare.joint_lock.NEAR_JOINT_LOCK`), and ``a_i`` is the sum of the
+    ``allowance`` laws (:func:`~dualmech.validation.compare.conditioning.allowances`, each ``(n,)``);
+    where the laws were needed to pass a row, the detail names them
+    (:func:`~dualmech.validation.compare.conditioning.within`).  ``max_rel`` is then the row's
+    difference scaled to ``tol`` (``r_i tol / tol_i``).
     """
     theta = reference["theta1_deg"]
     rows = compared_rows(reference, judge, quantity)
-    if quantity in POSE_COLUMNS and tol.value > 0:
-        limit = status_mask(reference.status, (Status.ASSEMBLY_LIMIT,)) | status_mask(
-            judge.status, (Status.ASSEMBLY_LIMIT,)
-        )
-        rel = np.where(limit, rel * tol.value / max(tol.value, ASSEMBLY_LIMIT_POSE.value), rel)
     notes = []
+    factor = np.ones(len(reference))
     if widening is not None and widened(quantity) and (rows & (widening > 1)).any():
         near = rows & (widening > 1)
-        rel = rel / widening
+        factor = widening
         notes.append(f"{NEAR_JOINT_LOCK}: tolerance x{widening[near].max():.3g} at most, at theta1 = "
                      f"{_angles(near, theta)} deg ({JOINT_LOCK_CAP})")
+    if tol.value > 0:
+        rel, needed, phrase = within(rel, rows, tol.value, factor, allowance or {})
+        notes += [f"{phrase} at theta1 = {_angles(needed, theta)} deg"] if phrase else []
     infinite = rows & np.isinf(rel)
     finite = rows & np.isfinite(rel)
     max_rel = float(rel[finite].max()) if finite.any() else float("nan")
@@ -227,45 +226,30 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
     if n_dead:
         notes.append(f"{n_dead} assembled rows without it (dead centres, assembly limits) excluded")
     passed = bool(rows.any()) and not infinite.any() and max_rel <= tol.value
-    return Check(
-        case_id,
-        judge.engine,
-        quantity,
-        float(diff.max()) if diff.size else float("nan"),
-        max_rel,
-        worst,
-        tol,
-        scale,
-        int(finite.sum()),
-        n_dead,
-        int(infinite.sum()),
-        passed,
-        "; ".join(notes),
-    )
+    return Check(case_id, judge.engine, quantity, float(diff.max()) if diff.size else float("nan"), max_rel,
+                 worst, tol, scale, int(finite.sum()), n_dead, int(infinite.sum()), passed, "; ".join(notes))
 
 
 def stroke_check(case_id: str, mode: str, reference: ResultTable, judge: ResultTable,
-                 tol: ResolvedTolerance) -> Check:
-    """The stroke of the judge against the reference's, relative to the case's length scale."""
+                 tol: ResolvedTolerance, conditioning: Conditioning | None = None) -> Check:
+    """The stroke of the judge against the reference's, relative to the case's length scale.
+
+    With ``conditioning``, its tolerance is ``tol`` plus the stroke's allowances
+    (:func:`~dualmech.validation.compare.conditioning.stroke_allowance`); ``max_rel`` is scaled to ``tol``.
+    """
     ref_stroke, judge_stroke = stroke(reference), stroke(judge)
     length = unit_scales(reference, judge, mode, (STROKE_PROXY,))["length"]
     d = abs(judge_stroke - ref_stroke)
-    ok = bool(np.isfinite(d) and d / length <= tol.value)
-    return Check(
-        case_id,
-        judge.engine,
-        STROKE,
-        d,
-        d / length,
-        float("nan"),
-        tol,
-        length,
-        int(np.isfinite(d)),
-        0,
-        int(not np.isfinite(d)),
-        ok,
-        "" if ok else f"stroke {judge_stroke:.12g} against {ref_stroke:.12g}",
-    )
+    rel, phrase = d / length, ""
+    if tol.value > 0 and conditioning is not None:
+        laws = stroke_allowance(reference, judge, length, conditioning)
+        scaled, _, phrase = within(np.array([rel]), np.array([True]), tol.value, 1.0,
+                                   {k: np.array([a]) for k, a in laws.items()})
+        rel = float(scaled[0])
+    ok = bool(np.isfinite(d) and rel <= tol.value)
+    notes = ([phrase] if phrase else []) if ok else [f"stroke {judge_stroke:.12g} against {ref_stroke:.12g}"]
+    return Check(case_id, judge.engine, STROKE, d, rel, float("nan"), tol, length, int(np.isfinite(d)), 0,
+                 int(not np.isfinite(d)), ok, "; ".join(notes))
 
 
 def compare_case(
@@ -278,6 +262,7 @@ def compare_case(
     expect: str | None = None,
     rel: dict[str, np.ndarray] | None = None,
     lock: np.ndarray | None = None,
+    conditioning: Conditioning | None = None,
 ) -> list[Check]:
     """Every check of one judge on one case (module docstring).
 
@@ -299,6 +284,9 @@ def compare_case(
         ``kappa`` per row, shape ``(n,)`` (:func:`~dualmech.validation.compare.joint_lock.lock_rate`):
         with the judge's ``joint_lock_cap`` in ``tolerances``, its rate and reaction tolerances are
         widened near a universal joint's lock.
+    conditioning : Conditioning, optional
+        The case's :class:`~dualmech.validation.compare.conditioning.Conditioning`: each row's tolerance
+        grows by the allowances its conditioning calls for (none without it).
     """
     engine = judge.engine
     theta = reference["theta1_deg"]
@@ -314,12 +302,12 @@ def compare_case(
     cap = tolerances.get(JOINT_LOCK_CAP)
     widening = None if lock is None or cap is None else lock_factor(lock, reference["closure_condition"],
                                                                     cap.value)
-    checks += [
-        quantity_check(case_id, mode, reference, judge, q, rel[q], scales[UNIT_GROUP[q]], tolerances[q],
-                       widening)
-        for q in quantities
-    ]
-    checks.append(stroke_check(case_id, mode, reference, judge, tolerances[STROKE]))
+    for q in quantities:
+        scale = scales[UNIT_GROUP[q]]
+        extra = None if conditioning is None else allowances(q, mode, reference, judge, scale, conditioning)
+        checks.append(quantity_check(case_id, mode, reference, judge, q, rel[q], scale, tolerances[q],
+                                     widening, extra))
+    checks.append(stroke_check(case_id, mode, reference, judge, tolerances[STROKE], conditioning))
     return checks
 
 
@@ -365,12 +353,16 @@ def _compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]
                              incomplete=why == "did not run") for e in matrix.judges if e in tables]
             continue
         checks.append(reference_check(mc.id, ref, matrix.quantities, mc.expect))
-        lock = lock_rate(case_from_dict(mc.raw), ref)
+        case = case_from_dict(mc.raw)
+        lock, conditioning = lock_rate(case, ref), Conditioning.of(case, ref)
+        judged: list[Check] = []
         for e in matrix.judges:
             if e in tables:
                 rel = _relative_rows(mc.id, e, mc.mode, ref, tables[e], matrix.quantities, rows)
-                checks += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities,
-                                       matrix.tolerances[e], mc.expect, rel, lock)
+                judged += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities,
+                                       matrix.tolerances[e], mc.expect, rel, lock, conditioning)
+        same_rows = {e: t for e, t in tables.items() if e in matrix.judges and len(t) == len(ref)}
+        checks += name_odd_one_out(judged, ref, same_rows, mc.mode, matrix.tolerances, conditioning)
     return Comparison(tuple(checks), strokes, dead, errors, rows)
 
 

@@ -76,6 +76,9 @@ class Check:
         One line for reports (why it failed, what was excluded).
     incomplete : bool
         The check failed because work is missing (not run), not because of a result.
+    odd_one_out : str
+        Where three or more engines compare the quantity and this check failed: the engine that
+        disagrees with the others (:mod:`~dualmech.validation.compare.odd_one_out`), else ``""``.
     """
 
     case: str
@@ -92,6 +95,7 @@ class Check:
     passed: bool
     detail: str = ""
     incomplete: bool = False
+    odd_one_out: str = ""
 
     @property
     def ratio(self) -> float:
