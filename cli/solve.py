@@ -67,6 +67,7 @@ def bundled_case_path(name: str) -> Path:
 
 
 @click.command()
+@one_line_errors
 def cases() -> None:
     """List the bundled case presets of every kind (slider crank, RSSR, RCCC)."""
     for name, kind, about in bundled_cases():

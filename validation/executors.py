@@ -47,8 +47,24 @@ DASK_RESULT_S = 30.0
 ADDRESS = re.compile(r"^(?:(?:tcp|tls)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):\d{1,5}$")
 
 
-class ClusterLost(RuntimeError):
-    """The Dask scheduler or all its workers went away during a run; the message is one line."""
+class WorkersLost(RuntimeError):
+    """The processes running a run's tasks went away: one line, ``<what>; finished results are kept``.
+
+    ``what`` says what happened without the second clause, for a caller that says itself where the
+    results are kept and how to finish (the command line: :mod:`dualmech.cli.errors`).
+    """
+
+    def __init__(self, what: str) -> None:
+        super().__init__(f"{what}; finished results are kept")
+        self.what = what
+
+
+class ClusterLost(WorkersLost):
+    """The Dask scheduler or all its workers went away during a run."""
+
+
+class WorkerDied(WorkersLost):
+    """A worker process of a local pool ended while it ran a task (a signal, the OOM killer)."""
 
 
 def check_address(address: str) -> str:
@@ -285,13 +301,12 @@ def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,
             except TimeoutError:  # nothing finished within the poll interval
                 done = set()
             except Exception as err:  # futures cancelled by a lost scheduler, a killed worker, ...
-                raise ClusterLost(f"Dask: the cluster at {address} failed ({type(err).__name__}); "
-                                  "finished cases are kept (re-run with --resume)") from None
+                raise ClusterLost(f"Dask: the cluster at {address} failed ({type(err).__name__})") from None
             try:  # run_task never raises: an error here is the cluster's
                 entries = [(fut, fut.result(timeout=DASK_RESULT_S)) for fut in done]
             except Exception as err:  # a finished result its lost worker can no longer send, ...
                 raise ClusterLost(f"Dask: the cluster at {address} failed ({type(err).__name__}, fetching a "
-                                  "result); finished cases are kept (re-run with --resume)") from None
+                                  "result)") from None
             for fut, entry in entries:
                 yield entry
                 handed.add(fut)
@@ -324,12 +339,10 @@ def _check_cluster(client: Any, alone_since: float | None) -> float | None:
     except Exception:  # any failure to talk to the scheduler means it is gone
         n_workers = -1
     if n_workers < 0:
-        raise ClusterLost(f"Dask: lost the scheduler {client.scheduler.address}; finished cases are kept "
-                          "(re-run with --resume)")
+        raise ClusterLost(f"Dask: lost the scheduler {client.scheduler.address}")
     if n_workers > 0:
         return None
     now = time.monotonic()
     if alone_since is not None and now - alone_since > DASK_NO_WORKER_S:
-        raise ClusterLost(f"Dask: no worker for {DASK_NO_WORKER_S:g} s; finished cases are kept "
-                          "(re-run with --resume)")
+        raise ClusterLost(f"Dask: no worker for {DASK_NO_WORKER_S:g} s")
     return alone_since if alone_since is not None else now

@@ -52,11 +52,12 @@ def test_a_bad_input_message_is_cut_to_its_first_line():
     assert len(line) < 400
 
 
-def test_keyboard_interrupt_and_usage_errors_keep_their_handling():
+def test_an_interrupt_is_one_line_exit_130_and_usage_errors_keep_their_handling():
+    """Why: an interrupt was left to click ("Aborted!", exit 1: the code of a FAIL)."""
     import click
 
     res = CliRunner().invoke(_command(KeyboardInterrupt()), [])
-    assert res.exit_code == 1 and "Aborted" in res.output  # click's own handling, as before
+    assert res.exit_code == 130 and res.output == "dualmech: interrupted\n"
     res = CliRunner().invoke(_command(click.UsageError("bad usage")), [])
     assert res.exit_code == 2 and "Usage:" in res.output
 
