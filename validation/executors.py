@@ -10,6 +10,8 @@ behind:
   yielded to ``leftovers`` for the caller to store, and ends the workers.
 * **Killed (SIGTERM, SIGKILL).**  Pool workers ask the kernel to end them with their
   parent (:func:`worker_init`).
+* **A worker killed.**  The run ends with :class:`WorkerDied`: one line, how the worker ended and
+  the task it ran (:func:`worker_died`); finished tasks are handed over as at an interrupt.
 * **A lost cluster.**  The Dask backend checks the scheduler and its workers every
   :data:`DASK_POLL_S` seconds while it waits; a lost scheduler, or no worker for
   :data:`DASK_NO_WORKER_S` seconds, ends the run with :class:`ClusterLost`.
@@ -25,6 +27,9 @@ import contextlib
 import math
 import os
 import re
+import shutil
+import signal
+import tempfile
 import time
 import weakref
 from typing import Any, Callable, Iterator
@@ -75,27 +80,23 @@ def check_address(address: str) -> str:
     return address.strip()
 
 
-def worker_init() -> None:
+def worker_init(parent: int) -> None:
     """Pool worker initializer: leave SIGINT to the run, end with it, and exit without a teardown.
 
-    A run killed hard (SIGKILL, an OOM kill) cannot shut its pool down, and idle
-    workers would otherwise wait on their queue forever.  On Linux the kernel
-    sends SIGTERM to the worker when its parent, the run, exits (``PR_SET_PDEATHSIG``).
-    Elsewhere only that part does not apply.  The exit: :func:`_leave`.
+    A run killed hard (SIGKILL, an OOM kill) cannot shut its pool down, and idle workers would wait on
+    their queue forever.  On Linux the kernel sends SIGTERM to the worker when its parent, the run (pid
+    ``parent``, given by it: read here, it was once already the re-parented one), exits
+    (``PR_SET_PDEATHSIG``); a parent gone before that request is seen here, and the worker exits (else
+    it waited forever, and multiprocessing's resource tracker with it).  The exit: :func:`_leave`.
     """
     import atexit
-    import signal
 
-    parent = os.getppid()
     atexit.register(_leave)  # before any task: the handlers that tasks' libraries add run before it
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
+    with contextlib.suppress(OSError, AttributeError):  # not Linux: the check below only
         import ctypes
 
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        return
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
     if os.getppid() != parent:  # the parent died before the request took effect
         os._exit(1)
 
@@ -120,13 +121,16 @@ def _leave() -> None:
 
 
 def execute(task: Callable[..., dict], calls: list[tuple], jobs: int, scheduler: str | None,
-            leftovers: list[dict], here: Callable[[tuple], bool] = lambda call: False) -> Iterator[dict]:
+            leftovers: list[dict], here: Callable[[tuple], bool] = lambda call: False,
+            label: Callable[[tuple], str] = lambda call: "a task") -> Iterator[dict]:
     """Run ``task(*call)`` for every call; yield entries as they finish.
 
     Tasks that finished but were not yielded when the generator is closed early
     (an interrupt) are appended to ``leftovers``.  With a pool, the calls for which ``here(call)``
     is true run in a thread of this process instead, beside the workers (tasks that are short and
     release the GIL, but whose libraries would cost each worker more to load than to run them).
+    A pool's worker that dies ends the run with :class:`WorkerDied`, naming the task it ran by
+    ``label(call)`` (``"<case> <engine>"``); a lost Dask cluster with :class:`ClusterLost`.
     """
     if scheduler:
         yield from _on_dask(task, calls, scheduler, leftovers)
@@ -134,7 +138,7 @@ def execute(task: Callable[..., dict], calls: list[tuple], jobs: int, scheduler:
         for call in calls:
             yield task(*call)
     else:
-        yield from _on_pool(task, calls, jobs, leftovers, here)
+        yield from _on_pool(task, calls, jobs, leftovers, here, label)
 
 
 def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
@@ -149,7 +153,7 @@ def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
     import multiprocessing
 
     pool = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=worker_init)
+                                  initializer=worker_init, initargs=(os.getpid(),))
     _POOLS.add(pool)
     return pool
 
@@ -257,17 +261,23 @@ def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
 
 def _on_pool(
     task: Callable[..., dict], calls: list[tuple], jobs: int, leftovers: list[dict],
-    here: Callable[[tuple], bool]
+    here: Callable[[tuple], bool], label: Callable[[tuple], str]
 ) -> Iterator[dict]:
     pool = shared_pool(jobs)
     local = cf.ThreadPoolExecutor(max_workers=1, thread_name_prefix="dualmech-task")
-    futures = [(local if here(call) else pool).submit(task, *call) for call in calls]
+    marks = tempfile.mkdtemp(prefix="dualmech-tasks-")  # which worker started which call (_marked)
+    futures = [local.submit(task, *call) if here(call) else pool.submit(_marked, marks, i, task, call)
+               for i, call in enumerate(calls)]
     handed: set[Any] = set()
     try:
-        for fut in cf.as_completed(futures):
-            yield fut.result()
-            # only once the caller has come back for more: an entry is stored twice, never lost
-            handed.add(fut)
+        try:
+            for fut in cf.as_completed(futures):
+                yield fut.result()
+                # only once the caller has come back for more: an entry is stored twice, never lost
+                handed.add(fut)
+        except cf.process.BrokenProcessPool as err:
+            labels = [label(call) for call in calls]
+            raise worker_died(pool, err, lambda pid: _running_calls(marks, futures, labels, pid)) from None
     finally:
         if len(handed) < len(futures):  # interrupted: end the workers (a finished run keeps them)
             for fut in futures:
@@ -276,6 +286,46 @@ def _on_pool(
             leftovers.extend(_finished(futures, handed))
             end_shared_pool(jobs, grace=0.0)  # do not wait any longer
         local.shutdown(wait=False, cancel_futures=True)
+        shutil.rmtree(marks, ignore_errors=True)
+
+
+def _marked(marks: str, index: int, task: Callable[..., dict], call: tuple) -> dict:
+    """A pool task: leave the empty file ``<index>.<pid>`` in the folder ``marks`` (this worker runs call
+    ``index``), then ``task(*call)``."""
+    os.close(os.open(os.path.join(marks, f"{index}.{os.getpid()}"), os.O_WRONLY | os.O_CREAT, 0o600))
+    return task(*call)
+
+
+def worker_died(pool: cf.ProcessPoolExecutor, err: BaseException, doing: Callable[[int], str]) -> WorkerDied:
+    """:class:`WorkerDied` for the broken ``pool`` (``err``: its ``BrokenProcessPool``): one line naming how
+    its worker ended and ``doing(pid)``, what that worker was doing (``"while running ..."``, or ``""``).
+
+    The pool ends its other workers by SIGTERM once one has died: the one that died first is the one
+    whose end was not that SIGTERM, if there is one.
+    """
+    workers = list((getattr(pool, "_processes", None) or {}).values())
+    deadline = time.monotonic() + KILL_AFTER_S  # the pool is ending the others: let their exit codes show
+    while any(p.exitcode is None for p in workers) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    ended = [p for p in workers if p.exitcode not in (None, 0)]
+    if not ended:  # no worker died: a result that could not be received, ...
+        return WorkerDied(f"the worker processes failed ({type(err).__name__}: {str(err)[:200]})")
+    dead = next((p for p in ended if p.exitcode != -signal.SIGTERM), ended[0])
+    code = dead.exitcode
+    how = f"signal {-code}, {signal.Signals(-code).name}" if code < 0 else f"exit code {code}"
+    return WorkerDied(f"a worker process died ({how}){doing(dead.pid)}")
+
+
+def _running_calls(marks: str, futures: list[Any], labels: list[str], pid: int) -> str:
+    """``" while running <labels>"`` of the calls the worker ``pid`` started (the files of :func:`_marked`)
+    and did not finish (``futures[i]``, ``labels[i]``: call ``i``'s); ``""`` if none."""
+    ran = []
+    for name in os.listdir(marks):
+        index, _, worker = name.partition(".")
+        fut = futures[int(index)]
+        if worker == str(pid) and (not fut.done() or fut.cancelled() or fut.exception() is not None):
+            ran.append(labels[int(index)])
+    return f" while running {', '.join(ran)}" if ran else ""
 
 
 def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,
