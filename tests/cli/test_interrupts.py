@@ -25,6 +25,7 @@ from dualmech.validation.exit_codes import EXIT_INTERRUPTED
 
 from ..validation.test_hostile_writers import OLD, SPEC, _case_file, _grown
 from ..validation.test_validate import ROOT
+from ..validation.test_worker_faults import LONG_MATRIX
 
 #: Seconds a command may take to start working (imports, a numba cache load, a spawned pool) on a busy
 #: shared machine, and to end once interrupted.
@@ -86,12 +87,7 @@ def test_ctrl_c_in_a_tolerance_study_exits_130_and_keeps_its_chunks(tmp_path):
 
 def test_ctrl_c_in_validate_exits_130_and_says_how_to_finish(tmp_path):
     matrix, out = tmp_path / "m.toml", tmp_path / "run"
-    matrix.write_text('name = "m"\nbase = "thesis/ideal"\nengines = ["dualmech", "mujoco"]\n'
-                      'reference = "dualmech"\n'
-                      'set = { "motion.angles_deg" = { start = 0.0, stop = 360.0, step = 0.1 } }\n'
-                      '[[sweep]]\nname = "a4"\n'
-                      'grid = { "geometry.slider_offset" = [' + ", ".join(f"{10 + i}.0" for i in range(40))
-                      + "] }\n")
+    matrix.write_text(LONG_MATRIX)
     cases = out / "cases"
     code, lines = _interrupted(["validate", str(matrix), "-o", str(out), "--jobs", "2"],
                                lambda: cases.is_dir() and any(cases.glob("*.json")))

@@ -29,6 +29,12 @@ from .test_validate import FAKE_REGISTRY, FAKES, ROOT
 #: Seconds a pool's processes may outlive their killed parent: the issue's one second, plus the time a
 #: busy shared machine may take to run a spawned worker's start up to its parent check.
 OUTLIVE_S = 2.0
+#: A matrix of 40 cases on the in-house engine (in a thread) and MuJoCo (in the pool's workers): a run of
+#: a few minutes on two workers, long enough to be interrupted or to lose a worker.
+LONG_MATRIX = ('name = "m"\nbase = "thesis/ideal"\nengines = ["dualmech", "mujoco"]\nreference = "dualmech"\n'
+               'set = { "motion.angles_deg" = { start = 0.0, stop = 360.0, step = 0.1 } }\n'
+               '[[sweep]]\nname = "a4"\ngrid = { "geometry.slider_offset" = ['
+               + ", ".join(f"{10 + i}.0" for i in range(40)) + "] }\n")
 #: Seconds the program below may take to reach the moment it is killed at (imports, spawned workers).
 START_S = 120.0
 
@@ -110,10 +116,7 @@ def test_no_worker_outlives_a_validate_killed_while_its_pool_starts(tmp_path, af
     """The issue's attack on the installed command: SIGKILL once its first worker is being spawned (or
     0.3 s later).  The workers also must not spend their first second importing the command line."""
     matrix = tmp_path / "m.toml"
-    matrix.write_text('name = "m"\nbase = "thesis/ideal"\nengines = ["dualmech", "mujoco"]\n'
-                      'reference = "dualmech"\n[[sweep]]\nname = "a4"\n'
-                      'grid = { "geometry.slider_offset" = [' + ", ".join(f"{10 + i}.0" for i in range(40))
-                      + "] }\n")
+    matrix.write_text(LONG_MATRIX)
     command = Path(sys.executable).with_name("dualmech")
     args = [str(command), "validate", str(matrix), "-o", str(tmp_path / "run"), "--jobs", "2"]
     proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
@@ -199,3 +202,41 @@ def test_spawned_workers_of_the_command_line_do_not_import_it(monkeypatch):
     monkeypatch.setitem(sys.modules, "__main__", program)
     cli.spawn_without_the_command_line()
     assert multiprocessing.spawn.get_preparation_data("worker")["init_main_from_path"] == program.__file__
+
+
+def _workers(pid: int) -> list[int]:
+    """The spawned pool workers among the children of ``pid`` (not the resource tracker), from /proc."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            stat = (entry / "stat").read_text() if entry.name.isdigit() else ""
+            spawned = b"spawn_main" in (entry / "cmdline").read_bytes() if stat else False
+        except OSError:  # ended meanwhile
+            continue
+        if spawned and int(stat[stat.rindex(")") + 2:].split()[1]) == pid:
+            found.append(int(entry.name))
+    return found
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads the process table from /proc (Linux)")
+def test_validate_whose_worker_is_killed_says_so_in_one_line_and_exits_4(tmp_path):
+    matrix, out = tmp_path / "m.toml", tmp_path / "run"
+    matrix.write_text(LONG_MATRIX)
+    command = Path(sys.executable).with_name("dualmech")
+    proc = subprocess.Popen([str(command), "validate", str(matrix), "-o", str(out), "--jobs", "2"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + START_S
+        while time.monotonic() < deadline and proc.poll() is None and not (
+                (out / "cases").is_dir() and len(list((out / "cases").glob("*.json"))) >= 2):
+            time.sleep(0.01)
+        assert proc.poll() is None, proc.communicate()[1]
+        os.kill(_workers(proc.pid)[0], signal.SIGKILL)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    lines = [ln for ln in err.splitlines() if ln.startswith("dualmech: ")]  # not the progress lines
+    assert proc.returncode == 4 and len(lines) == 1 and "Traceback" not in err, err
+    kept = f"finished results are kept in {out}; re-run with --resume to finish"
+    assert re.fullmatch(r"dualmech: error: a worker process died \(signal 9, SIGKILL\)( while running \S+ "
+                        rf"mujoco)?; {re.escape(kept)}", lines[0]), lines[0]
