@@ -240,3 +240,23 @@ def test_validate_whose_worker_is_killed_says_so_in_one_line_and_exits_4(tmp_pat
     kept = f"finished results are kept in {out}; re-run with --resume to finish"
     assert re.fullmatch(r"dualmech: error: a worker process died \(signal 9, SIGKILL\)( while running \S+ "
                         rf"mujoco)?; {re.escape(kept)}", lines[0]), lines[0]
+
+
+def test_a_worker_killed_while_the_report_draws_its_figures_is_one_line():
+    """The report's figures are drawn in the shared pool: a killed worker there is a :class:`WorkerDied`
+    too (exit 4 at the command line), not ``internal error: BrokenProcessPool``."""
+    from dualmech.validation.report.figures import PendingFigures
+
+    executors.end_shared_pool()
+    figures = PendingFigures(jobs=2)
+    pool = executors._SHARED[2]
+    drawing = pool.submit(time.sleep, 60)  # a figure that takes long
+    figures.specs, figures._rendered = [None], [drawing]
+    deadline = time.monotonic() + START_S
+    while not (drawing.running() and pool._processes) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    os.kill(next(iter(pool._processes)), signal.SIGKILL)
+    with pytest.raises(WorkerDied, match=r"^a worker process died \(signal 9, SIGKILL\) while drawing the "
+                                         r"report's figures; finished results are kept$"):
+        figures.collect()
+    executors.end_shared_pool()
