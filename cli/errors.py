@@ -90,7 +90,8 @@ INTERNAL_VALUE_ERRORS: tuple[type[BaseException], ...] = (np.linalg.LinAlgError,
 
 
 def one_line_errors(func: Callable) -> Callable:
-    """Decorate a click command: bad input exits 2, an unexpected error exits 70, each with one line."""
+    """Decorate a click command: bad input exits 2, lost workers 4, an unexpected error 70, an interrupt
+    130, each with one line (the module's rules)."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
