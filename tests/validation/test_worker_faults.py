@@ -260,3 +260,23 @@ def test_a_worker_killed_while_the_report_draws_its_figures_is_one_line():
                                          r"report's figures; finished results are kept$"):
         figures.collect()
     executors.end_shared_pool()
+
+
+def test_a_killed_figure_worker_of_a_tolerance_study_is_one_line():
+    """The tolerance study draws its figures in a worker of its own (``FigureDrawing``): killed, it is a
+    :class:`WorkerDied` too (found by hand: killing it gave ``BrokenProcessPool``)."""
+    from dualmech.validation.tolerance_report import FigureDrawing
+
+    drawing = FigureDrawing(parallel=True)
+    drawing.warm()
+    try:
+        drawing._pending = drawing._pool.submit(time.sleep, 60)  # figures that take long
+        deadline = time.monotonic() + START_S
+        while not (drawing._pending.running() and drawing._pool._processes) and time.monotonic() < deadline:
+            time.sleep(0.01)
+        os.kill(next(iter(drawing._pool._processes)), signal.SIGKILL)
+        died = r"^a worker process died \(signal 9, SIGKILL\) while drawing the study's figures; finished "
+        with pytest.raises(WorkerDied, match=died + "results are kept$"):
+            drawing.collect()
+    finally:
+        drawing.close()
