@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 from typing import Callable
 
 import pytest
@@ -36,14 +37,14 @@ PROGRAM = ("import signal; signal.signal(signal.SIGINT, signal.default_int_handl
            "from dualmech.cli import main; main()")
 
 
-def _interrupted(args: list[str], working: Callable[[], bool]) -> tuple[int, list[str]]:
-    """Run ``dualmech ARGS``, send SIGINT once ``working()``; (exit code, the lines of its stderr)."""
+def _interrupted(args: list[str], working: Callable[[int], bool]) -> tuple[int, list[str]]:
+    """Run ``dualmech ARGS``, send SIGINT once ``working(pid)``; (exit code, the lines of its stderr)."""
     path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
     proc = subprocess.Popen([sys.executable, "-c", PROGRAM, *args], cwd=ROOT, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=path))
     try:
         deadline = time.monotonic() + START_S
-        while time.monotonic() < deadline and proc.poll() is None and not working():
+        while time.monotonic() < deadline and proc.poll() is None and not working(proc.pid):
             time.sleep(0.02)
         assert proc.poll() is None, f"ended before it could be interrupted: {proc.communicate()[1]}"
         proc.send_signal(signal.SIGINT)
@@ -66,7 +67,7 @@ def test_ctrl_c_in_a_long_csv_solve_exits_130_with_one_line(tmp_path):
     out = folder / "out.csv"
     out.write_text(OLD)
     code, lines = _interrupted(["solve", str(_case_file(tmp_path, 400_000)), "-o", str(out)],
-                               lambda: _grown(folder, 1_000_000))
+                               lambda pid: _grown(folder, 1_000_000))
     _one_interrupt_line(code, lines, f"no partial file is left at {out}")
     assert out.read_text() == OLD
     assert [p.name for p in folder.iterdir()] == ["out.csv"]
@@ -78,7 +79,7 @@ def test_ctrl_c_in_a_tolerance_study_exits_130_and_keeps_its_chunks(tmp_path):
     chunks = out / "chunks"
     code, lines = _interrupted(["tolerance", "thesis/ideal", "--spec", str(spec), "-n", "1000000",
                                 "--method", "mc", "-o", str(out)],
-                               lambda: chunks.is_dir() and any(chunks.iterdir()))
+                               lambda pid: chunks.is_dir() and any(chunks.iterdir()))
     _one_interrupt_line(code, lines, f"finished chunks are kept in {out}")
     assert any(chunks.iterdir())
     assert not (out / "samples.csv").exists() and not (out / "summary.json").exists()
@@ -90,8 +91,43 @@ def test_ctrl_c_in_validate_exits_130_and_says_how_to_finish(tmp_path):
     matrix.write_text(LONG_MATRIX)
     cases = out / "cases"
     code, lines = _interrupted(["validate", str(matrix), "-o", str(out), "--jobs", "2"],
-                               lambda: cases.is_dir() and any(cases.glob("*.json")))
+                               lambda pid: cases.is_dir() and any(cases.glob("*.json")))
     _one_interrupt_line(code, lines, f"finished results are kept in {out}; re-run with --resume")
+
+
+def _cpu_seconds(pid: int) -> float:
+    """CPU time (user + system) of the process ``pid`` so far, seconds (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+#: CPU seconds after which a command has certainly passed its imports and is working.
+WORKING_CPU_S = 4.0
+
+
+def test_ctrl_c_in_a_long_simulation_exits_130_and_writes_nothing(tmp_path):
+    out = tmp_path / "sim.csv"
+    code, lines = _interrupted(["simulate", "thesis/ideal", "--duration", "1000", "--max-evaluations",
+                                "1000000000", "--time-limit", "600", "-o", str(out)],
+                               lambda pid: _cpu_seconds(pid) > WORKING_CPU_S)
+    _one_interrupt_line(code, lines, f"no partial file is left at {out}")
+    assert not list(tmp_path.iterdir())
+
+
+def test_ctrl_c_in_report_exits_130_and_says_how_to_finish(tmp_path):
+    from dualmech.validation.matrix import load_matrix
+    from dualmech.validation.runner import run_matrix
+
+    from ..validation.conftest import SMALL
+    from ..validation.test_validate import FAKE_REGISTRY
+
+    matrix, run = tmp_path / "small.toml", tmp_path / "run"
+    matrix.write_text(SMALL)
+    run_matrix(load_matrix(matrix), run, jobs=1, registry=FAKE_REGISTRY)
+    figures = run / "figures"
+    code, lines = _interrupted(["report", str(run), "--jobs", "1"],
+                               lambda pid: figures.is_dir() and any(figures.glob("*.png")))
+    _one_interrupt_line(code, lines, f"the report in {run} is not finished; run dualmech report again")
 
 
 @pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c.name)
