@@ -67,7 +67,7 @@ _WRITE_BIG = textwrap.dedent("""
     import sys
     import numpy as np
     from dualmech.core.table import NUMERIC_COLUMNS, ResultTable, write_parquet
-    n = 200_000
+    n = 20_000
     table = ResultTable("dualmech", "big", {c: np.random.default_rng(0).standard_normal(n)
                                            for c in NUMERIC_COLUMNS}, np.array(["ok"] * n, dtype=object))
     table.to_csv(sys.argv[1]) if sys.argv[1].endswith(".csv") else write_parquet(table, sys.argv[1])
