@@ -15,6 +15,7 @@ import sys
 
 import click
 
+from dualmech.cli.errors import when_closing
 from dualmech.cli.progress import show_kernel_compiles
 from dualmech.cli.selftest import selftest
 from dualmech.cli.simulate import simulate
@@ -35,7 +36,8 @@ COMMANDS: tuple[click.Command, ...] = (
 @click.pass_context
 def main(ctx: click.Context) -> None:
     """Dual-number solver for the generalized slider crank, judged by Pinocchio and MuJoCo."""
-    ctx.call_on_close(end_all_pools)  # bounded: the interpreter's exit would join workers without a limit
+    # bounded (the interpreter's exit would join workers without a limit); Ctrl-C while it waits: 130
+    ctx.call_on_close(when_closing(end_all_pools))
     spawn_without_the_command_line()
     show_kernel_compiles()  # a cold numba cache: a notice and progress while the kernel compiles
 

@@ -47,6 +47,8 @@ MAX_LINE_CHARS = 300
 OUTPUT_FOLDER_ARGUMENTS = ("outdir", "rundir")
 #: Where a command's note on what an interrupt keeps is held (``click.Context.meta``, :func:`on_interrupt`).
 NOTE_KEY = "dualmech.on_interrupt"
+#: Set in ``click.Context.meta`` once a command has printed its one line (:func:`when_closing`).
+ENDED_KEY = "dualmech.ended"
 
 
 def first_line(err: BaseException) -> str:
@@ -106,8 +108,7 @@ def one_line_errors(func: Callable) -> Callable:
             _stop(EXIT_WORKERS_LOST, f"dualmech: error: {err.what if note else err}", note)
         except (ValueError, OSError) as err:
             if not isinstance(err, INTERNAL_VALUE_ERRORS):
-                click.echo(f"dualmech: error: {first_line(err)}", err=True)
-                sys.exit(EXIT_BAD_INPUT)
+                _stop(EXIT_BAD_INPUT, f"dualmech: error: {first_line(err)}", "")
             _internal(err, kwargs)
         except Exception as err:  # the last line of defence: no traceback reaches the user
             _internal(err, kwargs)
@@ -135,13 +136,32 @@ def _note(kwargs: dict) -> str:
 def _stop(code: int, line: str, note: str) -> None:
     """Print ``line`` (and ``; note``) on stderr as one line, and exit ``code``."""
     click.echo(f"{line}; {note}" if note else line, err=True)
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None:
+        ctx.meta[ENDED_KEY] = True
     sys.exit(code)
+
+
+def when_closing(end: Callable[[], None]) -> Callable[[], None]:
+    """``end``, a step run as a command's context closes (after its output: ending its pools), with a
+    Ctrl-C meanwhile told as anywhere else: ``dualmech: interrupted`` (unless the command has printed its
+    one line already) and exit 130, not click's "Aborted!" and exit 1."""
+
+    def run() -> None:
+        try:
+            end()
+        except KeyboardInterrupt:
+            ctx = click.get_current_context(silent=True)
+            if ctx is None or not ctx.meta.get(ENDED_KEY):
+                click.echo("dualmech: interrupted", err=True)
+            sys.exit(EXIT_INTERRUPTED)
+
+    return run
 
 
 def _internal(err: BaseException, kwargs: dict) -> None:
     """One line naming an unexpected error and where its traceback went; exit 70."""
     folder = next((Path(kwargs[k]) for k in OUTPUT_FOLDER_ARGUMENTS if kwargs.get(k)), None)
     where = write_traceback(err, folder)
-    click.echo(f"dualmech: internal error: {type(err).__name__}: {first_line(err)}; "
-               f"traceback in {where}", err=True)
-    sys.exit(EXIT_INTERNAL)
+    _stop(EXIT_INTERNAL, f"dualmech: internal error: {type(err).__name__}: {first_line(err)}; "
+          f"traceback in {where}", "")

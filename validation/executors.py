@@ -15,9 +15,8 @@ behind:
 * **A lost cluster.**  The Dask backend checks the scheduler and its workers every
   :data:`DASK_POLL_S` seconds while it waits; a lost scheduler, or no worker for
   :data:`DASK_NO_WORKER_S` seconds, ends the run with :class:`ClusterLost`.
-* **Done.**  A finished run keeps its pool for the report and the next run; a command
-  ends every pool when it is done (:func:`end_all_pools`), waiting
-  :data:`EXIT_GRACE_S` seconds at most for the workers to exit.
+* **Done.**  A finished run keeps its pool for the report and the next run; a command ends every
+  pool when it is done (:func:`end_all_pools`), waiting :data:`EXIT_GRACE_S` s at most (Ctrl-C: none).
 """
 
 from __future__ import annotations
@@ -193,12 +192,17 @@ def end_all_pools(grace: float = EXIT_GRACE_S) -> None:
 
     Left to the interpreter's exit, each pool's workers would be joined without a time limit: a
     worker that does not exit (a library's thread that never ends, a full pipe) keeps the command
-    from ever exiting, and with it the output still in its buffers.
+    from ever exiting, and with it the output still in its buffers.  Interrupted while it waits
+    (Ctrl-C), it ends the workers at once and raises the interrupt.
     """
     shut = [*_LEAVING, *(_shut(pool) for pool in list(_POOLS))]
     _SHARED.clear()  # after: a pool that only _SHARED refers to would leave _POOLS with it
     _LEAVING.clear()
-    _end(shut, grace)
+    try:
+        _end(shut, grace)
+    except KeyboardInterrupt:
+        _end(shut, 0.0)
+        raise
 
 
 def end_pool(pool: cf.ProcessPoolExecutor, *, grace: float = math.inf) -> None:
@@ -254,9 +258,12 @@ def _running_after(workers: list[Any], seconds: float) -> list[Any]:
     return left
 
 
+def _succeeded(fut: Any) -> bool:
+    return fut.done() and not fut.cancelled() and fut.exception() is None
+
+
 def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
-    return [f.result() for f in futures
-            if f not in handed and f.done() and not f.cancelled() and f.exception() is None]
+    return [f.result() for f in futures if f not in handed and _succeeded(f)]
 
 
 def _on_pool(
@@ -297,12 +304,9 @@ def _marked(marks: str, index: int, task: Callable[..., dict], call: tuple) -> d
 
 
 def worker_died(pool: cf.ProcessPoolExecutor, err: BaseException, doing: Callable[[int], str]) -> WorkerDied:
-    """:class:`WorkerDied` for the broken ``pool`` (``err``: its ``BrokenProcessPool``): one line naming how
-    its worker ended and ``doing(pid)``, what that worker was doing (``"while running ..."``, or ``""``).
-
-    The pool ends its other workers by SIGTERM once one has died: the one that died first is the one
-    whose end was not that SIGTERM, if there is one.
-    """
+    """:class:`WorkerDied` for the broken ``pool`` (``err``: its ``BrokenProcessPool``): how its worker ended
+    and ``doing(pid)``, what it was doing (``" while running ..."`` or ``""``).  The pool ends the other
+    workers by SIGTERM: the first to die is the one whose end was not that SIGTERM, if there is one."""
     workers = list((getattr(pool, "_processes", None) or {}).values())
     deadline = time.monotonic() + KILL_AFTER_S  # the pool is ending the others: let their exit codes show
     while any(p.exitcode is None for p in workers) and time.monotonic() < deadline:
@@ -319,12 +323,8 @@ def worker_died(pool: cf.ProcessPoolExecutor, err: BaseException, doing: Callabl
 def _running_calls(marks: str, futures: list[Any], labels: list[str], pid: int) -> str:
     """``" while running <labels>"`` of the calls the worker ``pid`` started (the files of :func:`_marked`)
     and did not finish (``futures[i]``, ``labels[i]``: call ``i``'s); ``""`` if none."""
-    ran = []
-    for name in os.listdir(marks):
-        index, _, worker = name.partition(".")
-        fut = futures[int(index)]
-        if worker == str(pid) and (not fut.done() or fut.cancelled() or fut.exception() is not None):
-            ran.append(labels[int(index)])
+    ran = [labels[int(i)] for i, _, worker in (name.partition(".") for name in os.listdir(marks))
+           if worker == str(pid) and not _succeeded(futures[int(i)])]
     return f" while running {', '.join(ran)}" if ran else ""
 
 

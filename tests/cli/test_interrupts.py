@@ -152,3 +152,22 @@ def test_an_interrupt_inside_a_command_with_an_output_file_says_nothing_partial_
     assert res.exit_code == EXIT_INTERRUPTED
     assert res.output == f"dualmech: interrupted; no partial file is left at {tmp_path / 'x.csv'}\n"
 
+
+
+def test_ctrl_c_while_a_command_ends_its_pools_is_one_line_and_130(monkeypatch):
+    """The command's end waits up to 10 s for its workers, after the command's own code: a Ctrl-C there
+    was click's "Aborted!" and exit 1."""
+    import dualmech.cli
+    from dualmech.cli import main
+
+    def interrupted(grace: float = 0.0) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(dualmech.cli, "end_all_pools", interrupted)
+    res = CliRunner().invoke(main, ["case-path", "ideal"])
+    assert res.exit_code == EXIT_INTERRUPTED
+    assert res.output.splitlines()[-1] == "dualmech: interrupted" and "Aborted" not in res.output
+    res = CliRunner().invoke(main, ["solve", "thesis/ideal", "--engine", "no-such"])  # click's own error
+    assert res.exit_code == EXIT_INTERRUPTED and res.output.count("dualmech: interrupted") == 1
+    res = CliRunner().invoke(main, ["case-path", "no-such-preset"])  # the command's own one line first
+    assert res.exit_code == EXIT_INTERRUPTED and "interrupted" not in res.output
