@@ -10,11 +10,13 @@ The subcommands are registered here, in :data:`COMMANDS`, and nowhere else.
 
 from __future__ import annotations
 
+import importlib.util
 import sys
 from typing import Any
 
 import click
 
+from dualmech.cli.errors import when_closing
 from dualmech.cli.progress import show_kernel_compiles
 from dualmech.cli.selftest import selftest
 from dualmech.cli.simulate import simulate
@@ -61,9 +63,27 @@ class OneLineUsage(click.Group):
 def main(ctx: click.Context) -> None:
     """Dual-number solver for the generalized slider crank, judged by Pinocchio and MuJoCo."""
     show_warnings_as_lines()  # one line each, never Python's file:line and source
-    ctx.call_on_close(end_all_pools)  # bounded: the interpreter's exit would join workers without a limit
+    # bounded (the interpreter's exit would join workers without a limit); Ctrl-C while it waits: 130
+    ctx.call_on_close(when_closing(end_all_pools))
+    spawn_without_the_command_line()
     show_kernel_compiles()  # a cold numba cache: a notice and progress while the kernel compiles
 
 
 for _command in COMMANDS:
     main.add_command(_command)
+
+
+def spawn_without_the_command_line() -> None:
+    """Keep spawned pool workers from importing the command line (0.7 s each, before their first line).
+
+    A spawned worker first imports the program's main module (multiprocessing's ``spawn``), here the
+    ``dualmech`` console script, which imports this package (click, the commands, numpy, the models),
+    all unused by a worker.  For that time a worker whose parent had been killed did not know it yet:
+    measured, 1.3-2.6 s before the last worker was gone after SIGKILL to ``validate`` while its pool
+    started (0.2 s without).  Where the main module is that script (it holds :func:`main`), it is
+    declared the module ``dualmech.cli.__main__`` (what ``python -m dualmech.cli`` runs), which spawn
+    does not import again.  Any other main module (a user's program, pytest) is left as it is.
+    """
+    program = sys.modules.get("__main__")
+    if getattr(program, "main", None) is main and getattr(program, "__spec__", None) is None:
+        program.__spec__ = importlib.util.find_spec("dualmech.cli.__main__")

@@ -6,8 +6,16 @@
   and exit code :data:`EXIT_INTERNAL` (70, ``EX_SOFTWARE`` of BSD ``sysexits.h``); the full
   traceback goes to a log file in the command's output folder when it is known and
   exists, else to a new file in the system's temporary folder.
-* ``KeyboardInterrupt`` and click's own exceptions (usage errors, ``--help``, exits) pass
-  through untouched: the commands and click handle them.
+* Interrupted (Ctrl-C: ``KeyboardInterrupt``, or click's ``Abort``): ``dualmech: interrupted; <note>``
+  and exit code :data:`~dualmech.validation.exit_codes.EXIT_INTERRUPTED` (130), never click's
+  "Aborted!" (exit 1, which ``tolerance`` and ``validate`` use for a FAIL).  The note says what is kept:
+  the command's own (:func:`on_interrupt`: a run folder's finished results and how to finish), else for
+  a command with an output file (``-o``) that no partial file is left there (every writer is atomic:
+  :mod:`dualmech.core.files`).
+* The workers running a command's tasks lost (a pool's worker killed, a Dask cluster gone:
+  :class:`~dualmech.validation.executors.WorkersLost`): ``dualmech: error: <what>; <note>`` and exit code
+  :data:`~dualmech.validation.exit_codes.EXIT_WORKERS_LOST` (4).
+* click's own exceptions (usage errors, ``--help``, exits) pass through untouched.
 
 ``<line>`` is the first line of the exception's message, cut to :data:`MAX_LINE_CHARS`
 characters, so a message holding a multi-line array dump or a huge number stays one
@@ -28,7 +36,8 @@ from typing import Callable
 import click
 import numpy as np
 
-from dualmech.validation.exit_codes import EXIT_BAD_INPUT
+from dualmech.validation.executors import WorkersLost
+from dualmech.validation.exit_codes import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_WORKERS_LOST
 
 #: Exit code for an unexpected internal error (``EX_SOFTWARE``).
 EXIT_INTERNAL = 70
@@ -36,6 +45,10 @@ EXIT_INTERNAL = 70
 MAX_LINE_CHARS = 300
 #: Keyword arguments of a command that name its output folder (where the traceback log goes).
 OUTPUT_FOLDER_ARGUMENTS = ("outdir", "rundir")
+#: Where a command's note on what an interrupt keeps is held (``click.Context.meta``, :func:`on_interrupt`).
+NOTE_KEY = "dualmech.on_interrupt"
+#: Set in ``click.Context.meta`` once a command has printed its one line (:func:`when_closing`).
+ENDED_KEY = "dualmech.ended"
 
 
 def first_line(err: BaseException) -> str:
@@ -79,18 +92,23 @@ INTERNAL_VALUE_ERRORS: tuple[type[BaseException], ...] = (np.linalg.LinAlgError,
 
 
 def one_line_errors(func: Callable) -> Callable:
-    """Decorate a click command: bad input exits 2, an unexpected error exits 70, each with one line."""
+    """Decorate a click command: bad input exits 2, lost workers 4, an unexpected error 70, an interrupt
+    130, each with one line (the module's rules)."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
-        except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
+        except (click.exceptions.ClickException, click.exceptions.Exit):
             raise
+        except (KeyboardInterrupt, click.exceptions.Abort):
+            _stop(EXIT_INTERRUPTED, "dualmech: interrupted", _note(kwargs))
+        except WorkersLost as err:
+            note = _note(kwargs)
+            _stop(EXIT_WORKERS_LOST, f"dualmech: error: {err.what if note else err}", note)
         except (ValueError, OSError) as err:
             if not isinstance(err, INTERNAL_VALUE_ERRORS):
-                click.echo(f"dualmech: error: {first_line(err)}", err=True)
-                sys.exit(EXIT_BAD_INPUT)
+                _stop(EXIT_BAD_INPUT, f"dualmech: error: {first_line(err)}", "")
             _internal(err, kwargs)
         except Exception as err:  # the last line of defence: no traceback reaches the user
             _internal(err, kwargs)
@@ -98,10 +116,52 @@ def one_line_errors(func: Callable) -> Callable:
     return wrapper
 
 
+def on_interrupt(note: str) -> None:
+    """Say what the running command keeps if it is interrupted or loses its workers (one clause, e.g.
+    ``"finished results are kept in runs/x; re-run with --resume to finish"``); outside a command, nothing."""
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None:
+        ctx.meta[NOTE_KEY] = note
+
+
+def _note(kwargs: dict) -> str:
+    """The running command's note (:func:`on_interrupt`), else one on its output file, else ``""``."""
+    ctx = click.get_current_context(silent=True)
+    note = ctx.meta.get(NOTE_KEY, "") if ctx is not None else ""
+    if not note and kwargs.get("output"):
+        note = f"no partial file is left at {kwargs['output']}"
+    return note
+
+
+def _stop(code: int, line: str, note: str) -> None:
+    """Print ``line`` (and ``; note``) on stderr as one line, and exit ``code``."""
+    click.echo(f"{line}; {note}" if note else line, err=True)
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None:
+        ctx.meta[ENDED_KEY] = True
+    sys.exit(code)
+
+
+def when_closing(end: Callable[[], None]) -> Callable[[], None]:
+    """``end``, a step run as a command's context closes (after its output: ending its pools), with a
+    Ctrl-C meanwhile told as anywhere else: ``dualmech: interrupted`` (unless the command has printed its
+    one line already) and exit 130, not click's "Aborted!" and exit 1."""
+
+    def run() -> None:
+        try:
+            end()
+        except KeyboardInterrupt:
+            ctx = click.get_current_context(silent=True)
+            if ctx is None or not ctx.meta.get(ENDED_KEY):
+                click.echo("dualmech: interrupted", err=True)
+            sys.exit(EXIT_INTERRUPTED)
+
+    return run
+
+
 def _internal(err: BaseException, kwargs: dict) -> None:
     """One line naming an unexpected error and where its traceback went; exit 70."""
     folder = next((Path(kwargs[k]) for k in OUTPUT_FOLDER_ARGUMENTS if kwargs.get(k)), None)
     where = write_traceback(err, folder)
-    click.echo(f"dualmech: internal error: {type(err).__name__}: {first_line(err)}; "
-               f"traceback in {where}", err=True)
-    sys.exit(EXIT_INTERNAL)
+    _stop(EXIT_INTERNAL, f"dualmech: internal error: {type(err).__name__}: {first_line(err)}; "
+          f"traceback in {where}", "")

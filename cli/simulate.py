@@ -22,7 +22,6 @@ from dualmech.models.forward_dynamics import MAX_EVALUATIONS, TIME_LIMIT
 from dualmech.models.inputs import ANGLE_DEG, Range, show
 from dualmech.models.linkages import is_linkage
 from dualmech.models.plausibility import masses_line
-from dualmech.validation.durable import write_with
 
 #: Longest integer option text: beyond this many digits it is out of every range anyway.
 _MAX_INT_DIGITS = 18
@@ -154,7 +153,7 @@ def simulate(case: str, duration: str, torque: str | None, slider_load: str | No
                               **settings)
         summary = summarize_simulation(sim)
     if output:
-        write_with(output, sim.to_csv)
+        sim.to_csv(output)  # atomic: written beside, renamed
     else:
         sys.stdout.write(sim.to_csv())
     click.echo(summary, err=output is None)

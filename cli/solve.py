@@ -14,6 +14,7 @@ import numpy as np
 from dualmech.cli.errors import one_line_errors
 from dualmech.cli.progress import progress
 from dualmech.core.assembly import reach
+from dualmech.core.files import write_text_durable, write_with
 from dualmech.core.status import Status
 from dualmech.core.table import ResultTable
 from dualmech.core.thresholds import ASSEMBLY_REACH
@@ -23,7 +24,6 @@ from dualmech.models.linkages import bundled_names, bundled_path, is_linkage, li
 from dualmech.models.mechanism import crank_pin
 from dualmech.models.plausibility import implausible, masses_line
 from dualmech.models.units import column_unit
-from dualmech.validation.durable import write_text_durable, write_with
 from dualmech.validation.engines import ENGINES, run_engine
 from dualmech.validation.solve_output import STREAM_POSITIONS, output_format, stream_solve, write_table
 
@@ -67,6 +67,7 @@ def bundled_case_path(name: str) -> Path:
 
 
 @click.command()
+@one_line_errors
 def cases() -> None:
     """List the bundled case presets of every kind (slider crank, RSSR, RCCC)."""
     for name, kind, about in bundled_cases():
@@ -173,7 +174,7 @@ def _solve_linkage(case: str, output: str | None, engine: str, frames: str) -> N
         raise ValueError(f"-o {output}: a linkage's table is written as CSV (OUT.csv)")
     table = solve_linkage(case, engine)
     if output:
-        write_with(output, table.to_csv)
+        table.to_csv(output)  # atomic: written beside, renamed
     else:
         sys.stdout.write(table.to_csv())
     click.echo(summary(table), err=output is None)
@@ -228,7 +229,6 @@ def benchmark(cases: int, judge_cases: int, big: int, repeats: int, main_job: in
     """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, and the main job's time,
     in one run (Markdown)."""
     from dualmech.validation.benchmark import performance_page, run_benchmark
-    from dualmech.validation.durable import write_text_durable
 
     table = run_benchmark(cases, judge_cases, big, repeats, main_job)
     if output is None:

@@ -4,7 +4,8 @@ A thin shell over :func:`dualmech.validation.api.tolerance_study` (``dualmech.to
 ``docs/conventions.md`` ("Tolerance analysis") defines the SPEC, every column and the summary.
 Exit codes: 0 every spot check passed; 1 a judge disagreed, or the exact sensitivities disagree with
 central differences of the solver (named on stderr); 2 bad input (a folder that is not dualmech's, or
-one another study is writing: :mod:`dualmech.validation.rundir`).
+one another study is writing: :mod:`dualmech.validation.rundir`); 4 a worker process died; 130
+interrupted (Ctrl-C; finished chunks are kept and the same command finishes the study).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from pathlib import Path
 
 import click
 
-from dualmech.cli.errors import one_line_errors
+from dualmech.cli.errors import on_interrupt, one_line_errors
 from dualmech.cli.progress import progress
 from dualmech.cli.solve import warn_units
 from dualmech.models.case import Case
@@ -76,6 +77,7 @@ def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir:
     from dualmech.models.plausibility import ImplausibleUnitsWarning
     from dualmech.validation.api import tolerance_study
 
+    on_interrupt(f"finished chunks are kept in {outdir}; re-run the same command to finish")
     nominal = load_case(case)
     warn_units(nominal)  # the command's own one line each; the API's warning of the same is not repeated
     with warnings.catch_warnings():

@@ -13,7 +13,7 @@ from typing import IO, TYPE_CHECKING
 
 import click
 
-from dualmech.cli.errors import one_line_errors
+from dualmech.cli.errors import on_interrupt, one_line_errors
 from dualmech.cli.progress import progress
 from dualmech.cli.solve import warn_units
 from dualmech.core.table import ResultTable
@@ -21,7 +21,7 @@ from dualmech.models.case import Case, case_from_dict
 from dualmech.models.plausibility import masses_line
 from dualmech.validation.api import MAX_JOBS
 from dualmech.validation.engines import ENGINES
-from dualmech.validation.exit_codes import EXIT_CLUSTER_LOST, EXIT_INTERRUPTED, exit_code
+from dualmech.validation.exit_codes import exit_code
 from dualmech.validation.runner import run_versions
 
 if TYPE_CHECKING:
@@ -131,7 +131,6 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     """
     from dualmech.validation.api import open_run, run_and_compare
     from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline
-    from dualmech.validation.executors import ClusterLost
     from dualmech.validation.junit import write_junit
     from dualmech.validation.linkages.matrix import is_linkage_source
     from dualmech.validation.report import write_report
@@ -143,22 +142,17 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
             "--resume": resume, "--scheduler": scheduler, "--junit": junit_file, "--baseline": baseline_file,
             "--write-baseline": write_baseline_file, "--report-dir": report_dir})
     matrix, outdir = open_run(matrix_file, outdir, _engine_list(engines))
+    on_interrupt(f"finished results are kept in {outdir}; re-run with --resume to finish")
     warn_units(*_one_design(matrix))
     baseline = read_baseline(baseline_file, matrix.name) if baseline_file else None  # before the run
     if report_dir:
         check_output_folder(report_dir)
     console = summary_console(sys.stdout.isatty())
-    try:
-        progress_title = f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines"
-        with progress(progress_title, unit="results") as bar:
-            run = run_and_compare(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)
-    except KeyboardInterrupt:
-        click.echo(f"dualmech: interrupted; finished cases are kept in {outdir}; "
-                   "re-run with --resume to finish", err=True)
-        sys.exit(EXIT_INTERRUPTED)
-    except ClusterLost as err:
-        click.echo(f"dualmech: error: {err}", err=True)
-        sys.exit(EXIT_CLUSTER_LOST)
+    progress_title = f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines"
+    with progress(progress_title, unit="results") as bar:  # interrupted, or workers lost: cli.errors
+        run = run_and_compare(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)
+    on_interrupt(f"the run in {outdir} is complete, its report not finished; dualmech report {outdir} "
+                 "writes it")
     try:  # the run is compared in the report, once its first figures are being drawn
         with progress(f"report of {matrix.name}", unit="figures") as bar:
             files = write_report(outdir, report_dir, jobs=jobs or _cores(), comparison=lambda: run.comparison,
@@ -309,6 +303,7 @@ def report(rundir, outdir, jobs) -> None:
     """Write the report (HTML, Markdown, figures, summary.json) of the run stored in RUNDIR."""
     from dualmech.validation.report import write_report
 
+    on_interrupt(f"the report in {outdir or rundir} is not finished; run dualmech report again")
     files = write_report(rundir, outdir, jobs=jobs or _cores())
     click.echo(f"{files.verdict}: report {files.html} and {files.markdown} "
                f"({len(files.figures)} figures, {files.seconds:.1f} s)")

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from dualmech.core.files import replacing, write_text_durable
 from dualmech.core.status import STATUSES  # (also re-exported: the status words)
 
 KINEMATIC_COLUMNS: tuple[str, ...] = ("theta1_deg", "S1", "S4", "S4_dot", "S4_ddot")
@@ -139,18 +140,40 @@ def write_csv(columns: dict[str, np.ndarray], status: np.ndarray, path: str | Pa
     """CSV text of ``columns`` (each ``(n,)``, full precision by ``repr``) then ``status`` ``(n,)``.
 
     The one CSV writer of dualmech's outputs (result tables, simulations); the header is the
-    column names in order, then ``status``.  Written to ``path`` if given; the text is returned.
+    column names in order, then ``status``.  Written to ``path`` if given, atomically (beside, fsynced,
+    renamed: :func:`~dualmech.core.files.write_text_durable`: an interrupted or failed write leaves the
+    old file as it was); the text is returned.
+
+    The bytes are those of the ``csv`` module writing ``repr(float(value))`` row by row (the shortest text
+    that reads back to the same double), made column by column: each distinct bit pattern of a column
+    formatted once (zeros, NaN and the constant columns of a planar case are much of a table), the rows
+    joined in C (:func:`_float_words`, :func:`_csv_words`).
     """
-    buf = io.StringIO()
-    writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow([*columns, "status"])
-    data = list(columns.values())
-    for i in range(status.shape[0]):
-        writer.writerow([repr(float(col[i])) for col in data] + [status[i]])
-    text = buf.getvalue()
+    cells = [_float_words(np.ascontiguousarray(col, dtype=np.float64)) for col in columns.values()]
+    cells.append(_csv_words(np.asarray(status).tolist()))
+    text = "\n".join([",".join(_csv_words([*columns, "status"])), *map(",".join, zip(*cells))]) + "\n"
     if path is not None:
-        Path(path).write_text(text)
+        write_text_durable(path, text)
     return text
+
+
+def _float_words(column: np.ndarray) -> list[str]:
+    """``repr`` of every value of the float64 ``column`` ``(n,)``, each distinct bit pattern formatted once
+    (by bits, not by value: ``-0.0`` is not ``0.0``)."""
+    bits, inverse = np.unique(column.view(np.int64), return_inverse=True)
+    words = np.array(list(map(float.__repr__, bits.view(np.float64).tolist())), dtype=object)
+    return words[inverse.reshape(-1)].tolist()
+
+
+def _csv_words(words: list) -> list[str]:
+    """Each of ``words`` as the ``csv`` module writes it as a field (quoted where it holds a comma, a quote
+    or a line break), each distinct word through the module once."""
+    fields = {}
+    for word in set(words):
+        buf = io.StringIO()
+        csv.writer(buf, lineterminator="\n").writerow([word, ""])
+        fields[word] = buf.getvalue()[:-2]  # without the empty last field's ",\n"
+    return list(map(fields.__getitem__, words))
 
 
 def read_csv(path: str | Path, engine: str = "", case: str = "") -> ResultTable:
@@ -235,8 +258,9 @@ class ParquetWriter:
 
 
 def write_parquet(table: ResultTable, path: str | Path) -> None:
-    """Write ``table`` as Parquet (one row group; :class:`ParquetWriter` for streams)."""
-    with ParquetWriter(path) as writer:
+    """Write ``table`` as Parquet (one row group; :class:`ParquetWriter` for streams), atomically (beside,
+    fsynced, renamed: :func:`~dualmech.core.files.replacing`)."""
+    with replacing(path) as (tmp, _), ParquetWriter(tmp) as writer:
         writer.write(table.columns, status_codes(table.status))
 
 

@@ -10,12 +10,13 @@ behind:
   yielded to ``leftovers`` for the caller to store, and ends the workers.
 * **Killed (SIGTERM, SIGKILL).**  Pool workers ask the kernel to end them with their
   parent (:func:`worker_init`).
+* **A worker killed.**  The run ends with :class:`WorkerDied`: one line, how the worker ended and
+  the task it ran (:func:`worker_died`); finished tasks are handed over as at an interrupt.
 * **A lost cluster.**  The Dask backend checks the scheduler and its workers every
   :data:`DASK_POLL_S` seconds while it waits; a lost scheduler, or no worker for
   :data:`DASK_NO_WORKER_S` seconds, ends the run with :class:`ClusterLost`.
-* **Done.**  A finished run keeps its pool for the report and the next run; a command
-  ends every pool when it is done (:func:`end_all_pools`), waiting
-  :data:`EXIT_GRACE_S` seconds at most for the workers to exit.
+* **Done.**  A finished run keeps its pool for the report and the next run; a command ends every
+  pool when it is done (:func:`end_all_pools`), waiting :data:`EXIT_GRACE_S` s at most (Ctrl-C: none).
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ import contextlib
 import math
 import os
 import re
+import shutil
+import signal
+import tempfile
 import time
 import weakref
 from typing import Any, Callable, Iterator
@@ -47,8 +51,24 @@ DASK_RESULT_S = 30.0
 ADDRESS = re.compile(r"^(?:(?:tcp|tls)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):\d{1,5}$")
 
 
-class ClusterLost(RuntimeError):
-    """The Dask scheduler or all its workers went away during a run; the message is one line."""
+class WorkersLost(RuntimeError):
+    """The processes running a run's tasks went away: one line, ``<what>; finished results are kept``.
+
+    ``what`` says what happened without the second clause, for a caller that says itself where the
+    results are kept and how to finish (the command line: :mod:`dualmech.cli.errors`).
+    """
+
+    def __init__(self, what: str) -> None:
+        super().__init__(f"{what}; finished results are kept")
+        self.what = what
+
+
+class ClusterLost(WorkersLost):
+    """The Dask scheduler or all its workers went away during a run."""
+
+
+class WorkerDied(WorkersLost):
+    """A worker process of a local pool ended while it ran a task (a signal, the OOM killer)."""
 
 
 def check_address(address: str) -> str:
@@ -59,30 +79,26 @@ def check_address(address: str) -> str:
     return address.strip()
 
 
-def worker_init() -> None:
+def worker_init(parent: int) -> None:
     """Pool worker initializer: leave SIGINT to the run, end with it, and exit without a teardown.
 
-    A run killed hard (SIGKILL, an OOM kill) cannot shut its pool down, and idle
-    workers would otherwise wait on their queue forever.  On Linux the kernel
-    sends SIGTERM to the worker when its parent, the run, exits (``PR_SET_PDEATHSIG``).
-    Elsewhere only that part does not apply.  The exit: :func:`_leave`.
+    A run killed hard (SIGKILL, an OOM kill) cannot shut its pool down, and idle workers would wait on
+    their queue forever.  On Linux the kernel sends SIGTERM to the worker when its parent, the run (pid
+    ``parent``, given by it: read here, it was once already the re-parented one), exits
+    (``PR_SET_PDEATHSIG``); a parent gone before that request is seen here, and the worker exits (else
+    it waited forever, and multiprocessing's resource tracker with it).  The exit: :func:`_leave`.
     """
     import atexit
-    import signal
 
     from dualmech.validation.warning_lines import show_warnings_as_lines
 
     show_warnings_as_lines()  # a task's warnings as the command line shows its own
-    parent = os.getppid()
     atexit.register(_leave)  # before any task: the handlers that tasks' libraries add run before it
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
+    with contextlib.suppress(OSError, AttributeError):  # not Linux: the check below only
         import ctypes
 
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        return
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
     if os.getppid() != parent:  # the parent died before the request took effect
         os._exit(1)
 
@@ -107,13 +123,16 @@ def _leave() -> None:
 
 
 def execute(task: Callable[..., dict], calls: list[tuple], jobs: int, scheduler: str | None,
-            leftovers: list[dict], here: Callable[[tuple], bool] = lambda call: False) -> Iterator[dict]:
+            leftovers: list[dict], here: Callable[[tuple], bool] = lambda call: False,
+            label: Callable[[tuple], str] = lambda call: "a task") -> Iterator[dict]:
     """Run ``task(*call)`` for every call; yield entries as they finish.
 
     Tasks that finished but were not yielded when the generator is closed early
     (an interrupt) are appended to ``leftovers``.  With a pool, the calls for which ``here(call)``
     is true run in a thread of this process instead, beside the workers (tasks that are short and
     release the GIL, but whose libraries would cost each worker more to load than to run them).
+    A pool's worker that dies ends the run with :class:`WorkerDied`, naming the task it ran by
+    ``label(call)`` (``"<case> <engine>"``); a lost Dask cluster with :class:`ClusterLost`.
     """
     if scheduler:
         yield from _on_dask(task, calls, scheduler, leftovers)
@@ -121,7 +140,7 @@ def execute(task: Callable[..., dict], calls: list[tuple], jobs: int, scheduler:
         for call in calls:
             yield task(*call)
     else:
-        yield from _on_pool(task, calls, jobs, leftovers, here)
+        yield from _on_pool(task, calls, jobs, leftovers, here, label)
 
 
 def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
@@ -136,7 +155,7 @@ def process_pool(jobs: int) -> cf.ProcessPoolExecutor:
     import multiprocessing
 
     pool = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=worker_init)
+                                  initializer=worker_init, initargs=(os.getpid(),))
     _POOLS.add(pool)
     return pool
 
@@ -176,12 +195,17 @@ def end_all_pools(grace: float = EXIT_GRACE_S) -> None:
 
     Left to the interpreter's exit, each pool's workers would be joined without a time limit: a
     worker that does not exit (a library's thread that never ends, a full pipe) keeps the command
-    from ever exiting, and with it the output still in its buffers.
+    from ever exiting, and with it the output still in its buffers.  Interrupted while it waits
+    (Ctrl-C), it ends the workers at once and raises the interrupt.
     """
     shut = [*_LEAVING, *(_shut(pool) for pool in list(_POOLS))]
     _SHARED.clear()  # after: a pool that only _SHARED refers to would leave _POOLS with it
     _LEAVING.clear()
-    _end(shut, grace)
+    try:
+        _end(shut, grace)
+    except KeyboardInterrupt:
+        _end(shut, 0.0)
+        raise
 
 
 def end_pool(pool: cf.ProcessPoolExecutor, *, grace: float = math.inf) -> None:
@@ -237,24 +261,33 @@ def _running_after(workers: list[Any], seconds: float) -> list[Any]:
     return left
 
 
+def _succeeded(fut: Any) -> bool:
+    return fut.done() and not fut.cancelled() and fut.exception() is None
+
+
 def _finished(futures: list[Any], handed: set[Any]) -> list[dict]:
-    return [f.result() for f in futures
-            if f not in handed and f.done() and not f.cancelled() and f.exception() is None]
+    return [f.result() for f in futures if f not in handed and _succeeded(f)]
 
 
 def _on_pool(
     task: Callable[..., dict], calls: list[tuple], jobs: int, leftovers: list[dict],
-    here: Callable[[tuple], bool]
+    here: Callable[[tuple], bool], label: Callable[[tuple], str]
 ) -> Iterator[dict]:
     pool = shared_pool(jobs)
     local = cf.ThreadPoolExecutor(max_workers=1, thread_name_prefix="dualmech-task")
-    futures = [(local if here(call) else pool).submit(task, *call) for call in calls]
+    marks = tempfile.mkdtemp(prefix="dualmech-tasks-")  # which worker started which call (_marked)
+    futures = [local.submit(task, *call) if here(call) else pool.submit(_marked, marks, i, task, call)
+               for i, call in enumerate(calls)]
     handed: set[Any] = set()
     try:
-        for fut in cf.as_completed(futures):
-            yield fut.result()
-            # only once the caller has come back for more: an entry is stored twice, never lost
-            handed.add(fut)
+        try:
+            for fut in cf.as_completed(futures):
+                yield fut.result()
+                # only once the caller has come back for more: an entry is stored twice, never lost
+                handed.add(fut)
+        except cf.process.BrokenProcessPool as err:
+            labels = [label(call) for call in calls]
+            raise worker_died(pool, err, lambda pid: _running_calls(marks, futures, labels, pid)) from None
     finally:
         if len(handed) < len(futures):  # interrupted: end the workers (a finished run keeps them)
             for fut in futures:
@@ -263,6 +296,39 @@ def _on_pool(
             leftovers.extend(_finished(futures, handed))
             end_shared_pool(jobs, grace=0.0)  # do not wait any longer
         local.shutdown(wait=False, cancel_futures=True)
+        shutil.rmtree(marks, ignore_errors=True)
+
+
+def _marked(marks: str, index: int, task: Callable[..., dict], call: tuple) -> dict:
+    """A pool task: leave the empty file ``<index>.<pid>`` in the folder ``marks`` (this worker runs call
+    ``index``), then ``task(*call)``."""
+    os.close(os.open(os.path.join(marks, f"{index}.{os.getpid()}"), os.O_WRONLY | os.O_CREAT, 0o600))
+    return task(*call)
+
+
+def worker_died(pool: cf.ProcessPoolExecutor, err: BaseException, doing: Callable[[int], str]) -> WorkerDied:
+    """:class:`WorkerDied` for the broken ``pool`` (``err``: its ``BrokenProcessPool``): how its worker ended
+    and ``doing(pid)``, what it was doing (``" while running ..."`` or ``""``).  The pool ends the other
+    workers by SIGTERM: the first to die is the one whose end was not that SIGTERM, if there is one."""
+    workers = list((getattr(pool, "_processes", None) or {}).values())
+    deadline = time.monotonic() + KILL_AFTER_S  # the pool is ending the others: let their exit codes show
+    while any(p.exitcode is None for p in workers) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    ended = [p for p in workers if p.exitcode not in (None, 0)]
+    if not ended:  # no worker died: a result that could not be received, ...
+        return WorkerDied(f"the worker processes failed ({type(err).__name__}: {str(err)[:200]})")
+    dead = next((p for p in ended if p.exitcode != -signal.SIGTERM), ended[0])
+    code = dead.exitcode
+    how = f"signal {-code}, {signal.Signals(-code).name}" if code < 0 else f"exit code {code}"
+    return WorkerDied(f"a worker process died ({how}){doing(dead.pid)}")
+
+
+def _running_calls(marks: str, futures: list[Any], labels: list[str], pid: int) -> str:
+    """``" while running <labels>"`` of the calls the worker ``pid`` started (the files of :func:`_marked`)
+    and did not finish (``futures[i]``, ``labels[i]``: call ``i``'s); ``""`` if none."""
+    ran = [labels[int(i)] for i, _, worker in (name.partition(".") for name in os.listdir(marks))
+           if worker == str(pid) and not _succeeded(futures[int(i)])]
+    return f" while running {', '.join(ran)}" if ran else ""
 
 
 def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,
@@ -288,13 +354,12 @@ def _on_dask(task: Callable[..., dict], calls: list[tuple], scheduler: str,
             except TimeoutError:  # nothing finished within the poll interval
                 done = set()
             except Exception as err:  # futures cancelled by a lost scheduler, a killed worker, ...
-                raise ClusterLost(f"Dask: the cluster at {address} failed ({type(err).__name__}); "
-                                  "finished cases are kept (re-run with --resume)") from None
+                raise ClusterLost(f"Dask: the cluster at {address} failed ({type(err).__name__})") from None
             try:  # run_task never raises: an error here is the cluster's
                 entries = [(fut, fut.result(timeout=DASK_RESULT_S)) for fut in done]
             except Exception as err:  # a finished result its lost worker can no longer send, ...
                 raise ClusterLost(f"Dask: the cluster at {address} failed ({type(err).__name__}, fetching a "
-                                  "result); finished cases are kept (re-run with --resume)") from None
+                                  "result)") from None
             for fut, entry in entries:
                 yield entry
                 handed.add(fut)
@@ -327,12 +392,10 @@ def _check_cluster(client: Any, alone_since: float | None) -> float | None:
     except Exception:  # any failure to talk to the scheduler means it is gone
         n_workers = -1
     if n_workers < 0:
-        raise ClusterLost(f"Dask: lost the scheduler {client.scheduler.address}; finished cases are kept "
-                          "(re-run with --resume)")
+        raise ClusterLost(f"Dask: lost the scheduler {client.scheduler.address}")
     if n_workers > 0:
         return None
     now = time.monotonic()
     if alone_since is not None and now - alone_since > DASK_NO_WORKER_S:
-        raise ClusterLost(f"Dask: no worker for {DASK_NO_WORKER_S:g} s; finished cases are kept "
-                          "(re-run with --resume)")
+        raise ClusterLost(f"Dask: no worker for {DASK_NO_WORKER_S:g} s")
     return alone_since if alone_since is not None else now

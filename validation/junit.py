@@ -18,9 +18,9 @@ import xml.etree.ElementTree as ET
 from datetime import datetime, timezone
 from pathlib import Path
 
+from dualmech.core.files import write_bytes_durable
 from dualmech.validation.baseline import Regression
 from dualmech.validation.compare import ENGINE, Check, Comparison, first_line
-from dualmech.validation.durable import write_bytes_durable
 from dualmech.validation.matrix import Matrix
 
 

@@ -351,7 +351,8 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
         listed.add(cid)
 
     leftovers: list[dict] = []
-    stream = execute(run_task, calls, jobs, scheduler, leftovers, here=lambda c: runs_here(c[2], c[3], c[1]))
+    stream = execute(run_task, calls, jobs, scheduler, leftovers, here=lambda c: runs_here(c[2], c[3], c[1]),
+                     label=lambda c: f"{c[0]} {c[2]}")
     try:
         for n_done, entry in enumerate(stream, start=1):
             store(entry)

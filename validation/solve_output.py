@@ -19,11 +19,11 @@ from typing import TYPE_CHECKING, Callable, Iterable
 
 import numpy as np
 
+from dualmech.core.files import replacing
 from dualmech.core.status import STATUSES
 from dualmech.core.table import ParquetWriter, ResultTable, write_parquet
 from dualmech.models.case import Case
 from dualmech.models.units import column_unit
-from dualmech.validation.durable import replacing, write_with
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
     from dualmech.models.slider_crank_kernel import Chunk
@@ -47,10 +47,12 @@ def output_format(path: str | Path) -> str:
 
 def write_table(table: ResultTable, path: str | Path) -> None:
     """Write ``table`` to ``path`` in the format of its suffix (:func:`output_format`), atomically: written
-    beside, fsynced, renamed (:func:`~dualmech.validation.durable.replacing`); a failed or interrupted write
+    beside, fsynced, renamed (:func:`~dualmech.core.files.replacing`); a failed or interrupted write
     leaves the old file as it was."""
-    parquet = output_format(path) == ".parquet"
-    write_with(path, lambda tmp: write_parquet(table, tmp) if parquet else table.to_csv(tmp))
+    if output_format(path) == ".parquet":
+        write_parquet(table, path)
+    else:
+        table.to_csv(path)
 
 
 class _Tally:
@@ -136,7 +138,7 @@ def stream_solve(case: Case, path: str | Path, progress: ProgressCallback | None
     Each chunk is written (and tallied) on a writer thread while the kernel computes the next
     (:func:`_pipelined`), the kernel's threads going on to the chunk after without waiting at a chunk's
     end: memory is three chunks of the kernel's rows and the writer's buffer.  The file is written beside
-    ``path`` and renamed onto it once whole and fsynced (:func:`~dualmech.validation.durable.replacing`):
+    ``path`` and renamed onto it once whole and fsynced (:func:`~dualmech.core.files.replacing`):
     an error, a full disk or Ctrl-C leaves the old file as it was and no partial one.
     """
     from dualmech.models.slider_crank import no_assembly_message, row_ranges

@@ -192,15 +192,30 @@ class FigureDrawing:
         """Begin drawing the figures of ``summary`` and ``samples`` (:func:`figure_jobs`)."""
         jobs = figure_jobs(summary, samples)
         self.warm()
-        self._pending = self._pool.submit(draw_figures, jobs) if self.parallel else jobs
+        if self.parallel:
+            self._pending = self._in_worker(lambda: self._pool.submit(draw_figures, jobs))
+        else:
+            self._pending = jobs
 
     def collect(self) -> list[Figure]:
         """The figures, in :func:`figure_jobs` order (:meth:`start` first)."""
         if self._pending is None:
             raise RuntimeError("figures: collect() before start()")
-        figures = self._pending.result() if self.parallel else draw_figures(self._pending)
+        figures = self._in_worker(self._pending.result) if self.parallel else draw_figures(self._pending)
         self._collected = True
         return figures
+
+    def _in_worker(self, step: Any) -> Any:
+        """``step()``; a killed worker (``BrokenProcessPool``) as one line, exit 4 at the command line
+        (:func:`~dualmech.validation.executors.worker_died`)."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        from dualmech.validation.executors import worker_died
+
+        try:
+            return step()
+        except BrokenProcessPool as err:
+            raise worker_died(self._pool, err, lambda pid: " while drawing the study's figures") from None
 
     def close(self) -> None:
         """End the worker: once the figures were collected it exits by itself (not waited for: it tears

@@ -145,7 +145,7 @@ def run_chunks(outdir: Path, study: StudyInput, todo: list[int], jobs: int, sche
     if jobs <= 1 and not scheduler:
         entries = in_process(calls, leftovers)
     else:
-        entries = execute(solve_chunk, calls, jobs, scheduler, leftovers)
+        entries = execute(solve_chunk, calls, jobs, scheduler, leftovers, label=lambda c: f"chunk {c[-1]}")
     done = 0
     try:
         for entry in entries:

@@ -52,11 +52,12 @@ def test_a_bad_input_message_is_cut_to_its_first_line():
     assert len(line) < 400
 
 
-def test_keyboard_interrupt_and_usage_errors_keep_their_handling():
+def test_an_interrupt_is_one_line_exit_130_and_usage_errors_keep_their_handling():
+    """Why: an interrupt was left to click ("Aborted!", exit 1: the code of a FAIL)."""
     import click
 
     res = CliRunner().invoke(_command(KeyboardInterrupt()), [])
-    assert res.exit_code == 1 and "Aborted" in res.output  # click's own handling, as before
+    assert res.exit_code == 130 and res.output == "dualmech: interrupted\n"
     res = CliRunner().invoke(_command(click.UsageError("bad usage")), [])
     assert res.exit_code == 2 and "Usage:" in res.output
 
@@ -70,3 +71,15 @@ def test_a_failure_of_the_arithmetic_is_internal_not_bad_input(tmp_path):
     res = CliRunner().invoke(_command(np.linalg.LinAlgError("SVD did not converge")), ["-o", str(tmp_path)])
     assert res.exit_code == 70
     assert res.output.startswith("dualmech: internal error: LinAlgError: SVD did not converge")
+
+
+def test_every_exit_code_is_a_row_of_the_documented_table():
+    """docs/validation.md, "Exit codes", lists every code a command exits with, and no other."""
+    import re
+
+    from dualmech.cli.errors import EXIT_INTERNAL
+    from dualmech.validation.exit_codes import EXIT_CODES
+
+    text = (Path(__file__).resolve().parents[2] / "docs/validation.md").read_text()
+    table = text.split("## Exit codes", 1)[1].split("\n## ", 1)[0]
+    assert {int(code) for code in re.findall(r"^\| (\d+) \|", table, re.M)} == {*EXIT_CODES, EXIT_INTERNAL}

@@ -259,3 +259,26 @@ def test_the_run_solves_small_cases_with_the_inhouse_engine_and_pinocchio_here_a
         assert not runs_here(engine, "tests.validation.fake_engines:crash", raw)
     assert IN_PROCESS_ENGINES["dualmech"][1] == 100_000 and IN_PROCESS_ENGINES["pinocchio"][1] == 2_000
     assert not any(runs_here(e, spec, raw) for e, spec in ENGINES.items() if e not in IN_PROCESS_ENGINES)
+
+
+def test_end_all_pools_interrupted_while_it_waits_ends_the_workers_at_once():
+    """A Ctrl-C during the (up to 10 s) wait for the workers: they are ended now, and the interrupt goes on
+    (before, the pools were already forgotten and the workers left to the interpreter's exit)."""
+    import signal
+
+    executors.end_shared_pool()
+    pool = executors.shared_pool(1)
+    assert pool.submit(never_ending_thread).result() == 1
+    workers = list(pool._processes.values())
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    start = time.monotonic()
+    try:
+        timer.start()
+        with pytest.raises(KeyboardInterrupt):
+            executors.end_all_pools(grace=60.0)
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, previous)
+    assert [exit_code(p, timeout=PROCESS_EXIT_S) for p in workers] == [-signal.SIGTERM]
+    assert time.monotonic() - start < 0.5 + executors.KILL_AFTER_S + 5.0

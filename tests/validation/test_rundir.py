@@ -137,7 +137,7 @@ def test_a_lost_cluster_ends_the_run_with_one_line_and_keeps_results(small, tmp_
     finally:
         timer.cancel()
         cluster.close()
-    assert "\n" not in str(err.value) and "finished cases are kept" in str(err.value)
+    assert "\n" not in str(err.value) and "finished results are kept" in str(err.value)
     assert time.monotonic() - start < 40
     assert load_entries(out, load_matrix(small)), "nothing finished was kept"
 

@@ -139,3 +139,41 @@ def test_harness_kills_reports_survivors_and_stale_faults(tmp_path):
 def test_unknown_mutant_id_is_refused():
     with pytest.raises(SelftestError, match="'nope' is not a mutant"):
         run_selftest(FULL, ROOT, only=("nope",))
+
+
+def test_an_interrupted_selftest_kills_its_running_gates_and_does_not_wait_for_them(tmp_path, monkeypatch):
+    """Why (issue 31): Ctrl-C while mutants were gated waited for every running gate step (minutes each:
+    the thread pool's exit joins its threads) and left the gate processes running meanwhile."""
+    import time
+
+    from dualmech.validation.selftest import gate, run
+    from dualmech.validation.selftest.run import Outcome
+
+    monkeypatch.setattr(gate, "BOOT", "")  # the gate process runs the code below only
+    monkeypatch.setattr(run, "make_scratch", lambda root, dest, mutant=None: dest)
+    monkeypatch.setattr(run, "run_gate", lambda *args, **kwargs: gate.GateRun("pass", 0.0))
+    first, second = FULL.mutants[:2]
+    started: list[int] = []
+
+    def gate_mutant(m, *args) -> Outcome:
+        if m is first:
+            deadline = time.monotonic() + 60.0
+            while not gate._RUNNING and time.monotonic() < deadline:  # the second's gate process is running
+                time.sleep(0.01)
+            started.extend(p.pid for p in gate._RUNNING)
+            return Outcome(m, gate.GateRun("matrix", 0.0))
+        code, _, _ = gate._python(tmp_path, "import time; time.sleep(120)", [], 300.0)
+        return Outcome(m, gate.GateRun("timeout" if code is None else "crash", 0.0))
+
+    def ctrl_c(outcome: Outcome) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run, "_gate_mutant", gate_mutant)
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        run._run(FULL, tmp_path, [first, second], 2, 300.0, ctrl_c, tmp_path, False)
+    assert time.monotonic() - start < 30.0
+    deadline = time.monotonic() + 10.0
+    while Path(f"/proc/{started[0]}").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert started and not Path(f"/proc/{started[0]}").exists()

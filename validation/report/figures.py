@@ -19,7 +19,7 @@ import numpy as np
 
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation.compare import STROKE, Comparison
-from dualmech.validation.executors import shared_pool
+from dualmech.validation.executors import shared_pool, worker_died
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.report import interactive
 from dualmech.validation.report.canvas import drawing
@@ -235,12 +235,15 @@ class PendingFigures:
 
     def collect(self, progress: ProgressCallback | None = None) -> list[Figure]:
         """Every figure in plan order (held ones started first); ``progress(done, total, key)`` after each."""
-        self.start_held()
         made: list[tuple[bytes | None, str]] = []
-        for spec, job in zip(self.specs, self._rendered):
-            made.append(job.result() if isinstance(job, cf.Future) else _render(*job))
-            if progress is not None:
-                progress(len(made), len(self.specs), spec.key)
+        try:
+            self.start_held()
+            for spec, job in zip(self.specs, self._rendered):
+                made.append(job.result() if isinstance(job, cf.Future) else _render(*job))
+                if progress is not None:
+                    progress(len(made), len(self.specs), spec.key)
+        except cf.process.BrokenProcessPool as err:  # a worker killed: one line, exit 4 (cli.errors)
+            raise worker_died(self._pool, err, lambda pid: " while drawing the report's figures") from None
         return [Figure(*spec[:5], png, plot) for spec, (png, plot) in zip(self.specs, made)]
 
     def cancel(self) -> None:

@@ -33,6 +33,7 @@ import stat
 from pathlib import Path, PurePosixPath
 from typing import Any, Iterable, Iterator
 
+from dualmech.core import files
 from dualmech.validation import durable
 from dualmech.validation.rundir.schemas import (  # noqa: F401  (the folder's formats, re-exported)
     CASE_FORMAT,
@@ -133,14 +134,14 @@ def read_json(root: str | Path, name: str | PurePosixPath, schema: Any = None) -
 @contextlib.contextmanager
 def writing(root: str | Path, name: str | PurePosixPath, *, record: bool = True
             ) -> Iterator[tuple[Path, int]]:
-    """Write the file ``root / name`` through :func:`dualmech.validation.durable.replacing` (its folders
+    """Write the file ``root / name`` through :func:`dualmech.core.files.replacing` (its folders
     made inside ``root``, no link followed), and list it in the manifest (``record``)."""
     root = Path(root)
     rel = member(str(name), root)
     if len(rel.parts) > 1:
         make_folder(root, rel.parent)
     path = inside(root, rel)
-    with durable.replacing(path) as handle:
+    with files.replacing(path) as handle:
         yield handle
     if record:
         record_files(root, [rel])

@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -108,15 +109,49 @@ def gate_main(argv: list[str]) -> int:
 
 
 def _python(scratch: Path, code: str, args: list[str], timeout: float) -> tuple[int | None, str, str]:
-    """Run ``python -c BOOT+code scratch *args`` in ``scratch``; ``None`` as exit code on timeout."""
+    """Run ``python -c BOOT+code scratch *args`` in ``scratch``; ``None`` as exit code on timeout.
+
+    The process is listed while it runs, for :func:`stop_gates`; an exception here (an interrupt of
+    the selftest's own thread) kills it, as ``subprocess.run`` would.
+    """
     env = {**os.environ, **_ENV}
     env.pop("NUMBA_CACHE_DIR", None)  # keep the kernel cache in the copy (it carries the warm one)
     cmd = [sys.executable, "-c", BOOT + code, str(scratch), *args]
-    try:
-        proc = subprocess.run(cmd, cwd=scratch, env=env, capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired as err:
-        return None, _decode(err.stdout), _decode(err.stderr)
-    return proc.returncode, proc.stdout, proc.stderr
+    if _STOPPING.is_set():  # the selftest was interrupted: start nothing more
+        return None, "", "stopped: the selftest was interrupted"
+    with subprocess.Popen(cmd, cwd=scratch, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                          text=True) as proc:
+        _RUNNING.add(proc)
+        try:
+            out, err = proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            out, err = proc.communicate()
+            return None, out, err
+        except BaseException:
+            proc.kill()
+            raise
+        finally:
+            _RUNNING.discard(proc)
+    return proc.returncode, out, err
+
+
+#: The gate processes running now (:func:`_python`), each started by one of the selftest's threads.
+_RUNNING: set[subprocess.Popen] = set()
+#: Set by :func:`stop_gates` until :func:`stop_gates` ``(False)``: no new gate process is started.
+_STOPPING = threading.Event()
+
+
+def stop_gates(stop: bool = True) -> None:
+    """Kill every gate process running now and start no more (the selftest was interrupted): their threads
+    then end at once, not after the gate step (minutes), and the gates' pool workers end with them
+    (PR_SET_PDEATHSIG).  ``stop=False``: gates may run again (a selftest begins)."""
+    if not stop:
+        _STOPPING.clear()
+        return
+    _STOPPING.set()
+    for proc in list(_RUNNING):
+        proc.kill()
 
 
 def _decode(data: bytes | str | None) -> str:

@@ -17,7 +17,7 @@ from dualmech.validation.selftest.catalogue import (
     SelftestError,
     stale_reason,
 )
-from dualmech.validation.selftest.gate import GateRun, run_gate
+from dualmech.validation.selftest.gate import GateRun, run_gate, stop_gates
 from dualmech.validation.selftest.scratch import check_source, make_scratch, source_root
 
 
@@ -96,6 +96,7 @@ def _run(catalogue: Catalogue, root: Path, chosen: list[Mutant], jobs: int, time
          progress: Callable[[Outcome], None] | None, work: Path, keep: bool) -> Report:
     """:func:`run_selftest` in its work folder (kept if ``keep``)."""
     start = time.perf_counter()
+    stop_gates(False)
     baseline = work / "baseline.json"
     source = make_scratch(root, work / "pristine")  # one snapshot: every mutant is a copy of it
     report = Report(run_gate(source, catalogue, None, baseline, timeout))
@@ -105,11 +106,17 @@ def _run(catalogue: Catalogue, root: Path, chosen: list[Mutant], jobs: int, time
         def one(m: Mutant) -> Outcome:
             return _gate_mutant(m, source, work, catalogue, baseline, timeout, keep)
 
-        with cf.ThreadPoolExecutor(max_workers=jobs) as pool:
+        pool = cf.ThreadPoolExecutor(max_workers=jobs)
+        try:
             for fut in cf.as_completed([pool.submit(one, m) for m in chosen]):
                 report.outcomes.append(fut.result())
                 if progress is not None:
                     progress(report.outcomes[-1])
+        except BaseException:  # interrupted: the gates running are killed, not waited for (minutes)
+            pool.shutdown(wait=False, cancel_futures=True)
+            stop_gates()
+            raise
+        pool.shutdown()
         order = {m.id: i for i, m in enumerate(chosen)}
         report.outcomes.sort(key=lambda o: order[o.mutant.id])
     report.seconds = time.perf_counter() - start
