@@ -46,7 +46,8 @@ def joint_axes(u: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ``u`` ``(n, 3)`` the link's unit vector, ``k`` ``(n, 3)`` the fixed unit axis.
     """
     a = np.cross(u, k)
-    a /= norm(a, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):  # at the lock (u ∥ k) a is NaN: a joint_lock row
+        a /= norm(a, axis=1, keepdims=True)
     return a, np.cross(a, k)
 
 
