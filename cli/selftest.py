@@ -12,7 +12,7 @@ import click
 
 from dualmech.cli.errors import one_line_errors
 from dualmech.cli.progress import note, progress
-from dualmech.validation.api import MAX_JOBS
+from dualmech.validation.arguments import MAX_JOBS
 from dualmech.validation.selftest import (
     CATALOGUE,
     Outcome,

@@ -21,7 +21,7 @@ from dualmech.cli.progress import progress
 from dualmech.cli.solve import warn_units
 from dualmech.models.case import Case
 from dualmech.models.plausibility import masses_line
-from dualmech.validation.api import MAX_JOBS
+from dualmech.validation.arguments import MAX_JOBS
 
 
 def output_units(mode: str, units: str) -> dict[str, str]:

@@ -19,7 +19,7 @@ from dualmech.cli.solve import warn_units
 from dualmech.core.table import ResultTable
 from dualmech.models.case import Case, case_from_dict
 from dualmech.models.plausibility import masses_line
-from dualmech.validation.api import MAX_JOBS
+from dualmech.validation.arguments import MAX_JOBS
 from dualmech.validation.engines import ENGINES
 from dualmech.validation.exit_codes import exit_code
 from dualmech.validation.runner import run_versions

@@ -20,167 +20,43 @@ The Python API gets the same: a result, or one ``TypeError``/``ValueError`` line
 from __future__ import annotations
 
 import contextlib
-import csv
-import hashlib
 import io
 import json
-import math
 import os
-import signal
 import tomllib
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import dualmech
-from dualmech.cli import main
 from dualmech.models.case import preset_path
+from tests.fuzz_harness import (
+    COARSE_ANGLES,
+    SECONDS_PER_INPUT,
+    Sandbox,
+    assert_ok_rows_finite,
+    coarse,
+    deadline,
+    run,
+    toml_text,
+    toml_value,
+)
 from tests.hostile_inputs import HOSTILE_NUMBERS, HOSTILE_VALUES, mutate
 
-#: Exit codes a command may give (docs/validation.md, "Exit codes"; 70 is an internal error: a defect).
-DOCUMENTED_EXITS = {0, 1, 2, 3, 4, 130}
-#: Longest time one input may take, s (the slowest, a validate with its report, takes ~4 s here).
-SECONDS_PER_INPUT = 60
 #: Inputs per test; the sum is the fuzz's size per run (at least 1,000, issue 31).
 SOLVE_EXAMPLES, OPTION_EXAMPLES, SPEC_EXAMPLES, RUNDIR_EXAMPLES, API_EXAMPLES = 560, 120, 120, 80, 200
-#: The positions of every case the fuzz runs a costly command on.
-COARSE_ANGLES = {"start": 0.0, "stop": 360.0, "step": 30.0}
 CASE_FILES = sorted((Path(preset_path("ideal")).parent).glob("*.toml"))
 #: A validate of the in-house engine and Pinocchio in this process, on ``case.toml`` of the working folder.
 VALIDATE = ("validate", "case.toml", "--engines", "dualmech,pinocchio", "--jobs", "1")
 
 
-# ----------------------------------------------------------------------------- the sandbox
-
-def _tree(folder: Path) -> dict[str, tuple[int, str]]:
-    """Every entry below ``folder`` (links not followed): relative path -> (size, sha256 or link target)."""
-    out = {}
-    for path in sorted(folder.rglob("*")):
-        if path.is_symlink():
-            out[str(path.relative_to(folder))] = (0, "link:" + os.readlink(path))
-        elif path.is_file():
-            out[str(path.relative_to(folder))] = (path.stat().st_size,
-                                                  hashlib.sha256(path.read_bytes()).hexdigest())
-        else:
-            out[str(path.relative_to(folder)) + "/"] = (0, "dir")
-    return out
-
-
-class Sandbox:
-    """A working folder ``work`` (the commands' cwd) beside ``outside`` (a victim file and folder)."""
-
-    def __init__(self, root: Path) -> None:
-        self.root, self.work, self.outside = root, root / "work", root / "outside"
-        self.outside.mkdir(exist_ok=True)
-        (self.outside / "victim.txt").write_text("a user's file\n")
-        (self.outside / "folder").mkdir(exist_ok=True)
-        self.before = _tree(self.outside)
-
-    @contextlib.contextmanager
-    def fresh(self) -> Iterator[Path]:
-        """A clean ``work`` folder as cwd for one input; afterwards, outside and the root are unchanged."""
-        import shutil
-
-        shutil.rmtree(self.work, ignore_errors=True)
-        self.work.mkdir()
-        old = Path.cwd()
-        os.chdir(self.work)
-        try:
-            yield self.work
-        finally:
-            os.chdir(old)
-        assert _tree(self.outside) == self.before, "something outside the working folder changed"
-        assert sorted(p.name for p in self.root.iterdir()) == ["outside", "work"], "a file beside work"
-
-
 @pytest.fixture(scope="module")
 def sandbox(tmp_path_factory) -> Sandbox:
     return Sandbox(tmp_path_factory.mktemp("fuzz"))
-
-
-@contextlib.contextmanager
-def _deadline(seconds: int) -> Iterator[None]:
-    def expire(*_: Any) -> None:
-        raise TimeoutError(f"no answer within {seconds} s: a hang")
-
-    old = signal.signal(signal.SIGALRM, expire)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
-
-
-def run(*args: str) -> tuple[int, str, str]:
-    """``dualmech *args`` in this process: (exit code, stdout, stderr), checked against the property."""
-    with _deadline(SECONDS_PER_INPUT):
-        result = CliRunner().invoke(main, list(args), catch_exceptions=True)
-    if result.exception is not None and not isinstance(result.exception, SystemExit):
-        raise AssertionError(f"dualmech {args!r} raised {result.exception!r}") from result.exception
-    code, err = result.exit_code, result.stderr
-    assert code in DOCUMENTED_EXITS, f"exit {code} from dualmech {args!r}: {err[-400:]!r}"
-    lines = [line for line in err.splitlines() if line.strip()]
-    raw = ("Traceback", "Warning:", "  File ")
-    assert not any(mark in line for line in lines for mark in raw), err
-    if code == 2:
-        ours = [line for line in lines if line.startswith("dualmech: error:")]
-        assert len(ours) == 1 and lines[-1] == ours[0], f"not one error line: {err[-600:]!r}"
-        assert len(ours[0]) < 800, ours[0]
-    return code, result.stdout, err
-
-
-def _toml(value: Any) -> str:
-    """TOML text of a value the fuzz makes (NaN and infinities as TOML's own, keys quoted)."""
-    if isinstance(value, bool):
-        return str(value).lower()
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        return ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
-    if isinstance(value, int):
-        return str(value) if abs(value) < 10**4000 else "1" + "0" * 4300
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{ " + ", ".join(f"{json.dumps(str(k))} = {_toml(v)}" for k, v in value.items()) + " }"
-    return json.dumps(str(value))
-
-
-def toml_text(data: dict) -> str:
-    """A TOML document of ``data``: its scalars first, then one ``[table]`` per dict."""
-    head = [f"{json.dumps(str(k))} = {_toml(v)}" for k, v in data.items() if not isinstance(v, dict)]
-    tables = [f"[{json.dumps(str(k))}]\n" + "\n".join(f"{json.dumps(str(kk))} = {_toml(vv)}"
-                                                      for kk, vv in v.items())
-              for k, v in data.items() if isinstance(v, dict)]
-    return "\n".join(head + tables) + "\n"
-
-
-def _coarse(data: dict) -> dict:
-    """``data`` with its crank angles at :data:`COARSE_ANGLES` when they are still a table."""
-    motion = data.get("motion")
-    if isinstance(motion, dict) and isinstance(motion.get("angles_deg", {}), dict):
-        motion["angles_deg"] = dict(COARSE_ANGLES)
-    return data
-
-
-def assert_ok_rows_finite(path: Path) -> None:
-    """No non-finite number in a row whose status is ``ok`` of the CSV table at ``path``."""
-    with path.open() as fh:
-        rows = list(csv.reader(fh))
-    header, body = rows[0], rows[1:]
-    status = header.index("status")
-    for row in body:
-        if row[status] == "ok":
-            values = np.array([float(v) for i, v in enumerate(row) if i != status])
-            assert np.all(np.isfinite(values)), f"non-finite value in an ok row: {row}"
 
 
 # ----------------------------------------------------------------------------- strategies
@@ -189,7 +65,7 @@ def assert_ok_rows_finite(path: Path) -> None:
 def case_files(draw: st.DrawFn) -> str:
     """The text of a bundled case file, mutated 0-3 times, as TOML; sometimes damaged as text."""
     data = tomllib.loads(draw(st.sampled_from(CASE_FILES)).read_text())
-    data = _coarse(mutate(data, draw, draw(st.integers(0, 3))))
+    data = coarse(mutate(data, draw, draw(st.integers(0, 3))))
     text = toml_text(data)
     damage = draw(st.sampled_from(["none"] * 6 + ["truncate", "duplicate", "nul", "bom"]))
     if damage == "truncate":
@@ -237,7 +113,7 @@ OPTIONS = st.one_of(HOSTILE_NUMBERS.map(str), st.sampled_from(["", "-1", "0", "n
        value=OPTIONS, source=st.sampled_from(["ideal", "thesis/ideal", "rssr", "nowhere", "case.toml"]))
 def test_fuzzed_options_of_every_command(sandbox, command, option, value, source):
     with sandbox.fresh() as work:
-        raw = _coarse(tomllib.loads(preset_path("ideal").read_text()))
+        raw = coarse(tomllib.loads(preset_path("ideal").read_text()))
         (work / "case.toml").write_text(toml_text(raw))
         (work / "spec.toml").write_text('[tolerances]\n"geometry.crank_length" = '
                                         '{ dist = "normal", sd = 0.01 }\n')
@@ -262,7 +138,7 @@ def specs(draw: st.DrawFn) -> str:
             "geometry.slider_twist_deg", "bodies.rod.mass", "geometry.nope", "motion.crank_rpm", ""]
     lines = []
     if draw(st.booleans()):
-        lines.append(f"description = {_toml(draw(HOSTILE_VALUES))}")
+        lines.append(f"description = {toml_value(draw(HOSTILE_VALUES))}")
     lines.append("[tolerances]")
     if draw(st.booleans()):  # a valid entry first: the study runs, and what follows is checked with it
         lines.append('"geometry.rod_length" = { dist = "normal", sd = 0.05 }')
@@ -272,7 +148,7 @@ def specs(draw: st.DrawFn) -> str:
         fields = {"dist": dist}
         for name in draw(st.lists(st.sampled_from(["sd", "low", "high", "mean", "mode", "x"]), max_size=3)):
             fields[name] = draw(st.one_of(HOSTILE_NUMBERS, st.floats(-1.0, 1.0)))
-        lines.append(f"{json.dumps(key)} = {_toml(fields)}")
+        lines.append(f"{json.dumps(key)} = {toml_value(fields)}")
     if draw(st.integers(0, 5)) == 0 and len(lines) > 1:
         lines.append(lines[-1])  # the same key twice
     return "\n".join(lines) + "\n"
@@ -283,7 +159,7 @@ def specs(draw: st.DrawFn) -> str:
 @given(spec=specs(), method=st.sampled_from(["linear", "mc"]))
 def test_fuzzed_specs_through_the_tolerance_study(sandbox, spec, method):
     with sandbox.fresh() as work:
-        raw = _coarse(tomllib.loads(preset_path("ideal").read_text()))
+        raw = coarse(tomllib.loads(preset_path("ideal").read_text()))
         (work / "case.toml").write_text(toml_text(raw))
         (work / "spec.toml").write_text(spec)
         run("tolerance", "case.toml", "--spec", "spec.toml", "-n", "4", "--method", method,
@@ -296,7 +172,7 @@ def test_fuzzed_specs_through_the_tolerance_study(sandbox, spec, method):
 def run_folder(tmp_path_factory) -> Path:
     """A finished run of a 12-position case with the in-house engine and Pinocchio, and its report."""
     folder = tmp_path_factory.mktemp("base-run")
-    raw = _coarse(tomllib.loads(preset_path("ideal").read_text()))
+    raw = coarse(tomllib.loads(preset_path("ideal").read_text()))
     (folder / "case.toml").write_text(toml_text(raw))
     old = Path.cwd()
     os.chdir(folder)
@@ -418,7 +294,7 @@ def _api_call(draw: st.DrawFn) -> tuple[str, Any]:
 @given(data=st.data())
 def test_the_python_api_returns_or_refuses_in_one_line(sandbox, data):
     verb, call = _api_call(data.draw)
-    with sandbox.fresh(), _deadline(SECONDS_PER_INPUT), contextlib.redirect_stderr(io.StringIO()) as err:
+    with sandbox.fresh(), deadline(SECONDS_PER_INPUT), contextlib.redirect_stderr(io.StringIO()) as err:
         try:
             result = call()
         except (TypeError, ValueError, OSError) as refusal:

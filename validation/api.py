@@ -23,13 +23,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from dualmech.core.table import ResultTable
-from dualmech.models.case import Case, case_from_dict, load_case
+from dualmech.models.case import Case
 from dualmech.models.inputs import show
 from dualmech.models.linkages import is_linkage
 from dualmech.models.plausibility import warn_implausible
+from dualmech.validation.arguments import MAX_JOBS, as_case, as_spec, engine_names, whole_number
 from dualmech.validation.engines import ENGINES, run_engine
 
 if TYPE_CHECKING:
@@ -42,62 +43,6 @@ if TYPE_CHECKING:
     from dualmech.validation.matrix import Matrix
     from dualmech.validation.report.render import ReportFiles
     from dualmech.validation.runner import ProgressCallback, ProgressTasks, RunOutcome
-
-
-def as_case(case: Case | str | os.PathLike | dict, argument: str = "case") -> Case:
-    """``case`` as a :class:`Case`: itself, a case file or preset name (:func:`load_case`), or a case table
-    (:func:`case_from_dict`); anything else is a one-line ``TypeError`` naming ``argument``."""
-    if isinstance(case, Case):
-        return case
-    if isinstance(case, (str, os.PathLike)):
-        return load_case(case)
-    if isinstance(case, dict):
-        return case_from_dict(case)
-    raise TypeError(f"{argument}: expected a dualmech.Case, a case file, a preset name or a case table "
-                    f"(dict), got {show(case)}")
-
-
-def as_spec(spec: Spec | str | os.PathLike | dict) -> Spec:
-    """``spec`` as a tolerance :class:`~dualmech.models.tolerance.spec.Spec`: itself, a SPEC file or its
-    table; anything else is a one-line ``TypeError``."""
-    from dualmech.models.tolerance.spec import Spec, load_spec, spec_from_dict
-
-    if isinstance(spec, (str, os.PathLike)):
-        return load_spec(spec)
-    if isinstance(spec, dict):
-        return spec_from_dict(spec)
-    if not isinstance(spec, Spec):
-        raise TypeError(f"spec: expected a tolerance SPEC (a file, a table or a Spec), got {show(spec)}")
-    return spec
-
-
-#: Most worker processes a run, a report or a study may ask for: far above any machine this runs on, and
-#: below what the operating system refuses (2^31 - 1 jobs raised an OverflowError deep in multiprocessing).
-MAX_JOBS = 1024
-
-
-def whole_number(argument: str, value: Any, least: int, most: int | None = None) -> int:
-    """``value`` as an ``int`` from ``least`` to ``most`` (no bound if ``None``): a one-line ``TypeError`` for
-    a non-integer (a bool, a float or a string included), a ``ValueError`` outside the range."""
-    valid = f">= {least}" if most is None else f"from {least} to {most}"
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise TypeError(f"{argument}: expected a whole number {valid}, got {show(value)}")
-    if value < least or most is not None and value > most:
-        raise ValueError(f"{argument}: expected a whole number {valid}, got {value!r}")
-    return value
-
-
-def engine_names(engines: Sequence[str] | str) -> tuple[str, ...]:
-    """``engines`` as a tuple of registered names; a comma-separated string is split, as the command line's
-    ``--engines`` is.  One-line ``TypeError``/``ValueError`` naming the first bad entry."""
-    names = tuple(e.strip() for e in engines.split(",") if e.strip()) if isinstance(engines, str) else engines
-    if not isinstance(names, Sequence) or not all(isinstance(e, str) for e in names):
-        raise TypeError(f"engines: expected engine names (a list of str, or one comma-separated str), "
-                        f"got {show(engines)}")
-    for name in names:
-        if name not in ENGINES:
-            raise ValueError(f"engines: {name!r} is not an engine (valid: {', '.join(ENGINES)})")
-    return tuple(names)
 
 
 def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") -> ResultTable:

@@ -21,6 +21,7 @@ behind:
 
 from __future__ import annotations
 
+import atexit
 import concurrent.futures as cf
 import contextlib
 import math
@@ -32,6 +33,8 @@ import tempfile
 import time
 import weakref
 from typing import Any, Callable, Iterator
+
+from dualmech.validation.warning_lines import show_warnings_as_lines
 
 #: How long (s) an interrupted run waits for its running tasks before it ends them.
 INTERRUPT_GRACE_S = 2.0
@@ -88,10 +91,6 @@ def worker_init(parent: int) -> None:
     (``PR_SET_PDEATHSIG``); a parent gone before that request is seen here, and the worker exits (else
     it waited forever, and multiprocessing's resource tracker with it).  The exit: :func:`_leave`.
     """
-    import atexit
-
-    from dualmech.validation.warning_lines import show_warnings_as_lines
-
     show_warnings_as_lines()  # a task's warnings as the command line shows its own
     atexit.register(_leave)  # before any task: the handlers that tasks' libraries add run before it
     signal.signal(signal.SIGINT, signal.SIG_IGN)
