@@ -131,6 +131,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     """
     from dualmech.validation.api import open_run, run_and_compare
     from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline
+    from dualmech.validation.derived import findings_ahead
     from dualmech.validation.junit import write_junit
     from dualmech.validation.linkages.matrix import is_linkage_source
     from dualmech.validation.report import write_report
@@ -149,6 +150,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
         check_output_folder(report_dir)
     console = summary_console(sys.stdout.isatty())
     progress_title = f"{matrix.name}: {len(matrix.cases)} cases x {len(matrix.engines)} engines"
+    findings = findings_ahead(matrix)  # the report's in-house sections, solved while the judges run
     with progress(progress_title, unit="results") as bar:  # interrupted, or workers lost: cli.errors
         run = run_and_compare(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=bar)
     on_interrupt(f"the run in {outdir} is complete, its report not finished; dualmech report {outdir} "
@@ -156,7 +158,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     try:  # the run is compared in the report, once its first figures are being drawn
         with progress(f"report of {matrix.name}", unit="figures") as bar:
             files = write_report(outdir, report_dir, jobs=jobs or _cores(), comparison=lambda: run.comparison,
-                                 results=run.results, progress=bar)
+                                 results=run.results, progress=bar, findings=findings)
     finally:  # also after a failed report: the JUnit file and the baseline of the run
         outcome, comparison = run.outcome, run.comparison
         summary = baseline_summary(matrix, comparison, outcome.results)

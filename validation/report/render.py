@@ -136,6 +136,7 @@ def write_report(
     comparison: Comparison | Callable[[], Comparison] | None = None,
     results: dict | None = None,
     progress: ProgressCallback | None = None,
+    findings: Callable[[], list[dict]] | None = None,
 ) -> ReportFiles:
     """Render the report of the run in ``rundir`` into ``outdir`` (default: ``rundir``).
 
@@ -147,7 +148,8 @@ def write_report(
     :func:`~dualmech.validation.api.run_and_compare` has them in memory; else they are read and made here.
     ``comparison`` may also be a function that makes it: it is called once the first figures are being
     drawn (:func:`~dualmech.validation.report.figures.start_figures`), so that ``jobs`` workers draw while
-    this process compares.
+    this process compares.  ``findings``, if given, gives the thesis's findings (e.g. solved while the run
+    ran: :func:`~dualmech.validation.derived.findings_ahead`); else they are solved here.
     """
     start = time.perf_counter()
     rundir = Path(rundir)
@@ -158,7 +160,8 @@ def write_report(
         pending = _section("figures", start_figures, matrix, results, jobs=jobs)
         try:
             comparison = _compared(matrix, results, comparison)
-            context, summary, templates = _while_drawn(matrix, run, results, comparison, pending)
+            context, summary, templates = _while_drawn(matrix, run, results, comparison, pending,
+                                                       findings or derived.findings)
             figures = _section("figures", pending.collect, progress)
         finally:
             pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
@@ -173,8 +176,8 @@ def write_report(
     return replace(files, seconds=time.perf_counter() - start)
 
 
-def _while_drawn(matrix: Matrix, run: dict, results: dict, comparison: Comparison, pending: PendingFigures
-                 ) -> tuple[dict, str, tuple[Any, Any]]:
+def _while_drawn(matrix: Matrix, run: dict, results: dict, comparison: Comparison, pending: PendingFigures,
+                 findings: Callable[[], list[dict]]) -> tuple[dict, str, tuple[Any, Any]]:
     """Start the figures that need the comparison (and the balancing section's), then make what needs no
     figure while the workers draw: the template variables but the figures (the findings solved here, with
     the compiled kernel that the run loaded in this process: engines.IN_PROCESS_ENGINES), the summary's
@@ -183,7 +186,7 @@ def _while_drawn(matrix: Matrix, run: dict, results: dict, comparison: Compariso
     shaking = _section("balancing", balancing_spec, balance)
     _section("figures", pending.add_judged, matrix, comparison, extra=(shaking,) if shaking else ())
     context = _context(matrix, run, results, comparison)
-    context.update(findings=_section("findings", derived.findings) if matrix.of_thesis else None,
+    context.update(findings=_section("findings", findings) if matrix.of_thesis else None,
                    balancing=balance.rows)
     summary = json_text(comparison_summary(matrix, comparison, run), pretty=True)
     html = environment(TEMPLATES, markdown=False).get_template("report.html.j2")
