@@ -32,8 +32,9 @@ from dualmech.validation.judges.mujoco_loop.mjcf import CUT_SITES, MJ_JOINTS, bo
 CLOSURE_TOL = 1e-14
 #: ... or when the gap stops shrinking below this one (the floor of rounding) ...
 ROUNDING_GAP = 1e-11
-#: ... or after this many iterations.
-MAX_ITER = 60
+#: ... or after this many iterations; then Levenberg-Marquardt takes at most this many.
+MAX_ITER = 30
+DESCENT_ITER = 300
 #: An unconverged Newton whose gradient ``|J^T e|`` is below this fraction of ``|J| |e|`` stopped at a
 #: stationary non-zero gap: no assembly there.
 STATIONARY = 1e-7
@@ -194,8 +195,41 @@ def move(lp: MjLoop, step: np.ndarray) -> None:
     lp.q_cut = lp.q_cut + step[lp.model.nv:]
 
 
+def _descend(lp: MjLoop, error: np.ndarray, size: float, scale: np.ndarray) -> tuple[str, int, float]:
+    """Levenberg-Marquardt on :math:`\tfrac12|e|^2` from the current pose (Newton's fallback): to a
+    closed pose, or to a stationary non-zero gap (no assembly), within :data:`DESCENT_ITER` steps."""
+    mu = None
+    for it in range(1, DESCENT_ITER + 1):
+        if size <= CLOSURE_TOL:
+            return "ok", it - 1, size
+        jac = cut_rows(lp)[:, lp.free] * scale[:, None]
+        weighted = error * scale
+        gradient = jac.T @ weighted
+        if np.linalg.norm(gradient) <= STATIONARY * np.linalg.norm(jac) * np.linalg.norm(weighted):
+            return "no_assembly", it - 1, size
+        normal = jac.T @ jac
+        mu = 1e-3 * np.abs(np.diag(normal)).max() if mu is None else mu
+        qpos, q_cut = lp.data.qpos.copy(), lp.q_cut.copy()
+        for _ in range(40):
+            step = np.zeros(lp.n_u)
+            step[lp.free] = np.linalg.solve(normal + mu * np.eye(normal.shape[0]), gradient)
+            move(lp, step)
+            positions(lp)
+            new = gap(lp)
+            if np.linalg.norm(new * scale) < np.linalg.norm(weighted):
+                mu /= 3.0
+                break
+            lp.data.qpos[:], lp.q_cut = qpos, q_cut
+            mu *= 4.0
+        else:
+            return "no_assembly" if size > ROUNDING_GAP else "ok", it, size
+        error, size = new, _size(lp, new)
+    return "not_converged", DESCENT_ITER, size
+
+
 def close(lp: MjLoop) -> tuple[str, int, float]:
-    """Newton on the cut's gap from the current pose, the prescribed coordinates held.
+    """Newton on the cut's gap from the current pose, the prescribed coordinates held; where it stalls,
+    Levenberg-Marquardt (:func:`_descend`).
 
     Returns
     -------
@@ -214,24 +248,19 @@ def close(lp: MjLoop) -> tuple[str, int, float]:
         step = np.zeros(lp.n_u)
         step[lp.free] = np.linalg.lstsq(jac, error * scale, rcond=None)[0]
         qpos, q_cut = lp.data.qpos.copy(), lp.q_cut.copy()
-        for _ in range(30):  # halve the step while the gap grows
-            move(lp, step)
-            positions(lp)
-            new = gap(lp)
-            if _size(lp, new) < size or size < ROUNDING_GAP:
-                break
-            lp.data.qpos[:], lp.q_cut = qpos, q_cut
-            step = step / 2
+        move(lp, step)
+        positions(lp)
+        new = gap(lp)
         new_size = _size(lp, new)
-        if new_size >= size and size < ROUNDING_GAP:
-            return "ok", it, min(size, new_size)
-        if new_size >= size:  # no descent left: a stationary point
+        if new_size >= size:
+            lp.data.qpos[:], lp.q_cut = qpos, q_cut
+            positions(lp)
+            if size < ROUNDING_GAP:  # at the floor of rounding
+                return "ok", it, size
             break
         error, size = new, new_size
-    jac = cut_rows(lp)[:, lp.free] * scale[:, None]
-    gradient = np.linalg.norm(jac.T @ (error * scale))
-    stationary = gradient <= STATIONARY * np.linalg.norm(jac) * np.linalg.norm(error * scale)
-    return ("no_assembly" if stationary else "not_converged"), MAX_ITER, size
+    outcome, more, size = _descend(lp, error, size, scale)
+    return outcome, it + more, size
 
 
 def branch(lp: MjLoop) -> float:

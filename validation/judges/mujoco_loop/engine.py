@@ -183,7 +183,7 @@ def _position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str], co
     return cut.residual, False
 
 
-def solve_loop(mechanism: LoopMechanism, seed: int = 0) -> LoopTable:
+def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = None) -> LoopTable:
     """Every drive position of ``mechanism`` judged by rigid MuJoCo (module docstring).
 
     Parameters
@@ -192,9 +192,12 @@ def solve_loop(mechanism: LoopMechanism, seed: int = 0) -> LoopTable:
         A one-degree-of-freedom table (:func:`~dualmech.models.loop.mobility.check_mobility`).
     seed : int
         Seed of the start search (used only when no joint gives a start value).
+    xml : str, optional
+        The MJCF text to compile instead of :func:`~.mjcf.loop_mjcf`'s (the same names: e.g. a hand-edited
+        model, or one with a deliberate fault).
     """
     check_mobility(mechanism)
-    lp = build(mechanism)
+    lp = build(mechanism, xml)
     n = mechanism.drive.positions.shape[0]
     columns = {name: np.full(n, np.nan) for name in column_names(mechanism)}
     coordinates = _scalar_coordinates(mechanism)
