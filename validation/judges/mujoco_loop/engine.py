@@ -5,7 +5,9 @@ position), or else a search (random poses, :data:`SEARCH_TRIES` of them, at up t
 evenly spread positions; the first that closes, so its branch is arbitrary).  From there the loop is
 closed position by position, forward then backward, each from its neighbour's pose (continuation; a
 position that fails leaves the last closed pose as the next start), and the branch is followed by the
-sign of :func:`~.closure.branch`.  Nothing of the in-house engine is used (independence).
+sign of :func:`~.closure.branch`: a position closed on the other branch is searched again from random poses
+for one on the start's (as past a gap of no assembly, where continuity is lost), and is a branch jump
+only if none is found.  Nothing of the in-house engine is used (independence).
 
 Statuses (:mod:`dualmech.core.status`): ``no_assembly`` / ``not_converged`` from Newton
 (:func:`~.closure.close`), ``branch_jump`` where the branch sign differs from the start pose's,
@@ -155,6 +157,19 @@ def find_start(lp: MjLoop, seed: int = 0) -> int:
                      "the joints' start values")
 
 
+def _branch_search(lp: MjLoop, k: int, sign: float, rng: np.random.Generator) -> bool:
+    """Close position ``k`` on the branch ``sign`` from random poses (:data:`SEARCH_TRIES`), where
+    continuation closed it on the other (e.g. past a gap of no assembly): whether one was found (then it is
+    the current pose)."""
+    values = drive_values(lp.mechanism, k)[0]
+    for _ in range(SEARCH_TRIES):
+        scatter(lp, rng)
+        prescribe(lp, values)
+        if close(lp)[0] == Status.OK and branch(lp) == sign:
+            return True
+    return False
+
+
 def _position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str], columns: dict[str, np.ndarray],
               coordinates: list[str]) -> tuple[float, bool]:
     """Rates, efforts and wrenches at a closed pose, into ``columns[...][k]``; returns the dynamics'
@@ -205,6 +220,7 @@ def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = Non
     status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
     iterations, residual, dyn = np.zeros(n, dtype=int), np.full(n, np.nan), np.full(n, np.nan)
     at = find_start(lp, seed)
+    rng = np.random.default_rng(seed)
     anchor = (lp.data.qpos.copy(), lp.q_cut.copy())  # the start estimate, then the pose closed from it
     start_branch = None
     for order in (range(at, n), range(at - 1, -1, -1)):
@@ -219,7 +235,7 @@ def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = Non
             sign = branch(lp)
             if start_branch is None:
                 start_branch, anchor = sign, (lp.data.qpos.copy(), lp.q_cut.copy())
-            if sign != start_branch:
+            if sign != start_branch and not _branch_search(lp, k, start_branch, rng):
                 status[k] = Status.BRANCH_JUMP.value
                 continue
             last = (lp.data.qpos.copy(), lp.q_cut.copy())
