@@ -165,8 +165,12 @@ def _slider_crank(preset: str) -> tuple[LoopMechanism, LoopState]:
 
 
 def _preset(name: str) -> tuple[LoopMechanism, LoopState]:
-    if name == "rssr":
-        case = rssr_from_dict(read_linkage("rssr"))
+    if name.startswith("rssr"):
+        data = read_linkage("rssr")
+        if name == "rssr-torque":  # the drive torque given, the output torque solved
+            data = {**data, "loads": {**{k: v for k, v in data["loads"].items() if k != "output_torque"},
+                                      "drive_torque": 3.0}}
+        case = rssr_from_dict(data)
         return rssr_table(case), rssr_start(case)
     if name == "rccc":
         case = rccc_from_dict(read_linkage("rccc"))
@@ -174,8 +178,8 @@ def _preset(name: str) -> tuple[LoopMechanism, LoopState]:
     return _slider_crank(name)
 
 
-PRESETS = ("thesis/ideal", "thesis/a4-30-s1-3.5", "iftomm/spatial-slider-crank", "rssr", "rccc",
-           NO_ASSEMBLY_GAP)
+PRESETS = ("thesis/ideal", "thesis/a4-30-s1-3.5", "iftomm/spatial-slider-crank", "rssr", "rssr-torque",
+           "rccc", NO_ASSEMBLY_GAP)
 
 
 @pytest.mark.parametrize("name", PRESETS)
