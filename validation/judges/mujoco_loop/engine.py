@@ -5,9 +5,10 @@ position), or else a search (random poses, :data:`SEARCH_TRIES` of them, at up t
 evenly spread positions; the first that closes, so its branch is arbitrary).  From there the loop is
 closed position by position, forward then backward, each from its neighbour's pose (continuation; a
 position that fails leaves the last closed pose as the next start), and the branch is followed by the
-sign of :func:`~.closure.branch`: a position closed on the other branch is searched again from random poses
-for one on the start's (as past a gap of no assembly, where continuity is lost), and is a branch jump
-only if none is found.  Nothing of the in-house engine is used (independence).
+sign of :func:`~.closure.branch`: a position closed on the other branch is a branch jump, except right
+after positions that did not close (a gap of no assembly, where continuity is lost): there it is searched
+again from random poses for one on the start's branch, and is a branch jump only if none is found.
+Nothing of the in-house engine is used (independence).
 
 Statuses (:mod:`dualmech.core.status`): ``no_assembly`` / ``not_converged`` from Newton
 (:func:`~.closure.close`), ``branch_jump`` where the branch sign differs from the start pose's,
@@ -224,18 +225,20 @@ def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = Non
     anchor = (lp.data.qpos.copy(), lp.q_cut.copy())  # the start estimate, then the pose closed from it
     start_branch = None
     for order in (range(at, n), range(at - 1, -1, -1)):
-        last = anchor
+        last, gap_before = anchor, False
         for k in order:
             lp.data.qpos[:], lp.q_cut = last[0], last[1].copy()
             prescribe(lp, drive_values(mechanism, k)[0])
             outcome, iterations[k], residual[k] = close(lp)
             if outcome != Status.OK:
-                status[k] = outcome
+                status[k], gap_before = outcome, True
                 continue
             sign = branch(lp)
             if start_branch is None:
                 start_branch, anchor = sign, (lp.data.qpos.copy(), lp.q_cut.copy())
-            if sign != start_branch and not _branch_search(lp, k, start_branch, rng):
+            searched = gap_before and sign != start_branch and _branch_search(lp, k, start_branch, rng)
+            gap_before = False
+            if sign != start_branch and not searched:
                 status[k] = Status.BRANCH_JUMP.value
                 continue
             last = (lp.data.qpos.copy(), lp.q_cut.copy())
