@@ -45,6 +45,7 @@ from dualmech.models.loop.presets import (
 from dualmech.models.loop.translate import drive_state, to_loop
 from dualmech.models.slider_crank import analyze
 from dualmech.validation.judges.mujoco_loop import loop_mjcf, solve_loop
+from dualmech.validation.judges.mujoco_loop.closure import CLOSURE_TOL
 from dualmech.validation.judges.mujoco_loop.engine import LoopTable, column_names
 from dualmech.validation.mujoco_engine import solve_case
 from dualmech.validation.tolerances import MUJOCO_RIGID_KINEMATICS, MUJOCO_RIGID_REACTIONS
@@ -137,12 +138,15 @@ def past_a_gap(status: np.ndarray) -> np.ndarray:
 def assert_agrees(mine: LoopTable, an: LoopAnalysis, size: float) -> None:
     """Same statuses; kinematics within MUJOCO_RIGID_KINEMATICS, dynamics within MUJOCO_RIGID_REACTIONS.
 
-    One difference is allowed: past a gap of no assembly the in-house engine may report ``branch_jump``
-    where the judge, searching there for a pose on the start's branch, found one (``ok``: its pose closes
-    and has the start's branch sign; the in-house stations did not reach it: seen on a random CSSP table).
+    Two differences are allowed, both where the judge proves an assembly the in-house engine did not find:
+    past a gap of no assembly the in-house engine may report ``branch_jump`` where the judge, searching
+    there for a pose on the start's branch, found one (its pose closes and has the start's branch sign: seen
+    on a random CSSP table); and ``no_assembly`` (its DFP stopped at a local minimum of the closure error,
+    0.12 on a random RSCR table) where the judge's pose closes (residual 2.6e-15 there).
     """
     mine_status, status = mine.status.astype(str), an.status.astype(str)
-    found = past_a_gap(status) & (status == "branch_jump") & (mine_status == "ok")
+    closed = (mine_status == "ok") & (mine.residual <= CLOSURE_TOL)
+    found = closed & ((past_a_gap(status) & (status == "branch_jump")) | (status == "no_assembly"))
     np.testing.assert_array_equal(mine_status[~found], status[~found])
     for name, diff in differences(mine, an, size).items():
         kinematic = not (name.startswith("joint") or name.startswith("effort_"))
