@@ -1,0 +1,250 @@
+"""MuJoCo as a rigid judge of any loop table: every drive position, one at a time.
+
+The start pose is the judge's own: the joints' ``start`` values the user wrote in the table (at the first
+position), or else a search (random poses, :data:`SEARCH_TRIES` of them, at up to :data:`SEARCH_POSITIONS`
+evenly spread positions; the first that closes, so its branch is arbitrary).  From there the loop is
+closed position by position, forward then backward, each from its neighbour's pose (continuation; a
+position that fails leaves the last closed pose as the next start), and the branch is followed by the
+sign of :func:`~.closure.branch`: a position closed on the other branch is a branch jump, except right
+after positions that did not close (a gap of no assembly, where continuity is lost): there it is searched
+again from random poses for one on the start's branch, and is a branch jump only if none is found.
+Nothing of the in-house engine is used (independence).
+
+Statuses (:mod:`dualmech.core.status`): ``no_assembly`` / ``not_converged`` from Newton
+(:func:`~.closure.close`), ``branch_jump`` where the branch sign differs from the start pose's,
+``dead_centre`` where the transmission is below
+:data:`~dualmech.core.thresholds.DEAD_CENTRE_TRANSMISSION` (its efforts and reactions are NaN), else ``ok``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from dualmech.core.status import Status
+from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
+from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.loop.mobility import check_mobility
+from dualmech.validation.judges.mujoco_loop.closure import (
+    MjLoop,
+    branch,
+    build,
+    close,
+    positions,
+    prescribe,
+    scatter,
+    set_start,
+    variable,
+)
+from dualmech.validation.judges.mujoco_loop.dynamics import (
+    balance,
+    drift,
+    joint_wrenches,
+    set_velocity,
+    solve_free,
+    velocity_rows,
+)
+
+ENGINE = "mujoco-loop"
+#: Drive positions tried, evenly spread, when no joint gives a start value.
+SEARCH_POSITIONS = 8
+#: Random poses tried at each of them.
+SEARCH_TRIES = 40
+
+
+@dataclass(frozen=True)
+class LoopTable:
+    """The judge's answer at the ``n`` drive positions of a table.
+
+    Attributes
+    ----------
+    engine, name : str
+    columns : dict of str -> numpy.ndarray, shape (n,)
+        :func:`column_names`: every scalar joint coordinate ``theta<i>``, ``s<i>``, ``eta<i>`` (rad, length)
+        with ``_dot`` and ``_ddot``; the efforts ``effort_<coordinate><i>`` (given and solved: on link i
+        from link i-1); ``joint<i>_f{x,y,z}`` and ``joint<i>_m{x,y,z}``: joint i's wrench on link i from
+        link i-1, world axes, the moment about the joint's point (``docs/conventions.md``, "Loop tables").
+        NaN where the status does not give them.
+    status : numpy.ndarray of str, shape (n,)
+    iterations : numpy.ndarray of int, shape (n,)
+        Newton iterations.
+    residual : numpy.ndarray, shape (n,)
+        Closure gap (translations over the table's length, rotations in rad).
+    dynamics_residual : numpy.ndarray, shape (n,)
+        Relative least-squares residual of the inverse dynamics.
+    """
+
+    engine: str
+    name: str
+    columns: dict[str, np.ndarray]
+    status: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    dynamics_residual: np.ndarray
+
+
+def _scalar_coordinates(mechanism: LoopMechanism) -> list[str]:
+    names = {"R": ("theta",), "P": ("s",), "C": ("theta", "s"), "U": ("theta", "eta"), "S": ()}
+    return [variable(i, c) for i, j in enumerate(mechanism.joints) for c in names[j.type]]
+
+
+def efforts(mechanism: LoopMechanism) -> tuple[dict[str, float], list[str]]:
+    """The given efforts by variable name and the solved ones (the transmission's last): the drive's (a C
+    drive's axial force is a solved reaction) and the loads'."""
+    d = mechanism.drive
+    given: dict[str, float] = {}
+    solved, transmission = [], []
+    drive = variable(d.joint, d.coordinate)
+    if d.effort is None:
+        transmission.append(drive)
+    else:
+        given[drive] = d.effort
+    if mechanism.joints[d.joint].type == "C":
+        solved.append(variable(d.joint, "s"))
+    for load in mechanism.loads:
+        name = variable(load.joint, load.coordinate)
+        if load.value is None:
+            transmission.append(name)
+        else:
+            given[name] = load.value
+    return given, solved + transmission
+
+
+def column_names(mechanism: LoopMechanism) -> list[str]:
+    """The columns of :class:`LoopTable` for ``mechanism``, in order."""
+    coordinates = _scalar_coordinates(mechanism)
+    given, solved = efforts(mechanism)
+    names = [f"{c}{suffix}" for c in coordinates for suffix in ("", "_dot", "_ddot")]
+    names += [f"effort_{e}" for e in list(given) + solved]
+    names += [f"joint{i + 1}_{kind}{axis}" for i in range(len(mechanism.joints)) for kind in "fm"
+              for axis in "xyz"]
+    return names
+
+
+def drive_values(mechanism: LoopMechanism, k: int) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+    """The prescribed coordinates' values by name, rates and accelerations at drive position ``k`` (a C
+    drive's slide by the axial law :math:`S = S_0 + S_S \\sin(c\\,\\theta)`, thesis eq. 27-28)."""
+    d = mechanism.drive
+    theta, w, wd = float(d.positions[k]), d.speed, d.accel
+    values = {variable(d.joint, d.coordinate): theta}
+    rates, accels = [w], [wd]
+    if mechanism.joints[d.joint].type == "C":
+        amp, cyc = d.axial_amplitude, d.axial_cycles
+        phase = cyc * theta
+        values[variable(d.joint, "s")] = d.axial_shift + amp * math.sin(phase)
+        rates.append(amp * cyc * math.cos(phase) * w)
+        accels.append(amp * cyc * (math.cos(phase) * wd - cyc * math.sin(phase) * w * w))
+    return values, np.array(rates), np.array(accels)
+
+
+def find_start(lp: MjLoop, seed: int = 0) -> int:
+    """Set the start pose (module docstring) and return the drive position it belongs to."""
+    mech = lp.mechanism
+    if any(j.start for j in mech.joints):
+        set_start(lp)
+        prescribe(lp, drive_values(mech, 0)[0])
+        return 0
+    n = mech.drive.positions.shape[0]
+    rng = np.random.default_rng(seed)
+    for at in np.unique(np.linspace(0, n - 1, min(n, SEARCH_POSITIONS)).round().astype(int)):
+        for _ in range(SEARCH_TRIES):
+            scatter(lp, rng)
+            prescribe(lp, drive_values(mech, int(at))[0])
+            if close(lp)[0] == Status.OK:
+                return int(at)
+    raise ValueError(f"start: no assembled pose found at {min(n, SEARCH_POSITIONS)} drive positions; give "
+                     "the joints' start values")
+
+
+def _branch_search(lp: MjLoop, k: int, sign: float, rng: np.random.Generator) -> bool:
+    """Close position ``k`` on the branch ``sign`` from random poses (:data:`SEARCH_TRIES`), where
+    continuation closed it on the other (e.g. past a gap of no assembly): whether one was found (then it is
+    the current pose)."""
+    values = drive_values(lp.mechanism, k)[0]
+    for _ in range(SEARCH_TRIES):
+        scatter(lp, rng)
+        prescribe(lp, values)
+        if close(lp)[0] == Status.OK and branch(lp) == sign:
+            return True
+    return False
+
+
+def _position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str], columns: dict[str, np.ndarray],
+              coordinates: list[str]) -> tuple[float, bool]:
+    """Rates, efforts and wrenches at a closed pose, into ``columns[...][k]``; returns the dynamics'
+    residual and whether the position is a dead centre."""
+    values, rates, accels = drive_values(lp.mechanism, k)
+    positions(lp)
+    rows = velocity_rows(lp)
+    u_dot = solve_free(lp, rows, rates, np.zeros(rows.shape[0]))
+    set_velocity(lp, u_dot)
+    u_ddot = solve_free(lp, rows, accels, -drift(lp, u_dot))
+    for name in coordinates:
+        index, address = lp.coordinates[name]
+        value = lp.data.qpos[address] if address >= 0 else lp.q_cut[index - lp.model.nv]
+        columns[name][k], columns[name + "_dot"][k], columns[name + "_ddot"][k] = \
+            value, u_dot[index], u_ddot[index]
+    cut = balance(lp, u_ddot, given, solved)
+    if cut.transmission < DEAD_CENTRE_TRANSMISSION.value:
+        return cut.residual, True
+    for name, value in cut.efforts.items():
+        columns[f"effort_{name}"][k] = value
+    forces, moments = joint_wrenches(lp, cut)
+    for i in range(forces.shape[0]):
+        for a, axis in enumerate("xyz"):
+            columns[f"joint{i + 1}_f{axis}"][k] = forces[i, a]
+            columns[f"joint{i + 1}_m{axis}"][k] = moments[i, a]
+    return cut.residual, False
+
+
+def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = None) -> LoopTable:
+    """Every drive position of ``mechanism`` judged by rigid MuJoCo (module docstring).
+
+    Parameters
+    ----------
+    mechanism : LoopMechanism
+        A one-degree-of-freedom table (:func:`~dualmech.models.loop.mobility.check_mobility`).
+    seed : int
+        Seed of the start search (used only when no joint gives a start value).
+    xml : str, optional
+        The MJCF text to compile instead of :func:`~.mjcf.loop_mjcf`'s (the same names: e.g. a hand-edited
+        model, or one with a deliberate fault).
+    """
+    check_mobility(mechanism)
+    lp = build(mechanism, xml)
+    n = mechanism.drive.positions.shape[0]
+    columns = {name: np.full(n, np.nan) for name in column_names(mechanism)}
+    coordinates = _scalar_coordinates(mechanism)
+    given, solved = efforts(mechanism)
+    status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
+    iterations, residual, dyn = np.zeros(n, dtype=int), np.full(n, np.nan), np.full(n, np.nan)
+    at = find_start(lp, seed)
+    rng = np.random.default_rng(seed)
+    anchor = (lp.data.qpos.copy(), lp.q_cut.copy())  # the start estimate, then the pose closed from it
+    start_branch = None
+    for order in (range(at, n), range(at - 1, -1, -1)):
+        last, gap_before = anchor, False
+        for k in order:
+            lp.data.qpos[:], lp.q_cut = last[0], last[1].copy()
+            prescribe(lp, drive_values(mechanism, k)[0])
+            outcome, iterations[k], residual[k] = close(lp)
+            if outcome != Status.OK:
+                status[k], gap_before = outcome, True
+                continue
+            sign = branch(lp)
+            if start_branch is None:
+                start_branch, anchor = sign, (lp.data.qpos.copy(), lp.q_cut.copy())
+            searched = gap_before and sign != start_branch and _branch_search(lp, k, start_branch, rng)
+            gap_before = False
+            if sign != start_branch and not searched:
+                status[k] = Status.BRANCH_JUMP.value
+                continue
+            last = (lp.data.qpos.copy(), lp.q_cut.copy())
+            dyn[k], dead = _position(lp, k, given, solved, columns, coordinates)
+            status[k] = Status.DEAD_CENTRE.value if dead else Status.OK.value
+    return LoopTable(ENGINE, mechanism.name, columns, status, iterations, residual, dyn)
+
+
+__all__ = ["ENGINE", "LoopTable", "column_names", "drive_values", "efforts", "find_start", "solve_loop"]
