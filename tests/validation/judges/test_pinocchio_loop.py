@@ -33,7 +33,14 @@ from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.engine import LoopAnalysis, analyze_loop
 from dualmech.models.loop.presets import rccc_table, rssr_table, slider_crank_table
 from dualmech.models.loop.translate import drive_state, to_loop
+from dualmech.validation.judges.pinocchio_loop.closure import (
+    CLOSURE_TOL,
+    close_at,
+    close_loop,
+    prescribed_motion,
+)
 from dualmech.validation.judges.pinocchio_loop.engine import PinocchioLoopTable, solve_loop
+from dualmech.validation.judges.pinocchio_loop.model import build_model
 from dualmech.validation.tolerances import PINOCCHIO_KINEMATICS, PINOCCHIO_REACTIONS
 from tests.models.loop.test_random_tables import TOPOLOGIES, random_table
 
@@ -187,3 +194,38 @@ def test_the_judge_never_imports_the_in_house_engine() -> None:
             "print(' '.join(m for m in sys.modules if m.startswith('dualmech')))")
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert not set(loaded.split()) & set(IN_HOUSE), loaded
+
+
+@pytest.mark.parametrize("name", ["thesis/ideal", "rssr"])
+def test_searched_poses_close_the_cut_joint_itself(name: str) -> None:
+    """From its own random search (no start values), every closed pose has the cut joint's frames related
+    by the joint's own motion: a prismatic cut's frames parallel (``log(R_B^T R_A') = 0``), a revolute
+    cut's axes along each other, not opposite -- the spurious roots of dot-product rows."""
+    mechanism = dataclasses.replace(_preset(name), joints=tuple(
+        dataclasses.replace(j, start=()) for j in _preset(name).joints))
+    lm = build_model(mechanism)
+    closed = close_loop(lm)
+    ok = closed.status == "ok"
+    assert ok.any()
+    for q in closed.q[ok]:
+        pin.framesForwardKinematics(lm.model, lm.data, q)
+        relative = lm.ground.rotation.T @ lm.data.oMf[lm.cut].rotation
+        if mechanism.joints[-1].type == "P":
+            np.testing.assert_allclose(pin.log3(relative), 0.0, rtol=0, atol=CLOSURE_TOL * 10)
+        else:
+            assert relative[2, 2] > 0.0
+
+
+def test_a_revolute_cut_with_its_axis_reversed_is_refused() -> None:
+    """The RSSR's output link turned by pi about its x axis (through ball 3 and the cut's origin) keeps every
+    row of a revolute cut at zero with ``z_A' = -z_B``: a pose the joint cannot take, refused."""
+    lm = build_model(_preset("rssr"))
+    closed = close_loop(lm)
+    values = prescribed_motion(lm)[0][0]
+    q = closed.q[0].copy()
+    iq = lm.model.joints[lm.link_joints[2]].idx_q
+    turned = pin.Quaternion(q[iq:iq + 4]).matrix() @ pin.exp3(np.array([np.pi, 0.0, 0.0]))
+    q[iq:iq + 4] = pin.Quaternion(turned).coeffs()
+    _, status, residual, _ = close_at(lm, q, values)
+    assert residual <= CLOSURE_TOL
+    assert status == "not_converged"
