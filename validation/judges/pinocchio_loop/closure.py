@@ -12,7 +12,8 @@ from the last good pose moved by the tangent (an Euler predictor along the drive
 of the determinant of the square rate matrix (the cut's rows and the gauge rows over the free coordinates):
 it changes only through a singular pose, so a pose with another sign than the start's is ``branch_jump`` and
 not continued from.  Statuses (:mod:`dualmech.core.status`'s words): ``no_assembly`` where the steps stall at
-a non-zero residual (the gradient vanishes), ``not_converged`` where the iterations run out, else ``ok``.
+a non-zero residual (the gradient vanishes, or a Gauss-Newton step barely lowers it: :data:`STALL`),
+``not_converged`` where the iterations run out, else ``ok``.
 """
 
 from __future__ import annotations
@@ -29,11 +30,15 @@ LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 #: Closure tolerance on the scaled residual's norm (linear rows over the table's length): two orders above
 #: rounding, so every converged pose is within ~1e-13 of the table's length of closing.
 CLOSURE_TOL = 1e-13
-#: Iterations before ``not_converged``: beyond an assembly limit the residual's least-squares minimum is a
-#: singular pose, where the damped steps converge linearly (a random RRSRR took 256 to meet STATIONARY).
+#: Iterations before ``not_converged``.
 MAX_ITER = 400
 #: The gradient over (Jacobian norm x residual) below which the steps have stalled: ``no_assembly``.
 STATIONARY = 1e-9
+#: Also ``no_assembly``: an undamped (Gauss-Newton) step that lowers a residual above STALL_FLOOR by less
+#: than STALL of it.  Beyond an assembly limit the residual's least-squares minimum is a singular pose, where
+#: the steps creep (a random RSUR: 1e-9 per step, hundreds of steps short of STATIONARY); a residual that
+#: goes to zero drops by a fixed fraction per step at least, and STALL_FLOOR keeps rounding out of it.
+STALL, STALL_FLOOR = 1e-6, 1e-8
 #: Positions tried, evenly spread, random poses tried at each, and iterations per try, when searching for a
 #: start (a random pose that closes does so in a few dozen iterations; the others are dropped early).
 SEARCH_POSITIONS, SEARCH_TRIES, SEARCH_ITER = 8, 20, 50
@@ -75,10 +80,23 @@ def prescribed_motion(lm: LoopModel) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return tuple(np.stack(c, axis=1) for c in zip(*columns))
 
 
+def _tilt(lm: LoopModel, relative: np.ndarray) -> float:
+    """The angular rows' divisor: :math:`(1 + z_{A'}\\cdot z_B)/2` for an R or C cut (1 when the axes are
+    along each other, 0 when opposite), else 1."""
+    if lm.mechanism.joints[-1].type not in ("R", "C"):
+        return 1.0
+    return max((1.0 + relative[2, 2]) / 2.0, 1e-12)
+
+
 def cut_rows(lm: LoopModel, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The cut's residual ``(m,)``, Jacobian ``(m, nv)`` and each row's unit wrench ``(m, 6)`` on link n-1
     (force, moment about ``A'``; world) at ``q``, unscaled (lengths, unit dots, radians).  Row ``k``'s
-    Jacobian is its wrench's power on the frame's twist, so its multiplier is the size of that wrench."""
+    Jacobian is its wrench's power on the frame's twist, so its multiplier is the size of that wrench.
+
+    An R or C cut's angular rows are divided by :func:`_tilt`, so they grow without bound toward their
+    spurious root (the axes opposite) and the steps keep away from it; at the closed pose the divisor is 1
+    and its derivative multiplies a zero residual, so the Jacobian there is exact (elsewhere the divisor's
+    derivative is left out: a Newton step with it would converge no faster)."""
     model, data = lm.model, lm.data
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
@@ -87,6 +105,7 @@ def cut_rows(lm: LoopModel, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     relative = b.rotation.T @ a.rotation
     log = pin.log3(relative)
     turn = a.rotation @ pin.Jlog3(relative).T  # columns: the moments of the rotation-vector rows
+    tilt = _tilt(lm, relative)
     res, wrenches = [], []
     for kind, i, k in lm.rows:
         axis = b.rotation[:, k]
@@ -94,8 +113,8 @@ def cut_rows(lm: LoopModel, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
             res.append((a.translation - b.translation) @ axis)
             wrenches.append(np.r_[axis, np.zeros(3)])
         elif kind == "ang":
-            res.append(a.rotation[:, i] @ axis)
-            wrenches.append(np.r_[np.zeros(3), np.cross(a.rotation[:, i], axis)])
+            res.append(a.rotation[:, i] @ axis / tilt)
+            wrenches.append(np.r_[np.zeros(3), np.cross(a.rotation[:, i], axis)] / tilt)
         else:
             res.append(log[k])
             wrenches.append(np.r_[np.zeros(3), turn[:, k]])
@@ -130,6 +149,22 @@ def _set(lm: LoopModel, q: np.ndarray, values: np.ndarray) -> np.ndarray:
     return q
 
 
+def _polish(lm: LoopModel, q: np.ndarray, norm: float, ju: np.ndarray,
+            r: np.ndarray) -> tuple[np.ndarray, float]:
+    """One more minimum-norm Gauss-Newton step from a converged pose, kept if it lowers the residual: near an
+    edge of assembly the kinematics carry the residual over a small condition, so the closure goes on to
+    rounding (a random RRSRR's accelerations moved from 2.4e-10 to 7e-13 of their peak)."""
+    step = np.zeros(lm.model.nv)
+    step[list(lm.free)] = -np.linalg.lstsq(ju, r, rcond=None)[0]
+    trial = pin.integrate(lm.model, q, step)
+    r_trial, _, _ = cut_rows(lm, trial)
+    polished = float(np.linalg.norm(r_trial * _scale(lm)))
+    if polished < norm:
+        return trial, polished
+    cut_rows(lm, q)  # the caller reads the frames of q
+    return q, norm
+
+
 def close_at(lm: LoopModel, q: np.ndarray, values: np.ndarray,
              max_iter: int = MAX_ITER) -> tuple[np.ndarray, str, float, int]:
     """Levenberg-Marquardt from ``q`` with the prescribed coordinates at ``values``: the pose, its status
@@ -139,9 +174,10 @@ def close_at(lm: LoopModel, q: np.ndarray, values: np.ndarray,
     r = r * scale
     for it in range(max_iter):
         norm = float(np.linalg.norm(r))
-        if norm <= CLOSURE_TOL:
-            return q, Status.OK.value if aligned(lm) else Status.NOT_CONVERGED.value, norm, it
         ju = jac[:, free] * scale[:, None]
+        if norm <= CLOSURE_TOL:
+            q, norm = _polish(lm, q, norm, ju, r)
+            return q, Status.OK.value if aligned(lm) else Status.NOT_CONVERGED.value, norm, it
         grad = ju.T @ r
         if np.linalg.norm(grad) <= STATIONARY * np.linalg.norm(ju) * norm or mu > 1e12:
             return q, Status.NO_ASSEMBLY.value, norm, it
@@ -152,7 +188,10 @@ def close_at(lm: LoopModel, q: np.ndarray, values: np.ndarray,
                                           grad)
             trial = pin.integrate(lm.model, q, step)
             r_trial, jac_trial, _ = cut_rows(lm, trial)
-            if np.linalg.norm(r_trial * scale) < norm:
+            progress = norm - float(np.linalg.norm(r_trial * scale))
+            if progress > 0.0:
+                if mu <= 1e-6 and norm > STALL_FLOOR and progress <= STALL * norm:
+                    return trial, Status.NO_ASSEMBLY.value, norm - progress, it + 1
                 q, r, jac, mu = trial, r_trial * scale, jac_trial, max(mu / 10.0, 1e-15)
                 break
             mu *= 10.0
