@@ -41,6 +41,7 @@ from dualmech.validation.judges.pinocchio_loop.closure import (
 )
 from dualmech.validation.judges.pinocchio_loop.engine import PinocchioLoopTable, solve_loop
 from dualmech.validation.judges.pinocchio_loop.model import build_model
+from dualmech.validation.pinocchio_engine import solve as solve_pinocchio_slider_crank
 from dualmech.validation.tolerances import PINOCCHIO_KINEMATICS, PINOCCHIO_REACTIONS
 from tests.models.loop.test_random_tables import TOPOLOGIES, random_table
 
@@ -61,19 +62,19 @@ def with_start(mechanism: LoopMechanism, starts: dict[int, tuple[float, ...]]) -
 
 
 def _preset(name: str) -> LoopMechanism:
-    """The presets with the start a user writes: the slider's coordinate near the crank's side of the slider
-    line (and the IFToMM universal joint's angles, its cross's axis the conventions' ``a = u x k4``), the
-    RSSR's output angle, the RCCC's output angle and slide."""
+    """The presets with the start a user writes, on the branch the slider crank's own engine reports: the
+    slider's coordinate (and the IFToMM universal joint's angles, its cross's axis the conventions'
+    ``a = u x k4``), the RSSR's output angle, the RCCC's output angle and slide."""
     if name == "rssr":
         return with_start(rssr_table(rssr_from_dict(read_linkage("rssr"))), {3: (2.1,)})
     if name == "rccc":
         return with_start(rccc_table(rccc_from_dict(read_linkage("rccc"))), {3: (2.0, -0.3)})
     if name == "iftomm/spatial-slider-crank":
-        return with_start(slider_crank_table(load_case(name)), {2: (-2.4, 0.2), 3: (-0.2,)})
+        return with_start(slider_crank_table(load_case(name)), {2: (0.7, 3.4), 3: (0.2,)})
     if name == "slider-load-given":
         case = with_loads(load_case("thesis/a4-20-alpha-232"), drive_torque=None, slider_force=-30.0)
-        return with_start(slider_crank_table(case), {3: (-40.0,)})
-    return with_start(slider_crank_table(load_case(name)), {3: (-48.0,)})
+        return with_start(slider_crank_table(case), {3: (40.0,)})
+    return with_start(slider_crank_table(load_case(name)), {3: (48.0,)})
 
 
 def _worst(mine: dict[str, np.ndarray], ref: dict[str, np.ndarray], ok: np.ndarray,
@@ -114,10 +115,14 @@ def agreement(judge: PinocchioLoopTable, an: LoopAnalysis) -> tuple[dict[str, fl
 
 
 def _assert_agree(judge: PinocchioLoopTable, an: LoopAnalysis) -> None:
-    """Same statuses, but for one known difference: after a no-assembly gap the in-house engine may re-close
-    on the other branch and say ``branch_jump`` where the judge's predictor finds the start's branch again
-    (``ok``, its determinant's sign checked); then every column within the bars where both say ``ok``."""
-    mine, theirs = judge.status.astype(str), an.status.astype(str)
+    """Same statuses, but for two known differences: ``no_assembly`` and ``not_converged`` are one class
+    (where the loop does not close, which of the two a solver says depends on how its steps stall: the
+    judge's damped Gauss-Newton and the in-house DFP fallback stall differently); after a no-assembly gap the
+    in-house engine may re-close on the other branch and say ``branch_jump`` where the judge's predictor
+    finds the start's branch again (``ok``, its determinant's sign checked).  Then every column within the
+    bars where both say ``ok``."""
+    mine, theirs = (np.where(t.astype(str) == "not_converged", "no_assembly", t.astype(str))
+                    for t in (judge.status, an.status))
     regained = (theirs == "branch_jump") & (mine == "ok")
     np.testing.assert_array_equal(np.where(regained, "branch_jump", mine), theirs)
     kinematics, dynamics = agreement(judge, an)
@@ -151,6 +156,7 @@ def _start_values(judge: PinocchioLoopTable) -> dict[int, tuple[float, ...]]:
 @example(seed=13, topology="RSUR")  # beyond its assembly limit: was not_converged on a reversed-axis root
 @example(seed=15074, topology="RRSRR")  # near its edge: was 2.4e-10 until the closure went on to rounding
 @example(seed=2538, topology="RSSR")  # a gap, then the in-house engine's branch_jump, the judge's ok
+@example(seed=28975568, topology="RCCC")  # not closed: the in-house not_converged, the judge's no_assembly
 def test_random_tables_agree_with_the_in_house_engine(seed: int, topology: str) -> None:
     """The judge searches an assembly of a random one-DOF table by itself; its pose at the first position
     is written into the table as the joints' start values (what a user would write), and both engines solve
@@ -240,3 +246,30 @@ def test_a_revolute_cut_with_its_axis_reversed_is_not_accepted() -> None:
     pin.framesForwardKinematics(lm.model, lm.data, q)
     along = lm.data.oMf[lm.cut].rotation[:, 2] @ lm.ground.rotation[:, 2]
     assert status != "ok" or along > 0.0, (status, along)
+
+
+@pytest.mark.parametrize("name", ["thesis/ideal", "thesis/a4-30-s1-3.5", "thesis/a4-20-alpha-232",
+                                  "iftomm/spatial-slider-crank"])
+def test_slider_crank_presets_agree_with_the_hand_written_judge(name: str) -> None:
+    """Before the hand-written slider-crank judge (``validation/pinocchio_engine.py``) is retired, the
+    generated one gives its S4, rates, wrenches (about O: ground on crank, crank on rod, ground on slider =
+    minus joint 4's) and efforts, within the Pinocchio bars (measured <= 1.2e-11, a4-30-s1-3.5's wrenches)."""
+    case = load_case(name)
+    mechanism = _preset(name) if name != "thesis/a4-20-alpha-232" else \
+        with_start(slider_crank_table(case), {3: (40.0,)})
+    judge = solve_loop(mechanism)
+    hand, _ = solve_pinocchio_slider_crank(case)
+    ok = (judge.status == "ok") & (hand.status == 0)
+    assert ok.any()
+    about_o = judge.moment + np.cross(judge.point, judge.force)
+    pairs = {"s4": (judge.values["s4"], hand.q[:, -1]), "s4_dot": (judge.rates["s4"], hand.v[:, -1]),
+             "s4_ddot": (judge.accels["s4"], hand.a[:, -1])}
+    wrenches = {"wrench1": (np.c_[judge.force[:, 0], about_o[:, 0]], hand.wrench1),
+                "wrench2": (np.c_[judge.force[:, 1], about_o[:, 1]], hand.wrench2),
+                "wrench4": (-np.c_[judge.force[:, 3], about_o[:, 3]], hand.wrench4),
+                "drive": (judge.efforts["theta1"], hand.effort[:, 0]),
+                "slider": (judge.efforts["s4"], hand.effort[:, -1])}
+    for bar, group in ((PINOCCHIO_KINEMATICS, pairs), (PINOCCHIO_REACTIONS, wrenches)):
+        worst = _worst({k: v[0] for k, v in group.items()}, {k: v[1] for k, v in group.items()}, ok)
+        for key, value in worst.items():
+            assert value <= bar.value, (key, value)
