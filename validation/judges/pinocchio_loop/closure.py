@@ -1,19 +1,22 @@
 """The judge's own closure of a loop table: Levenberg-Marquardt on the cut's rows, continued along the drive.
 
 At each drive position the prescribed coordinates are set and the free ones moved by damped Gauss-Newton
-(Levenberg-Marquardt) steps on the cut's residual (:mod:`.model`: linear rows over the table's length,
-angular rows as they are) from Pinocchio's frame placement and Jacobian, ``pin.integrate`` turning the
-quaternions.  The damping keeps the steps minimum-norm in the idle spins' directions.
+(Levenberg-Marquardt) steps on the cut's residual (:mod:`.model`: linear rows over the table's length, angular
+rows as they are) from Pinocchio's frame placement and Jacobian, ``pin.integrate`` turning the quaternions.
+The damping keeps the steps minimum-norm in the idle spins' directions.
 
 The first pose is the table's ``start`` values (what the user wrote) at the first position when any joint
-gives them, else the first pose this module's own random search closes at up to :data:`SEARCH_POSITIONS`
-evenly spread positions.  From there the loop is closed position by position, forward then backward, each
-from the last good pose moved by the tangent (an Euler predictor along the drive).  The branch is the sign
-of the determinant of the square rate matrix (the cut's rows and the gauge rows over the free coordinates):
-it changes only through a singular pose, so a pose with another sign than the start's is ``branch_jump`` and
-not continued from.  Statuses (:mod:`dualmech.core.status`'s words): ``no_assembly`` where the steps stall at
-a non-zero residual (the gradient vanishes, or a Gauss-Newton step barely lowers it: :data:`STALL`),
-``not_converged`` where the iterations run out, else ``ok``.
+gives them (the last joint's, which are no coordinates of the tree, through a least-squares fit of the cut's
+six relative motions that picks the branch: :func:`_fit_cut`), else the first pose this module's own random
+search closes at up to :data:`SEARCH_POSITIONS` evenly spread positions. From there the loop is closed
+position by position, forward then backward, each from the last good pose moved by the tangent (an Euler
+predictor along the drive). The branch is the sign of the determinant of the square rate matrix (the cut's
+rows and the gauge rows over the free coordinates): it changes only through a singular pose, so a pose with
+another sign than the start's is ``branch_jump`` and not continued from. Statuses
+(:mod:`dualmech.core.status`'s words): ``no_assembly`` where the steps stall at a non-zero residual (the
+gradient vanishes, or a Gauss-Newton step barely lowers it: :data:`STALL`), ``not_converged`` where the
+iterations run out or the steps reach a root the cut joint cannot take (an R or C cut's axes opposite,
+:func:`aligned`), else ``ok``.
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ MAX_ITER = 400
 STATIONARY = 1e-9
 #: Also ``no_assembly``: an undamped (Gauss-Newton) step that lowers a residual above STALL_FLOOR by less
 #: than STALL of it.  Beyond an assembly limit the residual's least-squares minimum is a singular pose, where
-#: the steps creep (a random RSUR: 1e-9 per step, hundreds of steps short of STATIONARY); a residual that
+#: the steps creep (a random RRSRR: 256 steps to meet STATIONARY); a residual that
 #: goes to zero drops by a fixed fraction per step at least, and STALL_FLOOR keeps rounding out of it.
 STALL, STALL_FLOOR = 1e-6, 1e-8
 #: Positions tried, evenly spread, random poses tried at each, and iterations per try, when searching for a
