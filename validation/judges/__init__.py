@@ -1,2 +1,3 @@
-"""Judges generated from a loop table (``docs/conventions.md``, "Loop tables"): each builds its own model of
-the table and solves it with its own engine, never from the in-house answers."""
+"""Judges generated from a loop table (:class:`~dualmech.models.loop.description.LoopMechanism`), one
+package per outside engine: each builds its own model from the table, never from another judge's file nor
+from the in-house engine's answers (issue 32, point 4; ``docs/conventions.md``, "Loop tables")."""

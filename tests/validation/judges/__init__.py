@@ -1,0 +1,1 @@
+"""Tests of the judges generated from loop tables (validation/judges/)."""
