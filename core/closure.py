@@ -77,7 +77,7 @@ class ClosureResult:
     used_dfp: np.ndarray
 
 
-def _gauge_block(chain, loop: Loop) -> np.ndarray:
+def gauge_block(chain, loop: Loop) -> np.ndarray:
     """Spin-gauge rows over the tangent step, ``(n, g, k)``."""
     rows, _ = gauge_rows(chain, loop)
     gauge = np.zeros(rows.shape[:2] + (loop.n_unknown,), rows.dtype)
@@ -108,7 +108,7 @@ def _newton_step(chain, loop: Loop) -> np.ndarray:
     jac = screw_jacobian(chain, loop)
     err = closure_error(chain, loop)
     if loop.spin_gauges:
-        jac = np.concatenate([jac, _gauge_block(chain, loop)], axis=1)
+        jac = np.concatenate([jac, gauge_block(chain, loop)], axis=1)
         err = np.concatenate([err, np.zeros((err.shape[0], len(loop.spin_gauges)), err.dtype)], axis=1)
     return least_squares(jac, -err)
 
@@ -235,7 +235,7 @@ def _objective(loop, inputs, state):
     cosine = np.linalg.norm(grad, axis=1) / np.maximum(
         np.linalg.norm(jac, axis=(1, 2)) * np.linalg.norm(r, axis=1), 1e-300
     )
-    jac_g = np.concatenate([jac, _gauge_block(chain, loop)], axis=1) if loop.spin_gauges else jac
+    jac_g = np.concatenate([jac, gauge_block(chain, loop)], axis=1) if loop.spin_gauges else jac
     return f, grad, jac_g, cosine, closure_residual(chain, loop)
 
 

@@ -18,8 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dualmech.core.closure import ClosureStatus, refine, solve_closure
-from dualmech.core.closure import _gauge_block as gauge_block  # the gauge rows over the tangent step
+from dualmech.core.closure import ClosureStatus, gauge_block, refine, solve_closure
 from dualmech.core.dual import vee
 from dualmech.core.loop import Loop, LoopState, Var, evaluate, rodrigues, screw_jacobian
 
