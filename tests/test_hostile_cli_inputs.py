@@ -112,15 +112,21 @@ def test_cli_simulate_refuses_the_issues_options_in_one_line(tmp_path, option, v
         assert w in lines[0], (w, lines[0])
 
 
-@pytest.mark.parametrize(("args", "line"), [
-    (("solve", "ideal", "--duration", "3"),
-     "dualmech: error: No such option '--duration'. (dualmech solve --help)"),
-    (("nope",), "dualmech: error: No such command 'nope'. (dualmech --help)"),
-    (("validate", "--jobs", "0"), "dualmech: error: Invalid value for '--jobs': 0 is not in the range "
-                                  "1<=x<=1024. (dualmech validate --help)"),
+@pytest.mark.parametrize(("args", "words", "help_of"), [
+    (("solve", "ideal", "--duration", "3"), ["No such option", "--duration"], "dualmech solve --help"),
+    (("nope",), ["No such command", "nope"], "dualmech --help"),
+    (("validate", "--jobs", "0"), ["--jobs", "0 is not in the range", "1<=x<=1024"], "dualmech validate --help"),
 ])
-def test_a_usage_error_is_one_line_naming_the_help(tmp_path, args, line):
-    """Issue 31's fuzz: click printed a usage error on four lines (usage, hint, blank, error)."""
+def test_a_usage_error_is_one_line_naming_the_help(tmp_path, args, words, help_of):
+    """Issue 31's fuzz: click printed a usage error on four lines (usage, hint, blank, error).
+
+    click's own wording differs between releases (8.2: ``No such option: --duration``; 8.3: ``No such
+    option '--duration'.``), so the line is checked for its parts, not for click's punctuation.
+    """
     proc = run_cli(*args, cwd=tmp_path)
     assert proc.returncode == 2
-    assert proc.stderr.splitlines() == [line]
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dualmech: error: "), proc.stderr
+    assert lines[0].endswith(f"({help_of})"), lines[0]
+    for word in words:
+        assert word in lines[0], (word, lines[0])
