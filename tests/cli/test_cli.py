@@ -223,12 +223,13 @@ def test_solve_refuses_what_a_linkage_cannot_give(tmp_path, name, args):
 
 
 def test_benchmark_can_skip_the_judges_and_refuses_empty_runs():
-    """``--judge-cases 0`` (and ``--big 0``) skip those rows; it divided by zero before.  No cases or no
-    repeats is a usage error (exit 2)."""
+    """``--judge-cases 0`` (and ``--big 0``, ``--main-job 0``) skip those rows; it divided by zero before.
+    No cases or no repeats is a usage error (exit 2)."""
     result = CliRunner().invoke(main, ["benchmark", "--cases", "2", "--judge-cases", "0", "--big", "0",
-                                       "--repeats", "1"])
+                                       "--repeats", "1", "--main-job", "0"])
     assert result.exit_code == 0, result.output
     assert "yardstick" in result.output
-    assert "Pinocchio" not in result.output and "Parquet" not in result.output
+    for skipped in ("Pinocchio", "Parquet", "main job"):
+        assert skipped not in result.output, skipped
     for option in ("--cases", "--repeats"):
         assert CliRunner().invoke(main, ["benchmark", option, "0"]).exit_code == 2

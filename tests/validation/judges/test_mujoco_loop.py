@@ -209,7 +209,7 @@ def test_presets_agree_with_the_in_house_engine(name: str) -> None:
     assert_agrees(solve_loop(with_start(mech, start)), analyze_loop(mech, start), _size(mech))
 
 
-@settings(max_examples=12, deadline=None)
+@settings(max_examples=6, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), topology=st.sampled_from(TOPOLOGIES))
 def test_random_tables_agree_with_the_in_house_engine(seed: int, topology: str) -> None:
     mech = random_table(seed, topology)
