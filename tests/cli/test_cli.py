@@ -17,15 +17,15 @@ from dualmech.validation.exit_codes import EXIT_BAD_INPUT
 
 
 def test_cases_lists_every_preset():
-    """Every preset of every kind, with its kind: the slider crank's, then the RSSR's and RCCC's (issue 30:
-    no linkage was listed)."""
+    """Every preset of every kind, with its kind: the slider crank's, then the RSSR's, RCCC's and the loop
+    tables' (issue 30: no linkage was listed; issue 32: nor a loop table)."""
     result = CliRunner().invoke(main, ["cases"])
     assert result.exit_code == 0
     lines = result.output.strip().splitlines()
     assert [line.split()[0] for line in lines] == preset_names() + bundled_names()
     kinds = {line.split()[0]: line.split()[1] for line in lines}
     assert {kinds[n] for n in preset_names()} == {"slider-crank"}
-    assert [kinds[n] for n in bundled_names()] == ["rccc", "rssr"]
+    assert [kinds[n] for n in bundled_names()] == ["rccc", "loop", "loop", "rssr"]
     assert "thesis/a4-30-s1-3.5" in result.output
 
 

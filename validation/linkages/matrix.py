@@ -24,7 +24,14 @@ from pathlib import Path
 from typing import Any
 
 from dualmech.models.inputs import key_text, show
-from dualmech.models.linkages import is_linkage, linkage_case, linkage_kind, read_linkage
+from dualmech.models.linkages import (
+    KINDS,
+    bundled_names,
+    is_linkage,
+    linkage_case,
+    linkage_kind,
+    read_linkage,
+)
 from dualmech.models.toml_input import read_toml
 from dualmech.validation.linkages.engines import ENGINES, solves
 from dualmech.validation.matrix import MatrixError, check_file_name
@@ -144,8 +151,9 @@ def _entry(source: Any, matrix_file: Path | None, where: str) -> LinkageEntry:
     candidate = matrix_file.parent / source if matrix_file is not None else None
     target = str(candidate) if candidate is not None and candidate.is_file() else source
     if not is_linkage(target):
-        raise MatrixError(f"{where}: {show(source)} is not a linkage case (a bundled name: rssr, rccc, or a "
-                          "file whose [mechanism] kind is rssr or rccc)")
+        raise MatrixError(f"{where}: {show(source)} is not a linkage case (a bundled name: "
+                          f"{', '.join(bundled_names())}, or a file whose [mechanism] kind is one of "
+                          f"{', '.join(KINDS)})")
     data = read_linkage(target)
     case = linkage_case(data)
     case_id = ID_SAFE.sub("_", case.name).strip("._-")[:80] or "case"

@@ -25,6 +25,7 @@ import numpy as np
 
 from dualmech.core.status import Status
 from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
+from dualmech.models.loop.columns import column_names, coordinate_names
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.mobility import check_mobility
 from dualmech.validation.judges.mujoco_loop.closure import (
@@ -62,7 +63,8 @@ class LoopTable:
     ----------
     engine, name : str
     columns : dict of str -> numpy.ndarray, shape (n,)
-        :func:`column_names`: every scalar joint coordinate ``theta<i>``, ``s<i>``, ``eta<i>`` (rad, length)
+        :func:`~dualmech.models.loop.columns.column_names`: every scalar joint coordinate ``theta<i>``,
+        ``s<i>``, ``eta<i>`` (rad, length)
         with ``_dot`` and ``_ddot``; the efforts ``effort_<coordinate><i>`` (given and solved: on link i
         from link i-1); ``joint<i>_f{x,y,z}`` and ``joint<i>_m{x,y,z}``: joint i's wrench on link i from
         link i-1, world axes, the moment about the joint's point (``docs/conventions.md``, "Loop tables").
@@ -85,11 +87,6 @@ class LoopTable:
     dynamics_residual: np.ndarray
 
 
-def _scalar_coordinates(mechanism: LoopMechanism) -> list[str]:
-    names = {"R": ("theta",), "P": ("s",), "C": ("theta", "s"), "U": ("theta", "eta"), "S": ()}
-    return [variable(i, c) for i, j in enumerate(mechanism.joints) for c in names[j.type]]
-
-
 def efforts(mechanism: LoopMechanism) -> tuple[dict[str, float], list[str]]:
     """The given efforts by variable name and the solved ones (the transmission's last): the drive's (a C
     drive's axial force is a solved reaction) and the loads'."""
@@ -110,17 +107,6 @@ def efforts(mechanism: LoopMechanism) -> tuple[dict[str, float], list[str]]:
         else:
             given[name] = load.value
     return given, solved + transmission
-
-
-def column_names(mechanism: LoopMechanism) -> list[str]:
-    """The columns of :class:`LoopTable` for ``mechanism``, in order."""
-    coordinates = _scalar_coordinates(mechanism)
-    given, solved = efforts(mechanism)
-    names = [f"{c}{suffix}" for c in coordinates for suffix in ("", "_dot", "_ddot")]
-    names += [f"effort_{e}" for e in list(given) + solved]
-    names += [f"joint{i + 1}_{kind}{axis}" for i in range(len(mechanism.joints)) for kind in "fm"
-              for axis in "xyz"]
-    return names
 
 
 def drive_values(mechanism: LoopMechanism, k: int) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
@@ -216,7 +202,7 @@ def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = Non
     lp = build(mechanism, xml)
     n = mechanism.drive.positions.shape[0]
     columns = {name: np.full(n, np.nan) for name in column_names(mechanism)}
-    coordinates = _scalar_coordinates(mechanism)
+    coordinates = coordinate_names(mechanism)
     given, solved = efforts(mechanism)
     status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
     iterations, residual, dyn = np.zeros(n, dtype=int), np.full(n, np.nan), np.full(n, np.nan)
