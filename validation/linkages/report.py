@@ -42,10 +42,14 @@ class LinkageReport:
 
 
 def engine_rows(run: LinkageRun) -> list[dict]:
-    """One row per case and engine of the matrix: its verdict, checks, worst ratio and where, seconds."""
+    """One row per case and engine of the matrix: its verdict, checks, worst ratio and where, seconds.
+    ``at_deg`` is the input value at the worst row: the case's key
+    (:attr:`~dualmech.models.linkages.table.TableSpec.key`), named by ``input`` in ``input_unit`` (``deg``,
+    or ``""`` for a loop table driven by a slide, in its length unit)."""
     rows = []
     for entry in run.matrix.cases:
         solved = run.tables[entry.id]
+        name, unit = table_spec(entry.kind, entry.case).key_label
         for engine in run.matrix.engines:
             checks = run.comparison.for_engine(entry.id, engine)
             worst = max(checks, key=lambda c: (not c.passed, c.ratio), default=None)
@@ -58,7 +62,7 @@ def engine_rows(run: LinkageRun) -> list[dict]:
                 "n_failed": sum(not c.passed for c in checks),
                 "ratio": None if worst is None else worst.ratio,
                 "quantity": None if worst is None else worst.quantity,
-                "at_deg": None if worst is None else worst.worst_theta_deg,
+                "at_deg": None if worst is None else worst.worst_theta_deg, "input": name, "input_unit": unit,
                 "seconds": run.seconds[entry.id].get(engine)})
     return rows
 
