@@ -16,13 +16,18 @@ The rules of the slider crank's gate (:mod:`dualmech.validation.compare`), on a 
 
   with ``s_g`` the reference's largest ``|R|`` over those rows of every compared column of ``q``'s unit
   group (:meth:`~dualmech.models.linkages.table.TableSpec.unit_group`: forces, moments, the output angle,
-  its rates, ...), so no verdict depends on the unit system; angles in degrees differ modulo 360; a row
-  where only one engine gives the value fails the column (``inf``).
+  its rates, ...), so no verdict depends on the unit system; angles differ modulo their period
+  (:meth:`~dualmech.models.linkages.table.TableSpec.period`: 360 in degrees, 2 pi for a loop table's in rad);
+  a row where only one engine gives the value fails the column (``inf``).
+
+Rows are matched on the spec's key (:attr:`~dualmech.models.linkages.table.TableSpec.key`: the crank angle
+in degrees, or a loop table's driven coordinate), which every message names.
 
 Tolerances are the slider crank's defaults per judge and group (``kinematics``, ``reactions``) of
 :data:`~dualmech.validation.matrix.tolerances.DEFAULT_TOLERANCES`: Pinocchio ``PINOCCHIO_*``, MuJoCo
 ``MUJOCO_RIGID_*``, the simulation ``MATRIX_SIM_KINEMATICS`` and ``SIM_REACTIONS``.  The linkages have no
-condition factor: the RSSR and RCCC cases are judged as given, dead centres flagged by their words.
+condition factor: the RSSR, RCCC and loop-table cases are judged as given, dead centres flagged by their
+words.
 """
 
 from __future__ import annotations

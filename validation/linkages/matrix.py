@@ -1,4 +1,5 @@
-"""The linkage matrix: which linkage cases (RSSR, RCCC), on which engines, against which reference.
+"""The linkage matrix: which linkage cases (RSSR, RCCC, loop tables), on which engines, against which
+reference.
 
 The slider crank's matrix (:mod:`dualmech.validation.matrix`) sweeps the keys of one base case of the
 slider crank's format; a linkage case has its own format (``[mechanism] kind``), so a linkage matrix
