@@ -68,6 +68,13 @@ def column_names(mechanism: LoopMechanism) -> list[str]:
     return names
 
 
+def wrench_columns(force: np.ndarray, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """``joint<i>_f{x,y,z}``, ``joint<i>_m{x,y,z}`` of every joint's force and moment, each
+    ``(n, J, 3)`` (world axes), as ``(n,)`` columns."""
+    return {f"joint{j + 1}_{kind}{axis}": vector[:, j, a] for j in range(force.shape[1])
+            for kind, vector in (("f", force), ("m", moment)) for a, axis in enumerate("xyz")}
+
+
 def loop_spec(mechanism: LoopMechanism) -> TableSpec:
     """The :class:`~dualmech.models.linkages.table.TableSpec` of ``mechanism``'s table (module docstring)."""
     coordinates = coordinate_names(mechanism)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from dualmech.models.linkages.table import LinkageTable
-from dualmech.models.loop.columns import coordinate_names, effort_names, loop_table
+from dualmech.models.loop.columns import coordinate_names, effort_names, loop_table, wrench_columns
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.engine import LoopAnalysis, analyze_loop
 
@@ -29,11 +29,7 @@ def analysis_columns(an: LoopAnalysis) -> dict[str, np.ndarray]:
         cols.update({name: value, f"{name}_dot": rate, f"{name}_ddot": accel})
     w = an.wrenches
     cols.update({f"effort_{e}": w.efforts[e] for e in effort_names(an.mechanism)})
-    for j in range(w.force.shape[1]):
-        for a, axis in enumerate("xyz"):
-            cols[f"joint{j + 1}_f{axis}"] = w.force[:, j, a]
-            cols[f"joint{j + 1}_m{axis}"] = w.moment[:, j, a]
-    cols.update(residual=an.residual, dynamics_residual=w.residual)
+    cols.update(wrench_columns(w.force, w.moment), residual=an.residual, dynamics_residual=w.residual)
     return cols
 
 

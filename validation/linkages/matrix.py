@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from dualmech.models.inputs import CaseError, key_text, show
+from dualmech.models.inputs import CaseError, check_keys, key_text, show
 from dualmech.models.linkages import (
     KINDS,
     bundled_names,
@@ -182,9 +182,7 @@ def _sweep(k: int, sweep: Any, matrix_file: Path | None) -> list[LinkageEntry]:
     where = f"sweep[{k + 1}]"
     if not isinstance(sweep, dict):
         raise MatrixError(f"{where}: expected a table of case, key, values, got {show(sweep)}")
-    for key in sweep:
-        if key not in SWEEP_KEYS:
-            raise MatrixError(f"{where}.{key_text(key)}: unknown sweep key (valid: {', '.join(SWEEP_KEYS)})")
+    check_keys(where, sweep, SWEEP_KEYS, MatrixError)
     base = _case_data(sweep.get("case"), matrix_file, f"{where}.case")
     key, values = sweep.get("key"), sweep.get("values")
     if not isinstance(values, list) or not values or len(values) > MAX_LINKAGE_CASES:

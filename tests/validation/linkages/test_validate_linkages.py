@@ -45,7 +45,7 @@ def test_which_sources_are_linkage_runs(tmp_path) -> None:
     ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkey = "joint[2].a"\nvalues = []\n',
      "sweep[1].values: expected a list of 1 to 100 values, got []"),
     ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkeys = "a"\n',
-     "sweep[1].keys: unknown sweep key (valid: case, key, values)"),
+     "sweep[1].keys: unknown key (valid: case, key, values)"),
     ('name = "m"\nlinkages = []\n', "linkages: expected a list of 1 to 100 linkage cases"),
     ('name = "m"\nlinkages = ["thesis/ideal"]\n', "linkages[0]: 'thesis/ideal' is not a linkage case"),
     ('name = "m"\nlinkages = ["rssr", "rssr"]\n', "linkages: two cases are named 'rssr-crank-rocker'"),

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from dualmech.models.linkages.table import LinkageTable
-from dualmech.models.loop.columns import coordinate_names, effort_names, loop_table
+from dualmech.models.loop.columns import coordinate_names, effort_names, loop_table, wrench_columns
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.validation.judges.pinocchio_loop.engine import PinocchioLoopTable, solve_loop
 
@@ -25,11 +25,8 @@ def judge_columns(mine: PinocchioLoopTable) -> dict[str, np.ndarray]:
         cols.update({name: mine.values.get(name, missing), f"{name}_dot": mine.rates.get(name, missing),
                      f"{name}_ddot": mine.accels.get(name, missing)})
     cols.update({f"effort_{e}": mine.efforts.get(e, missing) for e in effort_names(mine.mechanism)})
-    for j in range(mine.force.shape[1]):
-        for a, axis in enumerate("xyz"):
-            cols[f"joint{j + 1}_f{axis}"] = mine.force[:, j, a]
-            cols[f"joint{j + 1}_m{axis}"] = mine.moment[:, j, a]
-    cols.update(residual=mine.residual, dynamics_residual=mine.dynamics_residual)
+    cols.update(wrench_columns(mine.force, mine.moment), residual=mine.residual,
+                dynamics_residual=mine.dynamics_residual)
     return cols
 
 
