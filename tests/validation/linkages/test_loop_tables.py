@@ -10,6 +10,8 @@ matrices: it shares nothing with ``core/loop.py`` nor with the judges' builders.
 from __future__ import annotations
 
 import copy
+import subprocess
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -131,3 +133,17 @@ def test_an_angle_a_turn_apart_is_the_same_angle(tables) -> None:
                                                            "theta4": ref["theta4"] + shift})
         checks, _ = judge_checks("rscr", ref, judge, spec)
         assert next(c for c in checks if c.quantity == "theta4").passed is passes, shift
+
+
+def test_the_judges_tables_never_import_the_in_house_engine() -> None:
+    """Independence kept through the registry: reading a bundled loop case and solving it by both judges'
+    table adapters loads none of the in-house engine's modules."""
+    code = ("import sys; from dualmech.models.linkages import linkage_case; "
+            "from dualmech.validation.judges.mujoco_loop.table import solve_table as m; "
+            "from dualmech.validation.judges.pinocchio_loop.table import solve_table as p; "
+            "case = linkage_case('rsrc'); m(case); p(case); "
+            "bad = [n for n in ('dualmech.models.loop.engine', 'dualmech.models.loop.table', "
+            "'dualmech.core.continuation', 'dualmech.core.loop_reactions', 'dualmech.core.closure', "
+            "'dualmech.core.rates') if n in sys.modules]; print(bad); sys.exit(1 if bad else 0)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stdout + done.stderr
