@@ -83,7 +83,7 @@ def test_cli_solve_names_a_linkage_files_bad_kind_not_its_keys(tmp_path):
     proc = run_cli("solve", str(path), cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.strip().splitlines() == [
-        "dualmech: error: mechanism.kind: expected a string, one of slider-crank, rssr, rccc; got 42"]
+        "dualmech: error: mechanism.kind: expected a string, one of slider-crank, rssr, rccc, loop; got 42"]
 
 
 def test_cli_solve_refuses_deeply_nested_toml(tmp_path):

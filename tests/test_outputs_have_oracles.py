@@ -187,8 +187,9 @@ del ORACLES["linkage-simulate"]
 
 def _loop_engines() -> dict[str, dict[str, str]]:
     """Every engine of a loop table on the bundled RSCR (``loop-<engine>``): the pose against the closed form
-    of its ball link, the in-house rates against finite differences, every column and status of each engine
-    against the others through the gate, the key by the table's settling."""
+    of its ball link, the in-house rates against finite differences and its drive torque against virtual
+    work, every column and status of each engine against the others through the gate, the key by the table's
+    settling."""
     loops = "tests/validation/linkages/test_loop_tables.py::"
     spec = table_spec("loop", linkage_case("rscr"))
     agree = loops + "test_every_engine_agrees_with_the_others"
@@ -201,6 +202,8 @@ def _loop_engines() -> dict[str, dict[str, str]]:
             **{c: rates for c in spec.rates}, **{c: agree for c in (*spec.forces, *spec.moments, "status")},
             **{c: loops + "test_residuals_and_iterations_are_reported"
                for c in ("residual", "dynamics_residual", "meta:iterations")}}
+    virtual_work = loops + "test_the_solved_drive_effort_is_the_virtual_work_of_the_loads"
+    out["loop-dualmech"]["effort_theta1"] = virtual_work
     return out
 
 

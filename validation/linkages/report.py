@@ -123,7 +123,8 @@ def case_figure(run: LinkageRun, entry: LinkageEntry) -> Figure:
             bottom.semilogy(theta, np.clip(worst, LOG_FLOOR, None), JUDGE_MARKERS[j % len(JUDGE_MARKERS)],
                             label=engine, **style)
     bottom.axhline(1.0, color="#c62828", ls="--", lw=1.0, label="tolerance")
-    top.set_ylabel(f"{column}", fontsize=8)
+    radians = spec.period(column) is not None and not column.endswith("_deg")
+    top.set_ylabel(f"{column} (rad)" if radians else column, fontsize=8)
     top.set_title(f"{case_id}: {column} from every engine", fontsize=9)
     bottom.set_ylabel("worst |judge - ref| / (scale x tol)", fontsize=8)
     bottom.set_xlabel(f"{name} ({unit})" if unit else name, fontsize=8)

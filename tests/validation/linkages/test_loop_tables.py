@@ -77,6 +77,44 @@ def _ball_link(mech, row: dict[str, float]) -> tuple[float, float, float]:
     return (np.linalg.norm(link) - j2.a, link @ frame3[:3, 2], np.linalg.norm(frame3[:3, 0] - link / j2.a))
 
 
+def _link_frames(mech, row: dict[str, float]) -> list[np.ndarray]:
+    """The link frames of links 1, 2, 3 (4x4, world): the crank's ``Z(theta1, s1)`` from the ground at joint
+    1, the others from the ground backwards through joints 4 and 3 (the S joint's rotation is not a
+    column)."""
+    j1, j2, j3, j4 = mech.joints
+    link3 = np.linalg.inv(_x(j4.alpha, j4.a)) @ np.linalg.inv(_z(row["theta4"], row.get("s4", j4.s))) \
+        @ np.linalg.inv(_x(j3.alpha, j3.a))
+    frame3 = link3 @ np.linalg.inv(_z(row["theta3"], row.get("s3", j3.s)))
+    return [_z(row["theta1"], j1.s), frame3 @ np.linalg.inv(_x(j2.alpha, j2.a)), link3]
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_the_solved_drive_effort_is_the_virtual_work_of_the_loads(case: str) -> None:
+    """At rest (speed and acceleration 0) the solved drive torque balances the given efforts and the weights
+    by virtual work, ``tau1 = -(sum_i tau_i dq_i/dtheta1 + sum_k m_k g . dp_k/dtheta1)``, the derivatives by
+    central differences of the table's own pose (step 1e-2 deg) and the closed-form link frames: no
+    Newton-Euler, no engine's reaction code."""
+    data = copy.deepcopy(read_linkage(case))
+    h, centres = 1e-2, np.array([15.0, 100.0, 200.0, 290.0])
+    data["drive"].update(positions=np.ravel(centres[:, None] + np.array([-h, 0.0, h])).tolist(), speed=0.0,
+                         accel=0.0)
+    mech = loop_from_dict(data)
+    table, step = solve_loop_table(mech), np.radians(h)
+    rows = [{c: table[c][k] for c in ("theta1", "theta3", "theta4", "s3", "s4") if c in table.columns}
+            for k in range(len(table))]
+    coms = np.array([[(frame @ np.r_[body.com, 1.0])[:3] for frame, body in zip(_link_frames(mech, r),
+                                                                                 mech.bodies)]
+                     for r in rows]).reshape(-1, 3, 3, 3)  # (centre, -h/0/+h, link, xyz)
+    masses = np.array([b.mass for b in mech.bodies])
+    work = np.einsum("k,cka,a->c", masses, (coms[:, 2] - coms[:, 0]) / (2 * step), mech.gravity)
+    given = [c for c in table.columns if c.startswith("effort_") and c != "effort_theta1"]
+    for name in given:
+        q = table[name[len("effort_"):]].reshape(-1, 3)
+        work = work + table[name][1::3] * (q[:, 2] - q[:, 0]) / (2 * step)
+    solved = table["effort_theta1"][1::3]
+    np.testing.assert_allclose(solved, -work, rtol=0, atol=LOOP_FINITE_DIFFERENCE.value * np.abs(work).max())
+
+
 @pytest.mark.parametrize("case", CASES)
 def test_the_pose_is_the_closed_form_of_the_ball_link(tables, case: str) -> None:
     """Every engine's theta3, theta4 and the C joint's slide close the ball-to-axis link: its length a2, its
