@@ -184,7 +184,7 @@ def _branch_search(lp: MjLoop, k: int, sign: float, rng: np.random.Generator) ->
     return False
 
 
-def _position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str], columns: dict[str, np.ndarray],
+def judge_position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str], columns: dict[str, np.ndarray],
               coordinates: list[str]) -> tuple[float, float]:
     """Rates, efforts and wrenches at a closed pose, into ``columns[...][k]``; returns the dynamics'
     residual and the transmission (below :data:`DEAD_CENTRE_TRANSMISSION`: a dead centre, efforts and
@@ -272,11 +272,11 @@ def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = Non
     for k, outcome, iterations[k], residual[k] in sweep(lp, seed):
         status[k] = outcome
         if outcome == Status.OK:
-            dyn[k], transmission = _position(lp, k, given, solved, columns, coordinates)
+            dyn[k], transmission = judge_position(lp, k, given, solved, columns, coordinates)
             if transmission < DEAD_CENTRE_TRANSMISSION.value:
                 status[k] = Status.DEAD_CENTRE.value
     return LoopTable(ENGINE, mechanism.name, columns, status, iterations, residual, dyn)
 
 
-__all__ = ["ENGINE", "LoopTable", "column_names", "drive_at", "drive_values", "efforts", "find_start",
+__all__ = ["ENGINE", "LoopTable", "column_names", "drive_at", "drive_values", "efforts", "find_start", "judge_position",
            "solve_loop", "sweep"]

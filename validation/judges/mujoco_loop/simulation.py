@@ -1,0 +1,443 @@
+"""MuJoCo's simulation as a judge of any loop table: what a user sees when MuJoCo integrates the loop.
+
+MuJoCo steps the model of :mod:`.sim_mjcf` (the loop cut inside the ground, held by a soft ``weld``;
+integrator ``implicitfast``) while a position servo with rate feed-forward drives the drive joint through
+the prescribed motion and motors apply the table's loads; the rows are read from the simulated state.
+
+**Starts.** The rigid judge's own continuation (:func:`.engine.sweep`: its start values or search, its
+branch) closes every row first; it tells which rows assemble on the start's branch, their transmission
+and the largest effective inertia the servo sees (:math:`v^T M v`, ``v`` the mechanism's velocity for a
+unit drive rate, the idle spins held at zero).  Each run starts from a rigidly closed state (the rigid
+closure from the nearest row's pose, its rates from the rigid rate equations), never from the in-house
+engine.  Rows that do not assemble, or jump branch, keep the rigid word and are not simulated.
+
+**Runs.** With a constant drive speed and every row assembled, one run passes every row (rows on the
+step grid); otherwise each row gets its own run along the trajectory through its snapshot.  Each run
+starts ``runin`` steps before its first row.
+
+**Settings** (as the slider crank's simulated judge, ``validation/mujoco_sim.py``, where they are
+measured): ``dt`` = one degree of the drive's fastest phase (a slide: one degree times the table's
+length) over :data:`~dualmech.models.mjcf_settings.STEPS_PER_DEGREE`, at most
+:data:`~dualmech.models.mjcf_settings.MAX_TIMESTEP`; servo ``kp = I_low (0.5/dt)^2`` with ``I_low`` the
+driven link's own inertia about (mass along) the drive axis, ``kv = 2 sqrt(kp I_high)`` with ``I_high``
+the margin :data:`~dualmech.validation.mujoco_sim_plan.SIM_INERTIA_MARGIN` times the largest effective
+inertia; weld ``solref = (2 dt, 2)`` (damping ratio 4 with a universal joint), ``solimp`` 0.9999; the run-in
+:data:`~dualmech.validation.mujoco_sim_plan.SIM_RUNIN_TIME_CONSTANTS` time constants ``kv/kp`` (at least
+:data:`~dualmech.validation.mujoco_sim_plan.SIM_RUNIN_STEPS`).  Collision detection and island discovery
+are switched off (no geoms, one equality).  A run in which MuJoCo warns (it blew up) is not trusted: its
+rows are ``not_converged``.
+
+**Reading a row.** After ``mj_forward`` the *integrated* acceleration
+:math:`a = (M + \\Delta t K)^{-1} M \\ddot q` (``K`` the servos' velocity gains, which ``implicitfast``
+treats implicitly) is written into ``qacc``, and ``mj_rnePostConstraint`` gives every body's wrench from
+its parent (``cfrc_int``): joint i's wrench on link i from link i-1 (joint n's on ``ground_half``), the
+moment moved to the joint's point as the rigid judge does (:func:`.dynamics.joint_points`).  Each effort
+is its joint's wrench along (about) the joint axis.  The coordinates, rates and accelerations are
+``qpos``, ``qvel`` and the integrated ``qacc``; ``residual`` is the weld's gap over the table's length.
+
+**A solved load** (the drive's effort given): the forward simulation needs the load, so it runs twice, the
+solved load's motor at 0 and at ``L_ref``; each row's efforts and wrenches are affine in the load, and
+the row's weight :math:`w = (T - \\tau_0)/(\\tau_\\mathrm{ref} - \\tau_0)` (``T`` the given drive effort,
+:math:`\\tau` the simulated ones) combines them; kinematics are the unloaded run's.  Rows whose rigid
+transmission is below :data:`~dualmech.validation.tolerances.SIM_DEAD_CENTRE_TRANSMISSION` are
+``dead_centre`` (the load grows like 1/t there and strains the soft loop): efforts and wrenches NaN.
+
+Error budget and tolerances: ``docs/conventions.md``, "Simulated loop judge".
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from dualmech.core.status import Status
+from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.loop.mobility import check_mobility
+from dualmech.models.mjcf_settings import (
+    CLOSURE_DAMPRATIO,
+    CLOSURE_DAMPRATIO_UNIVERSAL,
+    MAX_TIMESTEP,
+    SERVO_BANDWIDTH,
+    STEPS_PER_DEGREE,
+)
+from dualmech.validation.judges.mujoco_loop.closure import MjLoop, build, close, positions, prescribe
+from dualmech.validation.judges.mujoco_loop.dynamics import joint_points, solve_free, velocity_rows
+from dualmech.validation.judges.mujoco_loop.engine import (
+    LoopTable,
+    _scalar_coordinates,
+    column_names,
+    drive_at,
+    efforts,
+    judge_position,
+    sweep,
+)
+from dualmech.validation.judges.mujoco_loop.mjcf import MJ_JOINTS, body_name, joint_name
+from dualmech.validation.judges.mujoco_loop.sim_mjcf import (
+    HALF_BODY,
+    HALF_SITE,
+    SimSettings,
+    loop_sim_mjcf,
+    servoed,
+)
+from dualmech.validation.mujoco_sim import skip_collisions, skip_islands, stepped, velocity_gains
+from dualmech.validation.mujoco_sim_plan import SIM_INERTIA_MARGIN, SIM_RUNIN_STEPS, SIM_RUNIN_TIME_CONSTANTS
+from dualmech.validation.tolerances import DEAD_CENTRE_TRANSMISSION, SIM_DEAD_CENTRE_TRANSMISSION
+
+ENGINE = "mujoco-loop-sim"
+
+
+@dataclass(frozen=True)
+class Survey:
+    """The rigid judge's sweep (module docstring, "Starts").
+
+    ``status`` (n,) its words; ``qpos`` (n, nq) and ``q_cut`` (n, c) its closed poses (NaN elsewhere);
+    ``iterations`` (n,); ``transmission`` (n,); ``inertia_high`` per servo the largest effective inertia.
+    """
+
+    status: np.ndarray
+    qpos: np.ndarray
+    q_cut: np.ndarray
+    iterations: np.ndarray
+    transmission: np.ndarray
+    inertia_high: tuple[float, ...]
+
+    @property
+    def assembled(self) -> np.ndarray:
+        """Rows closed on the start's branch, (n,) bool."""
+        return np.isin(self.status.astype(str), (Status.OK.value, Status.DEAD_CENTRE.value))
+
+
+def _unit_rates(lp: MjLoop) -> list[np.ndarray]:
+    """The tree's velocity ``(nv,)`` for a unit rate of each servoed coordinate (the other held)."""
+    positions(lp)
+    rows = velocity_rows(lp)
+    units = np.eye(lp.prescribed.size)
+    return [solve_free(lp, rows, unit, np.zeros(rows.shape[0]))[:lp.model.nv] for unit in units]
+
+
+def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
+    """Close every row by the rigid judge (module docstring); ``seed`` of its start search."""
+    lp = build(mechanism)
+    n = mechanism.drive.positions.shape[0]
+    scratch = {name: np.full(n, np.nan) for name in column_names(mechanism)}
+    coordinates = _scalar_coordinates(mechanism)
+    given, solved = efforts(mechanism)
+    status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
+    qpos, q_cut = np.full((n, lp.model.nq), np.nan), np.full((n, len(lp.cut)), np.nan)
+    iterations, transmission = np.zeros(n, dtype=int), np.full(n, np.nan)
+    high = [0.0] * lp.prescribed.size
+    mass = np.empty((lp.model.nv, lp.model.nv))
+    for k, outcome, iterations[k], _ in sweep(lp, seed):
+        status[k] = outcome
+        if outcome != Status.OK:
+            continue
+        qpos[k], q_cut[k] = lp.data.qpos, lp.q_cut
+        _, transmission[k] = judge_position(lp, k, given, solved, scratch, coordinates)
+        if transmission[k] < DEAD_CENTRE_TRANSMISSION.value:
+            status[k] = Status.DEAD_CENTRE.value
+        mujoco.mj_crb(lp.model, lp.data)
+        mujoco.mj_fullM(lp.model, lp.data, mass)
+        for s, v in enumerate(_unit_rates(lp)):
+            high[s] = max(high[s], float(v @ mass @ v))
+    return Survey(status, qpos, q_cut, iterations, transmission, tuple(high))
+
+
+def timestep(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE) -> float:
+    """Seconds per step (module docstring, "Settings")."""
+    d, size = mechanism.drive, _length(mechanism)
+    one = math.radians(1.0) * (size if d.coordinate == "s" else 1.0)
+    cycles = max(1.0, abs(d.axial_cycles)) if d.axial_amplitude != 0.0 else 1.0
+    times = [MAX_TIMESTEP * steps_per_degree]
+    if d.speed != 0.0:
+        times.append(one / (abs(d.speed) * cycles))
+    if d.accel != 0.0:
+        times.append(math.sqrt(2.0 * one / (abs(d.accel) * cycles)))
+    return min(times) / steps_per_degree
+
+
+def _length(mechanism: LoopMechanism) -> float:
+    sizes = [abs(v) for j in mechanism.joints for v in (j.a, j.s)]
+    return max(sizes) if max(sizes) > 0.0 else 1.0
+
+
+def _inertia_low(mechanism: LoopMechanism) -> tuple[float, ...]:
+    """The driven link's own inertia about the drive axis through its frame origin, its mass along it."""
+    d = mechanism.drive
+    body = mechanism.bodies[d.joint]
+    i, c = np.asarray(body.inertia), np.asarray(body.com)
+    about = float(i[2, 2] + body.mass * (c[0] ** 2 + c[1] ** 2))
+    return tuple(about if c == "theta" else body.mass for c in (d.coordinate, "s")[:len(servoed(mechanism))])
+
+
+def settings(mechanism: LoopMechanism, dt: float, sv: Survey) -> SimSettings:
+    """Servo gains and weld softness at step ``dt`` (module docstring, "Settings")."""
+    low = _inertia_low(mechanism)
+    high = tuple(max(SIM_INERTIA_MARGIN * h, lo) for h, lo in zip(sv.inertia_high, low))
+    wn = SERVO_BANDWIDTH / dt
+    kp = tuple(lo * wn**2 for lo in low)
+    kv = tuple(2.0 * math.sqrt(k * h) for k, h in zip(kp, high))
+    universal = any(j.type == "U" for j in mechanism.joints)
+    damping = CLOSURE_DAMPRATIO_UNIVERSAL if universal else CLOSURE_DAMPRATIO
+    return SimSettings(dt, kp, kv, (2.0 * dt, damping), (0.9999, 0.9999, 0.001, 0.5, 2.0))
+
+
+def runin_steps(s: SimSettings) -> int:
+    """Steps before a run's first row (module docstring, "Settings")."""
+    slow = max(kv / kp for kp, kv in zip(s.servo_kp, s.servo_kv))
+    return max(SIM_RUNIN_STEPS, math.ceil(SIM_RUNIN_TIME_CONSTANTS * slow / s.timestep))
+
+
+def schedule(mechanism: LoopMechanism, dt: float, rows: np.ndarray,
+             runin: int) -> tuple[float, list[tuple[np.ndarray, np.ndarray]]]:
+    """The time step and the runs: per run the rows it serves ``(k,)`` and the step each is read at
+    ``(k,)`` (the first at ``runin``, the run's anchor)."""
+    d = mechanism.drive
+    p = d.positions
+    if d.accel == 0.0 and d.speed != 0.0 and rows.all() and p.shape[0] > 1:
+        t = (p - p[0]) / d.speed
+        order = np.argsort(t, kind="stable")
+        elapsed = t[order] - t[order[0]]
+        gap = float(np.min(np.diff(elapsed)))
+        if gap > 0.0:
+            step = gap / max(1, math.ceil(gap / dt - 1e-9))
+            steps = np.rint(elapsed / step).astype(np.int64)
+            if np.max(np.abs(steps * step - elapsed)) <= 1e-6 * step:
+                return step, [(order, steps + runin)]
+    return dt, [(np.array([k]), np.array([runin])) for k in np.flatnonzero(rows)]
+
+
+@dataclass
+class SimModel:
+    """The compiled simulation model and its addresses."""
+
+    lp: MjLoop  # the simulation model with the rigid judge's addresses (joint points)
+    coordinates: dict[str, tuple[int, int]]  # scalar variable -> (qpos, dof) address
+    bodies: tuple[int, ...]  # joint i's following body: link1 .. link<n-1>, ground_half
+    half_site: int
+    ground_site: int
+    half_ball: int  # qpos address of joint n's ball, -1 if joint n is not spherical
+
+
+def compile_sim(mechanism: LoopMechanism, s: SimSettings, xml: str | None = None) -> SimModel:
+    """Compile :func:`~.sim_mjcf.loop_sim_mjcf` (or the given text) and collect the addresses."""
+    lp = build(mechanism, loop_sim_mjcf(mechanism, s) if xml is None else xml)
+    m = lp.model
+    skip_collisions(m)
+    skip_islands(m)
+    coordinates = {}
+    for i, joint in enumerate(mechanism.joints):
+        for coordinate, kind, _ in MJ_JOINTS[joint.type]:
+            if kind != "ball":
+                jid = m.joint(joint_name(i, coordinate)).id
+                coordinates[f"{coordinate}{i + 1}"] = (int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid]))
+    n = len(mechanism.joints)
+    bodies = tuple(m.body(body_name(k)).id for k in range(1, n)) + (m.body(HALF_BODY).id,)
+    ball = int(m.jnt_qposadr[m.joint(joint_name(n - 1, "ball")).id]) if mechanism.joints[-1].type == "S" else -1
+    return SimModel(lp, coordinates, bodies, m.site(HALF_SITE).id, lp.sites[1], ball)
+
+
+def reference(mechanism: LoopMechanism, anchor: int, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The servos' references ``(k, servos)`` and rates ``(k, servos)`` at ``times`` (s, 0 at row
+    ``anchor``): the trajectory through the anchor's snapshot."""
+    d = mechanism.drive
+    value = d.positions[anchor] + d.speed * times + 0.5 * d.accel * times**2
+    rate = d.speed + d.accel * times
+    out = [drive_at(mechanism, float(v), float(r), d.accel) for v, r in zip(value, rate)]
+    return np.array([list(o[0].values()) for o in out]), np.array([o[1] for o in out])
+
+
+def start_state(rigid: MjLoop, sim: SimModel, sv: Survey, anchor: int, values: np.ndarray,
+                rates: np.ndarray) -> bool:
+    """Close the rigid loop at the run's first reference from row ``anchor``'s pose and copy the pose and
+    its rates into the simulation (joint n's as ``ground_half``'s joints); whether it closed."""
+    rigid.data.qpos[:], rigid.q_cut = sv.qpos[anchor], sv.q_cut[anchor].copy()
+    prescribe(rigid, dict(zip(drive_at(rigid.mechanism, 0.0, 0.0, 0.0)[0], values)))
+    if close(rigid)[0] != Status.OK:
+        return False
+    rows = velocity_rows(rigid)
+    u_dot = solve_free(rigid, rows, rates, np.zeros(rows.shape[0]))
+    m, d = sim.lp.model, sim.lp.data
+    nq, nv = rigid.model.nq, rigid.model.nv
+    mujoco.mj_resetData(m, d)
+    d.qpos[:nq], d.qvel[:nv] = rigid.data.qpos, u_dot[:nv]
+    if sim.half_ball >= 0:  # the ground half turned by the ball into the ground's frame, at rest
+        mujoco.mj_kinematics(rigid.model, rigid.data)
+        jacr = np.empty((3, nv))
+        link = rigid.bodies[-1]
+        mujoco.mj_jacBody(rigid.model, rigid.data, None, jacr, link)
+        site_link = rigid.data.site_xmat[rigid.sites[0]].reshape(3, 3)
+        ground = rigid.data.site_xmat[rigid.sites[1]].reshape(3, 3)
+        mujoco.mju_mat2Quat(d.qpos[nq:nq + 4], (site_link.T @ ground).reshape(-1))
+        d.qvel[nv:nv + 3] = -ground.T @ (jacr @ u_dot[:nv])
+    else:
+        d.qpos[nq:], d.qvel[nv:] = rigid.q_cut, u_dot[nv:]
+    return True
+
+
+def read_row(sim: SimModel, gains: np.ndarray, effort_names: list[str], size: float) -> dict[str, float]:
+    """Columns of the current simulated state (module docstring, "Reading a row"); after ``mj_forward``
+    (overwrites ``qacc``)."""
+    m, d = sim.lp.model, sim.lp.data
+    mass = np.empty((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, mass)
+    d.qacc[:] = np.linalg.solve(mass + m.opt.timestep * gains, mass @ d.qacc)
+    mujoco.mj_rnePostConstraint(m, d)
+    out = {}
+    for name, (qadr, dadr) in sim.coordinates.items():
+        out[name], out[name + "_dot"], out[name + "_ddot"] = d.qpos[qadr], d.qvel[dadr], d.qacc[dadr]
+    points = joint_points(sim.lp)
+    for i, body in enumerate(sim.bodies):
+        torque, force = d.cfrc_int[body, :3], d.cfrc_int[body, 3:]
+        moment = torque + np.cross(d.subtree_com[m.body_rootid[body]] - points[i], force)
+        for a, axis in enumerate("xyz"):
+            out[f"joint{i + 1}_f{axis}"], out[f"joint{i + 1}_m{axis}"] = force[a], moment[a]
+    for name in effort_names:
+        coordinate = name.rstrip("0123456789")
+        i = int(name[len(coordinate):]) - 1
+        z = d.xmat[sim.bodies[i]].reshape(3, 3)[:, 2]
+        kind = "f" if coordinate == "s" else "m"
+        out[f"effort_{name}"] = float(sum(out[f"joint{i + 1}_{kind}{a}"] * z[k] for k, a in enumerate("xyz")))
+    out["residual"] = float(np.linalg.norm(d.site_xpos[sim.half_site] - d.site_xpos[sim.ground_site])) / size
+    return out
+
+
+def simulate(mechanism: LoopMechanism, sv: Survey, s: SimSettings, runs: list, runin: int,
+             loads: np.ndarray, xml: str | None = None) -> dict[str, np.ndarray]:
+    """One pass over ``runs`` with the motors' efforts ``loads`` ``(n_loads,)``: raw columns ``(n,)``
+    (:func:`read_row`'s, plus ``lag``: the drive's simulated minus prescribed coordinate), NaN where not
+    simulated or not trusted."""
+    rigid = build(mechanism)
+    sim = compile_sim(mechanism, s, xml)
+    m, d = sim.lp.model, sim.lp.data
+    kp, kv = np.array(s.servo_kp), np.array(s.servo_kv)
+    gains = velocity_gains(m)
+    given, solved = efforts(mechanism)
+    names = list(given) + solved
+    size = _length(mechanism)
+    drive = sim.coordinates[f"{mechanism.drive.coordinate}{mechanism.drive.joint + 1}"][0]
+    n = mechanism.drive.positions.shape[0]
+    out: dict[str, np.ndarray] = {}
+    with rollout.Rollout(nthread=0) as roller:
+        for rows, steps in runs:
+            times = (np.arange(int(steps[-1]) + 1) - runin) * s.timestep
+            values, rates = reference(mechanism, int(rows[0]), times)
+            if not start_state(rigid, sim, sv, int(rows[0]), values[0], rates[0]):
+                continue
+            mujoco.mj_forward(m, d)
+            ctrl = np.hstack([values + kv / kp * rates, np.broadcast_to(loads, (times.size, loads.size))])
+            for i, k in enumerate(stepped(m, d, ctrl, steps, roller)):
+                mujoco.mj_forward(m, d)
+                row = read_row(sim, gains, names, size)
+                row["lag"] = float(d.qpos[drive] - values[k, 0])
+                for name, value in row.items():
+                    out.setdefault(name, np.full(n, np.nan))[rows[i]] = value
+            if d.warning.number.any():  # MuJoCo blew up (mjWARN_BADQACC, ...): rows not trusted
+                for column in out.values():
+                    column[rows] = np.nan
+    return out
+
+
+def load_scale(mechanism: LoopMechanism) -> float:
+    """``L_ref`` of the solved load (module docstring): the given drive effort's, else an inertial one, as
+    a force along (times the table's length about) the loaded axis."""
+    d, size = mechanism.drive, _length(mechanism)
+    load = next(load for load in mechanism.loads if load.value is None)
+    lever = size if load.coordinate == "theta" else 1.0
+    drive_lever = size if d.coordinate == "theta" else 1.0
+    if d.effort:
+        return abs(d.effort) / drive_lever * lever
+    mass = sum(b.mass for b in mechanism.bodies)
+    scale = mass * (size * (d.speed**2 + abs(d.accel)) / (size if d.coordinate == "s" else 1.0)
+                    + float(np.linalg.norm(mechanism.gravity)))
+    return (scale if scale > 0 else 1.0) * lever
+
+
+def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree: int = STEPS_PER_DEGREE,
+                   xml: str | None = None) -> LoopTable:
+    """Every drive position of ``mechanism`` simulated by MuJoCo (module docstring).
+
+    Parameters
+    ----------
+    mechanism : LoopMechanism
+        A one-degree-of-freedom table driven at one of joints 1 .. n-1.
+    seed : int
+        Seed of the rigid judge's start search (used only when no joint gives a start value).
+    steps_per_degree : int
+        Steps per degree of the drive's fastest phase.
+    xml : str, optional
+        The simulation MJCF to compile instead of :func:`~.sim_mjcf.loop_sim_mjcf`'s (same names: e.g. one
+        with a deliberate fault).
+
+    Returns
+    -------
+    LoopTable
+        The rigid judge's columns (:func:`~.engine.column_names`); ``iterations`` the rigid start's,
+        ``residual`` the weld's gap over the table's length, ``dynamics_residual`` NaN; ``meta`` the time
+        step, steps per degree, run-in, servo gains, the largest drive lag and, with a solved load,
+        ``L_ref``.
+    """
+    n_joints = len(mechanism.joints)
+    if mechanism.drive.joint == n_joints - 1:
+        raise ValueError(f"drive.joint: the simulated judge drives one of joints 1..{n_joints - 1}, got "
+                         f"{n_joints} (the cut's joint, which carries the ground half)")
+    if isinstance(steps_per_degree, bool) or int(steps_per_degree) != steps_per_degree or steps_per_degree < 1:
+        raise ValueError(f"steps_per_degree: expected a positive integer, got {steps_per_degree!r}")
+    check_mobility(mechanism)
+    sv = survey(mechanism, seed)
+    n = mechanism.drive.positions.shape[0]
+    names = column_names(mechanism)
+    dynamic = [c for c in names if c.startswith(("effort_", "joint"))]
+    assembled = sv.assembled
+    s = settings(mechanism, timestep(mechanism, steps_per_degree), sv)
+    runin = runin_steps(s)
+    dt, runs = schedule(mechanism, s.timestep, assembled, runin)
+    s = settings(mechanism, dt, sv) if dt != s.timestep else s
+    meta: dict = {"mujoco": mujoco.__version__, "timestep": s.timestep, "steps_per_degree": steps_per_degree,
+                  "runin_steps": runin, "servo_kp": s.servo_kp, "servo_kv": s.servo_kv}
+    solved = [k for k, load in enumerate(mechanism.loads) if load.value is None]
+    loads = np.array([load.value or 0.0 for load in mechanism.loads])
+    raw = simulate(mechanism, sv, s, runs, runin, loads, xml)
+    dead = sv.status == Status.DEAD_CENTRE.value
+    if solved:
+        l_ref = load_scale(mechanism)
+        loads[solved[0]] = l_ref
+        loaded = simulate(mechanism, sv, s, runs, runin, loads, xml)
+        drive = f"effort_{mechanism.drive.coordinate}{mechanism.drive.joint + 1}"
+        with np.errstate(divide="ignore", invalid="ignore"):
+            w = (mechanism.drive.effort - raw[drive]) / (loaded[drive] - raw[drive])
+        for c in dynamic:
+            raw[c] = raw[c] + w * (loaded[c] - raw[c])
+        dead |= assembled & (np.abs(sv.transmission) < SIM_DEAD_CENTRE_TRANSMISSION.value)
+        meta["L_ref"] = l_ref
+    columns = {c: raw.get(c, np.full(n, np.nan)).copy() for c in names}
+    status = sv.status.copy()
+    status[dead] = Status.DEAD_CENTRE.value
+    for c in dynamic:
+        columns[c][dead] = np.nan
+    simulated = np.isfinite(raw.get("residual", np.full(n, np.nan)))
+    status[assembled & ~simulated] = Status.NOT_CONVERGED.value
+    for c in names:
+        columns[c][~(assembled & simulated)] = np.nan
+    lag = raw.get("lag", np.full(n, np.nan))
+    meta["max_lag"] = float(np.nanmax(np.abs(lag))) if np.isfinite(lag).any() else math.nan
+    residual = raw.get("residual", np.full(n, np.nan))
+    return LoopTable(ENGINE, mechanism.name, columns, status, sv.iterations, residual, np.full(n, np.nan), meta)
+
+
+def benchmark(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE) -> dict:
+    """Wall time of :func:`solve_loop_sim` per position: ``positions``, ``seconds``, ``positions_per_s``."""
+    t0 = time.perf_counter()
+    table = solve_loop_sim(mechanism, steps_per_degree=steps_per_degree)
+    seconds = time.perf_counter() - t0
+    n = table.status.shape[0]
+    return {"engine": ENGINE, "positions": n, "seconds": seconds, "positions_per_s": n / seconds}
+
+
+__all__ = ["ENGINE", "Survey", "SimModel", "benchmark", "compile_sim", "load_scale", "read_row", "reference",
+           "runin_steps", "schedule", "settings", "simulate", "solve_loop_sim", "start_state", "survey",
+           "timestep"]
