@@ -18,7 +18,6 @@ Statuses (:mod:`dualmech.core.status`): ``no_assembly`` / ``not_converged`` from
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
@@ -40,6 +39,7 @@ from dualmech.validation.judges.mujoco_loop.closure import (
     variable,
 )
 from dualmech.validation.judges.mujoco_loop.dynamics import (
+    Balance,
     balance,
     drift,
     joint_wrenches,
@@ -137,7 +137,8 @@ def drive_values(mechanism: LoopMechanism, k: int) -> tuple[dict[str, float], np
 def drive_at(mechanism: LoopMechanism, value: float, speed: float,
              accel: float) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
     """The prescribed coordinates' values by name, rates and accelerations where the driven coordinate is
-    ``value`` with rate ``speed`` and acceleration ``accel`` (a C drive's slide by the axial law
+    ``value`` with rate ``speed`` and acceleration ``accel``, floats or arrays ``(k,)`` (then the values
+    are arrays and the rates and accelerations ``(m, k)``; a C drive's slide by the axial law
     :math:`S = S_0 + S_S \\sin(c\\,\\theta)`, thesis eq. 27-28)."""
     d = mechanism.drive
     theta, w, wd = value, speed, accel
@@ -146,10 +147,10 @@ def drive_at(mechanism: LoopMechanism, value: float, speed: float,
     if mechanism.joints[d.joint].type == "C":
         amp, cyc = d.axial_amplitude, d.axial_cycles
         phase = cyc * theta
-        values[variable(d.joint, "s")] = d.axial_shift + amp * math.sin(phase)
-        rates.append(amp * cyc * math.cos(phase) * w)
-        accels.append(amp * cyc * (math.cos(phase) * wd - cyc * math.sin(phase) * w * w))
-    return values, np.array(rates), np.array(accels)
+        values[variable(d.joint, "s")] = d.axial_shift + amp * np.sin(phase)
+        rates.append(amp * cyc * np.cos(phase) * w)
+        accels.append(amp * cyc * (np.cos(phase) * wd - cyc * np.sin(phase) * w * w))
+    return values, np.array(np.broadcast_arrays(*rates)), np.array(np.broadcast_arrays(*accels))
 
 
 def find_start(lp: MjLoop, seed: int = 0) -> int:
@@ -184,23 +185,30 @@ def _branch_search(lp: MjLoop, k: int, sign: float, rng: np.random.Generator) ->
     return False
 
 
-def judge_position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str], columns: dict[str, np.ndarray],
-              coordinates: list[str]) -> tuple[float, float]:
-    """Rates, efforts and wrenches at a closed pose, into ``columns[...][k]``; returns the dynamics'
-    residual and the transmission (below :data:`DEAD_CENTRE_TRANSMISSION`: a dead centre, efforts and
-    wrenches left out)."""
-    values, rates, accels = drive_values(lp.mechanism, k)
+def dynamics_at(lp: MjLoop, k: int, given: dict[str, float],
+                solved: list[str]) -> tuple[np.ndarray, np.ndarray, Balance]:
+    """Rates ``u_dot``, accelerations ``u_ddot`` ``(n_u,)`` and the balance at drive position ``k``, at the
+    closed pose ``lp`` holds."""
+    _, rates, accels = drive_values(lp.mechanism, k)
     positions(lp)
     rows = velocity_rows(lp)
     u_dot = solve_free(lp, rows, rates, np.zeros(rows.shape[0]))
     set_velocity(lp, u_dot)
     u_ddot = solve_free(lp, rows, accels, -drift(lp, u_dot))
+    return u_dot, u_ddot, balance(lp, u_ddot, given, solved)
+
+
+def judge_position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str],
+                   columns: dict[str, np.ndarray], coordinates: list[str]) -> tuple[float, float]:
+    """Rates, efforts and wrenches at a closed pose, into ``columns[...][k]``; returns the dynamics'
+    residual and the transmission (below :data:`DEAD_CENTRE_TRANSMISSION`: a dead centre, efforts and
+    wrenches left out)."""
+    u_dot, u_ddot, cut = dynamics_at(lp, k, given, solved)
     for name in coordinates:
         index, address = lp.coordinates[name]
         value = lp.data.qpos[address] if address >= 0 else lp.q_cut[index - lp.model.nv]
         columns[name][k], columns[name + "_dot"][k], columns[name + "_ddot"][k] = \
             value, u_dot[index], u_ddot[index]
-    cut = balance(lp, u_ddot, given, solved)
     if cut.transmission < DEAD_CENTRE_TRANSMISSION.value:
         return cut.residual, cut.transmission
     for name, value in cut.efforts.items():
@@ -278,5 +286,5 @@ def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = Non
     return LoopTable(ENGINE, mechanism.name, columns, status, iterations, residual, dyn)
 
 
-__all__ = ["ENGINE", "LoopTable", "column_names", "drive_at", "drive_values", "efforts", "find_start", "judge_position",
-           "solve_loop", "sweep"]
+__all__ = ["ENGINE", "LoopTable", "column_names", "drive_at", "drive_values", "dynamics_at", "efforts",
+           "find_start", "judge_position", "solve_loop", "sweep"]

@@ -66,14 +66,12 @@ from dualmech.models.mjcf_settings import (
     STEPS_PER_DEGREE,
 )
 from dualmech.validation.judges.mujoco_loop.closure import MjLoop, build, close, positions, prescribe
-from dualmech.validation.judges.mujoco_loop.dynamics import joint_points, solve_free, velocity_rows
+from dualmech.validation.judges.mujoco_loop.dynamics import balance, joint_points, solve_free, velocity_rows
 from dualmech.validation.judges.mujoco_loop.engine import (
     LoopTable,
-    _scalar_coordinates,
     column_names,
     drive_at,
     efforts,
-    judge_position,
     sweep,
 )
 from dualmech.validation.judges.mujoco_loop.mjcf import MJ_JOINTS, body_name, joint_name
@@ -124,8 +122,6 @@ def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
     """Close every row by the rigid judge (module docstring); ``seed`` of its start search."""
     lp = build(mechanism)
     n = mechanism.drive.positions.shape[0]
-    scratch = {name: np.full(n, np.nan) for name in column_names(mechanism)}
-    coordinates = _scalar_coordinates(mechanism)
     given, solved = efforts(mechanism)
     status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
     qpos, q_cut = np.full((n, lp.model.nq), np.nan), np.full((n, len(lp.cut)), np.nan)
@@ -137,12 +133,14 @@ def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
         if outcome != Status.OK:
             continue
         qpos[k], q_cut[k] = lp.data.qpos, lp.q_cut
-        _, transmission[k] = judge_position(lp, k, given, solved, scratch, coordinates)
+        rates = _unit_rates(lp)
+        # the transmission is the balance matrix's alone, a function of the pose: any rates will do
+        transmission[k] = balance(lp, np.zeros(lp.n_u), given, solved).transmission
         if transmission[k] < DEAD_CENTRE_TRANSMISSION.value:
             status[k] = Status.DEAD_CENTRE.value
         mujoco.mj_crb(lp.model, lp.data)
         mujoco.mj_fullM(lp.model, lp.data, mass)
-        for s, v in enumerate(_unit_rates(lp)):
+        for s, v in enumerate(rates):
             high[s] = max(high[s], float(v @ mass @ v))
     return Survey(status, qpos, q_cut, iterations, transmission, tuple(high))
 
@@ -237,7 +235,9 @@ def compile_sim(mechanism: LoopMechanism, s: SimSettings, xml: str | None = None
                 coordinates[f"{coordinate}{i + 1}"] = (int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid]))
     n = len(mechanism.joints)
     bodies = tuple(m.body(body_name(k)).id for k in range(1, n)) + (m.body(HALF_BODY).id,)
-    ball = int(m.jnt_qposadr[m.joint(joint_name(n - 1, "ball")).id]) if mechanism.joints[-1].type == "S" else -1
+    ball = -1
+    if mechanism.joints[-1].type == "S":
+        ball = int(m.jnt_qposadr[m.joint(joint_name(n - 1, "ball")).id])
     return SimModel(lp, coordinates, bodies, m.site(HALF_SITE).id, lp.sites[1], ball)
 
 
@@ -247,8 +247,8 @@ def reference(mechanism: LoopMechanism, anchor: int, times: np.ndarray) -> tuple
     d = mechanism.drive
     value = d.positions[anchor] + d.speed * times + 0.5 * d.accel * times**2
     rate = d.speed + d.accel * times
-    out = [drive_at(mechanism, float(v), float(r), d.accel) for v, r in zip(value, rate)]
-    return np.array([list(o[0].values()) for o in out]), np.array([o[1] for o in out])
+    values, rates, _ = drive_at(mechanism, value, rate, d.accel)
+    return np.stack(list(values.values()), axis=-1), np.asarray(rates).T
 
 
 def start_state(rigid: MjLoop, sim: SimModel, sv: Survey, anchor: int, values: np.ndarray,
@@ -290,12 +290,13 @@ def read_row(sim: SimModel, gains: np.ndarray, effort_names: list[str], size: fl
     out = {}
     for name, (qadr, dadr) in sim.coordinates.items():
         out[name], out[name + "_dot"], out[name + "_ddot"] = d.qpos[qadr], d.qvel[dadr], d.qacc[dadr]
-    points = joint_points(sim.lp)
-    for i, body in enumerate(sim.bodies):
-        torque, force = d.cfrc_int[body, :3], d.cfrc_int[body, 3:]
-        moment = torque + np.cross(d.subtree_com[m.body_rootid[body]] - points[i], force)
+    bodies = np.array(sim.bodies)
+    forces = d.cfrc_int[bodies, 3:]
+    arms = d.subtree_com[m.body_rootid[bodies]] - joint_points(sim.lp)
+    moments = d.cfrc_int[bodies, :3] + np.cross(arms, forces)
+    for i in range(bodies.size):
         for a, axis in enumerate("xyz"):
-            out[f"joint{i + 1}_f{axis}"], out[f"joint{i + 1}_m{axis}"] = force[a], moment[a]
+            out[f"joint{i + 1}_f{axis}"], out[f"joint{i + 1}_m{axis}"] = forces[i, a], moments[i, a]
     for name in effort_names:
         coordinate = name.rstrip("0123456789")
         i = int(name[len(coordinate):]) - 1
@@ -385,7 +386,7 @@ def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree:
     if mechanism.drive.joint == n_joints - 1:
         raise ValueError(f"drive.joint: the simulated judge drives one of joints 1..{n_joints - 1}, got "
                          f"{n_joints} (the cut's joint, which carries the ground half)")
-    if isinstance(steps_per_degree, bool) or int(steps_per_degree) != steps_per_degree or steps_per_degree < 1:
+    if isinstance(steps_per_degree, bool) or not isinstance(steps_per_degree, int) or steps_per_degree < 1:
         raise ValueError(f"steps_per_degree: expected a positive integer, got {steps_per_degree!r}")
     check_mobility(mechanism)
     sv = survey(mechanism, seed)
@@ -426,7 +427,8 @@ def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree:
     lag = raw.get("lag", np.full(n, np.nan))
     meta["max_lag"] = float(np.nanmax(np.abs(lag))) if np.isfinite(lag).any() else math.nan
     residual = raw.get("residual", np.full(n, np.nan))
-    return LoopTable(ENGINE, mechanism.name, columns, status, sv.iterations, residual, np.full(n, np.nan), meta)
+    return LoopTable(ENGINE, mechanism.name, columns, status, sv.iterations, residual, np.full(n, np.nan),
+                     meta)
 
 
 def benchmark(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE) -> dict:
