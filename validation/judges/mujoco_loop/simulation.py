@@ -358,6 +358,15 @@ def load_scale(mechanism: LoopMechanism) -> float:
     return (scale if scale > 0 else 1.0) * lever
 
 
+def plan(mechanism: LoopMechanism, sv: Survey,
+         steps_per_degree: int = STEPS_PER_DEGREE) -> tuple[SimSettings, list, int]:
+    """The simulation's settings, runs (:func:`schedule`) and run-in steps for the rows ``sv`` assembles."""
+    s = settings(mechanism, timestep(mechanism, steps_per_degree), sv)
+    runin = runin_steps(s)
+    dt, runs = schedule(mechanism, s.timestep, sv.assembled, runin)
+    return (settings(mechanism, dt, sv) if dt != s.timestep else s), runs, runin
+
+
 def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree: int = STEPS_PER_DEGREE,
                    xml: str | None = None) -> LoopTable:
     """Every drive position of ``mechanism`` simulated by MuJoCo (module docstring).
@@ -394,10 +403,7 @@ def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree:
     names = column_names(mechanism)
     dynamic = [c for c in names if c.startswith(("effort_", "joint"))]
     assembled = sv.assembled
-    s = settings(mechanism, timestep(mechanism, steps_per_degree), sv)
-    runin = runin_steps(s)
-    dt, runs = schedule(mechanism, s.timestep, assembled, runin)
-    s = settings(mechanism, dt, sv) if dt != s.timestep else s
+    s, runs, runin = plan(mechanism, sv, steps_per_degree)
     meta: dict = {"mujoco": mujoco.__version__, "timestep": s.timestep, "steps_per_degree": steps_per_degree,
                   "runin_steps": runin, "servo_kp": s.servo_kp, "servo_kv": s.servo_kv}
     solved = [k for k, load in enumerate(mechanism.loads) if load.value is None]
@@ -440,6 +446,6 @@ def benchmark(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE
     return {"engine": ENGINE, "positions": n, "seconds": seconds, "positions_per_s": n / seconds}
 
 
-__all__ = ["ENGINE", "Survey", "SimModel", "benchmark", "compile_sim", "load_scale", "read_row", "reference",
-           "runin_steps", "schedule", "settings", "simulate", "solve_loop_sim", "start_state", "survey",
-           "timestep"]
+__all__ = ["ENGINE", "Survey", "SimModel", "benchmark", "compile_sim", "load_scale", "plan", "read_row",
+           "reference", "runin_steps", "schedule", "settings", "simulate", "solve_loop_sim", "start_state",
+           "survey", "timestep"]
