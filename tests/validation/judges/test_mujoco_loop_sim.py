@@ -23,7 +23,7 @@ import pytest
 from dualmech.models.loop.description import Load, LoopMechanism
 from dualmech.validation.judges.mujoco_loop import solve_loop
 from dualmech.validation.judges.mujoco_loop.engine import LoopTable
-from dualmech.validation.judges.mujoco_loop.sim_mjcf import loop_sim_mjcf
+from dualmech.validation.judges.mujoco_loop.sim_mjcf import HALF_BODY, loop_sim_mjcf
 from dualmech.validation.judges.mujoco_loop.simulation import plan, solve_loop_sim, survey
 from dualmech.validation.tolerances import LOOP_SIM_DYNAMICS, LOOP_SIM_POSITIONS, SIM_VELOCITY
 from tests.validation.judges.test_mujoco_loop import _preset, _size, with_start
@@ -94,7 +94,7 @@ def test_presets_agree_with_the_rigid_judge(name: str) -> None:
 
 
 def _faulty(mech: LoopMechanism, edit) -> LoopTable:
-    """The simulation of ``mech`` with its MJCF edited by ``edit(root)`` (same settings)."""
+    """The simulation of ``mech`` with its MJCF edited in place by ``edit(root)`` (same settings)."""
     settings, _, _ = plan(mech, survey(mech))
     root = ET.fromstring(loop_sim_mjcf(mech, settings))
     edit(root)
@@ -118,6 +118,32 @@ def test_a_fault_is_caught(name: str, edit) -> None:
     link's inertia axes x and z swapped (RCCC), leaves the simulation far outside its bounds."""
     mech = _table(name)
     assert max(ratios(_faulty(mech, edit), solve_loop(mech), _size(mech)).values()) > 10.0
+
+
+def test_a_spherical_cut_joint() -> None:
+    """The RSSR's table turned to end at a ball (R R S S: the output link is the ground, the crank joint 2
+    driven, 5-degree rows at constant speed; no start values: the rigid judge searches): the ground half
+    turns on a ball, and agrees."""
+    mech, _ = _preset("rssr")
+    j, b = mech.joints, mech.bodies
+    rows = np.radians(np.arange(0.0, 360.0, 5.0))
+    drive = dataclasses.replace(mech.drive, joint=1, positions=rows, accel=0.0)
+    turned = LoopMechanism("ball-last", (j[3], j[0], j[1], j[2]), drive, (b[2], b[0], b[1]),
+                           (Load(0, "theta", 1.5),), mech.gravity)
+    assert_agrees(solve_loop_sim(turned), solve_loop(turned), _size(turned))
+
+
+def _heavy_half(root: ET.Element) -> None:
+    inertial = next(b for b in root.iter("body") if b.get("name") == HALF_BODY).find("inertial")
+    inertial.set("mass", repr(10.0 * float(inertial.get("mass"))))
+
+
+def test_the_ground_half_is_not_weighed() -> None:
+    """The ground half's mass and weight go into the weld alone (``sim_mjcf``'s docstring): ten times as
+    heavy, under gravity, the RSSR still agrees."""
+    mech = _table("rssr")
+    assert np.linalg.norm(mech.gravity) > 0
+    assert_agrees(_faulty(mech, _heavy_half), solve_loop(mech), _size(mech))
 
 
 def test_the_cut_joint_cannot_be_driven() -> None:
