@@ -2,12 +2,12 @@
 
 Both judges start from the joints' ``start`` values written into the table (rounded, as a user writes
 them: :func:`tests.validation.judges.test_mujoco_loop.with_start`).  At the rows both call ``ok`` every
-column is compared with the rigid judge's (``docs/conventions.md``, "Simulated loop judge"): coordinates
-within :data:`~dualmech.validation.tolerances.LOOP_SIM_POSITIONS` (angles in rad, slides over the table's
-length); rates within :data:`~dualmech.validation.tolerances.SIM_VELOCITY` times the semi-implicit Euler
-lag ``dt/2`` times the peak acceleration; accelerations, efforts and joint wrenches within
-:data:`~dualmech.validation.tolerances.LOOP_SIM_DYNAMICS` of their unit group's peak (accelerations with
-slides over the length; forces; moments).
+column is compared with the rigid judge's (``docs/conventions.md``, "Loop tables: the simulated loop
+judge"): coordinates within :data:`~dualmech.validation.tolerances.LOOP_SIM_POSITIONS` (angles in rad,
+slides over the table's length); rates within :data:`~dualmech.validation.tolerances.SIM_VELOCITY`
+times the semi-implicit Euler lag ``dt/2`` times the peak acceleration; accelerations, efforts and joint
+wrenches within :data:`~dualmech.validation.tolerances.LOOP_SIM_DYNAMICS` of their unit group's peak
+(accelerations with slides over the length; forces; moments).
 """
 
 from __future__ import annotations

@@ -42,7 +42,7 @@ the row's weight :math:`w = (T - \\tau_0)/(\\tau_\\mathrm{ref} - \\tau_0)` (``T`
 transmission is below :data:`~dualmech.validation.tolerances.SIM_DEAD_CENTRE_TRANSMISSION` are
 ``dead_centre`` (the load grows like 1/t there and strains the soft loop): efforts and wrenches NaN.
 
-Error budget and tolerances: ``docs/conventions.md``, "Simulated loop judge".
+Error budget and tolerances: ``docs/conventions.md``, "Loop tables: the simulated loop judge".
 """
 
 from __future__ import annotations
