@@ -48,14 +48,13 @@ Error budget and tolerances: ``docs/conventions.md``, "Loop tables: the simulate
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 from mujoco import rollout
 
-from dualmech.core.status import Status
+from dualmech.core.status import Status, settle
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.mobility import check_mobility
 from dualmech.models.mjcf_settings import (
@@ -65,12 +64,13 @@ from dualmech.models.mjcf_settings import (
     SERVO_BANDWIDTH,
     STEPS_PER_DEGREE,
 )
-from dualmech.validation.judges.mujoco_loop.closure import MjLoop, build, close, positions, prescribe
+from dualmech.validation.judges.mujoco_loop.closure import MjLoop, build, close, move, positions, prescribe
 from dualmech.validation.judges.mujoco_loop.dynamics import balance, joint_points, solve_free, velocity_rows
 from dualmech.validation.judges.mujoco_loop.engine import (
     LoopTable,
     column_names,
     drive_at,
+    drive_values,
     efforts,
     sweep,
 )
@@ -94,12 +94,14 @@ class Survey:
     """The rigid judge's sweep (module docstring, "Starts").
 
     ``status`` (n,) its words; ``qpos`` (n, nq) and ``q_cut`` (n, c) its closed poses (NaN elsewhere);
+    ``tangent`` (n, servos, n_u) their velocity-space motion per unit of each servoed coordinate;
     ``iterations`` (n,); ``transmission`` (n,); ``inertia_high`` per servo the largest effective inertia.
     """
 
     status: np.ndarray
     qpos: np.ndarray
     q_cut: np.ndarray
+    tangent: np.ndarray
     iterations: np.ndarray
     transmission: np.ndarray
     inertia_high: tuple[float, ...]
@@ -110,12 +112,12 @@ class Survey:
         return np.isin(self.status.astype(str), (Status.OK.value, Status.DEAD_CENTRE.value))
 
 
-def _unit_rates(lp: MjLoop) -> list[np.ndarray]:
-    """The tree's velocity ``(nv,)`` for a unit rate of each servoed coordinate (the other held)."""
+def _unit_rates(lp: MjLoop) -> np.ndarray:
+    """The velocity ``(servos, n_u)`` for a unit rate of each servoed coordinate (the other held)."""
     positions(lp)
     rows = velocity_rows(lp)
-    units = np.eye(lp.prescribed.size)
-    return [solve_free(lp, rows, unit, np.zeros(rows.shape[0]))[:lp.model.nv] for unit in units]
+    zero = np.zeros(rows.shape[0])
+    return np.array([solve_free(lp, rows, unit, zero) for unit in np.eye(lp.prescribed.size)])
 
 
 def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
@@ -125,6 +127,7 @@ def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
     given, solved = efforts(mechanism)
     status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
     qpos, q_cut = np.full((n, lp.model.nq), np.nan), np.full((n, len(lp.cut)), np.nan)
+    tangent = np.full((n, lp.prescribed.size, lp.n_u), np.nan)
     iterations, transmission = np.zeros(n, dtype=int), np.full(n, np.nan)
     high = [0.0] * lp.prescribed.size
     mass = np.empty((lp.model.nv, lp.model.nv))
@@ -133,16 +136,16 @@ def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
         if outcome != Status.OK:
             continue
         qpos[k], q_cut[k] = lp.data.qpos, lp.q_cut
-        rates = _unit_rates(lp)
+        tangent[k] = _unit_rates(lp)
         # the transmission is the balance matrix's alone, a function of the pose: any rates will do
         transmission[k] = balance(lp, np.zeros(lp.n_u), given, solved).transmission
         if transmission[k] < DEAD_CENTRE_TRANSMISSION.value:
             status[k] = Status.DEAD_CENTRE.value
         mujoco.mj_crb(lp.model, lp.data)
         mujoco.mj_fullM(lp.model, lp.data, mass)
-        for s, v in enumerate(rates):
+        for s, v in enumerate(tangent[k, :, :lp.model.nv]):
             high[s] = max(high[s], float(v @ mass @ v))
-    return Survey(status, qpos, q_cut, iterations, transmission, tuple(high))
+    return Survey(status, qpos, q_cut, tangent, iterations, transmission, tuple(high))
 
 
 def timestep(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE) -> float:
@@ -218,7 +221,6 @@ class SimModel:
     bodies: tuple[int, ...]  # joint i's following body: link1 .. link<n-1>, ground_half
     half_site: int
     ground_site: int
-    half_ball: int  # qpos address of joint n's ball, -1 if joint n is not spherical
 
 
 def compile_sim(mechanism: LoopMechanism, s: SimSettings, xml: str | None = None) -> SimModel:
@@ -235,10 +237,7 @@ def compile_sim(mechanism: LoopMechanism, s: SimSettings, xml: str | None = None
                 coordinates[f"{coordinate}{i + 1}"] = (int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid]))
     n = len(mechanism.joints)
     bodies = tuple(m.body(body_name(k)).id for k in range(1, n)) + (m.body(HALF_BODY).id,)
-    ball = -1
-    if mechanism.joints[-1].type == "S":
-        ball = int(m.jnt_qposadr[m.joint(joint_name(n - 1, "ball")).id])
-    return SimModel(lp, coordinates, bodies, m.site(HALF_SITE).id, lp.sites[1], ball)
+    return SimModel(lp, coordinates, bodies, m.site(HALF_SITE).id, lp.sites[1])
 
 
 def reference(mechanism: LoopMechanism, anchor: int, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -251,32 +250,42 @@ def reference(mechanism: LoopMechanism, anchor: int, times: np.ndarray) -> tuple
     return np.stack(list(values.values()), axis=-1), np.asarray(rates).T
 
 
-def start_state(rigid: MjLoop, sim: SimModel, sv: Survey, anchor: int, values: np.ndarray,
-                rates: np.ndarray) -> bool:
-    """Close the rigid loop at the run's first reference from row ``anchor``'s pose and copy the pose and
-    its rates into the simulation (joint n's as ``ground_half``'s joints); whether it closed."""
+def run_start(rigid: MjLoop, sv: Survey, anchor: int, values: np.ndarray,
+              rates: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The simulation's ``qpos``, ``qvel`` at a run's first step: the rigid loop closed at the first
+    references ``values`` (servos,) from row ``anchor``'s pose moved along its tangent, with the rigid rates
+    for ``rates`` (servos,); joint n's as ``ground_half``'s joints.  ``None`` where it does not close."""
     rigid.data.qpos[:], rigid.q_cut = sv.qpos[anchor], sv.q_cut[anchor].copy()
+    row_values = np.array(list(drive_values(rigid.mechanism, anchor)[0].values()))
+    move(rigid, (values - row_values) @ sv.tangent[anchor])  # the predictor: Newton then takes a step or two
     prescribe(rigid, dict(zip(drive_at(rigid.mechanism, 0.0, 0.0, 0.0)[0], values)))
     if close(rigid)[0] != Status.OK:
-        return False
+        return None
     rows = velocity_rows(rigid)
     u_dot = solve_free(rigid, rows, rates, np.zeros(rows.shape[0]))
-    m, d = sim.lp.model, sim.lp.data
-    nq, nv = rigid.model.nq, rigid.model.nv
-    mujoco.mj_resetData(m, d)
-    d.qpos[:nq], d.qvel[:nv] = rigid.data.qpos, u_dot[:nv]
-    if sim.half_ball >= 0:  # the ground half turned by the ball into the ground's frame, at rest
-        mujoco.mj_kinematics(rigid.model, rigid.data)
-        jacr = np.empty((3, nv))
-        link = rigid.bodies[-1]
-        mujoco.mj_jacBody(rigid.model, rigid.data, None, jacr, link)
-        site_link = rigid.data.site_xmat[rigid.sites[0]].reshape(3, 3)
-        ground = rigid.data.site_xmat[rigid.sites[1]].reshape(3, 3)
-        mujoco.mju_mat2Quat(d.qpos[nq:nq + 4], (site_link.T @ ground).reshape(-1))
-        d.qvel[nv:nv + 3] = -ground.T @ (jacr @ u_dot[:nv])
-    else:
-        d.qpos[nq:], d.qvel[nv:] = rigid.q_cut, u_dot[nv:]
-    return True
+    nv = rigid.model.nv
+    if not rigid.ball_cut:
+        return np.r_[rigid.data.qpos, rigid.q_cut], u_dot
+    # the ground half turned by the ball into the ground's frame, at rest: its rate cancels link n-1's
+    mujoco.mj_kinematics(rigid.model, rigid.data)
+    jacr = np.empty((3, nv))
+    mujoco.mj_jacBody(rigid.model, rigid.data, None, jacr, rigid.bodies[-1])
+    site_link = rigid.data.site_xmat[rigid.sites[0]].reshape(3, 3)
+    ground = rigid.data.site_xmat[rigid.sites[1]].reshape(3, 3)
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, (site_link.T @ ground).reshape(-1))
+    return np.r_[rigid.data.qpos, quat], np.r_[u_dot[:nv], -ground.T @ (jacr @ u_dot[:nv])]
+
+
+def run_starts(mechanism: LoopMechanism, sv: Survey, s: SimSettings, runs: list,
+               runin: int) -> list[tuple[np.ndarray, np.ndarray] | None]:
+    """:func:`run_start` of every run (shared by the two load runs of a solved load)."""
+    rigid = build(mechanism)
+    out = []
+    for rows, _ in runs:
+        values, rates = reference(mechanism, int(rows[0]), np.array([-runin * s.timestep]))
+        out.append(run_start(rigid, sv, int(rows[0]), values[0], rates[0]))
+    return out
 
 
 def read_row(sim: SimModel, gains: np.ndarray, effort_names: list[str], size: float) -> dict[str, float]:
@@ -307,12 +316,11 @@ def read_row(sim: SimModel, gains: np.ndarray, effort_names: list[str], size: fl
     return out
 
 
-def simulate(mechanism: LoopMechanism, sv: Survey, s: SimSettings, runs: list, runin: int,
+def simulate(mechanism: LoopMechanism, starts: list, s: SimSettings, runs: list, runin: int,
              loads: np.ndarray, xml: str | None = None) -> dict[str, np.ndarray]:
-    """One pass over ``runs`` with the motors' efforts ``loads`` ``(n_loads,)``: raw columns ``(n,)``
-    (:func:`read_row`'s, plus ``lag``: the drive's simulated minus prescribed coordinate), NaN where not
-    simulated or not trusted."""
-    rigid = build(mechanism)
+    """One pass over ``runs`` from their ``starts`` (:func:`run_starts`) with the motors' efforts ``loads``
+    ``(n_loads,)``: raw columns ``(n,)`` (:func:`read_row`'s, plus ``lag``: the drive's simulated minus
+    prescribed coordinate), NaN where not simulated or not trusted."""
     sim = compile_sim(mechanism, s, xml)
     m, d = sim.lp.model, sim.lp.data
     kp, kv = np.array(s.servo_kp), np.array(s.servo_kv)
@@ -324,11 +332,13 @@ def simulate(mechanism: LoopMechanism, sv: Survey, s: SimSettings, runs: list, r
     n = mechanism.drive.positions.shape[0]
     out: dict[str, np.ndarray] = {}
     with rollout.Rollout(nthread=0) as roller:
-        for rows, steps in runs:
+        for (rows, steps), start in zip(runs, starts):
+            if start is None:
+                continue
             times = (np.arange(int(steps[-1]) + 1) - runin) * s.timestep
             values, rates = reference(mechanism, int(rows[0]), times)
-            if not start_state(rigid, sim, sv, int(rows[0]), values[0], rates[0]):
-                continue
+            mujoco.mj_resetData(m, d)
+            d.qpos[:], d.qvel[:] = start
             mujoco.mj_forward(m, d)
             ctrl = np.hstack([values + kv / kp * rates, np.broadcast_to(loads, (times.size, loads.size))])
             for i, k in enumerate(stepped(m, d, ctrl, steps, roller)):
@@ -408,12 +418,13 @@ def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree:
                   "runin_steps": runin, "servo_kp": s.servo_kp, "servo_kv": s.servo_kv}
     solved = [k for k, load in enumerate(mechanism.loads) if load.value is None]
     loads = np.array([load.value or 0.0 for load in mechanism.loads])
-    raw = simulate(mechanism, sv, s, runs, runin, loads, xml)
+    starts = run_starts(mechanism, sv, s, runs, runin)
+    raw = simulate(mechanism, starts, s, runs, runin, loads, xml)
     dead = sv.status == Status.DEAD_CENTRE.value
     if solved:
         l_ref = load_scale(mechanism)
         loads[solved[0]] = l_ref
-        loaded = simulate(mechanism, sv, s, runs, runin, loads, xml)
+        loaded = simulate(mechanism, starts, s, runs, runin, loads, xml)
         drive = f"effort_{mechanism.drive.coordinate}{mechanism.drive.joint + 1}"
         with np.errstate(divide="ignore", invalid="ignore"):
             w = (mechanism.drive.effort - raw[drive]) / (loaded[drive] - raw[drive])
@@ -424,12 +435,11 @@ def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree:
     columns = {c: raw.get(c, np.full(n, np.nan)).copy() for c in names}
     status = sv.status.copy()
     status[dead] = Status.DEAD_CENTRE.value
-    for c in dynamic:
-        columns[c][dead] = np.nan
     simulated = np.isfinite(raw.get("residual", np.full(n, np.nan)))
     status[assembled & ~simulated] = Status.NOT_CONVERGED.value
-    for c in names:
-        columns[c][~(assembled & simulated)] = np.nan
+    kinematic = [c for c in names if c not in dynamic]
+    status = settle(columns, status, tuple(dynamic), pose=tuple(c for c in kinematic if "_" not in c),
+                    rates=tuple(c for c in kinematic if "_" in c))
     lag = raw.get("lag", np.full(n, np.nan))
     meta["max_lag"] = float(np.nanmax(np.abs(lag))) if np.isfinite(lag).any() else math.nan
     residual = raw.get("residual", np.full(n, np.nan))
@@ -437,15 +447,6 @@ def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree:
                      meta)
 
 
-def benchmark(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE) -> dict:
-    """Wall time of :func:`solve_loop_sim` per position: ``positions``, ``seconds``, ``positions_per_s``."""
-    t0 = time.perf_counter()
-    table = solve_loop_sim(mechanism, steps_per_degree=steps_per_degree)
-    seconds = time.perf_counter() - t0
-    n = table.status.shape[0]
-    return {"engine": ENGINE, "positions": n, "seconds": seconds, "positions_per_s": n / seconds}
-
-
-__all__ = ["ENGINE", "Survey", "SimModel", "benchmark", "compile_sim", "load_scale", "plan", "read_row",
-           "reference", "runin_steps", "schedule", "settings", "simulate", "solve_loop_sim", "start_state",
+__all__ = ["ENGINE", "Survey", "SimModel", "compile_sim", "load_scale", "plan", "read_row", "reference",
+           "run_start", "run_starts", "runin_steps", "schedule", "settings", "simulate", "solve_loop_sim",
            "survey", "timestep"]
