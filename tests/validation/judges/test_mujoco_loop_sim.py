@@ -24,7 +24,8 @@ from dualmech.models.loop.description import Load, LoopMechanism
 from dualmech.validation.judges.mujoco_loop import solve_loop
 from dualmech.validation.judges.mujoco_loop.engine import LoopTable
 from dualmech.validation.judges.mujoco_loop.sim_mjcf import HALF_BODY, loop_sim_mjcf
-from dualmech.validation.judges.mujoco_loop.simulation import plan, solve_loop_sim, survey
+from dualmech.validation.judges.mujoco_loop.sim_plan import plan, survey
+from dualmech.validation.judges.mujoco_loop.simulation import solve_loop_sim
 from dualmech.validation.tolerances import LOOP_SIM_DYNAMICS, LOOP_SIM_POSITIONS, SIM_VELOCITY
 from tests.validation.judges.test_mujoco_loop import _preset, _size, with_start
 

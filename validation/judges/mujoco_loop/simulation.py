@@ -42,7 +42,8 @@ the row's weight :math:`w = (T - \\tau_0)/(\\tau_\\mathrm{ref} - \\tau_0)` (``T`
 transmission is below :data:`~dualmech.validation.tolerances.SIM_DEAD_CENTRE_TRANSMISSION` are
 ``dead_centre`` (the load grows like 1/t there and strains the soft loop): efforts and wrenches NaN.
 
-Error budget and tolerances: ``docs/conventions.md``, "Loop tables: the simulated loop judge".
+The plan (rows, starts, settings, runs) is :mod:`.sim_plan`.  Error budget and tolerances:
+``docs/conventions.md``, "Loop tables: the simulated loop judge".
 """
 
 from __future__ import annotations
@@ -58,21 +59,16 @@ from dualmech.core.status import Status, settle
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.mobility import check_mobility
 from dualmech.models.mjcf_settings import (
-    CLOSURE_DAMPRATIO,
-    CLOSURE_DAMPRATIO_UNIVERSAL,
-    MAX_TIMESTEP,
-    SERVO_BANDWIDTH,
     STEPS_PER_DEGREE,
 )
-from dualmech.validation.judges.mujoco_loop.closure import MjLoop, build, close, move, positions, prescribe
-from dualmech.validation.judges.mujoco_loop.dynamics import balance, joint_points, solve_free, velocity_rows
+from dualmech.validation.judges.mujoco_loop.closure import MjLoop, build, close, move, prescribe
+from dualmech.validation.judges.mujoco_loop.dynamics import joint_points, solve_free, velocity_rows
 from dualmech.validation.judges.mujoco_loop.engine import (
     LoopTable,
     column_names,
     drive_at,
     drive_values,
     efforts,
-    sweep,
 )
 from dualmech.validation.judges.mujoco_loop.mjcf import MJ_JOINTS, body_name, joint_name
 from dualmech.validation.judges.mujoco_loop.sim_mjcf import (
@@ -80,136 +76,12 @@ from dualmech.validation.judges.mujoco_loop.sim_mjcf import (
     HALF_SITE,
     SimSettings,
     loop_sim_mjcf,
-    servoed,
 )
+from dualmech.validation.judges.mujoco_loop.sim_plan import Survey, length, load_scale, plan, survey
 from dualmech.validation.mujoco_sim import skip_collisions, skip_islands, stepped, velocity_gains
-from dualmech.validation.mujoco_sim_plan import SIM_INERTIA_MARGIN, SIM_RUNIN_STEPS, SIM_RUNIN_TIME_CONSTANTS
-from dualmech.validation.tolerances import DEAD_CENTRE_TRANSMISSION, SIM_DEAD_CENTRE_TRANSMISSION
+from dualmech.validation.tolerances import SIM_DEAD_CENTRE_TRANSMISSION
 
 ENGINE = "mujoco-loop-sim"
-
-
-@dataclass(frozen=True)
-class Survey:
-    """The rigid judge's sweep (module docstring, "Starts").
-
-    ``status`` (n,) its words; ``qpos`` (n, nq) and ``q_cut`` (n, c) its closed poses (NaN elsewhere);
-    ``tangent`` (n, servos, n_u) their velocity-space motion per unit of each servoed coordinate;
-    ``iterations`` (n,); ``transmission`` (n,); ``inertia_high`` per servo the largest effective inertia.
-    """
-
-    status: np.ndarray
-    qpos: np.ndarray
-    q_cut: np.ndarray
-    tangent: np.ndarray
-    iterations: np.ndarray
-    transmission: np.ndarray
-    inertia_high: tuple[float, ...]
-
-    @property
-    def assembled(self) -> np.ndarray:
-        """Rows closed on the start's branch, (n,) bool."""
-        return np.isin(self.status.astype(str), (Status.OK.value, Status.DEAD_CENTRE.value))
-
-
-def _unit_rates(lp: MjLoop) -> np.ndarray:
-    """The velocity ``(servos, n_u)`` for a unit rate of each servoed coordinate (the other held)."""
-    positions(lp)
-    rows = velocity_rows(lp)
-    zero = np.zeros(rows.shape[0])
-    return np.array([solve_free(lp, rows, unit, zero) for unit in np.eye(lp.prescribed.size)])
-
-
-def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
-    """Close every row by the rigid judge (module docstring); ``seed`` of its start search."""
-    lp = build(mechanism)
-    n = mechanism.drive.positions.shape[0]
-    given, solved = efforts(mechanism)
-    status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
-    qpos, q_cut = np.full((n, lp.model.nq), np.nan), np.full((n, len(lp.cut)), np.nan)
-    tangent = np.full((n, lp.prescribed.size, lp.n_u), np.nan)
-    iterations, transmission = np.zeros(n, dtype=int), np.full(n, np.nan)
-    high = [0.0] * lp.prescribed.size
-    mass = np.empty((lp.model.nv, lp.model.nv))
-    for k, outcome, iterations[k], _ in sweep(lp, seed):
-        status[k] = outcome
-        if outcome != Status.OK:
-            continue
-        qpos[k], q_cut[k] = lp.data.qpos, lp.q_cut
-        tangent[k] = _unit_rates(lp)
-        # the transmission is the balance matrix's alone, a function of the pose: any rates will do
-        transmission[k] = balance(lp, np.zeros(lp.n_u), given, solved).transmission
-        if transmission[k] < DEAD_CENTRE_TRANSMISSION.value:
-            status[k] = Status.DEAD_CENTRE.value
-        mujoco.mj_crb(lp.model, lp.data)
-        mujoco.mj_fullM(lp.model, lp.data, mass)
-        for s, v in enumerate(tangent[k, :, :lp.model.nv]):
-            high[s] = max(high[s], float(v @ mass @ v))
-    return Survey(status, qpos, q_cut, tangent, iterations, transmission, tuple(high))
-
-
-def timestep(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE) -> float:
-    """Seconds per step (module docstring, "Settings")."""
-    d, size = mechanism.drive, _length(mechanism)
-    one = math.radians(1.0) * (size if d.coordinate == "s" else 1.0)
-    cycles = max(1.0, abs(d.axial_cycles)) if d.axial_amplitude != 0.0 else 1.0
-    times = [MAX_TIMESTEP * steps_per_degree]
-    if d.speed != 0.0:
-        times.append(one / (abs(d.speed) * cycles))
-    if d.accel != 0.0:
-        times.append(math.sqrt(2.0 * one / (abs(d.accel) * cycles)))
-    return min(times) / steps_per_degree
-
-
-def _length(mechanism: LoopMechanism) -> float:
-    sizes = [abs(v) for j in mechanism.joints for v in (j.a, j.s)]
-    return max(sizes) if max(sizes) > 0.0 else 1.0
-
-
-def _inertia_low(mechanism: LoopMechanism) -> tuple[float, ...]:
-    """The driven link's own inertia about the drive axis through its frame origin, its mass along it."""
-    d = mechanism.drive
-    body = mechanism.bodies[d.joint]
-    i, c = np.asarray(body.inertia), np.asarray(body.com)
-    about = float(i[2, 2] + body.mass * (c[0] ** 2 + c[1] ** 2))
-    return tuple(about if c == "theta" else body.mass for c in (d.coordinate, "s")[:len(servoed(mechanism))])
-
-
-def settings(mechanism: LoopMechanism, dt: float, sv: Survey) -> SimSettings:
-    """Servo gains and weld softness at step ``dt`` (module docstring, "Settings")."""
-    low = _inertia_low(mechanism)
-    high = tuple(max(SIM_INERTIA_MARGIN * h, lo) for h, lo in zip(sv.inertia_high, low))
-    wn = SERVO_BANDWIDTH / dt
-    kp = tuple(lo * wn**2 for lo in low)
-    kv = tuple(2.0 * math.sqrt(k * h) for k, h in zip(kp, high))
-    universal = any(j.type == "U" for j in mechanism.joints)
-    damping = CLOSURE_DAMPRATIO_UNIVERSAL if universal else CLOSURE_DAMPRATIO
-    return SimSettings(dt, kp, kv, (2.0 * dt, damping), (0.9999, 0.9999, 0.001, 0.5, 2.0))
-
-
-def runin_steps(s: SimSettings) -> int:
-    """Steps before a run's first row (module docstring, "Settings")."""
-    slow = max(kv / kp for kp, kv in zip(s.servo_kp, s.servo_kv))
-    return max(SIM_RUNIN_STEPS, math.ceil(SIM_RUNIN_TIME_CONSTANTS * slow / s.timestep))
-
-
-def schedule(mechanism: LoopMechanism, dt: float, rows: np.ndarray,
-             runin: int) -> tuple[float, list[tuple[np.ndarray, np.ndarray]]]:
-    """The time step and the runs: per run the rows it serves ``(k,)`` and the step each is read at
-    ``(k,)`` (the first at ``runin``, the run's anchor)."""
-    d = mechanism.drive
-    p = d.positions
-    if d.accel == 0.0 and d.speed != 0.0 and rows.all() and p.shape[0] > 1:
-        t = (p - p[0]) / d.speed
-        order = np.argsort(t, kind="stable")
-        elapsed = t[order] - t[order[0]]
-        gap = float(np.min(np.diff(elapsed)))
-        if gap > 0.0:
-            step = gap / max(1, math.ceil(gap / dt - 1e-9))
-            steps = np.rint(elapsed / step).astype(np.int64)
-            if np.max(np.abs(steps * step - elapsed)) <= 1e-6 * step:
-                return step, [(order, steps + runin)]
-    return dt, [(np.array([k]), np.array([runin])) for k in np.flatnonzero(rows)]
 
 
 @dataclass
@@ -327,10 +199,10 @@ def simulate(mechanism: LoopMechanism, starts: list, s: SimSettings, runs: list,
     gains = velocity_gains(m)
     given, solved = efforts(mechanism)
     names = list(given) + solved
-    size = _length(mechanism)
+    size = length(mechanism)
     drive = sim.coordinates[f"{mechanism.drive.coordinate}{mechanism.drive.joint + 1}"][0]
     n = mechanism.drive.positions.shape[0]
-    out: dict[str, np.ndarray] = {}
+    out = {c: np.full(n, np.nan) for c in (*column_names(mechanism), "residual", "lag")}
     with rollout.Rollout(nthread=0) as roller:
         for (rows, steps), start in zip(runs, starts):
             if start is None:
@@ -346,35 +218,11 @@ def simulate(mechanism: LoopMechanism, starts: list, s: SimSettings, runs: list,
                 row = read_row(sim, gains, names, size)
                 row["lag"] = float(d.qpos[drive] - values[k, 0])
                 for name, value in row.items():
-                    out.setdefault(name, np.full(n, np.nan))[rows[i]] = value
+                    out[name][rows[i]] = value
             if d.warning.number.any():  # MuJoCo blew up (mjWARN_BADQACC, ...): rows not trusted
                 for column in out.values():
                     column[rows] = np.nan
     return out
-
-
-def load_scale(mechanism: LoopMechanism) -> float:
-    """``L_ref`` of the solved load (module docstring): the given drive effort's, else an inertial one, as
-    a force along (times the table's length about) the loaded axis."""
-    d, size = mechanism.drive, _length(mechanism)
-    load = next(load for load in mechanism.loads if load.value is None)
-    lever = size if load.coordinate == "theta" else 1.0
-    drive_lever = size if d.coordinate == "theta" else 1.0
-    if d.effort:
-        return abs(d.effort) / drive_lever * lever
-    mass = sum(b.mass for b in mechanism.bodies)
-    scale = mass * (size * (d.speed**2 + abs(d.accel)) / (size if d.coordinate == "s" else 1.0)
-                    + float(np.linalg.norm(mechanism.gravity)))
-    return (scale if scale > 0 else 1.0) * lever
-
-
-def plan(mechanism: LoopMechanism, sv: Survey,
-         steps_per_degree: int = STEPS_PER_DEGREE) -> tuple[SimSettings, list, int]:
-    """The simulation's settings, runs (:func:`schedule`) and run-in steps for the rows ``sv`` assembles."""
-    s = settings(mechanism, timestep(mechanism, steps_per_degree), sv)
-    runin = runin_steps(s)
-    dt, runs = schedule(mechanism, s.timestep, sv.assembled, runin)
-    return (settings(mechanism, dt, sv) if dt != s.timestep else s), runs, runin
 
 
 def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree: int = STEPS_PER_DEGREE,
@@ -410,43 +258,51 @@ def solve_loop_sim(mechanism: LoopMechanism, *, seed: int = 0, steps_per_degree:
     check_mobility(mechanism)
     sv = survey(mechanism, seed)
     n = mechanism.drive.positions.shape[0]
-    names = column_names(mechanism)
-    dynamic = [c for c in names if c.startswith(("effort_", "joint"))]
-    assembled = sv.assembled
     s, runs, runin = plan(mechanism, sv, steps_per_degree)
     meta: dict = {"mujoco": mujoco.__version__, "timestep": s.timestep, "steps_per_degree": steps_per_degree,
                   "runin_steps": runin, "servo_kp": s.servo_kp, "servo_kv": s.servo_kv}
-    solved = [k for k, load in enumerate(mechanism.loads) if load.value is None]
     loads = np.array([load.value or 0.0 for load in mechanism.loads])
     starts = run_starts(mechanism, sv, s, runs, runin)
     raw = simulate(mechanism, starts, s, runs, runin, loads, xml)
     dead = sv.status == Status.DEAD_CENTRE.value
-    if solved:
-        l_ref = load_scale(mechanism)
-        loads[solved[0]] = l_ref
-        loaded = simulate(mechanism, starts, s, runs, runin, loads, xml)
-        drive = f"effort_{mechanism.drive.coordinate}{mechanism.drive.joint + 1}"
-        with np.errstate(divide="ignore", invalid="ignore"):
-            w = (mechanism.drive.effort - raw[drive]) / (loaded[drive] - raw[drive])
-        for c in dynamic:
+    if any(load.value is None for load in mechanism.loads):
+        meta["L_ref"] = load_scale(mechanism)
+        loads[[load.value is None for load in mechanism.loads]] = meta["L_ref"]
+        _combine(mechanism, raw, simulate(mechanism, starts, s, runs, runin, loads, xml))
+        dead |= sv.assembled & (np.abs(sv.transmission) < SIM_DEAD_CENTRE_TRANSMISSION.value)
+    columns, status = _finish(mechanism, sv, raw, dead)
+    meta["max_lag"] = float(np.nanmax(np.abs(raw["lag"]))) if np.isfinite(raw["lag"]).any() else math.nan
+    return LoopTable(ENGINE, mechanism.name, columns, status, sv.iterations, raw["residual"],
+                     np.full(n, np.nan), meta)
+
+
+def _combine(mechanism: LoopMechanism, raw: dict[str, np.ndarray], loaded: dict[str, np.ndarray]) -> None:
+    """Efforts and wrenches of ``raw`` (the solved load at 0) and ``loaded`` (at ``L_ref``) combined per row
+    for the given drive effort (module docstring, "A solved load"), into ``raw``."""
+    drive = f"effort_{mechanism.drive.coordinate}{mechanism.drive.joint + 1}"
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = (mechanism.drive.effort - raw[drive]) / (loaded[drive] - raw[drive])
+    for c in raw:
+        if c.startswith(("effort_", "joint")):
             raw[c] = raw[c] + w * (loaded[c] - raw[c])
-        dead |= assembled & (np.abs(sv.transmission) < SIM_DEAD_CENTRE_TRANSMISSION.value)
-        meta["L_ref"] = l_ref
-    columns = {c: raw.get(c, np.full(n, np.nan)).copy() for c in names}
+
+
+def _finish(mechanism: LoopMechanism, sv: Survey, raw: dict[str, np.ndarray],
+            dead: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The table's columns and status words: the survey's where not simulated, ``dead_centre`` at ``dead``
+    (efforts and wrenches NaN), ``not_converged`` where an assembled row has no simulated value,
+    ``not_finite`` where a given value is not finite (:func:`~dualmech.core.status.settle`)."""
+    names = column_names(mechanism)
+    columns = {c: raw[c].copy() for c in names}
     status = sv.status.copy()
     status[dead] = Status.DEAD_CENTRE.value
-    simulated = np.isfinite(raw.get("residual", np.full(n, np.nan)))
-    status[assembled & ~simulated] = Status.NOT_CONVERGED.value
+    status[sv.assembled & ~np.isfinite(raw["residual"])] = Status.NOT_CONVERGED.value
+    dynamic = tuple(c for c in names if c.startswith(("effort_", "joint")))
     kinematic = [c for c in names if c not in dynamic]
-    status = settle(columns, status, tuple(dynamic), pose=tuple(c for c in kinematic if "_" not in c),
+    status = settle(columns, status, dynamic, pose=tuple(c for c in kinematic if "_" not in c),
                     rates=tuple(c for c in kinematic if "_" in c))
-    lag = raw.get("lag", np.full(n, np.nan))
-    meta["max_lag"] = float(np.nanmax(np.abs(lag))) if np.isfinite(lag).any() else math.nan
-    residual = raw.get("residual", np.full(n, np.nan))
-    return LoopTable(ENGINE, mechanism.name, columns, status, sv.iterations, residual, np.full(n, np.nan),
-                     meta)
+    return columns, status
 
 
-__all__ = ["ENGINE", "Survey", "SimModel", "compile_sim", "load_scale", "plan", "read_row", "reference",
-           "run_start", "run_starts", "runin_steps", "schedule", "settings", "simulate", "solve_loop_sim",
-           "survey", "timestep"]
+__all__ = ["ENGINE", "SimModel", "compile_sim", "read_row", "reference", "run_start", "run_starts",
+           "simulate", "solve_loop_sim"]
