@@ -19,9 +19,9 @@ from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.mjcf_settings import (
     CLOSURE_DAMPRATIO,
     CLOSURE_DAMPRATIO_UNIVERSAL,
-    MAX_TIMESTEP,
     SERVO_BANDWIDTH,
     STEPS_PER_DEGREE,
+    phase_timestep,
 )
 from dualmech.validation.judges.mujoco_loop.closure import MjLoop, build, positions
 from dualmech.validation.judges.mujoco_loop.dynamics import balance, solve_free, velocity_rows
@@ -91,16 +91,11 @@ def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
 
 
 def timestep(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE) -> float:
-    """Seconds per step (module docstring, "Settings")."""
-    d, size = mechanism.drive, length(mechanism)
-    one = math.radians(1.0) * (size if d.coordinate == "s" else 1.0)
-    cycles = max(1.0, abs(d.axial_cycles)) if d.axial_amplitude != 0.0 else 1.0
-    times = [MAX_TIMESTEP * steps_per_degree]
-    if d.speed != 0.0:
-        times.append(one / (abs(d.speed) * cycles))
-    if d.accel != 0.0:
-        times.append(math.sqrt(2.0 * one / (abs(d.accel) * cycles)))
-    return min(times) / steps_per_degree
+    """Seconds per step (:mod:`.simulation`'s docstring, "Settings"): a slide drive's degree is one
+    degree times the table's length."""
+    d = mechanism.drive
+    degree = math.radians(1.0) * (length(mechanism) if d.coordinate == "s" else 1.0)
+    return phase_timestep(d.speed, d.accel, d.axial_amplitude, d.axial_cycles, steps_per_degree, degree)
 
 
 def length(mechanism: LoopMechanism) -> float:
