@@ -22,10 +22,12 @@ length) over :data:`~dualmech.models.mjcf_settings.STEPS_PER_DEGREE`, at most
 driven link's own inertia about (mass along) the drive axis, ``kv = 2 sqrt(kp I_high)`` with ``I_high``
 the margin :data:`~dualmech.validation.mujoco_sim_plan.SIM_INERTIA_MARGIN` times the largest effective
 inertia; weld ``solref = (2 dt, 2)`` (damping ratio 4 with a universal joint), ``solimp`` 0.9999; the run-in
-:data:`~dualmech.validation.mujoco_sim_plan.SIM_RUNIN_TIME_CONSTANTS` time constants ``kv/kp`` (at least
-:data:`~dualmech.validation.mujoco_sim_plan.SIM_RUNIN_STEPS`).  Collision detection and island discovery
-are switched off (no geoms, one equality).  A run in which MuJoCo warns (it blew up) is not trusted: its
-rows are ``not_converged``.
+:data:`~dualmech.validation.mujoco_sim_plan.SIM_RUNIN_TIME_CONSTANTS` time constants of the slower of the
+servo's ``kv/kp`` and the weld's slow pole (:func:`.sim_plan.weld_time_constant`: ~63 steps at damping
+ratio 4, whose transient from the rigid start otherwise biased a U joint's accelerations by 2e-3 of
+their peak), at least :data:`~dualmech.validation.mujoco_sim_plan.SIM_RUNIN_STEPS`.  Collision detection
+and island discovery are switched off (no geoms, one equality).  A run in which MuJoCo warns (it blew up)
+is not trusted: its rows are ``not_converged``.
 
 **Reading a row.** After ``mj_forward`` the *integrated* acceleration
 :math:`a = (M + \\Delta t K)^{-1} M \\ddot q` (``K`` the servos' velocity gains, which ``implicitfast``
