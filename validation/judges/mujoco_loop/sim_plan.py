@@ -33,7 +33,7 @@ from dualmech.validation.tolerances import DEAD_CENTRE_TRANSMISSION
 
 @dataclass(frozen=True)
 class Survey:
-    """The rigid judge's sweep (module docstring, "Starts").
+    """The rigid judge's sweep (:mod:`.simulation`'s docstring, "Starts").
 
     ``status`` (n,) its words; ``qpos`` (n, nq) and ``q_cut`` (n, c) its closed poses (NaN elsewhere);
     ``tangent`` (n, servos, n_u) their velocity-space motion per unit of each servoed coordinate;
@@ -63,7 +63,8 @@ def _unit_rates(lp: MjLoop) -> np.ndarray:
 
 
 def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
-    """Close every row by the rigid judge (module docstring); ``seed`` of its start search."""
+    """Close every row by the rigid judge (:mod:`.simulation`'s docstring, "Starts"); ``seed`` of its
+    start search."""
     lp = build(mechanism)
     n = mechanism.drive.positions.shape[0]
     given, solved = efforts(mechanism)
@@ -114,7 +115,7 @@ def _inertia_low(mechanism: LoopMechanism) -> tuple[float, ...]:
 
 
 def settings(mechanism: LoopMechanism, dt: float, sv: Survey) -> SimSettings:
-    """Servo gains and weld softness at step ``dt`` (module docstring, "Settings")."""
+    """Servo gains and weld softness at step ``dt`` (:mod:`.simulation`'s docstring, "Settings")."""
     low = _inertia_low(mechanism)
     high = tuple(max(SIM_INERTIA_MARGIN * h, lo) for h, lo in zip(sv.inertia_high, low))
     wn = SERVO_BANDWIDTH / dt
@@ -163,8 +164,8 @@ def schedule(mechanism: LoopMechanism, dt: float, rows: np.ndarray,
 
 
 def load_scale(mechanism: LoopMechanism) -> float:
-    """``L_ref`` of the solved load (module docstring): the given drive effort's, else an inertial one, as
-    a force along (times the table's length about) the loaded axis."""
+    """``L_ref`` of the solved load (:mod:`.simulation`'s docstring, "A solved load"): the given drive
+    effort's, else an inertial one, as a force along (times the table's length about) the loaded axis."""
     d, size = mechanism.drive, length(mechanism)
     load = next(load for load in mechanism.loads if load.value is None)
     lever = size if load.coordinate == "theta" else 1.0
