@@ -254,12 +254,15 @@ def test_the_mjcf_loads_with_the_table_mass() -> None:
     assert model.neq == 1 and model.eq_type[0] == mujoco.mjtEq.mjEQ_WELD
 
 
-def test_the_judge_never_imports_the_in_house_engine() -> None:
-    """Independence: importing and running the judge loads none of the in-house engine's modules."""
-    code = ("import sys; import dualmech.validation.judges.mujoco_loop as j; "
+@pytest.mark.parametrize("module", ["dualmech.validation.judges.mujoco_loop",
+                                    "dualmech.validation.judges.mujoco_loop.simulation"])
+def test_the_judge_never_imports_the_in_house_engine(module: str) -> None:
+    """Independence: importing the rigid or the simulated judge loads none of the in-house engines'
+    modules (the loop's, nor the slider crank's)."""
+    code = (f"import sys; import {module}; "
             "bad = [m for m in ('dualmech.models.loop.engine', 'dualmech.core.continuation', "
-            "'dualmech.core.loop_reactions', 'dualmech.core.closure', 'dualmech.core.rates') "
-            "if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)")
+            "'dualmech.core.loop_reactions', 'dualmech.core.closure', 'dualmech.core.rates', "
+            "'dualmech.models.slider_crank') if m in sys.modules]; print(bad); sys.exit(1 if bad else 0)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stdout + done.stderr
 
