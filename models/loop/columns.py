@@ -89,7 +89,7 @@ def loop_spec(mechanism: LoopMechanism) -> TableSpec:
 
 
 def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndarray], status: np.ndarray,
-               meta: dict) -> LinkageTable:
+               meta: dict, *, not_given: tuple[str, ...] = ()) -> LinkageTable:
     """The :class:`~dualmech.models.linkages.table.LinkageTable` of one engine's answer, settled.
 
     Parameters
@@ -104,10 +104,14 @@ def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndar
         every value a row's word does not give becomes NaN (:func:`~dualmech.core.status.settle`).
     meta : dict
         Engine facts (e.g. ``iterations``, ``messages``).
+    not_given : tuple of str
+        Columns the engine does not compute at all (NaN at every row, no row's word claims them: the
+        simulation has no least-squares ``dynamics_residual``).
     """
     spec = loop_spec(mechanism)
     d = mechanism.drive
     key = np.degrees(d.positions) if d.coordinate == "theta" else d.positions
     cols = {c: np.array(key if c == spec.key else columns[c], dtype=float) for c in spec.columns}
-    settled = settle(cols, np.asarray(status, dtype=object), spec.reactions, pose=spec.pose, rates=spec.rates)
+    reactions = tuple(c for c in spec.reactions if c not in not_given)
+    settled = settle(cols, np.asarray(status, dtype=object), reactions, pose=spec.pose, rates=spec.rates)
     return LinkageTable(engine, mechanism.name, cols, settled, meta)

@@ -31,12 +31,15 @@ ENGINES: dict[str, dict[str, str]] = {
                "rccc": "dualmech.validation.linkages.mujoco_rccc:solve_mujoco_rccc",
                "loop": "dualmech.validation.judges.mujoco_loop.table:solve_table"},
     "mujoco-sim": {"rssr": "dualmech.validation.linkages.mujoco_rssr_sim:solve_mujoco_sim",
-                   "rccc": "dualmech.validation.linkages.mujoco_rccc_sim:solve_mujoco_sim_rccc"},
+                   "rccc": "dualmech.validation.linkages.mujoco_rccc_sim:solve_mujoco_sim_rccc",
+                   "loop": "dualmech.validation.judges.mujoco_loop.table:solve_sim_table"},
 }
-#: Why an engine does not solve a kind at all (for its one-line refusal).
-NOT_FOR: dict[tuple[str, str], str] = {
-    ("mujoco-sim", "loop"): "; a loop table's generated MJCF cuts the loop with a weld that would lock the "
-                            "cut joint: it is not a model for MuJoCo's simulation yet",
+#: Why the simulation does not solve a case of a kind it is registered for (its one-line refusal).
+SIM_REFUSALS: dict[str, str] = {
+    "rssr": "; its input is servo-driven through every angle of the case: the case must give "
+            "loads.output_torque and its loop close at all of them",
+    "loop": "; the simulation cuts the loop inside the ground, whose half hangs from the last joint: drive "
+            "another joint",
 }
 
 
@@ -45,11 +48,15 @@ def solves(engine: str, kind: str, case: Any) -> bool:
     simulation (a servo drives the input through the case's angles) the case gives the output torque (an
     RCCC case always does: its drive torque is always solved; an RSSR case in output-torque mode) and its
     loop closes (``ok``) at every one of those angles: a trajectory cannot pass where it does not (the
-    in-house status words decide that, as they decide which rows every judge is compared on)."""
+    in-house status words decide that, as they decide which rows every judge is compared on).  A loop
+    table's simulation plans its rows from its own rigid closure; it needs the drive at a joint other than
+    the last (:mod:`~dualmech.validation.judges.mujoco_loop.sim_mjcf`)."""
     if kind not in ENGINES.get(engine, {}):
         return False
     if engine != "mujoco-sim":
         return True
+    if kind == "loop":
+        return case.drive.joint != len(case.joints) - 1
     given = kind == "rccc" or getattr(case, "mode", "") == "output"
     return given and bool(is_status(solve_case("dualmech", kind, case).status, Status.OK).all())
 
@@ -58,8 +65,8 @@ def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> Linkag
     """Solve every crank position of a linkage case (a TOML file, a bundled case ``"rssr"`` / ``"rccc"`` /
     ``"rscr"`` ... or a parsed dict) with ``engine``: ``"dualmech"`` (the in-house dual-number method),
     ``"pinocchio"``, ``"mujoco"`` (the rigid judges; a loop table's are generated from it) or
-    ``"mujoco-sim"`` (MuJoCo's simulation of an RCCC case or an RSSR case in output-torque mode: its rows are
-    the simulated input states; not a loop table).
+    ``"mujoco-sim"`` (MuJoCo's simulation of an RCCC case, an RSSR case in output-torque mode or a loop
+    table driven at another joint than its last: its rows are the simulated input states).
 
     Raises
     ------
@@ -73,9 +80,7 @@ def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> Linkag
     kind = linkage_kind(data)
     if not solves(engine, kind, case):
         valid = [e for e in ENGINES if solves(e, kind, case)]
-        why = ("; its input is servo-driven through every angle of the case: the case must give "
-               "loads.output_torque and its loop close at all of them") if kind in ENGINES[engine] else \
-            NOT_FOR.get((engine, kind), "")
+        why = SIM_REFUSALS.get(kind, SIM_REFUSALS["rssr"]) if kind in ENGINES[engine] else ""
         raise CaseError(f"engine: {show(engine)} does not solve this {kind.upper()} case (valid: "
                         f"{', '.join(valid)}{why})")
     return solve_case(engine, kind, case)
