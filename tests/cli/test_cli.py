@@ -25,7 +25,8 @@ def test_cases_lists_every_preset():
     assert [line.split()[0] for line in lines] == preset_names() + bundled_names()
     kinds = {line.split()[0]: line.split()[1] for line in lines}
     assert {kinds[n] for n in preset_names()} == {"slider-crank"}
-    assert [kinds[n] for n in bundled_names()] == ["rccc", "loop", "loop", "rssr"]
+    assert {n: kinds[n] for n in bundled_names()} == {"7r": "loop", "rccc": "rccc", "rscr": "loop",
+                                                     "rsrc": "loop", "rssr": "rssr"}
     assert "thesis/a4-30-s1-3.5" in result.output
 
 

@@ -149,14 +149,16 @@ def test_a_killed_worker_ends_the_run_with_one_line_and_resume_finishes_it(small
         run_matrix(load_matrix(small), out, jobs=2, registry=slow)
     killer.join()
     message = str(err.value)
-    named = re.fullmatch(r"a worker process died \(signal 9, SIGKILL\) while running (\S+) (\S+); "
+    # killed while it runs a task, or (on a busy machine) just between two: then no task is named
+    named = re.fullmatch(r"a worker process died \(signal 9, SIGKILL\)(?: while running (\S+) (\S+))?; "
                          r"finished results are kept", message)
     assert named, message
+    lost = {f"{named[1]}--{named[2]}"} if named[1] else set()
     matrix = load_matrix(small)
     stored = {f"{cid}--{e}" for cid, per in load_entries(out, matrix).items() for e in per}
     finished = {p.name for p in marks.iterdir()}
-    assert finished - {f"{named[1]}--{named[2]}"} <= stored, sorted(finished - stored)
-    assert f"{named[1]}--{named[2]}" not in stored
+    assert finished - lost <= stored, sorted(finished - stored)
+    assert not lost & stored
 
     monkeypatch.setenv("MATRIX_FAKES_DELAY", "0")
     outcome = run_matrix(matrix, out, jobs=2, registry=slow, resume=True)
