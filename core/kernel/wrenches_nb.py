@@ -168,41 +168,47 @@ def _equations(fl: FlatLoop, spec: WrenchSpec, vals: np.ndarray, x: np.ndarray, 
 
 
 @njit(**INLINE)
-def _householder_solve(a: np.ndarray, b: np.ndarray, qr: np.ndarray, qb: np.ndarray,
+def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np.ndarray, qb: np.ndarray,
                        x: np.ndarray) -> tuple[float, float]:
     """Least squares of ``a x = b`` by Householder QR (``qr``, ``qb``: the factors and ``Q^T b``), a
     diagonal of ``R`` at or below :data:`TINY` raised to it (the numpy solver's ``_least_squares``): the
-    relative residual and the last column's ``|R_kk| / |a_k|``."""
+    relative residual and the last column's ``|R_kk| / |a_k|``.
+
+    A column of row ``r`` (``columns``) touches the equations of links ``r - 1`` and ``r`` only, so the
+    reflection of column ``j`` works on the rows down to the last that any column up to ``j`` touches: the
+    rows below hold exact zeros, which the dense factorization would add without changing a bit."""
     m, k = a.shape
     for i in range(m):
         qb[i] = b[i]
         for j in range(k):
             qr[i, j] = a[i, j]
+    end = 0
     for j in range(k):
+        end = max(end, min(6 * columns[j, 0] + 6, m))  # rows j .. end - 1 of the reflection
         alpha, xnorm = qr[j, j], 0.0
-        for i in range(j + 1, m):
+        for i in range(j + 1, end):
             xnorm += qr[i, j] * qr[i, j]
         if xnorm == 0.0:
             continue
         beta = -math.copysign(math.sqrt(alpha * alpha + xnorm), alpha)
         tau, scale = (beta - alpha) / beta, 1.0 / (alpha - beta)
-        for i in range(j + 1, m):
+        for i in range(j + 1, end):
             qr[i, j] *= scale
         qr[j, j] = beta
-        for c in range(j + 1, k):  # H = I - tau v v^T, v = (1, qr[j+1:, j])
+        for c in range(j + 1, k):  # H = I - tau v v^T, v = (1, qr[j+1:end, j])
             s = qr[j, c]
-            for i in range(j + 1, m):
+            for i in range(j + 1, end):
                 s += qr[i, j] * qr[i, c]
             s *= tau
             qr[j, c] -= s
-            for i in range(j + 1, m):
+            for i in range(j + 1, end):
                 qr[i, c] -= s * qr[i, j]
         s = qb[j]
-        for i in range(j + 1, m):
+        for i in range(j + 1, end):
             s += qr[i, j] * qb[i]
         s *= tau
         qb[j] -= s
-        for i in range(j + 1, m):
+        for i in range(j + 1, end):
             qb[i] -= s * qr[i, j]
     for c in range(k - 1, -1, -1):
         s = qb[c]
@@ -230,7 +236,7 @@ def joint_wrenches(fl: FlatLoop, spec: WrenchSpec, vals: np.ndarray, x: np.ndarr
     transmission.  ``given`` ``(g,)``: the given efforts."""
     _joints(fl, spec, vals, x, w, ww)
     _equations(fl, spec, vals, x, given, vals[fl.scale] if fl.scale >= 0 else 1.0, w, ww)
-    residual, transmission = _householder_solve(ww.a, ww.b, ww.qr, ww.qb, ww.x)
+    residual, transmission = _householder_solve(ww.a, ww.b, spec.columns, ww.qr, ww.qb, ww.x)
     for r in range(fl.table.shape[0]):
         for i in range(3):
             ww.force[r, i] = ww.known[r, 0, i]

@@ -18,7 +18,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from dualmech.core.continuation import closure_jacobian, search_assembly
-from dualmech.models.case import load_case, preset_names, with_loads
+from dualmech.models.case import load_case, preset_names
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rccc_case import rccc_from_dict
 from dualmech.models.linkages.rssr_case import rssr_from_dict
@@ -34,6 +34,8 @@ from dualmech.models.loop.presets import (
 )
 from dualmech.models.loop.translate import drive_state, to_loop
 from dualmech.models.slider_crank import analyze
+from tests.models.loop.test_engine import VARIANTS as ENGINE_VARIANTS
+from tests.models.loop.test_engine import _case as engine_case
 from tests.models.loop.test_random_tables import TOPOLOGIES, random_table
 from tests.tolerances import (
     KERNEL_VS_NUMPY_LOOP,
@@ -43,24 +45,16 @@ from tests.tolerances import (
     NIL_COLUMN,
 )
 
-#: Slider-crank variants beyond the presets: a revolute crank, a gap of 131 unassembled positions, the slider
-#: load given instead of the drive torque, a universal joint on a thesis case.
-VARIANTS = {
-    "revolute-crank": ("thesis/a4-30-s1-3.5", {"joints.crank": "revolute"}),
-    "no-assembly-gap": ("thesis/ideal", {"geometry.slider_offset": 45.0,
-                                         "motion.angles_deg": {"start": 180.0, "stop": 540.0, "step": 1.0}}),
-    "universal": ("thesis/a4-20-s1-3.5", {"joints.rod_slider": "universal"}),
-}
+#: Slider-crank variants beyond the presets: the loop engine's own (a revolute crank, a gap of 131 unassembled
+#: positions, the slider load given instead of the drive torque) and a universal joint on a thesis case.
+VARIANTS = [*ENGINE_VARIANTS, "universal"]
 
 
 def _slider_crank(name: str) -> tuple[LoopMechanism, object]:
-    if name == "slider-load-given":
-        case = with_loads(load_case("thesis/a4-20-alpha-232"), drive_torque=None, slider_force=-30.0)
-    elif name in VARIANTS:
-        preset, values = VARIANTS[name]
-        case = load_case(preset).with_values(values)
+    if name == "universal":
+        case = load_case("thesis/a4-20-s1-3.5").with_values({"joints.rod_slider": "universal"})
     else:
-        case = load_case(name)
+        case = engine_case(name)
     return slider_crank_table(case), slider_crank_start(case, analyze(case).s4[0])
 
 
@@ -175,7 +169,7 @@ def assert_same(mine: LoopAnalysis, ref: LoopAnalysis) -> None:
             _close(f"joint {row + 1} {key}", got[key], value, ok, peak[key[0]], gain)
 
 
-@pytest.mark.parametrize("name", preset_names() + list(VARIANTS) + ["slider-load-given"])
+@pytest.mark.parametrize("name", preset_names() + VARIANTS)
 def test_slider_crank(name: str) -> None:
     mech, start = _slider_crank(name)
     assert_same(analyze_loop(mech, start), analyze_loop(mech, start, compiled=False))
