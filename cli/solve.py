@@ -69,7 +69,7 @@ def bundled_case_path(name: str) -> Path:
 @click.command()
 @one_line_errors
 def cases() -> None:
-    """List the bundled case presets of every kind (slider crank, RSSR, RCCC)."""
+    """List the bundled case presets of every kind (slider crank, RSSR, RCCC, loop tables)."""
     for name, kind, about in bundled_cases():
         click.echo(f"{name:28s} {kind:12s} {about}")
 
@@ -163,8 +163,8 @@ def warn_units(*cases: Case) -> None:
 
 
 def _solve_linkage(case: str, output: str | None, engine: str, frames: str) -> None:
-    """A case whose ``[mechanism] kind`` is another linkage (RSSR, RCCC): its own table, as CSV, from the
-    linkages' engine registry (:mod:`dualmech.validation.linkages.engines`)."""
+    """A case whose ``[mechanism] kind`` is another linkage (RSSR, RCCC, a loop table): its own table, as
+    CSV, from the linkages' engine registry (:mod:`dualmech.validation.linkages.engines`)."""
     from dualmech.models.linkages import summary
     from dualmech.validation.linkages import solve_linkage
 

@@ -127,7 +127,8 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
 
     Exits 1 when any judge disagrees with the reference beyond tolerance, an engine
     fails, or (with --baseline) anything regressed.  The other linkages: `validate rssr`,
-    `validate rccc`, `validate linkages` (or a linkage case or matrix file; -o and --engines apply).
+    `validate rccc`, `validate linkages`, a loop table (`validate rscr`, `validate loops`), or a linkage
+    case or matrix file; -o and --engines apply.
     """
     from dualmech.validation.api import open_run, run_and_compare
     from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline

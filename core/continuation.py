@@ -5,6 +5,12 @@ equation, eq. 11 and 23a, with the DFP fallback) needs a start near the wanted a
 gives one, the pose at the first position is closed from a given estimate (or searched: many random starts,
 batched), then a few *stations* along the positions are closed one after the other, each from the last; the
 other positions are closed in one batch from guesses interpolated between the two stations around them.
+Where Newton cannot reach a station from the last one (a sharp turn of the pose along the input), the
+positions between are closed one after the other instead; where the batch misses the branch at a position,
+it is closed again from its closed neighbour on the start's side, away from the start, until a position does
+not close on the branch (the loop's true gaps and edges cost one solve).  Past a gap, continuity with the
+start is lost: the positions there are closed from the pose before the gap, on the start's branch sign,
+which a loop with more than two assemblies (a general 7R has up to sixteen) does not make unique.
 
 **Branch.** A one-degree-of-freedom loop's closure Jacobian with its spin-gauge rows is square
 (:func:`closure_jacobian`); its determinant changes sign only through a singular pose (an edge of
@@ -18,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dualmech.core.closure import ClosureStatus, gauge_block, refine, solve_closure
+from dualmech.core.closure import ClosureResult, ClosureStatus, gauge_block, refine, solve_closure
 from dualmech.core.dual import vee
 from dualmech.core.loop import Loop, LoopState, Var, evaluate, rodrigues, screw_jacobian
 
@@ -141,12 +147,15 @@ def continue_closure(loop: Loop, inputs: dict[str, np.ndarray], start: LoopState
     good = np.zeros(n, dtype=bool)
     good[at] = True
     for way in (idx[idx > at], idx[idx < at][::-1]):
-        last = first.state
+        last, p = first.state, at
         for i in way:  # sequential: each station from the last good one (a fixed, small number)
-            res = solve_closure(loop, {k: v[i:i + 1] for k, v in inputs.items()}, last)
-            if res.status[0] == ClosureStatus.OK and \
-                    branch_sign(loop, {k: v[i:i + 1] for k, v in inputs.items()}, res.state)[0] == branch:
-                state, good[i], last = state.put(np.array([i]), res.state), True, res.state
+            closed = _close_one(loop, inputs, i, last, branch)
+            if closed is None:  # too far for Newton from the last good pose: walk the positions between
+                state, good, p, last = _walk(loop, inputs, range(p + np.sign(i - p), i, np.sign(i - p)),
+                                              last, branch, state, good, p)
+                closed = _close_one(loop, inputs, i, last, branch) if p == i - np.sign(i - p) else None
+            if closed is not None:
+                state, good[i], last, p = state.put(np.array([i]), closed.state), True, closed.state, i
     # every position from the stations around it, in one batch
     ok_idx = np.flatnonzero(good)
     right = np.clip(np.searchsorted(ok_idx, np.arange(n)), 0, ok_idx.size - 1)
@@ -157,12 +166,64 @@ def continue_closure(loop: Loop, inputs: dict[str, np.ndarray], start: LoopState
     guess = interpolate(state.take(lo), state.take(hi), t)
     res = solve_closure(loop, inputs, guess)
     closed = res.status == ClosureStatus.OK
-    at = np.flatnonzero(closed)
-    polished, more, residual = refine(loop, {k: v[at] for k, v in inputs.items()}, res.state.take(at))
-    final = res.state.put(at, polished)
+    rows = np.flatnonzero(closed)
+    polished, more, residual = refine(loop, {k: v[rows] for k, v in inputs.items()}, res.state.take(rows))
+    final = res.state.put(rows, polished)
     res_all = res.residual.copy()
-    res_all[at] = residual
+    res_all[rows] = residual
     iters = res.iterations.copy()
-    iters[at] += more
+    iters[rows] += more
     jump = closed & (branch_sign(loop, inputs, final) != branch)
-    return Continuation(final, res.status, jump, res_all, iters, branch)
+    status = res.status.copy()
+    final = _repair(loop, inputs, final, status, jump, res_all, iters, branch, at)
+    return Continuation(final, status, jump, res_all, iters, branch)
+
+
+def _close_one(loop: Loop, inputs: dict[str, np.ndarray], i: int, guess: LoopState,
+               branch: int) -> ClosureResult | None:
+    """Position ``i`` closed from ``guess`` on the start's ``branch`` (one position), else ``None``."""
+    here = {k: v[i:i + 1] for k, v in inputs.items()}
+    res = solve_closure(loop, here, guess)
+    if res.status[0] == ClosureStatus.OK and branch_sign(loop, here, res.state)[0] == branch:
+        return res
+    return None
+
+
+def _walk(loop, inputs, positions, last: LoopState, branch: int, state: LoopState, good: np.ndarray,
+          p: int) -> tuple[LoopState, np.ndarray, int, LoopState]:
+    """Close ``positions`` one after the other, each from the one before, until one does not close on the
+    branch (an edge of assembly, or a turn too sharp even for one step).  Returns the updated ``state``,
+    ``good`` mask, the last position closed (``p`` if none) and its pose."""
+    for j in positions:
+        closed = _close_one(loop, inputs, j, last, branch)
+        if closed is None:
+            break
+        state, last, p = state.put(np.array([j]), closed.state), closed.state, j
+        good[j] = True
+    return state, good, p, last
+
+
+def _repair(loop, inputs, state: LoopState, status: np.ndarray, jump: np.ndarray, residual: np.ndarray,
+            iterations: np.ndarray, branch: int, at: int) -> LoopState:
+    """Positions the batch did not close on the branch (interpolated guesses between stations too far
+    apart), closed again one after the other from the closed neighbour on the start's side (position
+    ``at``), away from the start as the stations were, until one does not close on the branch: where the
+    loop truly has no assembly, or passes an edge, it costs one solve.  Returns ``state``; ``status``,
+    ``jump``, ``residual`` and ``iterations`` are updated in place."""
+    good = (status == ClosureStatus.OK) & ~jump
+    if good.all() or not good.any():
+        return state
+    n = good.size
+    for step in (1, -1):
+        for i in np.flatnonzero(good & ((np.arange(n) - at) * step >= 0)):
+            j, last = i + step, state.take(slice(i, i + 1))
+            while 0 <= j < n and not good[j]:
+                res = _close_one(loop, inputs, j, last, branch)
+                if res is None:
+                    break
+                polished, more, res_j = refine(loop, {k: v[j:j + 1] for k, v in inputs.items()}, res.state)
+                state, last = state.put(np.array([j]), polished), polished
+                status[j], jump[j], residual[j], good[j] = ClosureStatus.OK, False, res_j[0], True
+                iterations[j] = res.iterations[0] + more[0]
+                j += step
+    return state

@@ -80,15 +80,23 @@ def default_timestep(case: Case, steps_per_degree: int | None = None) -> float:
     turn one degree from rest under :math:`\\ddot\\theta_1`) and the axial motion
     :math:`\\alpha\\theta_1` of thesis eq. (27) (``axial_cycles`` times faster).
     """
-    steps_per_degree = simulation_steps(case, steps_per_degree)
     mo = case.motion
-    one = math.radians(1.0)
-    cycles = max(1.0, abs(mo.axial_cycles)) if mo.axial_amplitude != 0.0 else 1.0
+    return phase_timestep(mo.speed, mo.accel, mo.axial_amplitude, mo.axial_cycles,
+                          simulation_steps(case, steps_per_degree))
+
+
+def phase_timestep(speed: float, accel: float, axial_amplitude: float, axial_cycles: float,
+                   steps_per_degree: int, degree: float = math.radians(1.0)) -> float:
+    """Seconds per step: the time the fastest phase takes to move one ``degree`` (at ``speed``, or from rest
+    under ``accel``; an axial law with ``axial_amplitude`` != 0 runs ``axial_cycles`` times faster) over
+    ``steps_per_degree``, at most :data:`MAX_TIMESTEP` (:func:`default_timestep`; the loop judge's
+    simulation passes a slide drive's degree as a length)."""
+    cycles = max(1.0, abs(axial_cycles)) if axial_amplitude != 0.0 else 1.0
     times = [MAX_TIMESTEP * steps_per_degree]
-    if mo.speed != 0.0:
-        times.append(one / (abs(mo.speed) * cycles))
-    if mo.accel != 0.0:
-        times.append(math.sqrt(2.0 * one / (abs(mo.accel) * cycles)))
+    if speed != 0.0:
+        times.append(degree / (abs(speed) * cycles))
+    if accel != 0.0:
+        times.append(math.sqrt(2.0 * degree / (abs(accel) * cycles)))
     return min(times) / steps_per_degree
 
 

@@ -83,7 +83,7 @@ def test_cli_solve_names_a_linkage_files_bad_kind_not_its_keys(tmp_path):
     proc = run_cli("solve", str(path), cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.strip().splitlines() == [
-        "dualmech: error: mechanism.kind: expected a string, one of slider-crank, rssr, rccc; got 42"]
+        "dualmech: error: mechanism.kind: expected a string, one of slider-crank, rssr, rccc, loop; got 42"]
 
 
 def test_cli_solve_refuses_deeply_nested_toml(tmp_path):
@@ -115,7 +115,8 @@ def test_cli_simulate_refuses_the_issues_options_in_one_line(tmp_path, option, v
 @pytest.mark.parametrize(("args", "words", "help_of"), [
     (("solve", "ideal", "--duration", "3"), ["No such option", "--duration"], "dualmech solve --help"),
     (("nope",), ["No such command", "nope"], "dualmech --help"),
-    (("validate", "--jobs", "0"), ["--jobs", "0 is not in the range", "1<=x<=1024"], "dualmech validate --help"),
+    (("validate", "--jobs", "0"), ["--jobs", "0 is not in the range", "1<=x<=1024"],
+     "dualmech validate --help"),
 ])
 def test_a_usage_error_is_one_line_naming_the_help(tmp_path, args, words, help_of):
     """Issue 31's fuzz: click printed a usage error on four lines (usage, hint, blank, error).

@@ -27,7 +27,7 @@ from dualmech.models import dynamics_coefficients as dc
 from dualmech.models import forward_dynamics as fd
 from dualmech.models import slider_crank, slider_crank_kernel
 from dualmech.models.case import Case, load_case, with_loads
-from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage
+from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage, table_spec
 from dualmech.models.linkages.forward_dynamics import simulate as simulate_linkage
 from dualmech.models.slider_crank import format_angle_ranges, no_assembly_ranges
 from dualmech.validation.engines import run_engine
@@ -184,6 +184,31 @@ ORACLES["rccc-simulate"] = ORACLES["linkage-simulate"] | {
     for c in rccc.COLUMNS if c != "theta1_deg"} | {"status": ORACLES["rccc"]["status"]}
 del ORACLES["linkage-simulate"]
 
+
+def _loop_engines() -> dict[str, dict[str, str]]:
+    """Every engine of a loop table on the bundled RSCR (``loop-<engine>``): the pose against the closed form
+    of its ball link, the in-house rates against finite differences and its drive torque against virtual
+    work, every column and status of each engine against the others through the gate, the key by the table's
+    settling."""
+    loops = "tests/validation/linkages/test_loop_tables.py::"
+    spec = table_spec("loop", linkage_case("rscr"))
+    agree = loops + "test_every_engine_agrees_with_the_others"
+    out = {}
+    for engine in ("dualmech", "pinocchio", "mujoco"):
+        rates = loops + "test_rates_match_finite_differences" if engine == "dualmech" else agree
+        out[f"loop-{engine}"] = {
+            spec.key: "tests/models/loop/test_columns.py::test_a_table_is_settled_by_its_words",
+            **{c: loops + "test_the_pose_is_the_closed_form_of_the_ball_link" for c in spec.pose},
+            **{c: rates for c in spec.rates}, **{c: agree for c in (*spec.forces, *spec.moments, "status")},
+            **{c: loops + "test_residuals_and_iterations_are_reported"
+               for c in ("residual", "dynamics_residual", "meta:iterations")}}
+    virtual_work = loops + "test_the_solved_drive_effort_is_the_virtual_work_of_the_loads"
+    out["loop-dualmech"]["effort_theta1"] = virtual_work
+    return out
+
+
+ORACLES |= _loop_engines()
+
 #: A small case in torque mode (mujoco-sim then gives L_ref too).
 SMALL = load_case("thesis/a4-30-s1-3.5").with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0,
                                                                             "step": 30.0}})
@@ -193,6 +218,9 @@ def _outputs(engine: str) -> set[str]:
     """The outputs ``engine`` produces on :data:`SMALL` (or a bundled linkage case)."""
     if engine in ("rssr", "rccc"):
         table = solve_linkage(engine)
+        return set(table.columns) | {"status"} | {f"meta:{k}" for k in table.meta}
+    if engine.startswith("loop-"):
+        table = solve_linkage_by("rscr", engine.split("-", 1)[1])
         return set(table.columns) | {"status"} | {f"meta:{k}" for k in table.meta}
     if engine.endswith(("-pinocchio", "-mujoco", "-mujoco-sim")):
         kind, judge = engine.split("-", 1)

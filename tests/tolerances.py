@@ -208,3 +208,14 @@ NIL_COLUMN = 1e-2
 #: Closure residual of the generic loop engine on its closed rows (lengths over the loop's length): it refines
 #: to the rounding level (measured <= 2e-15 on random tables).
 LOOP_CLOSURE = 1e-13
+#: A loop table's pose (the bundled RSCR and RSRC) against the closed form of its ball-to-axis link: distance,
+#: perpendicularity and direction, relative to the link's length.
+LOOP_CLOSED_FORM = Tolerance(
+    1e-12, "every engine closes to ~1e-14 of the table's length; measured <= 1.1e-14 (MuJoCo, RSRC), "
+    "<= 9e-16 (in-house, Pinocchio)")
+#: A loop table's rates against central differences of its pose (step 1e-2 deg), relative to each column's
+#: peak; and its solved drive torque at rest against the virtual work of the loads and weights, relative to
+#: the largest.
+LOOP_FINITE_DIFFERENCE = Tolerance(
+    1e-6, "truncation h^2 q'''/6 ~ 1e-8 of the peak and rounding eps/h^2 ~ 4e-9 for the second difference; "
+    "measured <= 1e-7 (RSCR rates), <= 9e-9 (virtual work)")

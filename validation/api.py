@@ -52,9 +52,9 @@ def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") ->
     ----------
     case : Case, str, os.PathLike or dict
         A :class:`~dualmech.models.case.Case` (lengths in the case's units, angles in degrees), a case
-        TOML file, a preset name (:func:`~dualmech.models.case.preset_names`) or a case table; the RSSR
-        and RCCC linkages (``"rssr"``, ``"rccc"``, or a case whose ``[mechanism] kind`` names one) give
-        their :class:`~dualmech.models.linkages.table.LinkageTable`.
+        TOML file, a preset name (:func:`~dualmech.models.case.preset_names`) or a case table; the RSSR,
+        the RCCC and loop tables (``"rssr"``, ``"rccc"``, ``"rscr"``, or a case whose ``[mechanism] kind``
+        names one) give their :class:`~dualmech.models.linkages.table.LinkageTable`.
     engine : str
         ``"dualmech"`` (the in-house dual-number solver), ``"pinocchio"``, ``"mujoco"`` (rigid) or
         ``"mujoco-sim"`` (a driven simulation); the judges import their library on first use.

@@ -15,29 +15,44 @@ from typing import Any
 import numpy as np
 
 from dualmech.models.inputs import CaseError, show
-from dualmech.models.linkages.table import LinkageTable
+from dualmech.models.linkages.table import LinkageTable, TableSpec
 from dualmech.models.toml_input import read_toml
 
-#: ``[mechanism] kind`` -> its case reader and its in-house solver, ``(module, function)`` in this package.
-_HOMES: dict[str, tuple[tuple[str, str], tuple[str, str]]] = {
-    "rssr": (("rssr_case", "rssr_from_dict"), ("rssr", "solve_rssr")),
-    "rccc": (("rccc_case", "rccc_from_dict"), ("rccc", "solve_rccc")),
+#: ``[mechanism] kind`` -> its case reader, its in-house solver and its table's
+#: :class:`~dualmech.models.linkages.table.TableSpec` (a constant, or a function of the checked case), each
+#: ``"module:name"``.  A loop table (``kind = "loop"``, :mod:`dualmech.models.loop`) is read and checked by
+#: its own parser (one-line errors, mobility).
+_HOMES: dict[str, tuple[str, str, str]] = {
+    "rssr": ("dualmech.models.linkages.rssr_case:rssr_from_dict", "dualmech.models.linkages.rssr:solve_rssr",
+             "dualmech.models.linkages.rssr:SPEC"),
+    "rccc": ("dualmech.models.linkages.rccc_case:rccc_from_dict", "dualmech.models.linkages.rccc:solve_rccc",
+             "dualmech.models.linkages.rccc:SPEC"),
+    "loop": ("dualmech.models.loop.table_format:loop_from_dict",
+             "dualmech.models.loop.table:solve_loop_table", "dualmech.models.loop.columns:loop_spec"),
 }
 #: ``[mechanism] kind`` values this package solves.
 KINDS = tuple(_HOMES)
 
 
-def _function(home: tuple[str, str]) -> Any:
-    module, name = home
-    return getattr(import_module(f"dualmech.models.linkages.{module}"), name)
-#: The bundled linkage cases (``<stem>.toml``; to join ``models/cases/linkages/`` once ``load_case`` reads
-#: ``[mechanism] kind``, as the slider crank's presets there are all read by it).
+def _resolve(home: str) -> Any:
+    module, name = home.split(":")
+    return getattr(import_module(module), name)
+
+
+#: The bundled RSSR and RCCC cases (``<stem>.toml``).
 CASES = Path(__file__).resolve().parent / "cases"
+#: The folders of every bundled linkage case (stems unique across them): :data:`CASES`, then the loop
+#: tables' (``models/loop/cases/``).
+CASE_FOLDERS: tuple[Path, ...] = (CASES, Path(__file__).resolve().parent.parent / "loop" / "cases")
+
+
+def _bundled() -> dict[str, Path]:
+    return {p.stem: p for folder in CASE_FOLDERS for p in folder.glob("*.toml")}
 
 
 def bundled_names() -> list[str]:
-    """Stems of the bundled linkage cases (``"rccc"``, ``"rssr"``), sorted."""
-    return sorted(p.stem for p in CASES.glob("*.toml"))
+    """Stems of the bundled linkage cases (``"rccc"``, ``"rscr"``, ``"rssr"``, ...), sorted."""
+    return sorted(_bundled())
 
 
 def bundled_path(name: str) -> Path:
@@ -47,7 +62,7 @@ def bundled_path(name: str) -> Path:
     if name not in bundled:
         raise CaseError(f"case: {show(name)} is neither a file nor a bundled linkage case "
                         f"(bundled: {', '.join(bundled)})")
-    return CASES / f"{name}.toml"
+    return _bundled()[name]
 
 
 def read_linkage(source: str | Path | dict) -> dict:
@@ -73,7 +88,7 @@ def is_linkage(source: str | Path | dict) -> bool:
         return linkage_kind(source) in KINDS
     path = Path(source)
     if not path.is_file():
-        return (CASES / f"{source}.toml").is_file()
+        return str(source) in _bundled()
     try:
         return linkage_kind(read_toml(path, CaseError)) in KINDS
     except CaseError:
@@ -81,8 +96,9 @@ def is_linkage(source: str | Path | dict) -> bool:
 
 
 def linkage_case(source: str | Path | dict) -> Any:
-    """The checked case of a linkage (:class:`~dualmech.models.linkages.rssr_case.RssrCase` or
-    :class:`~dualmech.models.linkages.rccc_case.RcccCase`), by its ``[mechanism] kind``.
+    """The checked case of a linkage (:class:`~dualmech.models.linkages.rssr_case.RssrCase`,
+    :class:`~dualmech.models.linkages.rccc_case.RcccCase` or a loop table's
+    :class:`~dualmech.models.loop.description.LoopMechanism`), by its ``[mechanism] kind``.
 
     Raises
     ------
@@ -92,7 +108,7 @@ def linkage_case(source: str | Path | dict) -> Any:
     data = read_linkage(source)
     kind = linkage_kind(data)
     if kind in _HOMES:
-        return _function(_HOMES[kind][0])(data)
+        return _resolve(_HOMES[kind][0])(data)
     raise CaseError(f"mechanism.kind: {show(kind)} is not a linkage dualmech solves here "
                     f"(valid: {', '.join(KINDS)})")
 
@@ -110,7 +126,14 @@ def solve_linkage(source: str | Path | dict) -> LinkageTable:
     """
     data = read_linkage(source)
     case = linkage_case(data)  # first: an unknown kind is a one-line CaseError
-    return _function(_HOMES[linkage_kind(data)][1])(case)
+    return _resolve(_HOMES[linkage_kind(data)][1])(case)
+
+
+def table_spec(kind: str, case: Any) -> TableSpec:
+    """The :class:`~dualmech.models.linkages.table.TableSpec` of ``case``'s table (a checked case of
+    ``kind``): the RSSR's and RCCC's are fixed, a loop table's follows its joints."""
+    spec = _resolve(_HOMES[kind][2])
+    return spec if isinstance(spec, TableSpec) else spec(case)
 
 
 def summary(table: LinkageTable) -> str:

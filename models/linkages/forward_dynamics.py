@@ -107,8 +107,8 @@ def mechanism(case: Any) -> Mechanism:
     """The :class:`Mechanism` of a checked linkage case (``ValueError`` for anything else)."""
     kinds = {RssrCase: "rssr", RcccCase: "rccc"}
     if type(case) not in kinds:
-        raise ValueError(f"forward dynamics: {type(case).__name__} is not a linkage case "
-                         "(RssrCase, RcccCase)")
+        raise ValueError(f"forward dynamics: a {type(case).__name__} is not simulated (an RSSR or RCCC case "
+                         "is; a loop table has no forward dynamics yet: solve or validate it)")
     return MECHANISMS[kinds[type(case)]]
 
 
@@ -240,6 +240,7 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
     duration, damping, _, rtol, atol, _ = checked_settings(duration, damping, 0.0, rtol, atol, 1e-12,
                                                              samples, method)
     budget = Budget(max_evaluations, time_limit)
+    mechanism(case)  # a kind without forward dynamics: one line, before any of its keys is read
     default, output_torque = loads(case)
     tau = drive_load(torque, default)
     psi0 = float(np.radians(case.motion.angles_deg[0])) if psi0 is None else check_number("psi0", psi0,

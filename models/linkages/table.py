@@ -18,12 +18,28 @@ from dualmech.core.table import ColumnTable, write_csv
 
 class TableSpec(NamedTuple):
     """A mechanism's output columns in order, and which of them a status word gives: the ``pose``
-    (assembled words), the ``rates`` (``ok``, ``dead_centre``), the ``reactions`` (``ok``)."""
+    (assembled words), the ``rates`` (``ok``, ``dead_centre``), the ``reactions`` (``ok``); ``key`` the
+    column of each row's input value (the crank angle in degrees, or a loop table's driven coordinate), on
+    which two engines' rows are matched; ``output`` the column the report plots against it (default the
+    first pose column)."""
 
     columns: tuple[str, ...]
     pose: tuple[str, ...]
     rates: tuple[str, ...]
     reactions: tuple[str, ...]
+    key: str = "theta1_deg"
+    output: str = ""
+
+    @property
+    def shown(self) -> str:
+        """The column the report plots against the key: ``output`` if given, else the first pose column."""
+        return self.output or self.pose[0]
+
+    @property
+    def key_label(self) -> tuple[str, str]:
+        """The key's name and unit for messages: ``("theta1", "deg")`` of ``theta1_deg``, ``("s1", "")`` of a
+        slide (in the case's length unit)."""
+        return (self.key[:-4], "deg") if self.key.endswith("_deg") else (self.key, "")
 
     @property
     def kinematics(self) -> tuple[str, ...]:
@@ -33,29 +49,38 @@ class TableSpec(NamedTuple):
     @property
     def forces(self) -> tuple[str, ...]:
         """The reaction columns that are forces."""
-        return tuple(c for c in self.reactions if "_f" in c)
+        return tuple(c for c in self.reactions if "_f" in c or c.startswith("effort_s"))
 
     @property
     def moments(self) -> tuple[str, ...]:
         """The reaction columns that are moments or torques."""
-        return tuple(c for c in self.reactions if "_m" in c or c.endswith("torque"))
+        return tuple(c for c in self.reactions
+                     if "_m" in c or c.endswith("torque") or c.startswith(("effort_theta", "effort_eta")))
 
     def unit_group(self, column: str) -> str:
         """The unit group of a compared column (its differences share the group's scale, as the slider
-        crank's ``UNIT_GROUP``): ``force``, ``moment``, ``ratio`` (transmissions), else the output angle
-        (``theta*``, ``phi*``) or slide (``s*``) and its derivative order (``angle``, ``angle_dot``,
-        ``angle_ddot``, ``length``, ``length_dot``, ``length_ddot``)."""
+        crank's ``UNIT_GROUP``): ``force`` (``*_f*``, a loop table's ``effort_s*``), ``moment`` (``*_m*``,
+        ``*torque``, ``effort_theta*``, ``effort_eta*``), ``ratio`` (transmissions), else an angle
+        (``theta*``, ``phi*``, ``eta*``) or slide (``s*``) and its derivative order (``angle``,
+        ``angle_dot``, ``angle_ddot``, ``length``, ``length_dot``, ``length_ddot``)."""
         if column in self.forces:
             return "force"
         if column in self.moments:
             return "moment"
         if column.startswith("transmission"):
             return "ratio"
-        base = "angle" if column.startswith(("theta", "phi")) else "length"
+        base = "angle" if column.startswith(("theta", "phi", "eta")) else "length"
         for order in ("_ddot", "_dot"):
             if column.endswith(order):
                 return base + order
         return base
+
+    def period(self, column: str) -> float | None:
+        """The period of an angle column, on which two values are the same angle: 360 for ``*_deg``, 2 pi for
+        another angle (a loop table's ``theta<i>``, ``eta<i>`` in rad); ``None`` for every other column."""
+        if column.endswith("_deg"):
+            return 360.0
+        return 2.0 * np.pi if self.unit_group(column) == "angle" else None
 
 
 @dataclass(frozen=True)

@@ -99,9 +99,13 @@ def slider_crank_start(case: Case, s4: float, at: int = 0) -> LoopState:
     p3 = g.foot - s4 * g.k4
     u = (p3 - p2) / np.linalg.norm(p3 - p2)
     universal = case.joints.rod_slider == "universal"
-    ref = g.k4 if universal else np.array([1.0, 0.0, 0.0]) if abs(u[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
-    v = np.cross(ref, u)  # with a universal joint: -a, so that the rod frame's z is a
-    v /= np.linalg.norm(v)
+    if universal:  # the rod frame's z is the joint's rod-side axis a = u x k4 / |u x k4|: y = a x u
+        a = np.cross(u, g.k4)
+        v = np.cross(a / np.linalg.norm(a), u)
+    else:
+        ref = np.array([1.0, 0.0, 0.0]) if abs(u[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
+        v = np.cross(ref, u)
+        v /= np.linalg.norm(v)
     rod = np.stack([u, v, np.cross(u, v)], axis=1)
     crank_rot = np.array([[math.cos(theta), -math.sin(theta), 0.0], [math.sin(theta), math.cos(theta), 0.0],
                           [0.0, 0.0, 1.0]])

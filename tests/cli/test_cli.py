@@ -17,15 +17,15 @@ from dualmech.validation.exit_codes import EXIT_BAD_INPUT
 
 
 def test_cases_lists_every_preset():
-    """Every preset of every kind, with its kind: the slider crank's, then the RSSR's and RCCC's (issue 30:
-    no linkage was listed)."""
+    """Every preset of every kind, with its kind: the slider crank's, then the RSSR's, RCCC's and the loop
+    tables' (issue 30: no linkage was listed; issue 32: nor a loop table)."""
     result = CliRunner().invoke(main, ["cases"])
     assert result.exit_code == 0
     lines = result.output.strip().splitlines()
     assert [line.split()[0] for line in lines] == preset_names() + bundled_names()
     kinds = {line.split()[0]: line.split()[1] for line in lines}
     assert {kinds[n] for n in preset_names()} == {"slider-crank"}
-    assert [kinds[n] for n in bundled_names()] == ["rccc", "rssr"]
+    assert [kinds[n] for n in bundled_names()] == ["rccc", "loop", "loop", "rssr"]
     assert "thesis/a4-30-s1-3.5" in result.output
 
 
@@ -223,12 +223,13 @@ def test_solve_refuses_what_a_linkage_cannot_give(tmp_path, name, args):
 
 
 def test_benchmark_can_skip_the_judges_and_refuses_empty_runs():
-    """``--judge-cases 0`` (and ``--big 0``) skip those rows; it divided by zero before.  No cases or no
-    repeats is a usage error (exit 2)."""
+    """``--judge-cases 0`` (and ``--big 0``, ``--main-job 0``) skip those rows; it divided by zero before.
+    No cases or no repeats is a usage error (exit 2)."""
     result = CliRunner().invoke(main, ["benchmark", "--cases", "2", "--judge-cases", "0", "--big", "0",
-                                       "--repeats", "1"])
+                                       "--repeats", "1", "--main-job", "0"])
     assert result.exit_code == 0, result.output
     assert "yardstick" in result.output
-    assert "Pinocchio" not in result.output and "Parquet" not in result.output
+    for skipped in ("Pinocchio", "Parquet", "main job"):
+        assert skipped not in result.output, skipped
     for option in ("--cases", "--repeats"):
         assert CliRunner().invoke(main, ["benchmark", option, "0"]).exit_code == 2

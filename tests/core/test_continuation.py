@@ -66,10 +66,19 @@ def test_follows_the_start_branch_and_flags_a_jump(monkeypatch: pytest.MonkeyPat
     assert (result.status == ClosureStatus.OK).all() and not result.branch_jump.any()
     turn = np.mod(result.state.scalars - up.scalars + np.pi, 2 * np.pi) - np.pi  # the angle, modulo 2 pi
     np.testing.assert_allclose(turn, 0.0, rtol=0, atol=LOOP_VS_OWN_ENGINE)
-    # a batch start on the other branch at position 7 closes there: a jump, reported, not followed
+    # a batch start on the other branch at position 7 closes there; it is closed again from its neighbour,
+    # on the start's branch (as every position between two stations too far apart for their interpolation)
     real = continuation.interpolate
     monkeypatch.setattr(continuation, "interpolate",
                         lambda a, b, t: real(a, b, t).put(np.array([7]), down.take(np.array([7]))))
+    repaired = continue_closure(LOOP, values, up.take(slice(0, 1)))
+    assert (repaired.status == ClosureStatus.OK).all() and not repaired.branch_jump.any()
+    np.testing.assert_allclose(repaired.state.scalars, result.state.scalars, rtol=0, atol=LOOP_VS_OWN_ENGINE)
+    # where no neighbour reaches the start's branch either, the jump is reported, not followed
+    real_one = continuation._close_one
+    monkeypatch.setattr(continuation, "_close_one",
+                        lambda loop, inputs, i, guess, branch: None if i == 7 else
+                        real_one(loop, inputs, i, guess, branch))
     jumped = continue_closure(LOOP, values, up.take(slice(0, 1)))
     np.testing.assert_array_equal(np.flatnonzero(jumped.branch_jump), [7])
 

@@ -1,6 +1,7 @@
-"""Registry of the engines that solve a linkage case (RSSR, RCCC) into a
-:class:`~dualmech.models.linkages.table.LinkageTable`: the in-house method (``models/linkages/``) and its
-judges (this package), as :mod:`dualmech.validation.engines` is for the slider crank.
+"""Registry of the engines that solve a linkage case (RSSR, RCCC, a loop table) into a
+:class:`~dualmech.models.linkages.table.LinkageTable`: the in-house method (``models/linkages/``,
+``models/loop/``) and its judges (this package; a loop table's generated ones in
+:mod:`dualmech.validation.judges`), as :mod:`dualmech.validation.engines` is for the slider crank.
 
 Engines are imported lazily: solving with ``dualmech`` never imports Pinocchio or MuJoCo.  Every entry
 is a function ``solve(case) -> LinkageTable`` of the checked case
@@ -21,13 +22,21 @@ from dualmech.models.linkages.table import LinkageTable
 #: engine -> ``[mechanism] kind`` -> "module:function"; an engine solves only the kinds listed under it.
 ENGINES: dict[str, dict[str, str]] = {
     "dualmech": {"rssr": "dualmech.models.linkages.rssr:solve_rssr",
-                 "rccc": "dualmech.models.linkages.rccc:solve_rccc"},
+                 "rccc": "dualmech.models.linkages.rccc:solve_rccc",
+                 "loop": "dualmech.models.loop.table:solve_loop_table"},
     "pinocchio": {"rssr": "dualmech.validation.linkages.pinocchio_rssr:solve_pinocchio",
-                  "rccc": "dualmech.validation.linkages.pinocchio_rccc:solve_pinocchio_rccc"},
+                  "rccc": "dualmech.validation.linkages.pinocchio_rccc:solve_pinocchio_rccc",
+                  "loop": "dualmech.validation.judges.pinocchio_loop.table:solve_table"},
     "mujoco": {"rssr": "dualmech.validation.linkages.mujoco_rssr:solve_mujoco",
-               "rccc": "dualmech.validation.linkages.mujoco_rccc:solve_mujoco_rccc"},
+               "rccc": "dualmech.validation.linkages.mujoco_rccc:solve_mujoco_rccc",
+               "loop": "dualmech.validation.judges.mujoco_loop.table:solve_table"},
     "mujoco-sim": {"rssr": "dualmech.validation.linkages.mujoco_rssr_sim:solve_mujoco_sim",
                    "rccc": "dualmech.validation.linkages.mujoco_rccc_sim:solve_mujoco_sim_rccc"},
+}
+#: Why an engine does not solve a kind at all (for its one-line refusal).
+NOT_FOR: dict[tuple[str, str], str] = {
+    ("mujoco-sim", "loop"): "; a loop table's generated MJCF cuts the loop with a weld that would lock the "
+                            "cut joint: it is not a model for MuJoCo's simulation yet",
 }
 
 
@@ -46,10 +55,11 @@ def solves(engine: str, kind: str, case: Any) -> bool:
 
 
 def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> LinkageTable:
-    """Solve every crank position of a linkage case (a TOML file, a bundled case ``"rssr"`` / ``"rccc"`` or a
-    parsed dict) with ``engine``: ``"dualmech"`` (the in-house dual-number method), ``"pinocchio"``,
-    ``"mujoco"`` (the rigid judges) or ``"mujoco-sim"`` (MuJoCo's simulation of an RCCC case or an RSSR case
-    in output-torque mode: its rows are the simulated input states).
+    """Solve every crank position of a linkage case (a TOML file, a bundled case ``"rssr"`` / ``"rccc"`` /
+    ``"rscr"`` ... or a parsed dict) with ``engine``: ``"dualmech"`` (the in-house dual-number method),
+    ``"pinocchio"``, ``"mujoco"`` (the rigid judges; a loop table's are generated from it) or
+    ``"mujoco-sim"`` (MuJoCo's simulation of an RCCC case or an RSSR case in output-torque mode: its rows are
+    the simulated input states; not a loop table).
 
     Raises
     ------
@@ -64,7 +74,8 @@ def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> Linkag
     if not solves(engine, kind, case):
         valid = [e for e in ENGINES if solves(e, kind, case)]
         why = ("; its input is servo-driven through every angle of the case: the case must give "
-               "loads.output_torque and its loop close at all of them") if kind in ENGINES[engine] else ""
+               "loads.output_torque and its loop close at all of them") if kind in ENGINES[engine] else \
+            NOT_FOR.get((engine, kind), "")
         raise CaseError(f"engine: {show(engine)} does not solve this {kind.upper()} case (valid: "
                         f"{', '.join(valid)}{why})")
     return solve_case(engine, kind, case)

@@ -16,13 +16,18 @@ The rules of the slider crank's gate (:mod:`dualmech.validation.compare`), on a 
 
   with ``s_g`` the reference's largest ``|R|`` over those rows of every compared column of ``q``'s unit
   group (:meth:`~dualmech.models.linkages.table.TableSpec.unit_group`: forces, moments, the output angle,
-  its rates, ...), so no verdict depends on the unit system; angles in degrees differ modulo 360; a row
-  where only one engine gives the value fails the column (``inf``).
+  its rates, ...), so no verdict depends on the unit system; angles differ modulo their period
+  (:meth:`~dualmech.models.linkages.table.TableSpec.period`: 360 in degrees, 2 pi for a loop table's in rad);
+  a row where only one engine gives the value fails the column (``inf``).
+
+Rows are matched on the spec's key (:attr:`~dualmech.models.linkages.table.TableSpec.key`: the crank angle
+in degrees, or a loop table's driven coordinate), which every message names.
 
 Tolerances are the slider crank's defaults per judge and group (``kinematics``, ``reactions``) of
 :data:`~dualmech.validation.matrix.tolerances.DEFAULT_TOLERANCES`: Pinocchio ``PINOCCHIO_*``, MuJoCo
 ``MUJOCO_RIGID_*``, the simulation ``MATRIX_SIM_KINEMATICS`` and ``SIM_REACTIONS``.  The linkages have no
-condition factor: the RSSR and RCCC cases are judged as given, dead centres flagged by their words.
+condition factor: the RSSR, RCCC and loop-table cases are judged as given, dead centres flagged by their
+words.
 """
 
 from __future__ import annotations
@@ -80,8 +85,9 @@ def relative_differences(reference: LinkageTable, judge: LinkageTable, spec: Tab
         r_given, j_given = np.isfinite(reference[c]), np.isfinite(judge[c])
         with np.errstate(invalid="ignore"):
             delta = judge[c] - reference[c]
-        if c.endswith("_deg"):  # an angle: -180 and 180 are the same
-            delta = np.mod(delta + 180.0, 360.0) - 180.0
+        period = spec.period(c)
+        if period is not None:  # an angle: -180 and 180 deg (-pi and pi rad) are the same
+            delta = np.mod(delta + period / 2.0, period) - period / 2.0
         rel = np.where(r_given & j_given, np.abs(delta) / scales[spec.unit_group(c)], np.nan)
         out[c] = np.where(r_given != j_given, np.inf, rel)
     return out
@@ -111,19 +117,21 @@ def _failures(table: LinkageTable, spec: TableSpec, columns: tuple[str, ...]
     return failed, non_finite & ~failed
 
 
-def _angles(rows: np.ndarray, theta: np.ndarray, limit: int = 4) -> str:
-    idx = np.flatnonzero(rows)
-    shown = ", ".join(f"{theta[i]:.6g}" for i in idx[:limit])
-    return shown + (f", ... ({idx.size} rows)" if idx.size > limit else "")
+def _at(spec: TableSpec, values: np.ndarray, limit: int = 4) -> str:
+    """``"at theta1 = 10, 20 deg"``: the key's ``values`` (at most ``limit``, then a count)."""
+    shown = ", ".join(f"{v:.6g}" for v in values[:limit])
+    name, unit = spec.key_label
+    more = f", ... ({values.size} rows)" if values.size > limit else ""
+    return f"at {name} = {shown}{more}" + (f" {unit}" if unit else "")
 
 
-def _failure_notes(who: str, table: LinkageTable, failed: np.ndarray, non_finite: np.ndarray) -> list[str]:
-    """What ``who`` failed at: its failure words and its non-finite given values, with their crank angles."""
-    theta, words = table["theta1_deg"], np.asarray(table.status, dtype=str)
-    notes = [f"{who} says {w} at theta1 = {_angles(failed & (words == w), theta)} deg"
-             for w in sorted(set(words[failed]))]
+def _failure_notes(who: str, table: LinkageTable, spec: TableSpec, failed: np.ndarray,
+                   non_finite: np.ndarray) -> list[str]:
+    """What ``who`` failed at: its failure words and its non-finite given values, with their input values."""
+    key, words = table[spec.key], np.asarray(table.status, dtype=str)
+    notes = [f"{who} says {w} {_at(spec, key[failed & (words == w)])}" for w in sorted(set(words[failed]))]
     if non_finite.any():
-        notes.append(f"{who} gives a non-finite value at theta1 = {_angles(non_finite, theta)} deg")
+        notes.append(f"{who} gives a non-finite value {_at(spec, key[non_finite])}")
     return notes
 
 
@@ -137,7 +145,7 @@ def reference_check(case_id: str, reference: LinkageTable, spec: TableSpec) -> C
     """The reference's own ``status`` check: no engine failure, and assembled at some crank position."""
     failed, non_finite = _failures(reference, spec, spec.kinematics + spec.forces + spec.moments)
     bad = failed | non_finite
-    notes = _failure_notes("the reference", reference, failed, non_finite)
+    notes = _failure_notes("the reference", reference, spec, failed, non_finite)
     if not is_status(reference.status, *ASSEMBLED).any() and not bad.any():
         notes.append("the reference assembles at no crank position")
         bad = np.ones(len(reference), dtype=bool)
@@ -150,15 +158,15 @@ def status_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spe
                  columns: tuple[str, ...]) -> Check:
     """The judge's ``status`` check (module docstring); rows where the reference failed are left to
     :func:`reference_check`."""
-    theta = reference["theta1_deg"]
+    key = reference[spec.key]
     usable = ~np.logical_or(*_failures(reference, spec, columns))
     failed, non_finite = (rows & usable for rows in _failures(judge, spec, columns))
     rs, js = np.asarray(reference.status, dtype=str), np.asarray(judge.status, dtype=str)
     mismatch = usable & ~failed & (rs != js)
-    notes = _failure_notes("the judge", judge, failed, non_finite)
+    notes = _failure_notes("the judge", judge, spec, failed, non_finite)
     for r_word, j_word in sorted(set(zip(rs[mismatch], js[mismatch]))):
         rows = mismatch & (rs == r_word) & (js == j_word)
-        notes.append(f"reference {r_word}, judge {j_word} at theta1 = {_angles(rows, theta)} deg")
+        notes.append(f"reference {r_word}, judge {j_word} {_at(spec, key[rows])}")
     bad = failed | non_finite | mismatch
     n_bad = int(bad.sum())
     unassembled = usable & ~bad & ~is_status(rs, *ASSEMBLED)
@@ -166,10 +174,11 @@ def status_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spe
                  int(usable.sum()), int(unassembled.sum()), n_bad, n_bad == 0, "; ".join(notes))
 
 
-def column_check(case_id: str, reference: LinkageTable, judge: LinkageTable, column: str, rel: np.ndarray,
-                 tol: ResolvedTolerance, scale: float) -> Check:
-    """One column's check: some row compared, none given by one engine only, ``max r_i <= tol``."""
-    theta = reference["theta1_deg"]
+def column_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spec: TableSpec, column: str,
+                 rel: np.ndarray, tol: ResolvedTolerance, scale: float) -> Check:
+    """One column's check: some row compared, none given by one engine only, ``max r_i <= tol``; its
+    ``worst_theta_deg`` is the key's value (``spec.key``) at the worst row."""
+    theta = reference[spec.key]
     infinite, finite = np.isinf(rel), np.isfinite(rel)
     max_rel = float(rel[finite].max()) if finite.any() else float("nan")
     at = float(theta[np.flatnonzero(finite)[np.argmax(rel[finite])]]) if finite.any() else float("nan")
@@ -177,9 +186,9 @@ def column_check(case_id: str, reference: LinkageTable, judge: LinkageTable, col
     if not finite.any():
         notes.append("no row compared: no position where both engines give it")
     if infinite.any():
-        notes.append(f"given by one engine only at theta1 = {_angles(infinite, theta)} deg")
+        notes.append(f"given by one engine only {_at(spec, theta[infinite])}")
     if np.isfinite(max_rel) and max_rel > tol.value:
-        notes.append(f"max rel {max_rel:.3g} > {tol.value:.3g} ({tol.name}) at theta1 = {at:.6g} deg")
+        notes.append(f"max rel {max_rel:.3g} > {tol.value:.3g} ({tol.name}) {_at(spec, np.array([at]))}")
     assembled = is_status(reference.status, *ASSEMBLED) & is_status(judge.status, *ASSEMBLED)
     n_excluded = int((assembled & np.isnan(rel)).sum())
     passed = bool(finite.any()) and not infinite.any() and max_rel <= tol.value
@@ -191,11 +200,12 @@ def column_check(case_id: str, reference: LinkageTable, judge: LinkageTable, col
 def judge_checks(case_id: str, reference: LinkageTable, judge: LinkageTable, spec: TableSpec
                  ) -> tuple[list[Check], tuple[np.ndarray, ...] | None]:
     """Every check of one judge on one case, and per row its worst kinematic and reaction ``r_i`` over their
-    tolerance (``theta1_deg`` and the two ratios, each ``(n,)``, NaN where nothing was compared; for the
-    report; ``None`` when the rows differ).  ``reference`` is the in-house table at the judge's rows."""
-    theta = reference["theta1_deg"]
-    if len(judge) != len(reference) or not np.allclose(judge["theta1_deg"], theta, rtol=0, atol=1e-9):
-        detail = f"rows differ: {len(judge)} crank angles against the reference's {len(reference)}"
+    tolerance (the key column ``spec.key`` and the two ratios, each ``(n,)``, NaN where nothing was compared;
+    for the report; ``None`` when the rows differ).  ``reference`` is the in-house table at the judge's
+    rows."""
+    theta = reference[spec.key]
+    if len(judge) != len(reference) or not np.allclose(judge[spec.key], theta, rtol=0, atol=1e-9):
+        detail = f"rows differ: {len(judge)} input values against the reference's {len(reference)}"
         nan = float("nan")
         return [Check(case_id, judge.engine, STATUS, nan, nan, nan, EXACT, nan, 0, 0, 0, False, detail)], None
     columns = compared_columns(spec, judge)
@@ -204,8 +214,8 @@ def judge_checks(case_id: str, reference: LinkageTable, judge: LinkageTable, spe
     rel = relative_differences(reference, judge, spec, columns)
     scales = unit_scales(reference, judge, spec, columns)
     checks = [status_check(case_id, reference, judge, spec, columns)]
-    checks += [column_check(case_id, reference, judge, c, rel[c], tols[group[c]], scales[spec.unit_group(c)])
-               for c in columns]
+    checks += [column_check(case_id, reference, judge, spec, c, rel[c], tols[group[c]],
+                            scales[spec.unit_group(c)]) for c in columns]
     ratios = {g: _row_worst([rel[c] / tols[g].value for c in columns if group[c] == g], len(theta))
               for g in ("kinematics", "reactions")}
     return checks, (theta, ratios["kinematics"], ratios["reactions"])

@@ -1,4 +1,5 @@
-"""The linkage matrix: which linkage cases (RSSR, RCCC), on which engines, against which reference.
+"""The linkage matrix: which linkage cases (RSSR, RCCC, loop tables), on which engines, against which
+reference.
 
 The slider crank's matrix (:mod:`dualmech.validation.matrix`) sweeps the keys of one base case of the
 slider crank's format; a linkage case has its own format (``[mechanism] kind``), so a linkage matrix
@@ -10,6 +11,11 @@ lists whole cases (``docs/matrix-format.md``, "Linkage matrices")::
     engines = ["dualmech", "pinocchio", "mujoco", "mujoco-sim"]   # optional; default every engine
     reference = "dualmech"           # optional; default dualmech
 
+    [[sweep]]                        # optional, any number: one case per value of one key of a case
+    case = "rscr"                    # as an entry of linkages
+    key = "joint[2].a"               # tables by name, [[rows]] by number from 1 (a loop table's joint row)
+    values = [0.11, 0.12, 0.13]
+
 Each engine solves the cases it can (:func:`~dualmech.validation.linkages.engines.solves`: the
 simulation only a case that gives the output torque and closes at every angle); the tolerances are
 the slider crank's defaults per judge (:data:`~dualmech.validation.matrix.tolerances.DEFAULT_TOLERANCES`),
@@ -19,12 +25,21 @@ case given to ``dualmech validate`` instead of a matrix is the matrix of that ca
 
 from __future__ import annotations
 
+import copy
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from dualmech.models.inputs import key_text, show
-from dualmech.models.linkages import is_linkage, linkage_case, linkage_kind, read_linkage
+from dualmech.models.inputs import CaseError, check_keys, key_text, show
+from dualmech.models.linkages import (
+    KINDS,
+    bundled_names,
+    is_linkage,
+    linkage_case,
+    linkage_kind,
+    read_linkage,
+)
 from dualmech.models.toml_input import read_toml
 from dualmech.validation.linkages.engines import ENGINES, solves
 from dualmech.validation.matrix import MatrixError, check_file_name
@@ -32,7 +47,11 @@ from dualmech.validation.matrix.expand import ID_SAFE
 from dualmech.validation.matrix.parse import bundled_matrices, matrix_path
 
 #: Keys of a linkage matrix file; ``linkages`` is the one that marks it as one.
-KEYS: tuple[str, ...] = ("name", "description", "linkages", "engines", "reference")
+KEYS: tuple[str, ...] = ("name", "description", "linkages", "engines", "reference", "sweep")
+#: Keys of one ``[[sweep]]``.
+SWEEP_KEYS: tuple[str, ...] = ("case", "key", "values")
+#: One step of a swept key: a table's name, or an array of tables' name and row number (from 1).
+_STEP = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(?:\[([0-9]+)\])?$")
 #: Most cases a linkage matrix may list.
 MAX_LINKAGE_CASES = 100
 
@@ -129,6 +148,13 @@ def parse_linkage_matrix(data: dict, source: str, matrix_file: Path | None = Non
         raise MatrixError(f"linkages: expected a list of 1 to {MAX_LINKAGE_CASES} linkage cases (bundled "
                           f"names or case files), got {show(listed)}")
     cases = tuple(_entry(s, matrix_file, f"linkages[{i}]") for i, s in enumerate(listed))
+    sweeps = data.get("sweep", [])
+    if not isinstance(sweeps, list):
+        raise MatrixError(f"sweep: expected [[sweep]] tables (case, key, values), got {show(sweeps)}")
+    cases += tuple(e for k, sweep in enumerate(sweeps) for e in _sweep(k, sweep, matrix_file))
+    if len(cases) > MAX_LINKAGE_CASES:
+        raise MatrixError(f"sweep: {len(cases)} cases with the sweeps; a linkage matrix runs at most "
+                          f"{MAX_LINKAGE_CASES}")
     ids = [c.id for c in cases]
     twice = next((i for i in ids if ids.count(i) > 1), None)
     if twice is not None:
@@ -139,17 +165,80 @@ def parse_linkage_matrix(data: dict, source: str, matrix_file: Path | None = Non
 
 def _entry(source: Any, matrix_file: Path | None, where: str) -> LinkageEntry:
     """One listed case: a file relative to the matrix file (tried first), a file, or a bundled stem."""
+    data = _case_data(source, matrix_file, where)
+    return _checked(data, source, where)
+
+
+def _checked(data: dict, source: str, where: str) -> LinkageEntry:
+    """The entry of a parsed case table ``data`` (checked by its kind's reader); its id from its name."""
+    case = linkage_case(data)
+    case_id = ID_SAFE.sub("_", case.name).strip("._-")[:80] or "case"
+    return LinkageEntry(check_file_name(f"{where} name", case_id), source, linkage_kind(data), case)
+
+
+def _sweep(k: int, sweep: Any, matrix_file: Path | None) -> list[LinkageEntry]:
+    """The cases of ``[[sweep]]`` number ``k`` (0-based): its case with ``key`` set to each of ``values``,
+    each named ``<name>-<key>=<value>``."""
+    where = f"sweep[{k + 1}]"
+    if not isinstance(sweep, dict):
+        raise MatrixError(f"{where}: expected a table of case, key, values, got {show(sweep)}")
+    check_keys(where, sweep, SWEEP_KEYS, MatrixError)
+    base = _case_data(sweep.get("case"), matrix_file, f"{where}.case")
+    key, values = sweep.get("key"), sweep.get("values")
+    if not isinstance(values, list) or not values or len(values) > MAX_LINKAGE_CASES:
+        raise MatrixError(f"{where}.values: expected a list of 1 to {MAX_LINKAGE_CASES} values, got "
+                          f"{show(values)}")
+    entries = []
+    for value in values:
+        data = copy.deepcopy(base)
+        parent, leaf = _swept(data, key, f"{where}.key")
+        parent[leaf] = value
+        data["name"] = f"{base.get('name', 'case')}-{key}={value}"
+        try:
+            entries.append(_checked(data, str(sweep["case"]), where))
+        except CaseError as err:
+            raise MatrixError(f"{where}: {key} = {show(value)}: {err}") from None
+    return entries
+
+
+def _swept(data: dict, key: Any, where: str) -> tuple[dict, str]:
+    """The table holding the swept ``key`` of a case table and the key's last name (its value may be new:
+    the case's reader checks it)."""
+    steps = key.split(".") if isinstance(key, str) else []
+    matches = [_STEP.match(step) for step in steps]
+    if not steps or not all(matches):
+        raise MatrixError(f"{where}: expected a key like 'joint[2].a' or 'drive.speed', got {show(key)}")
+    node: Any = data
+    for i, m in enumerate(matches):
+        name, row = m.group(1), m.group(2)
+        last = i == len(matches) - 1 and row is None
+        if not isinstance(node, dict) or (name not in node and not last):
+            raise MatrixError(f"{where}: {show(key)}: the case has no {'.'.join(steps[:i + 1])!r}")
+        if last:
+            return node, name
+        node = node[name]
+        if row is not None:
+            if not isinstance(node, list) or not 1 <= int(row) <= len(node):
+                n = len(node) if isinstance(node, list) else 0
+                raise MatrixError(f"{where}: {show(key)}: {name} has rows 1..{n}, got {row}")
+            node = node[int(row) - 1]
+        elif isinstance(node, list):
+            raise MatrixError(f"{where}: {show(key)}: {name} is an array of rows: name one, e.g. {name}[1]")
+    raise MatrixError(f"{where}: {show(key)}: a key ends at a value, not at a row")
+
+
+def _case_data(source: Any, matrix_file: Path | None, where: str) -> dict:
+    """The parsed case table of ``source``: a file relative to the matrix file (tried first), a file, or a
+    bundled stem; a one-line MatrixError for anything that is not a linkage case."""
     if not isinstance(source, str):
         raise MatrixError(f"{where}: expected a bundled linkage case or a case file, got {show(source)}")
     candidate = matrix_file.parent / source if matrix_file is not None else None
     target = str(candidate) if candidate is not None and candidate.is_file() else source
     if not is_linkage(target):
-        raise MatrixError(f"{where}: {show(source)} is not a linkage case (a bundled name: rssr, rccc, or a "
-                          "file whose [mechanism] kind is rssr or rccc)")
-    data = read_linkage(target)
-    case = linkage_case(data)
-    case_id = ID_SAFE.sub("_", case.name).strip("._-")[:80] or "case"
-    return LinkageEntry(check_file_name(f"{where} name", case_id), source, linkage_kind(data), case)
+        raise MatrixError(f"{where}: {show(source)} is not a linkage case (a bundled name: "
+                          f"{', '.join(bundled_names())}, or a file whose [mechanism] kind is one of "
+                          f"{', '.join(KINDS)})")
+    return read_linkage(target)
 
 
 def _engines(data: dict, where: str) -> tuple[tuple[str, ...], str]:

@@ -16,7 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dualmech.validation.linkages.run import SPECS, LinkageRun, write_tables
+from dualmech.models.linkages import table_spec
+from dualmech.validation.linkages.matrix import LinkageEntry
+from dualmech.validation.linkages.run import LinkageRun, write_tables
 from dualmech.validation.provenance import KEY_LIBRARIES, versions
 from dualmech.validation.report import Figure, environment, fig_to_png
 from dualmech.validation.report.plots import JUDGE_MARKERS, LOG_FLOOR
@@ -40,10 +42,14 @@ class LinkageReport:
 
 
 def engine_rows(run: LinkageRun) -> list[dict]:
-    """One row per case and engine of the matrix: its verdict, checks, worst ratio and where, seconds."""
+    """One row per case and engine of the matrix: its verdict, checks, worst ratio and where, seconds.
+    ``at_deg`` is the input value at the worst row: the case's key
+    (:attr:`~dualmech.models.linkages.table.TableSpec.key`), named by ``input`` in ``input_unit`` (``deg``,
+    or ``""`` for a loop table driven by a slide, in its length unit)."""
     rows = []
     for entry in run.matrix.cases:
         solved = run.tables[entry.id]
+        name, unit = table_spec(entry.kind, entry.case).key_label
         for engine in run.matrix.engines:
             checks = run.comparison.for_engine(entry.id, engine)
             worst = max(checks, key=lambda c: (not c.passed, c.ratio), default=None)
@@ -56,7 +62,7 @@ def engine_rows(run: LinkageRun) -> list[dict]:
                 "n_failed": sum(not c.passed for c in checks),
                 "ratio": None if worst is None else worst.ratio,
                 "quantity": None if worst is None else worst.quantity,
-                "at_deg": None if worst is None else worst.worst_theta_deg,
+                "at_deg": None if worst is None else worst.worst_theta_deg, "input": name, "input_unit": unit,
                 "seconds": run.seconds[entry.id].get(engine)})
     return rows
 
@@ -87,25 +93,29 @@ def linkage_summary(run: LinkageRun, seconds: float) -> dict:
     }
 
 
-def case_figure(run: LinkageRun, case_id: str, kind: str) -> Figure:
-    """The output angle from every engine, and each judge's worst ratio to tolerance per row."""
+def case_figure(run: LinkageRun, entry: LinkageEntry) -> Figure:
+    """The output (:attr:`~dualmech.models.linkages.table.TableSpec.shown`: the output angle, or a loop
+    table's last free coordinate) from every engine against the input, and each judge's worst ratio to
+    tolerance per row."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    column = SPECS[kind].pose[0]
+    spec, case_id = table_spec(entry.kind, entry.case), entry.id
+    column, key = spec.shown, spec.key
+    name, unit = spec.key_label
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(7.0, 5.6), sharex=True)
     colors = [plt.get_cmap("tab10")(i) for i in range(10)]
     judges = [e for e in run.tables[case_id] if e != run.matrix.reference]
     reference = run.tables[case_id].get(run.matrix.reference)
     if reference is not None and not isinstance(reference, str):
-        top.plot(reference["theta1_deg"], reference[column], "-", color="black", lw=1.3,
+        top.plot(reference[key], reference[column], "-", color="black", lw=1.3,
                  label=f"{run.matrix.reference} (reference)")
     for j, engine in enumerate(judges):
         table, style = run.tables[case_id][engine], dict(color=colors[j % 10], ms=4, ls="none", mfc="none")
         if not isinstance(table, str):
-            top.plot(table["theta1_deg"], table[column], JUDGE_MARKERS[j % len(JUDGE_MARKERS)], label=engine,
+            top.plot(table[key], table[column], JUDGE_MARKERS[j % len(JUDGE_MARKERS)], label=engine,
                      **style)
         if engine in run.ratios[case_id]:
             theta, kin, reac = run.ratios[case_id][engine]
@@ -113,18 +123,19 @@ def case_figure(run: LinkageRun, case_id: str, kind: str) -> Figure:
             bottom.semilogy(theta, np.clip(worst, LOG_FLOOR, None), JUDGE_MARKERS[j % len(JUDGE_MARKERS)],
                             label=engine, **style)
     bottom.axhline(1.0, color="#c62828", ls="--", lw=1.0, label="tolerance")
-    top.set_ylabel(f"{column}", fontsize=8)
-    top.set_title(f"{case_id}: output angle from every engine", fontsize=9)
+    radians = spec.period(column) is not None and not column.endswith("_deg")
+    top.set_ylabel(f"{column} (rad)" if radians else column, fontsize=8)
+    top.set_title(f"{case_id}: {column} from every engine", fontsize=9)
     bottom.set_ylabel("worst |judge - ref| / (scale x tol)", fontsize=8)
-    bottom.set_xlabel("theta1 (deg)", fontsize=8)
+    bottom.set_xlabel(f"{name} ({unit})" if unit else name, fontsize=8)
     for ax in (top, bottom):
         ax.tick_params(labelsize=7)
         ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
-    caption = (f"{column} against the input angle (the simulation at its own input states), and per row each "
-               "judge's worst ratio of relative difference to its tolerance (<= 1 passes)")
+    caption = (f"{column} against the input {name} (the simulation at its own input states), and per row "
+               "each judge's worst ratio of relative difference to its tolerance (<= 1 passes)")
     png = fig_to_png(fig)
-    return Figure(f"linkage-{case_id}", "linkage", case_id, f"{case_id}: output angle", caption, png)
+    return Figure(f"linkage-{case_id}", "linkage", case_id, f"{case_id}: {column}", caption, png)
 
 
 def write_linkage_report(run: LinkageRun, outdir: Path, seconds: float) -> LinkageReport:
@@ -132,7 +143,7 @@ def write_linkage_report(run: LinkageRun, outdir: Path, seconds: float) -> Linka
     start = time.perf_counter()
     with locked(outdir) as outdir:
         tables = write_tables(run, outdir)
-        figures = [case_figure(run, e.id, e.kind) for e in run.matrix.cases]
+        figures = [case_figure(run, e) for e in run.matrix.cases]
         paths = [write_file(outdir, f"figures/{f.key}.png", f.png, record=False) for f in figures]
         summary = linkage_summary(run, seconds)
         context = {"s": summary, "figures": figures, "failures": run.comparison.failures()[:200],

@@ -17,18 +17,14 @@ from pathlib import Path
 import numpy as np
 
 from dualmech.core.status import Status, is_status
+from dualmech.models.linkages import table_spec
 from dualmech.models.linkages.forward_dynamics import MECHANISMS
-from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
-from dualmech.models.linkages.rssr import SPEC as RSSR_SPEC
-from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.compare import Check, Comparison, Verdict
 from dualmech.validation.linkages.engines import solve_case
 from dualmech.validation.linkages.gate import engine_check, judge_checks, reference_check
 from dualmech.validation.linkages.matrix import LinkageEntry, LinkageMatrix
 from dualmech.validation.rundir import write_file
-
-#: The table spec of each kind.
-SPECS: dict[str, TableSpec] = {"rssr": RSSR_SPEC, "rccc": RCCC_SPEC}
 
 
 @dataclass(frozen=True)
@@ -45,7 +41,8 @@ class LinkageRun:
     comparison : Comparison
         Every check; ``dead_centres`` case -> engine -> rows; ``errors`` case -> engine -> message.
     ratios : dict
-        Case id -> judge -> ``(theta1_deg, kinematic ratio, reaction ratio)`` per row, each ``(n,)``: the
+        Case id -> judge -> ``(key, kinematic ratio, reaction ratio)`` per row (the key: the input value,
+        :attr:`~dualmech.models.linkages.table.TableSpec.key`), each ``(n,)``: the
         worst ``r_i`` over its tolerance (NaN where nothing was compared).
     seconds : dict
         Case id -> engine -> wall time of its solve (s).
@@ -127,7 +124,8 @@ def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, 
     if isinstance(reference, str):
         return [engine_check(entry.id, name, reference)] + [
             engine_check(entry.id, e, f"not compared: the reference {name} failed") for e in judges]
-    checks = [reference_check(entry.id, reference, SPECS[entry.kind])]
+    spec = table_spec(entry.kind, entry.case)
+    checks = [reference_check(entry.id, reference, spec)]
     for e in judges:
         table = tables[e]
         ref = table if isinstance(table, str) else _reference_for(entry, reference, table, name)
@@ -135,7 +133,7 @@ def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, 
             checks.append(engine_check(entry.id, e, ref))
             continue
         references[e] = ref
-        found, rows = judge_checks(entry.id, ref, table, SPECS[entry.kind])
+        found, rows = judge_checks(entry.id, ref, table, spec)
         checks += found
         if rows is not None:
             ratios[e] = rows

@@ -25,11 +25,12 @@ from hypothesis import Phase, assume, example, given, settings
 from hypothesis import strategies as st
 
 from dualmech.core.continuation import search_assembly
+from dualmech.core.inertia import BodyInertia
 from dualmech.models.case import load_case, with_loads
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rccc_case import rccc_from_dict
 from dualmech.models.linkages.rssr_case import rssr_from_dict
-from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.loop.description import Drive, Joint, Load, LoopMechanism
 from dualmech.models.loop.engine import LoopAnalysis, analyze_loop
 from dualmech.models.loop.presets import rccc_table, rssr_table, slider_crank_table
 from dualmech.models.loop.translate import drive_state, to_loop
@@ -151,7 +152,7 @@ def _start_values(judge: PinocchioLoopTable) -> dict[int, tuple[float, ...]]:
     return starts
 
 
-@settings(max_examples=12, deadline=None, phases=(Phase.explicit, Phase.reuse, Phase.generate))
+@settings(max_examples=6, deadline=None, phases=(Phase.explicit, Phase.reuse, Phase.generate))
 @given(seed=st.integers(0, 2**32 - 1), topology=st.sampled_from(TOPOLOGIES))
 @example(seed=13, topology="RSUR")  # beyond its assembly limit: was not_converged on a reversed-axis root
 @example(seed=15074, topology="RRSRR")  # near its edge: was 2.4e-10 until the closure went on to rounding
@@ -173,6 +174,40 @@ def test_random_tables_agree_with_the_in_house_engine(seed: int, topology: str) 
     assume(first.status[0] == "ok")
     mechanism = with_start(mechanism, _start_values(first))
     _assert_agree(solve_loop(mechanism), analyze_loop(mechanism))
+
+
+def general_7r() -> LoopMechanism:
+    """A general 7R single loop (Duffy-Crane type: twists 30-95 deg, no two axes parallel or meeting), its
+    input turned by 1 deg from 0 to 240 deg: eight assemblies at the first position (a search from 2000
+    random starts finds eight), one followed from a rough start; along it the pose turns so sharply that
+    interpolated guesses between stations 10 deg apart land on other assemblies.  (Past 249.5 deg this
+    assembly has a gap, after which the engines' rules for re-closing differ: not judged here.)"""
+    rows = [(40, 0.30, 0.00), (65, 0.45, 0.10), (80, 0.25, -0.05), (55, 0.50, 0.15), (95, 0.35, 0.05),
+            (30, 0.40, -0.10), (70, 0.60, 0.20)]
+    start = (175.2, 71.9, 39.9, 168.7, 29.9, -116.0)  # deg, joints 2-7: one of the eight assemblies
+    joints = (Joint("R", alpha=np.radians(rows[0][0]), a=rows[0][1], s=rows[0][2]),) + tuple(
+        Joint("R", alpha=np.radians(al), a=a, s=s, start=(float(np.radians(t)),))
+        for (al, a, s), t in zip(rows[1:], start))
+    drive = Drive(0, "theta", np.radians(np.arange(0.0, 240.5, 1.0)), 2 * np.pi, 0.0)
+    bodies = tuple(BodyInertia(1.0 + 0.2 * k, np.array([a / 2, 0.0, 0.0]), np.diag([1e-3, 2e-2, 2e-2]))
+                   for k, (_, a, _) in enumerate(rows[:6]))
+    return LoopMechanism("7R", joints, drive, bodies, (Load(6, "theta", -1.0),), np.array([0.0, 0.0, -9.81]))
+
+
+def test_a_general_7r_is_followed_through_its_sharp_turns() -> None:
+    """Both engines follow the start's assembly through its sharp turns: ``ok`` at every position, the
+    columns within the bars.  Fault seen: the in-house continuation closed the positions between stations
+    from interpolated guesses and said ``branch_jump`` at 44 positions (104-147 deg) where the judge
+    closes the start's branch."""
+    mechanism = general_7r()
+    judge, an = solve_loop(mechanism), analyze_loop(mechanism)
+    assert (judge.status == "ok").all()
+    np.testing.assert_array_equal(an.status.astype(str), judge.status.astype(str))
+    kinematics, dynamics = agreement(judge, an)
+    for name, worst in kinematics.items():
+        assert worst <= PINOCCHIO_KINEMATICS.value, (name, worst)
+    for name, worst in dynamics.items():
+        assert worst <= PINOCCHIO_REACTIONS.value, (name, worst)
 
 
 def test_a_flipped_joint_axis_is_caught(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -31,7 +31,21 @@ def test_which_sources_are_linkage_runs(tmp_path) -> None:
 
 
 @pytest.mark.parametrize("text, words", [
-    ('name = "m"\nlinkages = ["rssr"]\nsweep = 1\n', "sweep: unknown linkage matrix key (valid: name,"),
+    ('name = "m"\nlinkages = ["rssr"]\nsweeps = 1\n', "sweeps: unknown linkage matrix key (valid: name,"),
+    ('name = "m"\nlinkages = ["rssr"]\nsweep = 1\n',
+     "sweep: expected [[sweep]] tables (case, key, values), got 1"),
+    ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkey = "joint[7].a"\nvalues = [1.0]\n',
+     "sweep[1].key: 'joint[7].a': joint has rows 1..4, got 7"),
+    ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkey = "joint.a"\nvalues = [1.0]\n',
+     "sweep[1].key: 'joint.a': joint is an array of rows: name one, e.g. joint[1]"),
+    ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkey = "gear.a"\nvalues = [1.0]\n',
+     "sweep[1].key: 'gear.a': the case has no 'gear'"),
+    ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkey = "joint[2].a"\nvalues = ["long"]\n',
+     "sweep[1]: joint[2].a = 'long': joint[2].a: expected a finite number"),
+    ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkey = "joint[2].a"\nvalues = []\n',
+     "sweep[1].values: expected a list of 1 to 100 values, got []"),
+    ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkeys = "a"\n',
+     "sweep[1].keys: unknown key (valid: case, key, values)"),
     ('name = "m"\nlinkages = []\n', "linkages: expected a list of 1 to 100 linkage cases"),
     ('name = "m"\nlinkages = ["thesis/ideal"]\n', "linkages[0]: 'thesis/ideal' is not a linkage case"),
     ('name = "m"\nlinkages = ["rssr", "rssr"]\n', "linkages: two cases are named 'rssr-crank-rocker'"),

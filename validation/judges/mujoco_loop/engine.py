@@ -18,13 +18,14 @@ Statuses (:mod:`dualmech.core.status`): ``no_assembly`` / ``not_converged`` from
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
+from collections.abc import Iterator
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from dualmech.core.status import Status
 from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
+from dualmech.models.loop.columns import column_names, coordinate_names
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.mobility import check_mobility
 from dualmech.validation.judges.mujoco_loop.closure import (
@@ -39,6 +40,7 @@ from dualmech.validation.judges.mujoco_loop.closure import (
     variable,
 )
 from dualmech.validation.judges.mujoco_loop.dynamics import (
+    Balance,
     balance,
     drift,
     joint_wrenches,
@@ -62,7 +64,8 @@ class LoopTable:
     ----------
     engine, name : str
     columns : dict of str -> numpy.ndarray, shape (n,)
-        :func:`column_names`: every scalar joint coordinate ``theta<i>``, ``s<i>``, ``eta<i>`` (rad, length)
+        :func:`~dualmech.models.loop.columns.column_names`: every scalar joint coordinate ``theta<i>``,
+        ``s<i>``, ``eta<i>`` (rad, length)
         with ``_dot`` and ``_ddot``; the efforts ``effort_<coordinate><i>`` (given and solved: on link i
         from link i-1); ``joint<i>_f{x,y,z}`` and ``joint<i>_m{x,y,z}``: joint i's wrench on link i from
         link i-1, world axes, the moment about the joint's point (``docs/conventions.md``, "Loop tables").
@@ -74,6 +77,8 @@ class LoopTable:
         Closure gap (translations over the table's length, rotations in rad).
     dynamics_residual : numpy.ndarray, shape (n,)
         Relative least-squares residual of the inverse dynamics.
+    meta : dict
+        What else the judge states (the simulated judge: time step, run-in, tracking lag, ...).
     """
 
     engine: str
@@ -83,11 +88,7 @@ class LoopTable:
     iterations: np.ndarray
     residual: np.ndarray
     dynamics_residual: np.ndarray
-
-
-def _scalar_coordinates(mechanism: LoopMechanism) -> list[str]:
-    names = {"R": ("theta",), "P": ("s",), "C": ("theta", "s"), "U": ("theta", "eta"), "S": ()}
-    return [variable(i, c) for i, j in enumerate(mechanism.joints) for c in names[j.type]]
+    meta: dict = field(default_factory=dict)
 
 
 def efforts(mechanism: LoopMechanism) -> tuple[dict[str, float], list[str]]:
@@ -112,31 +113,30 @@ def efforts(mechanism: LoopMechanism) -> tuple[dict[str, float], list[str]]:
     return given, solved + transmission
 
 
-def column_names(mechanism: LoopMechanism) -> list[str]:
-    """The columns of :class:`LoopTable` for ``mechanism``, in order."""
-    coordinates = _scalar_coordinates(mechanism)
-    given, solved = efforts(mechanism)
-    names = [f"{c}{suffix}" for c in coordinates for suffix in ("", "_dot", "_ddot")]
-    names += [f"effort_{e}" for e in list(given) + solved]
-    names += [f"joint{i + 1}_{kind}{axis}" for i in range(len(mechanism.joints)) for kind in "fm"
-              for axis in "xyz"]
-    return names
-
-
 def drive_values(mechanism: LoopMechanism, k: int) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
-    """The prescribed coordinates' values by name, rates and accelerations at drive position ``k`` (a C
-    drive's slide by the axial law :math:`S = S_0 + S_S \\sin(c\\,\\theta)`, thesis eq. 27-28)."""
+    """The prescribed coordinates' values by name, rates and accelerations at drive position ``k``
+    (:func:`drive_at`)."""
     d = mechanism.drive
-    theta, w, wd = float(d.positions[k]), d.speed, d.accel
+    return drive_at(mechanism, float(d.positions[k]), d.speed, d.accel)
+
+
+def drive_at(mechanism: LoopMechanism, value: float, speed: float,
+             accel: float) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+    """The prescribed coordinates' values by name, rates and accelerations where the driven coordinate is
+    ``value`` with rate ``speed`` and acceleration ``accel``, floats or arrays ``(k,)`` (then the values
+    are arrays and the rates and accelerations ``(m, k)``; a C drive's slide by the axial law
+    :math:`S = S_0 + S_S \\sin(c\\,\\theta)`, thesis eq. 27-28)."""
+    d = mechanism.drive
+    theta, w, wd = value, speed, accel
     values = {variable(d.joint, d.coordinate): theta}
     rates, accels = [w], [wd]
     if mechanism.joints[d.joint].type == "C":
         amp, cyc = d.axial_amplitude, d.axial_cycles
         phase = cyc * theta
-        values[variable(d.joint, "s")] = d.axial_shift + amp * math.sin(phase)
-        rates.append(amp * cyc * math.cos(phase) * w)
-        accels.append(amp * cyc * (math.cos(phase) * wd - cyc * math.sin(phase) * w * w))
-    return values, np.array(rates), np.array(accels)
+        values[variable(d.joint, "s")] = d.axial_shift + amp * np.sin(phase)
+        rates.append(amp * cyc * np.cos(phase) * w)
+        accels.append(amp * cyc * (np.cos(phase) * wd - cyc * np.sin(phase) * w * w))
+    return values, np.array(np.broadcast_arrays(*rates)), np.array(np.broadcast_arrays(*accels))
 
 
 def find_start(lp: MjLoop, seed: int = 0) -> int:
@@ -171,24 +171,32 @@ def _branch_search(lp: MjLoop, k: int, sign: float, rng: np.random.Generator) ->
     return False
 
 
-def _position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str], columns: dict[str, np.ndarray],
-              coordinates: list[str]) -> tuple[float, bool]:
-    """Rates, efforts and wrenches at a closed pose, into ``columns[...][k]``; returns the dynamics'
-    residual and whether the position is a dead centre."""
-    values, rates, accels = drive_values(lp.mechanism, k)
+def dynamics_at(lp: MjLoop, k: int, given: dict[str, float],
+                solved: list[str]) -> tuple[np.ndarray, np.ndarray, Balance]:
+    """Rates ``u_dot``, accelerations ``u_ddot`` ``(n_u,)`` and the balance at drive position ``k``, at the
+    closed pose ``lp`` holds."""
+    _, rates, accels = drive_values(lp.mechanism, k)
     positions(lp)
     rows = velocity_rows(lp)
     u_dot = solve_free(lp, rows, rates, np.zeros(rows.shape[0]))
     set_velocity(lp, u_dot)
     u_ddot = solve_free(lp, rows, accels, -drift(lp, u_dot))
+    return u_dot, u_ddot, balance(lp, u_ddot, given, solved)
+
+
+def judge_position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str],
+                   columns: dict[str, np.ndarray], coordinates: list[str]) -> tuple[float, float]:
+    """Rates, efforts and wrenches at a closed pose, into ``columns[...][k]``; returns the dynamics'
+    residual and the transmission (below :data:`DEAD_CENTRE_TRANSMISSION`: a dead centre, efforts and
+    wrenches left out)."""
+    u_dot, u_ddot, cut = dynamics_at(lp, k, given, solved)
     for name in coordinates:
         index, address = lp.coordinates[name]
         value = lp.data.qpos[address] if address >= 0 else lp.q_cut[index - lp.model.nv]
         columns[name][k], columns[name + "_dot"][k], columns[name + "_ddot"][k] = \
             value, u_dot[index], u_ddot[index]
-    cut = balance(lp, u_ddot, given, solved)
     if cut.transmission < DEAD_CENTRE_TRANSMISSION.value:
-        return cut.residual, True
+        return cut.residual, cut.transmission
     for name, value in cut.efforts.items():
         columns[f"effort_{name}"][k] = value
     forces, moments = joint_wrenches(lp, cut)
@@ -196,7 +204,42 @@ def _position(lp: MjLoop, k: int, given: dict[str, float], solved: list[str], co
         for a, axis in enumerate("xyz"):
             columns[f"joint{i + 1}_f{axis}"][k] = forces[i, a]
             columns[f"joint{i + 1}_m{axis}"][k] = moments[i, a]
-    return cut.residual, False
+    return cut.residual, cut.transmission
+
+
+def sweep(lp: MjLoop, seed: int = 0) -> Iterator[tuple[int, str, int, float]]:
+    """Close every drive position by continuation from the start pose (module docstring).
+
+    Yields ``(k, outcome, iterations, gap)`` per position, in the order closed; ``outcome`` ``"ok"`` (then
+    ``lp`` holds the closed pose, on the start's branch), ``"branch_jump"``, ``"no_assembly"`` or
+    ``"not_converged"``.  What the caller does with the pose between yields does not change the sweep.
+    """
+    mechanism = lp.mechanism
+    n = mechanism.drive.positions.shape[0]
+    at = find_start(lp, seed)
+    rng = np.random.default_rng(seed)
+    anchor = (lp.data.qpos.copy(), lp.q_cut.copy())  # the start estimate, then the pose closed from it
+    start_branch = None
+    for order in (range(at, n), range(at - 1, -1, -1)):
+        last, gap_before = anchor, False
+        for k in order:
+            lp.data.qpos[:], lp.q_cut = last[0], last[1].copy()
+            prescribe(lp, drive_values(mechanism, k)[0])
+            outcome, iterations, gap = close(lp)
+            if outcome != Status.OK:
+                gap_before = True
+                yield k, outcome, iterations, gap
+                continue
+            sign = branch(lp)
+            if start_branch is None:
+                start_branch, anchor = sign, (lp.data.qpos.copy(), lp.q_cut.copy())
+            searched = gap_before and sign != start_branch and _branch_search(lp, k, start_branch, rng)
+            gap_before = False
+            if sign != start_branch and not searched:
+                yield k, Status.BRANCH_JUMP.value, iterations, gap
+                continue
+            last = (lp.data.qpos.copy(), lp.q_cut.copy())
+            yield k, Status.OK.value, iterations, gap
 
 
 def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = None) -> LoopTable:
@@ -216,35 +259,18 @@ def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = Non
     lp = build(mechanism, xml)
     n = mechanism.drive.positions.shape[0]
     columns = {name: np.full(n, np.nan) for name in column_names(mechanism)}
-    coordinates = _scalar_coordinates(mechanism)
+    coordinates = coordinate_names(mechanism)
     given, solved = efforts(mechanism)
     status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
     iterations, residual, dyn = np.zeros(n, dtype=int), np.full(n, np.nan), np.full(n, np.nan)
-    at = find_start(lp, seed)
-    rng = np.random.default_rng(seed)
-    anchor = (lp.data.qpos.copy(), lp.q_cut.copy())  # the start estimate, then the pose closed from it
-    start_branch = None
-    for order in (range(at, n), range(at - 1, -1, -1)):
-        last, gap_before = anchor, False
-        for k in order:
-            lp.data.qpos[:], lp.q_cut = last[0], last[1].copy()
-            prescribe(lp, drive_values(mechanism, k)[0])
-            outcome, iterations[k], residual[k] = close(lp)
-            if outcome != Status.OK:
-                status[k], gap_before = outcome, True
-                continue
-            sign = branch(lp)
-            if start_branch is None:
-                start_branch, anchor = sign, (lp.data.qpos.copy(), lp.q_cut.copy())
-            searched = gap_before and sign != start_branch and _branch_search(lp, k, start_branch, rng)
-            gap_before = False
-            if sign != start_branch and not searched:
-                status[k] = Status.BRANCH_JUMP.value
-                continue
-            last = (lp.data.qpos.copy(), lp.q_cut.copy())
-            dyn[k], dead = _position(lp, k, given, solved, columns, coordinates)
-            status[k] = Status.DEAD_CENTRE.value if dead else Status.OK.value
+    for k, outcome, iterations[k], residual[k] in sweep(lp, seed):
+        status[k] = outcome
+        if outcome == Status.OK:
+            dyn[k], transmission = judge_position(lp, k, given, solved, columns, coordinates)
+            if transmission < DEAD_CENTRE_TRANSMISSION.value:
+                status[k] = Status.DEAD_CENTRE.value
     return LoopTable(ENGINE, mechanism.name, columns, status, iterations, residual, dyn)
 
 
-__all__ = ["ENGINE", "LoopTable", "column_names", "drive_values", "efforts", "find_start", "solve_loop"]
+__all__ = ["ENGINE", "LoopTable", "column_names", "drive_at", "drive_values", "dynamics_at", "efforts",
+           "find_start", "judge_position", "solve_loop", "sweep"]

@@ -1,0 +1,113 @@
+"""The result table of a loop table: its columns, which a status word gives, the table every engine returns.
+
+Every engine of a ``[mechanism] kind = "loop"`` case (the in-house :mod:`~dualmech.models.loop.table`, the
+generated judges of :mod:`dualmech.validation.judges`) returns the same
+:class:`~dualmech.models.linkages.table.LinkageTable` of :func:`column_names` (``docs/conventions.md``,
+"Loop tables"), so the linkages' gate compares them column by column with :func:`loop_spec`:
+
+* the **key**: the driven coordinate in the file's units, ``theta<d>_deg`` (degrees) for an angle drive,
+  else the slide ``s<d>`` itself (the rows' drive value; not compared);
+* the **pose**: every scalar joint coordinate ``theta<i>``, ``s<i>``, ``eta<i>`` (rad, length); the
+  report plots the last one that is not prescribed (the output) against the key;
+* the **rates**: each one's ``_dot`` and ``_ddot`` (per s, per s²);
+* the **reactions**: the given and solved efforts ``effort_<coordinate><i>`` (torque about / force along
+  joint ``i``'s axis on link ``i`` from link ``i-1``) and every joint's wrench ``joint<i>_f{x,y,z}``,
+  ``joint<i>_m{x,y,z}`` (world axes, moment about the joint's point);
+* then ``residual`` (closure, over the table's length) and ``dynamics_residual`` (not compared).
+
+This module knows names only: it imports no engine, so the judges build their tables with it and stay
+independent of the in-house engine.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dualmech.core.status import settle
+from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.models.loop.description import LoopMechanism
+
+#: The scalar coordinates of each joint type, in the order of its ``start`` values (an S joint has none).
+COORDINATES: dict[str, tuple[str, ...]] = {"R": ("theta",), "P": ("s",), "C": ("theta", "s"),
+                                           "U": ("theta", "eta"), "S": ()}
+#: The engine-fact columns after the compared ones (closure and dynamics residuals).
+RESIDUALS: tuple[str, ...] = ("residual", "dynamics_residual")
+
+
+def coordinate_names(mechanism: LoopMechanism) -> list[str]:
+    """Every scalar joint coordinate of ``mechanism`` in loop order, e.g. ``["theta1", "theta3", "s3"]``."""
+    return [f"{c}{i + 1}" for i, joint in enumerate(mechanism.joints) for c in COORDINATES[joint.type]]
+
+
+def effort_names(mechanism: LoopMechanism) -> list[str]:
+    """The efforts a table gives, given ones first, then the solved: a C drive's axial force (a reaction of
+    its prescribed slide), then the one transmission effort (the drive's or a load's)."""
+    d = mechanism.drive
+    drive = f"{d.coordinate}{d.joint + 1}"
+    given = [drive] if d.effort is not None else []
+    given += [f"{load.coordinate}{load.joint + 1}" for load in mechanism.loads if load.value is not None]
+    solved = [f"s{d.joint + 1}"] if mechanism.joints[d.joint].type == "C" else []
+    solved += [drive] if d.effort is None else [f"{load.coordinate}{load.joint + 1}" for load in
+                                                mechanism.loads if load.value is None]
+    return given + solved
+
+
+def key_column(mechanism: LoopMechanism) -> str:
+    """The rows' key: ``theta<d>_deg`` for a drive by an angle, the slide ``s<d>`` for a drive by a slide."""
+    d = mechanism.drive
+    return f"theta{d.joint + 1}_deg" if d.coordinate == "theta" else f"s{d.joint + 1}"
+
+
+def column_names(mechanism: LoopMechanism) -> list[str]:
+    """The compared columns of ``mechanism``'s table in order (module docstring), without the key and the
+    residuals: coordinates with their rates, efforts, joint wrenches."""
+    names = [f"{c}{suffix}" for c in coordinate_names(mechanism) for suffix in ("", "_dot", "_ddot")]
+    names += [f"effort_{e}" for e in effort_names(mechanism)]
+    names += [f"joint{i + 1}_{kind}{axis}" for i in range(len(mechanism.joints)) for kind in "fm"
+              for axis in "xyz"]
+    return names
+
+
+def wrench_columns(force: np.ndarray, moment: np.ndarray) -> dict[str, np.ndarray]:
+    """``joint<i>_f{x,y,z}``, ``joint<i>_m{x,y,z}`` of every joint's force and moment, each
+    ``(n, J, 3)`` (world axes), as ``(n,)`` columns."""
+    return {f"joint{j + 1}_{kind}{axis}": vector[:, j, a] for j in range(force.shape[1])
+            for kind, vector in (("f", force), ("m", moment)) for a, axis in enumerate("xyz")}
+
+
+def loop_spec(mechanism: LoopMechanism) -> TableSpec:
+    """The :class:`~dualmech.models.linkages.table.TableSpec` of ``mechanism``'s table (module docstring)."""
+    coordinates = coordinate_names(mechanism)
+    compared = column_names(mechanism)
+    key = key_column(mechanism)
+    rates = tuple(f"{c}{suffix}" for c in coordinates for suffix in ("_dot", "_ddot"))
+    reactions = tuple(c for c in compared if c.startswith(("effort_", "joint"))) + ("dynamics_residual",)
+    columns = tuple(dict.fromkeys([key, *compared, *RESIDUALS]))
+    prescribed = {f"{c}{j + 1}" for j, c in mechanism.prescribed}
+    output = [c for c in coordinates if c not in prescribed][-1]
+    return TableSpec(columns, tuple(coordinates), rates, reactions, key=key, output=output)
+
+
+def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndarray], status: np.ndarray,
+               meta: dict) -> LinkageTable:
+    """The :class:`~dualmech.models.linkages.table.LinkageTable` of one engine's answer, settled.
+
+    Parameters
+    ----------
+    engine : str
+        The engine's registry name (``dualmech``, ``pinocchio``, ``mujoco``).
+    mechanism : LoopMechanism
+    columns : dict of str -> numpy.ndarray, shape (n,)
+        At least :func:`column_names` and :data:`RESIDUALS` (the key is made here from the drive).
+    status : numpy.ndarray of str, shape (n,)
+        The engine's words; a row giving a non-finite value its word claims becomes ``not_finite``, and
+        every value a row's word does not give becomes NaN (:func:`~dualmech.core.status.settle`).
+    meta : dict
+        Engine facts (e.g. ``iterations``, ``messages``).
+    """
+    spec = loop_spec(mechanism)
+    d = mechanism.drive
+    key = np.degrees(d.positions) if d.coordinate == "theta" else d.positions
+    cols = {c: np.array(key if c == spec.key else columns[c], dtype=float) for c in spec.columns}
+    settled = settle(cols, np.asarray(status, dtype=object), spec.reactions, pose=spec.pose, rates=spec.rates)
+    return LinkageTable(engine, mechanism.name, cols, settled, meta)

@@ -1,0 +1,46 @@
+"""The in-house engine's answer on a loop table as the linkages' result table (``docs/conventions.md``,
+"Loop tables"): :func:`analysis_table` of an :func:`~dualmech.models.loop.engine.analyze_loop` answer, and
+:func:`solve_loop_table`, the ``dualmech`` engine of ``[mechanism] kind = "loop"`` in the linkages' registry
+(:mod:`dualmech.validation.linkages.engines`).  The columns are :mod:`~dualmech.models.loop.columns`'s, the
+ones every judge of a loop table gives.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dualmech.models.linkages.table import LinkageTable
+from dualmech.models.loop.columns import coordinate_names, effort_names, loop_table, wrench_columns
+from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.loop.engine import LoopAnalysis, analyze_loop
+
+#: The registry name of the in-house engine.
+ENGINE = "dualmech"
+
+
+def analysis_columns(an: LoopAnalysis) -> dict[str, np.ndarray]:
+    """Every column of :func:`~dualmech.models.loop.columns.column_names` and the residuals of ``an``, each
+    ``(n,)``: joint coordinates with their rates, efforts, joint wrenches (world axes, moments about each
+    joint's point), the closure residual and the Newton-Euler least squares' relative residual."""
+    cols: dict[str, np.ndarray] = {}
+    for name in coordinate_names(an.mechanism):
+        coordinate = name.rstrip("0123456789")
+        value, rate, accel = an.coordinate(int(name[len(coordinate):]) - 1, coordinate)
+        cols.update({name: value, f"{name}_dot": rate, f"{name}_ddot": accel})
+    w = an.wrenches
+    cols.update({f"effort_{e}": w.efforts[e] for e in effort_names(an.mechanism)})
+    cols.update(wrench_columns(w.force, w.moment), residual=an.residual, dynamics_residual=w.residual)
+    return cols
+
+
+def analysis_table(an: LoopAnalysis) -> LinkageTable:
+    """The in-house table of ``an`` (settled by its status words; ``meta["iterations"]``: the closure's
+    iterations per position)."""
+    return loop_table(ENGINE, an.mechanism, analysis_columns(an), an.status,
+                      {"iterations": np.asarray(an.iterations)})
+
+
+def solve_loop_table(mechanism: LoopMechanism) -> LinkageTable:
+    """Every drive position of ``mechanism`` by the in-house engine (:func:`analysis_table` of
+    :func:`~dualmech.models.loop.engine.analyze_loop`)."""
+    return analysis_table(analyze_loop(mechanism))
