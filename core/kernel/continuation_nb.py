@@ -3,7 +3,8 @@ start estimate of every other position.
 
 The per-position form of :func:`dualmech.core.continuation.continue_closure`: the start pose closed at its
 position and its branch taken (the sign of the square closure Jacobian's determinant), the stations closed
-one after the other from the last good one (:func:`close_stations`, sequential), then every position from
+one after the other from the last good one (:func:`close_one`, driven by
+:mod:`~dualmech.core.kernel.loop_engine` with the numpy solver's walks and repairs), then every position from
 the estimate interpolated between the two good stations around it (:func:`interpolated_guess`; each
 position on its own, so the positions may be closed in parallel), closed, refined to the rounding level
 and its branch read (:func:`close_position`).
@@ -18,7 +19,7 @@ from numba import njit
 
 from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, newton, residual_at
 from dualmech.core.kernel.dfp_nb import solve_closure
-from dualmech.core.kernel.dual_nb import INLINE, JIT, copy, tmul, trodrigues
+from dualmech.core.kernel.dual_nb import INLINE, JIT, tmul, trodrigues
 from dualmech.core.kernel.linalg_nb import determinant_sign
 from dualmech.core.kernel.loop_nb import FlatLoop, length_scale, screw_matrix
 
@@ -81,39 +82,20 @@ def interpolated_guess(
 
 
 @njit(**JIT)
-def close_stations(
-    fl: FlatLoop,
-    tols: ClosureTols,
-    vals: np.ndarray,
-    order: np.ndarray,
-    n_forward: int,
-    xs: np.ndarray,
-    good: np.ndarray,
-    w: Work,
-) -> tuple[int, float, int]:
-    """The start pose and the stations, closed in turn (:func:`dualmech.core.continuation.continue_closure`).
+def close_one(fl: FlatLoop, tols: ClosureTols, vals: np.ndarray, x: np.ndarray, branch: int,
+              w: Work) -> tuple[bool, int, float]:
+    """Close one position from ``x`` (in place): whether it closed on the start's ``branch``, the iterations
+    and the residual (``_close_one`` of :func:`dualmech.core.continuation.continue_closure`)."""
+    code, iters, res = solve_closure(fl, vals, x, tols, w)
+    return code == OK and branch_sign(fl, vals, x, w) == branch, iters, res
 
-    ``order`` ``(p,)``: the start's position, then the ``n_forward`` stations after it in increasing order,
-    then those before it in decreasing order; ``xs`` ``(p, S)``: the start pose in ``xs[0]``, each
-    station's closed state written to its row; ``good`` ``(p,)`` bool: whether it closed on the start's
-    branch.  Each station starts from the last good one of its direction.  Returns the start's closure
-    (status code, residual) and its branch sign (0 if it did not close).
-    """
-    code, _, res = solve_closure(fl, vals[order[0]], xs[0], tols, w)
-    if code != OK:
-        return code, res, 0
-    branch = branch_sign(fl, vals[order[0]], xs[0], w)
-    good[0] = True
-    for way in range(2):
-        last = 0
-        lo, hi = (1, 1 + n_forward) if way == 0 else (1 + n_forward, order.size)
-        for k in range(lo, hi):
-            copy(xs[last], xs[k])
-            c, _, _ = solve_closure(fl, vals[order[k]], xs[k], tols, w)
-            if c == OK and branch_sign(fl, vals[order[k]], xs[k], w) == branch:
-                good[k] = True
-                last = k
-    return code, res, branch
+
+@njit(**JIT)
+def refine_one(fl: FlatLoop, refine_tols: ClosureTols, vals: np.ndarray, x: np.ndarray,
+               w: Work) -> tuple[int, float]:
+    """A closed ``x`` refined to the rounding level (:func:`dualmech.core.closure.refine`): the iterations and
+    the residual."""
+    return newton(fl, vals, x, refine_tols, w)
 
 
 @njit(**INLINE)

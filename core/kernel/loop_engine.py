@@ -2,12 +2,14 @@
 
 :func:`solve_loop` gives what :func:`~dualmech.core.continuation.continue_closure`,
 :func:`~dualmech.core.rates.solve_rates` and :func:`~dualmech.core.loop_reactions.solve_joint_wrenches`
-give, by the same algorithm: the start pose and the stations closed in turn
-(:func:`~dualmech.core.kernel.continuation_nb.close_stations`, one thread), then every position on its
-own from the estimate interpolated between the good stations around it, closed, refined, its rates and
-its joint wrenches (:func:`~dualmech.core.kernel.loop_engine_nb.analyze_block`), in blocks of positions
-on the kernel's threads (:mod:`~dualmech.core.kernel.pool`).  Every position's answer is the same
-whatever the blocks: it depends on the stations only.
+give, by the same algorithm: the start pose and the stations closed in turn, walking the positions between
+two stations where Newton cannot reach the next (one position at a time on the kernel,
+:func:`~dualmech.core.kernel.continuation_nb.close_one`), then every position on its own from the estimate
+interpolated between the good stations around it, closed, refined, its rates and its joint wrenches
+(:func:`~dualmech.core.kernel.loop_engine_nb.analyze_block`), in blocks of positions on the kernel's
+threads (:mod:`~dualmech.core.kernel.pool`), then the positions that missed the branch closed again one
+after the other from their closed neighbour (the numpy solver's repair).  Every position's answer is the
+same whatever the blocks: it depends on the stations only.
 
 The table becomes data here: :func:`~dualmech.core.kernel.loop_nb.flatten` and a
 :class:`~dualmech.core.kernel.wrenches_nb.WrenchSpec` (the wrench columns in the numpy solver's order);
@@ -25,7 +27,8 @@ from dualmech.core.continuation import STATIONS, Continuation, start_not_closed,
 from dualmech.core.dual import Dual
 from dualmech.core.kernel.closure_nb import closure_tols, make_work
 from dualmech.core.kernel.compiles import compile_session
-from dualmech.core.kernel.continuation_nb import close_stations
+from dualmech.core.kernel.continuation_nb import branch_sign, close_one, refine_one
+from dualmech.core.kernel.dfp_nb import solve_closure
 from dualmech.core.kernel.loop_engine_nb import (
     CODE,
     DYNAMICS_RESIDUAL,
@@ -34,6 +37,7 @@ from dualmech.core.kernel.loop_engine_nb import (
     SIGN,
     TRANSMISSION,
     analyze_block,
+    outputs_at,
 )
 from dualmech.core.kernel.loop_nb import COLUMN, VALUE_INDEX, FlatLoop, flatten, state_size, value_names
 from dualmech.core.kernel.pool import kernel_pool, threads
@@ -119,22 +123,83 @@ def _by_value(names: tuple[str, ...], values: dict[str, np.ndarray], n: int) -> 
     return out
 
 
-def _stations(fl: FlatLoop, vals: np.ndarray, start: LoopState, at: int,
-              stations: int) -> tuple[int, np.ndarray, np.ndarray]:
-    """The start pose and the stations closed in turn: the branch sign, the good stations' positions
-    (sorted) and states.  Raises :func:`~dualmech.core.continuation.start_not_closed`'s error."""
-    idx = station_positions(vals.shape[0], stations)
-    forward, backward = idx[idx > at], idx[idx < at][::-1]
-    order = np.concatenate([[at], forward, backward]).astype(np.int64)
-    xs = np.zeros((order.size, state_size(fl)))
-    xs[0] = _flat_state(start)
-    good = np.zeros(order.size, dtype=bool)
-    code, residual, branch = close_stations(fl, closure_tols(), vals, order, forward.size, xs, good,
-                                            make_work(fl))
-    if code != ClosureStatus.OK:
-        raise start_not_closed(at, residual)
-    keep = np.argsort(order[good], kind="stable")
-    return branch, np.ascontiguousarray(order[good][keep]), np.ascontiguousarray(xs[good][keep])
+class _Closer:
+    """One position at a time on the kernel, for the sequential parts of the continuation: the start, the
+    stations and the walks between them, the repairs (``_close_one``, ``_walk``, ``_repair`` of
+    :mod:`dualmech.core.continuation`, step for step)."""
+
+    def __init__(self, fl: FlatLoop, vals: np.ndarray) -> None:
+        self.fl, self.vals, self.work, self.tols = fl, vals, make_work(fl), closure_tols()
+        self.branch = 0
+
+    def start(self, start: LoopState, at: int) -> np.ndarray:
+        """The start pose closed at position ``at``, whose branch is followed (raises where it does not
+        close)."""
+        x = _flat_state(start)
+        code, _, residual = solve_closure(self.fl, self.vals[at], x, self.tols, self.work)
+        if code != ClosureStatus.OK:
+            raise start_not_closed(at, residual)
+        self.branch = branch_sign(self.fl, self.vals[at], x, self.work)
+        return x
+
+    def one(self, i: int, guess: np.ndarray) -> tuple[np.ndarray | None, int, float]:
+        """Position ``i`` closed from ``guess`` on the branch (``None`` if not), its iterations, residual."""
+        x = guess.copy()
+        closed, iters, residual = close_one(self.fl, self.tols, self.vals[i], x, self.branch, self.work)
+        return (x if closed else None), iters, residual
+
+    def refine(self, i: int, x: np.ndarray) -> tuple[int, float]:
+        return refine_one(self.fl, self.tols._replace(closure=0.0), self.vals[i], x, self.work)
+
+
+def _stations(closer: _Closer, n: int, start: LoopState, at: int,
+              stations: int) -> tuple[np.ndarray, np.ndarray]:
+    """The start and the stations closed in turn, walking the positions between where Newton cannot reach
+    a station: the good positions (sorted) and their states."""
+    states = {at: closer.start(start, at)}
+    idx = station_positions(n, stations)
+    for way in (idx[idx > at], idx[idx < at][::-1]):
+        last, p = states[at], at
+        for i in way:
+            x = closer.one(int(i), last)[0]
+            if x is None:  # too far for Newton from the last good pose: walk the positions between
+                sign = int(np.sign(i - p))
+                for j in range(p + sign, int(i), sign):
+                    walked = closer.one(j, last)[0]
+                    if walked is None:
+                        break
+                    states[j], last, p = walked, walked, j
+                x = closer.one(int(i), last)[0] if p == i - sign else None
+            if x is not None:
+                states[int(i)], last, p = x, x, int(i)
+    good = np.array(sorted(states), dtype=np.int64)
+    return good, np.array([states[i] for i in good])
+
+
+def _repair(closer: _Closer, out: tuple, at: int) -> np.ndarray:
+    """Positions the block pass did not close on the branch, closed again one after the other from the
+    closed neighbour on the start's side, until one does not close on the branch; returns the rows
+    repaired (their rates and wrenches are still to be computed)."""
+    xs, ints, reals = out[0], out[5], out[6]
+    good = (ints[:, CODE] == ClosureStatus.OK) & (ints[:, SIGN] == closer.branch)
+    if good.all() or not good.any():
+        return np.zeros(0, dtype=np.int64)
+    n, repaired = good.size, []
+    for step in (1, -1):
+        for i in np.flatnonzero(good & ((np.arange(n) - at) * step >= 0)):
+            j, last = i + step, xs[i]
+            while 0 <= j < n and not good[j]:
+                x, iters, _ = closer.one(int(j), last)
+                if x is None:
+                    break
+                more, residual = closer.refine(int(j), x)
+                xs[j], last = x, x
+                ints[j, CODE], ints[j, SIGN] = ClosureStatus.OK, closer.branch
+                ints[j, ITERATIONS] = iters + more
+                reals[j, RESIDUAL], good[j] = residual, True
+                repaired.append(j)
+                j += step
+    return np.array(repaired, dtype=np.int64)
 
 
 def solve_loop(loop: Loop, inputs: dict[str, np.ndarray], input_rates: dict[str, np.ndarray],
@@ -167,10 +232,14 @@ def solve_loop(loop: Loop, inputs: dict[str, np.ndarray], input_rates: dict[str,
            np.empty((n, 3, rows, 3)), np.empty((n, len(labels))), np.empty((n, 3), np.int64),
            np.empty((n, 3)))
     tols = closure_tols()
-    with compile_session():  # a cold cache compiles both entry points here, as one compile
-        branch, good_pos, good_x = _stations(fl, vals, start, at, stations)
+    closer = _Closer(fl, vals)
+    with compile_session():  # a cold cache compiles every entry point here, as one compile
+        good_pos, good_x = _stations(closer, n, start, at, stations)
         args = (fl, tols, tols._replace(closure=0.0), spec, values, good_pos, good_x, out)
         analyze_block(0, 0, *args, make_work(fl), make_wrench_work(rows, len(labels)))
+        outputs_at(np.zeros(0, dtype=np.int64), fl, spec, values, out, closer.work,
+                   make_wrench_work(rows, len(labels)))
+        closer.refine(int(good_pos[0]), good_x[0].copy())  # the repairs' entry point (the start, closed)
     parts = max(1, min(n // BLOCK, threads() * BLOCKS_PER_THREAD))
     bounds = np.unique(np.linspace(0, n, parts + 1).round().astype(int))
     blocks = [kernel_pool().submit(analyze_block, int(a), int(b), *args, make_work(fl),
@@ -178,6 +247,10 @@ def solve_loop(loop: Loop, inputs: dict[str, np.ndarray], input_rates: dict[str,
               for a, b in zip(bounds[:-1], bounds[1:])]
     for block in blocks:
         block.result()
+    repaired = _repair(closer, out, at)
+    if repaired.size:
+        outputs_at(repaired, fl, spec, values, out, closer.work, make_wrench_work(rows, len(labels)))
+    branch = closer.branch
     return _results(loop, out, branch, efforts, labels)
 
 
