@@ -114,8 +114,15 @@ def search_assembly(loop: Loop, inputs: dict[str, np.ndarray], seed: int = 0,
     return res.state.take(np.flatnonzero(res.status == ClosureStatus.OK))
 
 
-def _stations(n: int, count: int) -> np.ndarray:
+def station_positions(n: int, count: int = STATIONS) -> np.ndarray:
+    """The positions (0-based, sorted) of at most ``count`` stations spread evenly over ``n`` positions."""
     return np.unique(np.linspace(0, n - 1, min(n, count)).round().astype(int))
+
+
+def start_not_closed(at: int, residual: float) -> ValueError:
+    """The error of a start pose that does not close at its position ``at`` (0-based)."""
+    return ValueError(f"start: the loop does not close at position {at + 1} from the start pose "
+                      f"(residual {residual:.3g}); give an assembled pose")
 
 
 def continue_closure(loop: Loop, inputs: dict[str, np.ndarray], start: LoopState, at: int = 0,
@@ -133,10 +140,9 @@ def continue_closure(loop: Loop, inputs: dict[str, np.ndarray], start: LoopState
     here = {k: v[at:at + 1] for k, v in inputs.items()}
     first = solve_closure(loop, here, start)
     if first.status[0] != ClosureStatus.OK:
-        raise ValueError(f"start: the loop does not close at position {at + 1} from the start pose "
-                         f"(residual {first.residual[0]:.3g}); give an assembled pose")
+        raise start_not_closed(at, first.residual[0])
     branch = int(branch_sign(loop, here, first.state)[0])
-    idx = _stations(n, stations)
+    idx = station_positions(n, stations)
     state = LoopState(np.repeat(first.state.scalars, n, axis=0), np.repeat(first.state.rotations, n, axis=0))
     good = np.zeros(n, dtype=bool)
     good[at] = True

@@ -128,7 +128,7 @@ def _joint_axes(chain: Chain, loop: Loop, r: int) -> np.ndarray:
     return axes
 
 
-def _free(loop: Loop, r: int) -> tuple[set[int], set[int]]:
+def joint_freedoms(loop: Loop, r: int) -> tuple[set[int], set[int]]:
     """Axes (0 x, 1 y, 2 z of :func:`_joint_axes`) row ``r`` turns about and slides along."""
     row = loop.rows[r]
     if row.spherical:
@@ -203,7 +203,7 @@ def _columns(chain: Chain, loop: Loop, points: np.ndarray, efforts: dict[str, np
     known = [Dual(np.zeros((n, 3)), np.zeros((n, 3))) for _ in loop.rows]
     for r in range(len(loop.rows)):
         axes = _joint_axes(chain, loop, r)
-        turns, slides = _free(loop, r)
+        turns, slides = joint_freedoms(loop, r)
         for k in range(3):
             if k not in slides:
                 columns.append((r, force_at(points[:, r], axes[:, :, k]), None, "f" + "xyz"[k]))
@@ -272,4 +272,6 @@ def _effort_unit(chain: Chain, loop: Loop, r: int, name: str, slide: bool, point
     return Dual(np.zeros_like(screw.line.re), screw.line.re)
 
 
-__all__ = ["JointWrenches", "link_frames", "joint_points", "effort_slots", "solve_joint_wrenches"]
+__all__ = [
+    "JointWrenches", "link_frames", "joint_points", "joint_freedoms", "effort_slots", "solve_joint_wrenches",
+]

@@ -13,7 +13,6 @@ batched; ``tests/core/test_kernel.py`` holds the two to 1e-12.
 
 from __future__ import annotations
 
-import os
 from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -26,6 +25,8 @@ import numpy as np
 from dualmech.core.kernel.closure_nb import Work, make_work
 from dualmech.core.kernel.compiles import compile_session
 from dualmech.core.kernel.loop_nb import FlatLoop, flatten
+from dualmech.core.kernel.pool import kernel_pool as _pool
+from dualmech.core.kernel.pool import threads
 from dualmech.core.motion import CrankState
 from dualmech.core.status import STATUSES, Status
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
@@ -48,19 +49,6 @@ WARM_CHAIN = 100
 BLOCK = 256
 #: Blocks per thread in a chunk: uneven work (DFP, continuation near edges) evens out.
 BLOCKS_PER_THREAD = 4
-
-def threads() -> int:
-    """Worker threads of the kernel: the CPUs this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-
-
-@lru_cache(maxsize=1)
-def _pool() -> ThreadPoolExecutor:
-    return ThreadPoolExecutor(max_workers=threads(), thread_name_prefix="dualmech-kernel")
-
-
-# a forked child (a process pool's worker) inherits the pool object but not its threads: start afresh
-os.register_at_fork(after_in_child=_pool.cache_clear)
 
 
 def _scratch(fl: FlatLoop, rules: Rules) -> tuple[Work, Scratch]:

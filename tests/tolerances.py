@@ -198,6 +198,13 @@ LOOP_REACTIONS_ROUNDING = 1e-14
 #: the closure's rounding reaches the reactions times 1/c^3 there (as NEAR_EDGE_VS_CLOSED_FORM's kinematics;
 #: measured 3.7e-12 at c = 0.069, error x c^3 = 1.2e-15 of the peak).
 LOOP_EDGE_ROUNDING = 5e-15
+#: The compiled loop engine (core/kernel/loop_engine.py) against the numpy solver, relative to each column's
+#: peak: the same algorithm per position from the same stations, both closed to the rounding level; only the
+#: order of sums differs (measured <= 1.1e-14 on the presets).
+KERNEL_VS_NUMPY_LOOP = 1e-12
+#: A column that is nil in theory (a force along an axis the loads never load, the ground link's twist) is
+#: rounding noise in both: compared against this fraction of its group's peak instead of its own.
+NIL_COLUMN = 1e-2
 #: Closure residual of the generic loop engine on its closed rows (lengths over the loop's length): it refines
 #: to the rounding level (measured <= 2e-15 on random tables).
 LOOP_CLOSURE = 1e-13

@@ -14,6 +14,9 @@ seeded random cases (the thesis example with random offset, twist and axial shif
   closed form, compiled, on the same cores: the machine's limit for this mechanism.  Its inputs
   (crank states, case arrays) are made before the timing: ~80 µs of Python a case, a quarter of
   the closed form's own time on the 1° grid, is not the machine's limit.
+* **dualmech loop kernel** -- the generic loop engine compiled (:mod:`dualmech.core.kernel.loop_engine`)
+  on the slider crank's joint table (:func:`dualmech.models.loop.presets.slider_crank_table`): some of the
+  cases, and one long case (a tenth of the Parquet row's positions), through ``analyze_loop``.
 * **Pinocchio, MuJoCo** -- best-effort drivers: the model built once per case outside the
   timing (Pinocchio: :func:`~dualmech.validation.pinocchio_engine.solve` with a prebuilt
   model; MuJoCo rigid: the per-position loop of
@@ -242,6 +245,29 @@ def _inside(module: ModuleType, like: Callable, run: Callable[[], None]) -> Call
     return timed_run
 
 
+def time_loop_kernel(cases: list[Case], positions: int, repeats: int) -> list[Timing]:
+    """The generic loop engine, compiled (:func:`dualmech.models.loop.engine.analyze_loop`), on the slider
+    crank as a joint table: ``cases`` one call each, and one case of ``positions`` crank angles; each
+    start pose from the slider crank kernel's ``S4`` at the first angle (outside the timing)."""
+    from dualmech.models.loop.engine import analyze_loop
+    from dualmech.models.loop.presets import slider_crank_start, slider_crank_table
+
+    long = random_cases(1, step_deg=360.0 / positions, seed=2)
+    prepared, one_angle = {}, {"motion.angles_deg": {"start": 0.0, "stop": 1.0, "step": 1.0}}
+    for label, group in (("cases", cases), ("long", long)):
+        first = [c.with_values(one_angle) for c in group]
+        prepared[label] = [(slider_crank_table(c), slider_crank_start(c, t["S4"][0]))
+                           for c, t in zip(group, solve_cases(first))]
+
+    def run(label: str) -> Callable[[], object]:
+        return lambda: [analyze_loop(mech, start) for mech, start in prepared[label]]
+
+    n = len(long[0].motion.angles_deg)
+    return [measure(f"dualmech loop kernel, the slider crank as a joint table ({len(cases)} cases)",
+                    _positions(cases), run("cases"), repeats),
+            measure(f"dualmech loop kernel, one case ({n:,} positions)", n, run("long"), repeats)]
+
+
 def time_solve_parquet(positions: int, repeats: int) -> Timing:
     """``dualmech solve`` of one case of ``positions`` crank angles into Parquet (start-up excluded)."""
     case = random_cases(1, step_deg=360.0 / positions, seed=2)[0]
@@ -303,9 +329,10 @@ def performance_page(table: str, command: str) -> str:
 
 
 def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000, repeats: int = 3,
-                  main_job: int = 0) -> str:
+                  main_job: int = 0, loop_cases: int = 50) -> str:
     """Run the benchmark and return a Markdown report (``main_job`` > 0: that many timed runs of the main
-    job too)."""
+    job too; ``loop_cases``: the generic loop kernel on that many of the cases and on a tenth of ``big``
+    positions, :func:`time_loop_kernel`)."""
     bench = random_cases(cases)
     n = _positions(bench)
     prepared = closed_form_inputs(bench)
@@ -321,6 +348,8 @@ def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000,
     ]
     if big:
         rows.append(time_solve_parquet(big, repeats))
+    if loop_cases:
+        rows += time_loop_kernel(bench[:loop_cases], max(big // 10, 360), repeats)
     judges = bench[:judge_cases]
     for timer in (time_pinocchio, time_mujoco) if judges else ():
         try:

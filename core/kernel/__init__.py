@@ -15,6 +15,9 @@ kernel module             what                                   numpy twin
 ``rates_nb``              rates and accelerations from screws    :mod:`dualmech.core.rates`
 ``dynamics_nb``           dual momentum rate of a rigid body     :mod:`dualmech.core.reactions`
 ``universal_nb``          a universal joint's link spin          :mod:`dualmech.core.universal`
+``continuation_nb``       branch sign, stations, estimates       :mod:`dualmech.core.continuation`
+``wrenches_nb``           every joint's wrench, Householder QR   :mod:`dualmech.core.loop_reactions`
+``loop_engine_nb``        a block of positions of any table      (the three above in turn)
 ========================  =====================================  ==============================
 
 Nothing here allocates or counts references (compiled without numba's runtime: see
@@ -22,6 +25,8 @@ Nothing here allocates or counts references (compiled without numba's runtime: s
 the caller.  Everything here is generic: the table is data
 (:func:`~dualmech.core.kernel.loop_nb.flatten`), and mechanism-specific start estimates, branch
 rules and reaction eliminations live with the mechanism in :mod:`dualmech.models`.
+:mod:`~dualmech.core.kernel.loop_engine` runs any table on it (:mod:`~dualmech.core.kernel.pool`: the
+threads).
 
 Compiled code is cached on disk (beside the sources, or in ``NUMBA_CACHE_DIR``), keyed on the
 compiled modules (``*_nb.py``: :data:`_SOURCES`); a cold cache costs minutes of compiling at the first

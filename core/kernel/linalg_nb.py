@@ -220,3 +220,23 @@ def _lu_apply(a: np.ndarray, piv: np.ndarray, b: np.ndarray, out: np.ndarray) ->
         for j in range(c + 1, k):
             s -= a[c, j] * out[j]
         out[c] = s / a[c, c]
+
+
+@njit(**JIT)
+def determinant_sign(a: np.ndarray, sq: np.ndarray, piv: np.ndarray) -> int:
+    """Sign of the determinant of the square ``a`` ``(k, k)``: -1, 0 or 1 (``np.sign(np.linalg.det(a))``),
+    from its LU factors with partial pivoting (the diagonal's signs and the row swaps); ``sq`` ``(k, k)``
+    and ``piv`` ``(k,)`` int: scratch."""
+    k = a.shape[0]
+    for i in range(k):
+        for j in range(k):
+            sq[i, j] = a[i, j]
+    if not _lu_factor(sq, piv):
+        return 0
+    sign = 1
+    for c in range(k):
+        if piv[c] != c:
+            sign = -sign
+        if sq[c, c] < 0.0:
+            sign = -sign
+    return sign

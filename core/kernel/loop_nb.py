@@ -60,11 +60,13 @@ ROW, CARRIER, COLUMN, VALUE_INDEX = 0, 1, 2, 3
 
 
 def value_names(loop: Loop) -> tuple[str, ...]:
-    """Names of ``vals``: the loop's inputs, then its parameters, each once, in table order."""
+    """Names of ``vals``: the loop's inputs, then its parameters, each once, in table order, then its length
+    scale if no row holds it."""
     params = [
         v.name for r in loop.rows for f in FIELDS if isinstance(v := getattr(r, f), Var) and v.kind == "param"
     ]
-    return tuple(dict.fromkeys(list(loop.inputs) + params))
+    scale = [loop.length_scale] if loop.length_scale else []
+    return tuple(dict.fromkeys(list(loop.inputs) + params + scale))
 
 
 def _entries(loop: Loop, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -164,7 +166,7 @@ def _turn(
 
 
 @njit(**INLINE)
-def _entry(table: np.ndarray, const: np.ndarray, vals: np.ndarray, x: np.ndarray, i: int, f: int) -> float:
+def entry(table: np.ndarray, const: np.ndarray, vals: np.ndarray, x: np.ndarray, i: int, f: int) -> float:
     """Entry ``f`` (a column of :data:`FIELDS`) of table row ``i`` at this position."""
     k = table[i, KIND + f]
     return const[i, f] if k == CONST else (vals[table[i, REF + f]] if k == VALUE else x[table[i, REF + f]])
@@ -192,11 +194,11 @@ def evaluate(
     m, ball = 0, 0
     for i in range(table.shape[0]):
         v = (  # the row's five entries at this position
-            _entry(table, const, vals, x, i, 0),
-            _entry(table, const, vals, x, i, 1),
-            _entry(table, const, vals, x, i, 2),
-            _entry(table, const, vals, x, i, 3),
-            _entry(table, const, vals, x, i, 4),
+            entry(table, const, vals, x, i, 0),
+            entry(table, const, vals, x, i, 1),
+            entry(table, const, vals, x, i, 2),
+            entry(table, const, vals, x, i, 3),
+            entry(table, const, vals, x, i, 4),
         )
         for stage in range(3):  # Z(theta + eps S), Y(eta), X(alpha + eps a); a ball replaces the first two
             if stage < 2 and table[i, SPHERICAL]:

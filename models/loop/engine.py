@@ -20,7 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from dualmech.core.closure import ClosureStatus
-from dualmech.core.continuation import Continuation, continue_closure, search_assembly
+from dualmech.core.continuation import continue_closure, search_assembly
+from dualmech.core.kernel.loop_engine import solve_loop
 from dualmech.core.loop import Chain, Loop, LoopState, evaluate
 from dualmech.core.loop_reactions import JointWrenches, solve_joint_wrenches
 from dualmech.core.rates import Rates, solve_rates
@@ -122,25 +123,32 @@ def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
                      "the joints' start values")
 
 
-def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: int = 0) -> LoopAnalysis:
+def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: int = 0, *,
+                 compiled: bool = True) -> LoopAnalysis:
     """Closure, rates, reactions and statuses at every drive position of ``mechanism``.
 
     ``start`` ``(1,)`` positions: a pose at drive position ``at`` (0-based; assembled or nearly), whose
-    branch is followed; default :func:`find_start`.
+    branch is followed; default :func:`find_start`.  ``compiled``: by the compiled kernel
+    (:func:`dualmech.core.kernel.loop_engine.solve_loop`, the same algorithm per position), else by the
+    numpy solver (the reference the kernel is tested against).
     """
     check_mobility(mechanism)
     loop = to_loop(mechanism)
     drive = drive_state(mechanism)
     n = drive.values[variable(*mechanism.driven_coordinate)].shape[0]
     pose, at = find_start(mechanism, loop, drive) if start is None else (start, at)
-    closed: Continuation = continue_closure(loop, drive.values, pose, at)
-    chain = evaluate(loop, drive.values, closed.state)
-    rates = solve_rates(chain, loop, drive.rates, drive.accels)
     efforts, solved = efforts_of(mechanism, n)
-    scale = drive.values[SCALE]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        wrenches = solve_joint_wrenches(chain, loop, drive.values, rates, mechanism.bodies, mechanism.gravity,
-                                        efforts, solved, scale)
+    if compiled:
+        closed, rates, wrenches = solve_loop(loop, drive.values, drive.rates, drive.accels, pose, at,
+                                             mechanism.bodies, mechanism.gravity, efforts, solved)
+        chain = evaluate(loop, drive.values, closed.state)
+    else:
+        closed = continue_closure(loop, drive.values, pose, at)
+        chain = evaluate(loop, drive.values, closed.state)
+        rates = solve_rates(chain, loop, drive.rates, drive.accels)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            wrenches = solve_joint_wrenches(chain, loop, drive.values, rates, mechanism.bodies,
+                                            mechanism.gravity, efforts, solved, drive.values[SCALE])
     status = np.full(n, Status.OK.value, dtype=object)
     status[(wrenches.transmission < DEAD_CENTRE_TRANSMISSION.value)] = Status.DEAD_CENTRE.value
     status[closed.branch_jump] = Status.BRANCH_JUMP.value
