@@ -45,6 +45,8 @@ from numba.core import caching
 #: then the modules that registered with :func:`depends_on_kernel` (in import order, so each sees its
 #: dependencies).
 _SOURCES: list[Path] = sorted(Path(__file__).resolve().parent.glob("*_nb.py"))
+#: How many of :data:`_SOURCES` are this package's own (a function of them calls none of the others).
+_OWN = len(_SOURCES)
 
 
 def depends_on_kernel(path: str) -> None:
@@ -59,11 +61,17 @@ def depends_on_kernel(path: str) -> None:
 
 
 class _Digest:
-    """numba cache locator mixin for the kernel's files: fresh only if none of :data:`_SOURCES` changed."""
+    """numba cache locator mixin for the kernel's files: fresh only if none of the files its function's code
+    may carry changed: this package's own, and for a registered module's function the modules registered up
+    to it.  Never the modules registered after it: a process that imports only the generic loop kernel and
+    one that imports a mechanism's too must read the same stamp, or each would find the other's cache stale
+    and recompile it (minutes) in turn."""
 
     def get_source_stamp(self) -> str:
+        own = Path(self._py_file).resolve()
+        upto = _OWN if own in _SOURCES[:_OWN] else _SOURCES.index(own) + 1
         digest = hashlib.sha256()
-        for path in _SOURCES:
+        for path in _SOURCES[:upto]:
             digest.update(path.read_bytes())
         return digest.hexdigest()
 
