@@ -150,12 +150,12 @@ def continue_closure(loop: Loop, inputs: dict[str, np.ndarray], start: LoopState
         last, p = first.state, at
         for i in way:  # sequential: each station from the last good one (a fixed, small number)
             closed = _close_one(loop, inputs, i, last, branch)
-            if closed is None:  # too far for Newton from the last good pose: walk the positions between
-                state, good, p, last = _walk(loop, inputs, range(p + np.sign(i - p), i, np.sign(i - p)),
-                                              last, branch, state, good, p)
-                closed = _close_one(loop, inputs, i, last, branch) if p == i - np.sign(i - p) else None
             if closed is not None:
                 state, good[i], last, p = state.put(np.array([i]), closed.state), True, closed.state, i
+            else:  # too far for Newton from the last good pose: walk the positions up to the station
+                step = np.sign(i - p)
+                state, p, last = _walk(loop, inputs, range(p + step, i + step, step), last, branch, state,
+                                       good, p)
     # every position from the stations around it, in one batch
     ok_idx = np.flatnonzero(good)
     right = np.clip(np.searchsorted(ok_idx, np.arange(n)), 0, ok_idx.size - 1)
@@ -190,17 +190,17 @@ def _close_one(loop: Loop, inputs: dict[str, np.ndarray], i: int, guess: LoopSta
 
 
 def _walk(loop, inputs, positions, last: LoopState, branch: int, state: LoopState, good: np.ndarray,
-          p: int) -> tuple[LoopState, np.ndarray, int, LoopState]:
+          p: int) -> tuple[LoopState, int, LoopState]:
     """Close ``positions`` one after the other, each from the one before, until one does not close on the
-    branch (an edge of assembly, or a turn too sharp even for one step).  Returns the updated ``state``,
-    ``good`` mask, the last position closed (``p`` if none) and its pose."""
+    branch (an edge of assembly, or a turn too sharp even for one step).  Returns the updated ``state``, the
+    last position closed (``p`` if none) and its pose; ``good`` is marked in place."""
     for j in positions:
         closed = _close_one(loop, inputs, j, last, branch)
         if closed is None:
             break
         state, last, p = state.put(np.array([j]), closed.state), closed.state, j
         good[j] = True
-    return state, good, p, last
+    return state, p, last
 
 
 def _repair(loop, inputs, state: LoopState, status: np.ndarray, jump: np.ndarray, residual: np.ndarray,
