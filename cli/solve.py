@@ -164,9 +164,9 @@ def warn_units(*cases: Case) -> None:
 
 def _solve_linkage(case: str, output: str | None, engine: str, frames: str) -> None:
     """A case whose ``[mechanism] kind`` is another linkage (RSSR, RCCC, a loop table): its own table, as
-    CSV, from the linkages' engine registry (:mod:`dualmech.validation.linkages.engines`)."""
+    CSV, from the linkages' engine registry (:mod:`dualmech.validation.engines`)."""
     from dualmech.models.linkages import summary
-    from dualmech.validation.linkages import solve_linkage
+    from dualmech.validation.engines import solve_linkage
 
     if frames != "world":
         raise ValueError(f"--frames {frames}: a linkage's table is in world frames only (--frames world)")

@@ -31,7 +31,7 @@ from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage, ta
 from dualmech.models.linkages.forward_dynamics import simulate as simulate_linkage
 from dualmech.models.slider_crank import format_angle_ranges, no_assembly_ranges
 from dualmech.validation.engines import run_engine
-from dualmech.validation.linkages import solve_linkage as solve_linkage_by
+from dualmech.validation.engines import solve_linkage as solve_linkage_by
 from dualmech.validation.tolerances import SIM_STROKE
 from tests.oracles import assembly_margin, slider_line
 from tests.tolerances import S4_VS_CLOSED_FORM

@@ -254,12 +254,12 @@ def test_validate_of_a_linkage_is_the_linkage_gate(tmp_path, monkeypatch) -> Non
     assert run.verdict == "PASS" and (tmp_path / "run" / "summary.json").is_file()
     assert set(run.tables["rssr-crank-rocker"]) == {"dualmech", "pinocchio"}
     # the same gate fails when the judge's answer is off (a deliberate fault: the output angle 1e-6 deg off)
-    from dualmech.validation.linkages import engines
+    from dualmech.validation import engines
 
     real = engines.solve_case
 
-    def shifted(engine, kind, case):
-        table = real(engine, kind, case)
+    def shifted(engine, case):
+        table = real(engine, case)
         if engine == "pinocchio":
             table.columns["phi4_deg"] += 1e-6
         return table

@@ -80,7 +80,7 @@ def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") ->
     if not isinstance(engine, str):
         raise TypeError(f"engine: expected an engine name (valid: {', '.join(ENGINES)}), got {show(engine)}")
     if isinstance(case, (str, os.PathLike, dict)) and is_linkage(case):
-        from dualmech.validation.linkages.engines import solve_linkage
+        from dualmech.validation.engines import solve_linkage
 
         return solve_linkage(case, engine)
     checked = as_case(case)

@@ -1,41 +1,67 @@
-"""Registry of engines that turn a case into a :class:`~dualmech.core.table.ResultTable`.
+"""The one registry of engines: every engine, every kind of mechanism it solves, and how.
 
-Engines are imported lazily, so that ``dualmech solve`` with the in-house
-engine never imports Pinocchio or MuJoCo.  Every entry is a function
-``solve_case(case) -> ResultTable``.
+``ENGINES[engine][kind]`` is the ``"module:function"`` that solves a checked case of ``kind`` (``[mechanism]
+kind``: ``slider-crank``, the default of a case without one; ``rssr``, ``rccc``; ``loop``, a joint table)
+into its result table: the in-house method (``models/``) and its judges (this package; a loop table's
+generated from the table, :mod:`dualmech.validation.judges`).  The kind is a property of the case
+(:func:`dualmech.models.kinds.kind_of`); an engine solves only the kinds listed under it.
+
+Engines are imported lazily, so that solving with the in-house engine never imports Pinocchio or MuJoCo.
 """
 
 from __future__ import annotations
 
 from importlib import import_module
-from typing import Callable
+from pathlib import Path
+from typing import Any, Callable
 
-from dualmech.core.table import ResultTable
-from dualmech.models.case import Case, case_from_dict
+from dualmech.core.status import Status, is_status
+from dualmech.core.table import ColumnTable
+from dualmech.models.case_format import SLIDER_CRANK
+from dualmech.models.inputs import CaseError, show
+from dualmech.models.kinds import kind_of
 
-#: engine name -> "module:function"
-ENGINES: dict[str, str] = {
-    "dualmech": "dualmech.models.slider_crank:solve_case",
-    "pinocchio": "dualmech.validation.pinocchio_engine:solve_case",
-    "mujoco": "dualmech.validation.mujoco_engine:solve_case",
-    "mujoco-sim": "dualmech.validation.mujoco_sim:solve_case",
+#: engine -> ``[mechanism] kind`` -> "module:function".
+ENGINES: dict[str, dict[str, str]] = {
+    "dualmech": {SLIDER_CRANK: "dualmech.models.slider_crank:solve_case",
+                 "rssr": "dualmech.models.linkages.rssr:solve_rssr",
+                 "rccc": "dualmech.models.linkages.rccc:solve_rccc",
+                 "loop": "dualmech.models.loop.table:solve_loop_table"},
+    "pinocchio": {SLIDER_CRANK: "dualmech.validation.pinocchio_engine:solve_case",
+                  "rssr": "dualmech.validation.linkages.pinocchio_rssr:solve_pinocchio",
+                  "rccc": "dualmech.validation.linkages.pinocchio_rccc:solve_pinocchio_rccc",
+                  "loop": "dualmech.validation.judges.pinocchio_loop.table:solve_table"},
+    "mujoco": {SLIDER_CRANK: "dualmech.validation.mujoco_engine:solve_case",
+               "rssr": "dualmech.validation.linkages.mujoco_rssr:solve_mujoco",
+               "rccc": "dualmech.validation.linkages.mujoco_rccc:solve_mujoco_rccc",
+               "loop": "dualmech.validation.judges.mujoco_loop.table:solve_table"},
+    "mujoco-sim": {SLIDER_CRANK: "dualmech.validation.mujoco_sim:solve_case",
+                   "rssr": "dualmech.validation.linkages.mujoco_rssr_sim:solve_mujoco_sim",
+                   "rccc": "dualmech.validation.linkages.mujoco_rccc_sim:solve_mujoco_sim_rccc",
+                   "loop": "dualmech.validation.judges.mujoco_loop.table:solve_sim_table"},
+}
+#: Why the simulation does not solve a case of a kind it is registered for (its one-line refusal).
+SIM_REFUSALS: dict[str, str] = {
+    "rssr": "; its input is servo-driven through every angle of the case: the case must give "
+            "loads.output_torque and its loop close at all of them",
+    "loop": "; the simulation cuts the loop inside the ground, whose half hangs from the last joint: drive "
+            "another joint",
 }
 
-
 #: Engines run in a thread of the running process beside a pool's workers (under their registered function
-#: only: a test's fake of the same name runs in a worker), each on cases of at most so many crank positions:
-#: a thread cannot be ended, so an interrupted run waits for the task it is running (at most ~0.2 s under
-#: these bounds); a larger case runs in a worker, which can be ended.  Both are engines whose library costs
-#: a process more to load than the thesis matrix's tasks cost to run, so it is loaded once, here, instead of
-#: in every worker:
+#: only: a test's fake of the same name runs in a worker), each on slider-crank cases of at most so many crank
+#: positions: a thread cannot be ended, so an interrupted run waits for the task it is running (at most
+#: ~0.2 s under these bounds); a larger case runs in a worker, which can be ended.  Both are engines whose
+#: library costs a process more to load than the thesis matrix's tasks cost to run, so it is loaded once,
+#: here, instead of in every worker:
 #:
 #: * the in-house kernel: compiled, releases the GIL, ~2 ms a thesis case (10^5 positions: ~0.1 s); loading
 #:   numba and the cached kernel costs a process ~0.85 s of CPU;
 #: * Pinocchio: ~30 ms a thesis case (~85 us a position: 2000 positions ~0.2 s); importing it costs a process
 #:   0.23 s of CPU.
 IN_PROCESS_ENGINES: dict[str, tuple[str, int]] = {
-    "dualmech": (ENGINES["dualmech"], 100_000),
-    "pinocchio": (ENGINES["pinocchio"], 2_000),
+    "dualmech": (ENGINES["dualmech"][SLIDER_CRANK], 100_000),
+    "pinocchio": (ENGINES["pinocchio"][SLIDER_CRANK], 2_000),
 }
 
 
@@ -43,8 +69,10 @@ def runs_here(engine: str, spec: str, raw: dict) -> bool:
     """Whether the task of ``engine`` under ``spec`` on the case table ``raw`` runs in the running process
     beside a pool (:data:`IN_PROCESS_ENGINES`; a table that does not parse runs in a worker, which stores
     its error)."""
+    from dualmech.models.case import case_from_dict
+
     here, most = IN_PROCESS_ENGINES.get(engine, (None, 0))
-    if here != spec:
+    if here != spec or kind_of(raw) != SLIDER_CRANK:
         return False
     try:
         return case_from_dict(raw).motion.angles_deg.size <= most
@@ -52,14 +80,75 @@ def runs_here(engine: str, spec: str, raw: dict) -> bool:
         return False
 
 
-def get_engine(name: str) -> Callable[[Case], ResultTable]:
-    """The ``solve_case`` function of engine ``name``."""
-    if name not in ENGINES:
-        raise ValueError(f"engine: expected one of {', '.join(ENGINES)}, got {name!r}")
-    module, func = ENGINES[name].split(":")
+def solves(engine: str, kind: str, case: Any) -> bool:
+    """Whether ``engine`` solves ``case`` of ``kind``: the kind is registered under it, and for the
+    simulation of a linkage (a servo drives the input through the case's angles) the case gives the output
+    torque (an RCCC case always does: its drive torque is always solved; an RSSR case in output-torque mode)
+    and its loop closes (``ok``) at every one of those angles: a trajectory cannot pass where it does not
+    (the in-house status words decide that, as they decide which rows every judge is compared on).  A loop
+    table's simulation plans its rows from its own rigid closure; it needs the drive at a joint other than
+    the last (:mod:`~dualmech.validation.judges.mujoco_loop.sim_mjcf`).  The slider crank's simulation
+    decides for itself (its table marks what it cannot follow)."""
+    if kind not in ENGINES.get(engine, {}):
+        return False
+    if engine != "mujoco-sim" or kind == SLIDER_CRANK:
+        return True
+    if kind == "loop":
+        return case.drive.joint != len(case.joints) - 1
+    given = kind == "rccc" or getattr(case, "mode", "") == "output"
+    return given and bool(is_status(solve_case("dualmech", case).status, Status.OK).all())
+
+
+def spec_of(engine: str, kind: str) -> str:
+    """The ``"module:function"`` of ``engine`` for ``kind``; a one-line CaseError naming the engines that
+    solve that kind otherwise."""
+    if engine not in ENGINES:
+        raise CaseError(f"engine: expected one of {', '.join(ENGINES)}, got {show(engine)}")
+    if kind not in ENGINES[engine]:
+        valid = [e for e in ENGINES if kind in ENGINES[e]]
+        raise CaseError(f"engine: {show(engine)} does not solve a {kind} case (valid: {', '.join(valid)})")
+    return ENGINES[engine][kind]
+
+
+def get_engine(name: str, kind: str = SLIDER_CRANK) -> Callable[[Any], ColumnTable]:
+    """The solving function of engine ``name`` for cases of ``kind``."""
+    module, func = spec_of(name, kind).split(":")
     return getattr(import_module(module), func)
 
 
-def run_engine(name: str, case: Case) -> ResultTable:
-    """Solve ``case`` with engine ``name``."""
-    return get_engine(name)(case)
+def solve_case(engine: str, case: Any) -> ColumnTable:
+    """The checked ``case`` (a slider-crank :class:`~dualmech.models.case.Case`, an RSSR, RCCC or loop
+    table case) solved by ``engine``, by its kind."""
+    return get_engine(engine, kind_of(case))(case)
+
+
+def run_engine(name: str, case: Any) -> ColumnTable:
+    """Solve ``case`` with engine ``name`` (:func:`solve_case`)."""
+    return solve_case(name, case)
+
+
+def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> ColumnTable:
+    """Solve every crank position of a linkage case (a TOML file, a bundled case ``"rssr"`` / ``"rccc"`` /
+    ``"rscr"`` ... or a parsed dict) with ``engine``: ``"dualmech"`` (the in-house dual-number method),
+    ``"pinocchio"``, ``"mujoco"`` (the rigid judges; a loop table's are generated from it) or
+    ``"mujoco-sim"`` (MuJoCo's simulation of an RCCC case, an RSSR case in output-torque mode or a loop
+    table driven at another joint than its last: its rows are the simulated input states).
+
+    Raises
+    ------
+    CaseError
+        One line, for any invalid input, and for an engine that does not solve the case.
+    """
+    from dualmech.models.linkages import linkage_case, linkage_kind, read_linkage
+
+    if engine not in ENGINES:
+        raise CaseError(f"engine: {show(engine)} does not solve linkages (valid: {', '.join(ENGINES)})")
+    data = read_linkage(source)
+    case = linkage_case(data)
+    kind = linkage_kind(data)
+    if not solves(engine, kind, case):
+        valid = [e for e in ENGINES if solves(e, kind, case)]
+        why = SIM_REFUSALS.get(kind, SIM_REFUSALS["rssr"]) if kind in ENGINES[engine] else ""
+        raise CaseError(f"engine: {show(engine)} does not solve this {kind.upper()} case (valid: "
+                        f"{', '.join(valid)}{why})")
+    return solve_case(engine, case)

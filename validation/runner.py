@@ -37,7 +37,7 @@ from typing import Any, Callable
 import numpy as np
 
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
-from dualmech.models.case import case_from_dict
+from dualmech.models.kinds import case_from_data, kind_of
 from dualmech.validation import rundir
 from dualmech.validation.durable import json_text
 from dualmech.validation.engines import ENGINES, runs_here
@@ -60,6 +60,10 @@ LOG_FILE = "run.log"
 #: Rough cost of one case per engine (thesis cases, CPU s x 10): tasks go to the workers longest first, so
 #: that a run does not end with one worker on a long task and the other idle (an engine not listed: 1).
 ENGINE_COST = {"mujoco-sim": 5.0, "mujoco": 1.0, "pinocchio": 0.3, "dualmech": 0.3}
+
+#: What a run takes as its engines: engine -> ``"module:function"`` for cases of every kind (a test's fake),
+#: or engine -> ``[mechanism] kind`` -> ``"module:function"`` (:data:`~dualmech.validation.engines.ENGINES`).
+Registry = dict[str, Any]
 
 #: ``progress(done, total, label)``, called after each finished (case, engine).
 ProgressCallback = Callable[[int, int, str], None]
@@ -229,7 +233,7 @@ def run_task(case_id: str, case_raw: dict, engine: str, spec: str) -> dict:
                              "versions": versions(KEY_LIBRARIES)}
     try:
         module, func = spec.split(":")
-        table = getattr(import_module(module), func)(case_from_dict(case_raw))
+        table = getattr(import_module(module), func)(case_from_data(case_raw))
         if not isinstance(table, ResultTable):
             raise TypeError(f"{spec} returned {type(table).__name__}, not a ResultTable")
         entry.update(table=table_to_dict(table), error=None)
@@ -253,7 +257,20 @@ def _log_failure(outdir: Path, entry: dict) -> None:
     rundir.append_text(outdir, LOG_FILE, head + entry.get("traceback", "") + "\n")
 
 
-def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: dict[str, str]
+def task_spec(registry: Registry, engine: str, raw: dict) -> str:
+    """The ``"module:function"`` that runs ``engine`` on the case table ``raw``: the engine's own for every
+    kind, or the one registered for the case's kind (:func:`~dualmech.models.kinds.kind_of`); a one-line
+    ValueError for a kind the engine does not solve."""
+    entry = registry[engine]
+    if isinstance(entry, str):
+        return entry
+    kind = kind_of(raw)
+    if kind not in entry:
+        raise ValueError(f"engines: {engine!r} does not solve a {kind} case (it solves: {', '.join(entry)})")
+    return entry[kind]
+
+
+def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: Registry
           ) -> tuple[list[tuple[str, str]], dict[str, dict]]:
     """Tasks to run, and the entries kept from earlier files, per case."""
     tasks, kept = [], {}
@@ -261,9 +278,10 @@ def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: dict[str, str]
         old = read_case_file(outdir, mc.id) if resume else None
         entries = {}
         if old is not None:
+            current = {e: result_fingerprint(mc.raw, e, task_spec(registry, e, mc.raw))
+                       for e in matrix.engines}
             entries = {e: v for e, v in old["engines"].items()
-                       if e in matrix.engines and not v.get("error")
-                       and v.get("fingerprint") == result_fingerprint(mc.raw, e, registry[e])}
+                       if e in current and not v.get("error") and v.get("fingerprint") == current[e]}
         kept[mc.id] = entries
         tasks += [(mc.id, e) for e in matrix.engines if e not in entries]
     return tasks, kept
@@ -277,7 +295,7 @@ def run_matrix(
     resume: bool = False,
     scheduler: str | None = None,
     progress: ProgressCallback | None = None,
-    registry: dict[str, str] | None = None,
+    registry: Registry | None = None,
 ) -> RunOutcome:
     """Run every case of ``matrix`` on every engine and store the results in ``outdir``.
 
@@ -295,7 +313,8 @@ def run_matrix(
     progress : callable, optional
         ``progress(done, total, label)`` after each finished (case, engine).
     registry : dict, optional
-        Engine name -> ``"module:function"``; default :data:`~dualmech.validation.engines.ENGINES`.
+        Engine name -> ``"module:function"`` (every kind) or kind -> ``"module:function"`` (:data:`Registry`);
+        default :data:`~dualmech.validation.engines.ENGINES`.
     """
     start = time.perf_counter()
     registry = dict(ENGINES if registry is None else registry)
@@ -307,12 +326,15 @@ def run_matrix(
     missing = [e for e in matrix.engines if e not in registry]
     if missing:
         raise ValueError(f"engines: {missing[0]!r} is not registered (valid: {', '.join(registry)})")
+    for mc in matrix.cases:  # before the folder is touched: an engine that cannot solve a case's kind
+        for e in matrix.engines:
+            task_spec(registry, e, mc.raw)
     with locked(outdir) as outdir:
         return _run_locked(matrix, outdir, jobs, resume, scheduler, progress, registry, start)
 
 
 def _run_info(matrix: Matrix, jobs: int, resume: bool, scheduler: str | None,
-              registry: dict[str, str]) -> dict:
+              registry: Registry) -> dict:
     """What ``run.json`` says of a run when it starts (its end adds seconds, ran and skipped)."""
     return {
         "format": RUN_FORMAT,
@@ -322,13 +344,14 @@ def _run_info(matrix: Matrix, jobs: int, resume: bool, scheduler: str | None,
         "scheduler": scheduler,
         "machine": machine(),
         "versions": versions(),
-        "registry": {e: registry[e] for e in matrix.engines},
+        "registry": {e: " ".join(sorted({task_spec(registry, e, mc.raw) for mc in matrix.cases}))
+                     for e in matrix.engines},
         "resumed": resume,
     }
 
 
 def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler: str | None,
-                progress: ProgressCallback | None, registry: dict[str, str], start: float) -> RunOutcome:
+                progress: ProgressCallback | None, registry: Registry, start: float) -> RunOutcome:
     """:func:`run_matrix` in its locked output folder."""
     rundir.make_folder(outdir, CASES_DIR)
     tasks, kept = _plan(matrix, outdir, resume, registry)
@@ -337,7 +360,7 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
     rundir.write_json(outdir, RUN_FILE, info)
 
     files = {cid: CaseFileText(cid, raws[cid], matrix.engines, kept[cid]) for cid in raws}
-    calls = [(cid, raws[cid], e, registry[e]) for cid, e in tasks]
+    calls = [(cid, raws[cid], e, task_spec(registry, e, raws[cid])) for cid, e in tasks]
     calls.sort(key=lambda call: -ENGINE_COST.get(call[2], 1.0))  # the longest first (stable)
 
     listed: set[str] = set()  # case files already in the manifest (listing one rereads and checks it)

@@ -117,7 +117,7 @@ def solve_linkage(source: str | Path | dict) -> LinkageTable:
     """Solve every crank position of a linkage case with the in-house dual-number method.
 
     The judges (Pinocchio, MuJoCo rigid and simulated) solve it through
-    :func:`dualmech.validation.linkages.solve_linkage` (``engine=``), beside the slider crank's engines.
+    :func:`dualmech.validation.engines.solve_linkage` (``engine=``), beside the slider crank's engines.
 
     Raises
     ------

@@ -1,7 +1,7 @@
 """The in-house engine's answer on a loop table as the linkages' result table (``docs/conventions.md``,
 "Loop tables"): :func:`analysis_table` of an :func:`~dualmech.models.loop.engine.analyze_loop` answer, and
 :func:`solve_loop_table`, the ``dualmech`` engine of ``[mechanism] kind = "loop"`` in the linkages' registry
-(:mod:`dualmech.validation.linkages.engines`).  The columns are :mod:`~dualmech.models.loop.columns`'s, the
+(:mod:`dualmech.validation.engines`).  The columns are :mod:`~dualmech.models.loop.columns`'s, the
 ones every judge of a loop table gives.
 """
 

@@ -242,6 +242,7 @@ def test_the_run_solves_small_cases_with_the_inhouse_engine_and_pinocchio_here_a
     interrupt need not wait for it; a case table that does not parse goes to a worker, which stores why.
     Faults seen: everything here (no bound), the engine chosen by its name only."""
     from dualmech.models.case import load_case
+    from dualmech.models.case_format import SLIDER_CRANK
     from dualmech.validation.engines import ENGINES, IN_PROCESS_ENGINES, runs_here
 
     raw = load_case("thesis/ideal").raw
@@ -252,13 +253,14 @@ def test_the_run_solves_small_cases_with_the_inhouse_engine_and_pinocchio_here_a
 
     assert set(IN_PROCESS_ENGINES) == {"dualmech", "pinocchio"}
     for engine, (spec, most) in IN_PROCESS_ENGINES.items():
-        assert spec == ENGINES[engine]
+        assert spec == ENGINES[engine][SLIDER_CRANK]
         assert runs_here(engine, spec, raw) and runs_here(engine, spec, with_positions(most))
         assert not runs_here(engine, spec, with_positions(most + 1))
         assert not runs_here(engine, spec, dict(raw, geometry={}))
         assert not runs_here(engine, "tests.validation.fake_engines:crash", raw)
     assert IN_PROCESS_ENGINES["dualmech"][1] == 100_000 and IN_PROCESS_ENGINES["pinocchio"][1] == 2_000
-    assert not any(runs_here(e, spec, raw) for e, spec in ENGINES.items() if e not in IN_PROCESS_ENGINES)
+    others = [e for e in ENGINES if e not in IN_PROCESS_ENGINES]
+    assert not any(runs_here(e, ENGINES[e][SLIDER_CRANK], raw) for e in others)
 
 
 def test_end_all_pools_interrupted_while_it_waits_ends_the_workers_at_once():

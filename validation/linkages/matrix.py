@@ -16,7 +16,7 @@ lists whole cases (``docs/matrix-format.md``, "Linkage matrices")::
     key = "joint[2].a"               # tables by name, [[rows]] by number from 1 (a loop table's joint row)
     values = [0.11, 0.12, 0.13]
 
-Each engine solves the cases it can (:func:`~dualmech.validation.linkages.engines.solves`: the
+Each engine solves the cases it can (:func:`~dualmech.validation.engines.solves`: the
 simulation only a case that gives the output torque and closes at every angle); the tolerances are
 the slider crank's defaults per judge (:data:`~dualmech.validation.matrix.tolerances.DEFAULT_TOLERANCES`),
 not set here.  A linkage
@@ -41,7 +41,7 @@ from dualmech.models.linkages import (
     read_linkage,
 )
 from dualmech.models.toml_input import read_toml
-from dualmech.validation.linkages.engines import ENGINES, solves
+from dualmech.validation.engines import ENGINES, solves
 from dualmech.validation.matrix import MatrixError, check_file_name
 from dualmech.validation.matrix.expand import ID_SAFE
 from dualmech.validation.matrix.parse import bundled_matrices, matrix_path

@@ -21,7 +21,7 @@ from dualmech.models.linkages import table_spec
 from dualmech.models.linkages.forward_dynamics import MECHANISMS
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.compare import Check, Comparison, Verdict
-from dualmech.validation.linkages.engines import solve_case
+from dualmech.validation.engines import solve_case
 from dualmech.validation.linkages.gate import engine_check, judge_checks, reference_check
 from dualmech.validation.linkages.matrix import LinkageEntry, LinkageMatrix
 from dualmech.validation.rundir import write_file
@@ -75,7 +75,7 @@ class LinkageRun:
 def _solve(entry: LinkageEntry, engine: str) -> tuple[LinkageTable | str, float]:
     start = time.perf_counter()
     try:
-        table: LinkageTable | str = solve_case(engine, entry.kind, entry.case)
+        table: LinkageTable | str = solve_case(engine, entry.case)
     except Exception as err:  # an engine's failure is a result of the run (a failing check), not a crash
         table = f"{type(err).__name__}: {err}"
     return table, time.perf_counter() - start

@@ -9,7 +9,7 @@ import pytest
 from dualmech.models.inputs import CaseError
 from dualmech.models.linkages import CASES, summary
 from dualmech.models.linkages import solve_linkage as in_house
-from dualmech.validation.linkages import ENGINES, solve_linkage
+from dualmech.validation.engines import ENGINES, solve_linkage
 from dualmech.validation.linkages.mujoco_rssr_sim import SIM_COLUMNS
 from tests.models.linkages.cases import bundled
 

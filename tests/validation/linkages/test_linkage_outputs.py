@@ -13,7 +13,7 @@ from numpy.testing import assert_allclose
 
 from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage
 from dualmech.models.linkages.forward_dynamics import MECHANISMS
-from dualmech.validation.linkages import solve_linkage as solve_linkage_by
+from dualmech.validation.engines import solve_linkage as solve_linkage_by
 from dualmech.validation.linkages.gate import judge_tolerances, relative_differences
 from dualmech.validation.tolerances import SIM_STROKE
 from tests.tolerances import LINKAGE_DYNAMICS_RESIDUAL, ROW_SPACING, S4_VS_CLOSED_FORM

@@ -20,7 +20,7 @@ import pytest
 from dualmech.models.linkages import linkage_case, read_linkage, table_spec
 from dualmech.models.loop.table import solve_loop_table
 from dualmech.models.loop.table_format import loop_from_dict
-from dualmech.validation.linkages import solve_linkage
+from dualmech.validation.engines import solve_linkage
 from dualmech.validation.linkages.gate import judge_checks, judge_tolerances
 from tests.tolerances import LOOP_CLOSED_FORM, LOOP_FINITE_DIFFERENCE
 

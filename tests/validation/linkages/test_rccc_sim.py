@@ -13,7 +13,7 @@ from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.forward_dynamics import MECHANISMS
 from dualmech.models.linkages.rccc import SPEC
 from dualmech.models.linkages.rccc_case import RcccCase, rccc_from_dict
-from dualmech.validation.linkages.engines import solves
+from dualmech.validation.engines import solves
 from dualmech.validation.linkages.gate import judge_tolerances, relative_differences
 
 pytest.importorskip("mujoco")

@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from dualmech.models.linkages import CASES, linkage_case
-from dualmech.validation.linkages import engines, matrix
+from dualmech.validation import engines
+from dualmech.validation.linkages import matrix
 from dualmech.validation.linkages.matrix import load_linkage_matrix
 from dualmech.validation.linkages.run import run_linkages
 

@@ -1,5 +1,5 @@
 """The rigid MuJoCo judge's answer on a loop table as the linkages' result table: the ``mujoco`` engine of
-``[mechanism] kind = "loop"`` in :mod:`dualmech.validation.linkages.engines`.  Its columns are already the
+``[mechanism] kind = "loop"`` in :mod:`dualmech.validation.engines`.  Its columns are already the
 shared names (:mod:`dualmech.models.loop.columns`); the table adds the key and settles the values by the
 judge's own status words.  The ``mujoco-sim`` engine of the same kind is MuJoCo's simulation of the table
 (:mod:`~dualmech.validation.judges.mujoco_loop.simulation`: its own model, the ground cut by a soft weld).

@@ -1,5 +1,5 @@
 """The Pinocchio judge's answer on a loop table as the linkages' result table: the ``pinocchio`` engine of
-``[mechanism] kind = "loop"`` in :mod:`dualmech.validation.linkages.engines`, with the shared column names of
+``[mechanism] kind = "loop"`` in :mod:`dualmech.validation.engines`, with the shared column names of
 :mod:`dualmech.models.loop.columns` (settled by the judge's own status words).
 """
 
