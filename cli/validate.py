@@ -9,6 +9,7 @@ exits with one of :data:`dualmech.validation.exit_codes.EXIT_CODES`.
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
 import click
@@ -128,7 +129,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     Exits 1 when any judge disagrees with the reference beyond tolerance, an engine
     fails, or (with --baseline) anything regressed.  The other linkages: `validate rssr`,
     `validate rccc`, `validate linkages`, a loop table (`validate rscr`, `validate loops`), or a linkage
-    case or matrix file; -o and --engines apply.
+    case or matrix file; -o, --engines, --jobs and --resume apply.
     """
     from dualmech.validation.api import open_run, run_and_compare
     from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline
@@ -140,8 +141,8 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     from dualmech.validation.runner import load_entries, timings
 
     if is_linkage_source(matrix_file):  # rssr, rccc, linkages, a linkage case or matrix file
-        _validate_linkages(matrix_file, outdir, _engine_list(engines), {
-            "--resume": resume, "--scheduler": scheduler, "--junit": junit_file, "--baseline": baseline_file,
+        _validate_linkages(matrix_file, outdir, _engine_list(engines), jobs, resume, {
+            "--scheduler": scheduler, "--junit": junit_file, "--baseline": baseline_file,
             "--write-baseline": write_baseline_file, "--report-dir": report_dir})
     matrix, outdir = open_run(matrix_file, outdir, _engine_list(engines))
     on_interrupt(f"finished results are kept in {outdir}; re-run with --resume to finish")
@@ -234,17 +235,24 @@ def _print_verdict(console, comparison, files, regressions: list, baseline_file:
 
 # ------------------------------------------------------------------------ the other linkages (RSSR, RCCC)
 
-def _validate_linkages(source: str, outdir: str | None, engines: tuple[str, ...], refused: dict) -> None:
-    """``validate`` of a linkage case or matrix (:mod:`dualmech.validation.linkages`): run, compare, report,
-    print the table and the verdict, exit 0 (PASS) or 1 (FAIL)."""
+def _validate_linkages(source: str, outdir: str | None, engines: tuple[str, ...], jobs: int | None,
+                       resume: bool, refused: dict) -> None:
+    """``validate`` of a linkage case or matrix (:mod:`dualmech.validation.linkages`): run (each result
+    stored as it finishes), compare, report, print the table and the verdict, exit 0 (PASS) or 1 (FAIL)."""
     from dualmech.validation.api import run_linkage_validation
     from dualmech.validation.junit import describe
+    from dualmech.validation.linkages.matrix import load_linkage_matrix
 
     given = next((flag for flag, value in refused.items() if value), None)
     if given:
         raise ValueError(f"{given}: not available for a linkage run ({source}); it takes -o, --engines, "
-                         "--jobs")
-    run, files, seconds = run_linkage_validation(source, outdir, engines)
+                         "--jobs, --resume")
+    name = load_linkage_matrix(source).name
+    folder = outdir or str(Path("runs") / name)
+    on_interrupt(f"finished results are kept in {folder}; re-run with --resume to finish")
+    with progress(f"{name}: linkage cases", unit="results") as bar:
+        run, files, seconds = run_linkage_validation(source, folder, engines, jobs=jobs or _cores(),
+                                                     resume=resume, progress=bar)
     matrix = run.matrix
     console = summary_console(sys.stdout.isatty())
     title = (f"{matrix.name}: {len(matrix.cases)} linkage cases, engines {', '.join(matrix.engines)} — "
@@ -304,9 +312,16 @@ def _cores() -> int:
 @one_line_errors
 def report(rundir, outdir, jobs) -> None:
     """Write the report (HTML, Markdown, figures, summary.json) of the run stored in RUNDIR."""
+    from dualmech.validation.api import report_linkage_run
     from dualmech.validation.report import write_report
 
     on_interrupt(f"the report in {outdir or rundir} is not finished; run dualmech report again")
+    linkages = report_linkage_run(rundir, outdir)
+    if linkages is not None:
+        run, written, _ = linkages
+        click.echo(f"{run.verdict}: report {written.html} and {written.markdown} ({len(written.figures)} "
+                   "figures)")
+        sys.exit(exit_code(run.verdict, []))
     files = write_report(rundir, outdir, jobs=jobs or _cores())
     click.echo(f"{files.verdict}: report {files.html} and {files.markdown} "
                f"({len(files.figures)} figures, {files.seconds:.1f} s)")

@@ -254,18 +254,13 @@ def test_validate_of_a_linkage_is_the_linkage_gate(tmp_path, monkeypatch) -> Non
     assert run.verdict == "PASS" and (tmp_path / "run" / "summary.json").is_file()
     assert set(run.tables["rssr-crank-rocker"]) == {"dualmech", "pinocchio"}
     # the same gate fails when the judge's answer is off (a deliberate fault: the output angle 1e-6 deg off)
-    from dualmech.validation import engines
+    from tests.validation.engine_faults import fault_engine
 
-    real = engines.solve_case
-
-    def shifted(engine, case):
-        table = real(engine, case)
-        if engine == "pinocchio":
-            table.columns["phi4_deg"] += 1e-6
+    def shifted(table):
+        table.columns["phi4_deg"] += 1e-6
         return table
 
-    monkeypatch.setattr(engines, "solve_case", shifted)
-    monkeypatch.setattr("dualmech.validation.linkages.run.solve_case", shifted)
+    fault_engine(monkeypatch, "pinocchio", shifted, ("rssr",))
     assert dualmech.validate("rssr", tmp_path / "bad", engines=["dualmech", "pinocchio"]).verdict == "FAIL"
 
 

@@ -214,9 +214,13 @@ def validate(source: str | Path | Case | None = None, outdir: str | Path | None 
 
 
 def run_linkage_validation(source: str | Path = "linkages", outdir: str | Path | None = None,
-                           engines: Sequence[str] = ()) -> tuple[LinkageRun, LinkageReport, float]:
-    """``dualmech validate`` of the other linkages: solve, compare, write the report; the run, its files and
-    the seconds spent solving and comparing (the command line prints them)."""
+                           engines: Sequence[str] = (), *, jobs: int = 1, resume: bool = False,
+                           progress: ProgressCallback | None = None
+                           ) -> tuple[LinkageRun, LinkageReport, float]:
+    """``dualmech validate`` of the other linkages: solve (each result stored in the run folder as it
+    finishes; ``jobs``, ``resume`` and ``progress`` as :func:`~dualmech.validation.runner.run_matrix`'s),
+    compare, write the report; the run, its files and the seconds spent solving and comparing (the command
+    line prints them)."""
     import time
 
     from dualmech.validation.linkages.matrix import load_linkage_matrix
@@ -228,9 +232,29 @@ def run_linkage_validation(source: str | Path = "linkages", outdir: str | Path |
     matrix = matrix.with_engines(tuple(engines)) if engines else matrix
     folder = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
     start = time.perf_counter()
-    run = run_linkages(matrix)
+    run = run_linkages(matrix, folder, jobs=jobs, resume=resume, progress=progress)
     seconds = time.perf_counter() - start
     return run, write_linkage_report(run, folder, seconds), seconds
+
+
+def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None
+                       ) -> tuple[LinkageRun, LinkageReport, float] | None:
+    """``dualmech report`` of a stored linkage run: its results compared again and its report written (to
+    ``outdir``, default the run folder); ``None`` for a run of slider-crank cases (for the slider crank's
+    report).  A result missing from the folder is run now (as ``--resume`` would)."""
+    import time
+
+    from dualmech.validation.linkages.report import write_linkage_report
+    from dualmech.validation.linkages.run import run_linkages, stored_linkage_matrix
+    from dualmech.validation.runner import load_run
+
+    matrix = stored_linkage_matrix(load_run(Path(rundir))[0])
+    if matrix is None:
+        return None
+    start = time.perf_counter()
+    run = run_linkages(matrix, rundir, resume=True)
+    seconds = time.perf_counter() - start
+    return run, write_linkage_report(run, Path(outdir or rundir), seconds), seconds
 
 
 def validate_linkages(source: str | Path = "linkages", outdir: str | Path | None = None, *,

@@ -28,7 +28,7 @@ import platform
 import time
 import traceback
 from contextlib import AbstractContextManager
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from datetime import datetime, timezone
 from importlib import import_module
 from pathlib import Path
@@ -36,8 +36,11 @@ from typing import Any, Callable
 
 import numpy as np
 
-from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
+from dualmech.core.motion import CrankState
+from dualmech.core.table import NUMERIC_COLUMNS, ColumnTable, ResultTable
+from dualmech.models.case_format import SLIDER_CRANK
 from dualmech.models.kinds import case_from_data, kind_of
+from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation import rundir
 from dualmech.validation.durable import json_text
 from dualmech.validation.engines import ENGINES, runs_here
@@ -94,24 +97,34 @@ class RunOutcome:
 
 # ----------------------------------------------------------------------------- files
 
-def table_to_dict(table: ResultTable) -> dict:
-    """JSON-ready form of a table (floats round-trip exactly; NaN is written as ``NaN``)."""
+def table_to_dict(table: ColumnTable) -> dict:
+    """JSON-ready form of a table (floats round-trip exactly; NaN is written as ``NaN``): a slider crank's
+    :data:`~dualmech.core.table.NUMERIC_COLUMNS`, another kind's every column in its order; a simulated
+    judge's input states (``meta["crank"]``, a :class:`~dualmech.core.motion.CrankState`) as their arrays."""
+    names = NUMERIC_COLUMNS if isinstance(table, ResultTable) else tuple(table.columns)
+    meta = dict(table.meta)
+    if isinstance(meta.get("crank"), CrankState):
+        meta["crank"] = {f.name: getattr(meta["crank"], f.name) for f in fields(CrankState)}
     return {
         "engine": table.engine,
         "case": table.case,
-        "columns": {c: np.asarray(table.columns[c], dtype=float).tolist() for c in NUMERIC_COLUMNS},
+        "columns": {c: np.asarray(table.columns[c], dtype=float).tolist() for c in names},
         "status": [str(s) for s in table.status],
-        "meta": json.loads(json_text(table.meta)),
+        "meta": json.loads(json_text(meta)),
     }
 
 
-def table_from_dict(d: dict) -> ResultTable:
-    """Inverse of :func:`table_to_dict`."""
-    return ResultTable(
-        d["engine"], d["case"],
-        {c: np.asarray(d["columns"][c], dtype=float) for c in NUMERIC_COLUMNS},
-        np.asarray(d["status"], dtype=object), d.get("meta", {}),
-    )
+def table_from_dict(d: dict, kind: str = SLIDER_CRANK) -> ColumnTable:
+    """Inverse of :func:`table_to_dict`, for a case of ``kind``."""
+    status = np.asarray(d["status"], dtype=object)
+    meta = dict(d.get("meta", {}))
+    if kind == SLIDER_CRANK:
+        columns = {c: np.asarray(d["columns"][c], dtype=float) for c in NUMERIC_COLUMNS}
+        return ResultTable(d["engine"], d["case"], columns, status, meta)
+    if isinstance(meta.get("crank"), dict):
+        meta["crank"] = CrankState(**{k: np.asarray(v, dtype=float) for k, v in meta["crank"].items()})
+    columns = {c: np.asarray(v, dtype=float) for c, v in d["columns"].items()}
+    return LinkageTable(d["engine"], d["case"], columns, status, meta)
 
 
 class CaseFileText:
@@ -160,9 +173,9 @@ def read_case_file(outdir: Path, case_id: str) -> dict | None:
     return rundir.check_case_file(data, case_file(outdir, case_id), case_id)
 
 
-def entry_result(entry: dict) -> ResultTable | str:
-    """A stored engine entry as a table, or its error text."""
-    return entry["error"] if entry.get("error") else table_from_dict(entry["table"])
+def entry_result(entry: dict, kind: str = SLIDER_CRANK) -> ColumnTable | str:
+    """A stored engine entry of a case of ``kind`` as a table, or its error text."""
+    return entry["error"] if entry.get("error") else table_from_dict(entry["table"], kind)
 
 
 def load_entries(outdir: Path, matrix: Matrix) -> dict[str, dict[str, dict]]:
@@ -181,11 +194,11 @@ def load_entries(outdir: Path, matrix: Matrix) -> dict[str, dict[str, dict]]:
     return entries
 
 
-def load_results(outdir: Path, matrix: Matrix) -> dict[str, dict[str, ResultTable | str]]:
+def load_results(outdir: Path, matrix: Matrix) -> dict[str, dict[str, ColumnTable | str]]:
     """Every stored result of ``matrix`` in ``outdir``: case id -> engine -> table or error text."""
-    return {
-        cid: {e: entry_result(v) for e, v in per.items()} for cid, per in load_entries(outdir, matrix).items()
-    }
+    kinds = {mc.id: kind_of(mc.raw) for mc in matrix.cases}
+    return {cid: {e: entry_result(v, kinds[cid]) for e, v in per.items()}
+            for cid, per in load_entries(outdir, matrix).items()}
 
 
 def timings(entries: dict[str, dict[str, dict]]) -> dict[str, dict[str, float]]:
@@ -234,8 +247,8 @@ def run_task(case_id: str, case_raw: dict, engine: str, spec: str) -> dict:
     try:
         module, func = spec.split(":")
         table = getattr(import_module(module), func)(case_from_data(case_raw))
-        if not isinstance(table, ResultTable):
-            raise TypeError(f"{spec} returned {type(table).__name__}, not a ResultTable")
+        if not isinstance(table, ColumnTable):
+            raise TypeError(f"{spec} returned {type(table).__name__}, not a result table")
         entry.update(table=table_to_dict(table), error=None)
     except Exception as err:  # an engine's failure is a result to report, not a crash of the run
         entry.update(table=None, error=error_line(err), traceback=traceback.format_exc(limit=12))
@@ -279,11 +292,11 @@ def _plan(matrix: Matrix, outdir: Path, resume: bool, registry: Registry
         entries = {}
         if old is not None:
             current = {e: result_fingerprint(mc.raw, e, task_spec(registry, e, mc.raw))
-                       for e in matrix.engines}
+                       for e in matrix.engines_of(mc)}
             entries = {e: v for e, v in old["engines"].items()
                        if e in current and not v.get("error") and v.get("fingerprint") == current[e]}
         kept[mc.id] = entries
-        tasks += [(mc.id, e) for e in matrix.engines if e not in entries]
+        tasks += [(mc.id, e) for e in matrix.engines_of(mc) if e not in entries]
     return tasks, kept
 
 
@@ -327,7 +340,7 @@ def run_matrix(
     if missing:
         raise ValueError(f"engines: {missing[0]!r} is not registered (valid: {', '.join(registry)})")
     for mc in matrix.cases:  # before the folder is touched: an engine that cannot solve a case's kind
-        for e in matrix.engines:
+        for e in matrix.engines_of(mc):
             task_spec(registry, e, mc.raw)
     with locked(outdir) as outdir:
         return _run_locked(matrix, outdir, jobs, resume, scheduler, progress, registry, start)
@@ -344,8 +357,8 @@ def _run_info(matrix: Matrix, jobs: int, resume: bool, scheduler: str | None,
         "scheduler": scheduler,
         "machine": machine(),
         "versions": versions(),
-        "registry": {e: " ".join(sorted({task_spec(registry, e, mc.raw) for mc in matrix.cases}))
-                     for e in matrix.engines},
+        "registry": {e: " ".join(sorted({task_spec(registry, e, mc.raw) for mc in matrix.cases
+                                         if e in matrix.engines_of(mc)})) for e in matrix.engines},
         "resumed": resume,
     }
 
@@ -389,7 +402,8 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
     seconds = time.perf_counter() - start
     info.update(seconds=seconds, ran=len(calls), skipped=sum(len(v) for v in kept.values()))
     rundir.write_json(outdir, RUN_FILE, info)
-    results = {cid: {e: entry_result(f.entries[e]) for e in matrix.engines if e in f.entries}
+    results = {cid: {e: entry_result(f.entries[e], kind_of(raws[cid])) for e in matrix.engines
+                     if e in f.entries}
                for cid, f in files.items() if f.entries}  # as load_results reads them: the matrix's order
     return RunOutcome(results, len(calls), info["skipped"], seconds)
 

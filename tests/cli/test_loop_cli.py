@@ -18,7 +18,7 @@ from dualmech.cli import main
 from dualmech.models.linkages import linkage_case, table_spec
 from dualmech.models.loop.table import solve_loop_table
 from dualmech.validation.exit_codes import EXIT_BAD_INPUT
-from dualmech.validation.linkages import run as linkage_run
+from tests.validation.engine_faults import fault_engine
 
 #: The bundled loop tables and their files' folder.
 LOOPS = ("rscr", "rsrc", "7r")
@@ -110,17 +110,12 @@ def test_a_sign_flipped_in_one_engine_fails_validate(tmp_path: Path, monkeypatch
                                                      engine: str) -> None:
     """The gate's proof: one judge's joint-2 force x flipped in sign (a slip a table writer could make) fails
     ``validate`` with exit 1, on that column and no other."""
-    real = linkage_run.solve_case
-
-    def flipped(name: str, kind: str, case):
-        table = real(name, kind, case)
-        if name != engine:
-            return table
+    def flipped(table):
         return replace(table, columns={**table.columns, "joint2_fx": -table["joint2_fx"]})
 
-    monkeypatch.setattr(linkage_run, "solve_case", flipped)
+    fault_engine(monkeypatch, engine, flipped)
     run = tmp_path / "run"
-    result = CliRunner().invoke(main, ["validate", "rsrc", "-o", str(run)])
+    result = CliRunner().invoke(main, ["validate", "rsrc", "-o", str(run), "--jobs", "1"])
     assert result.exit_code == 1, result.output
     summary = json.loads((run / "summary.json").read_text())
     failed = [(c["engine"], c["quantity"]) for c in summary["checks"] if not c["passed"]]

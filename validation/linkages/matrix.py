@@ -59,12 +59,14 @@ MAX_LINKAGE_CASES = 100
 @dataclass(frozen=True)
 class LinkageEntry:
     """One case of a linkage matrix: ``id`` (its ``name``, file-name safe), the ``source`` as written, its
-    ``kind`` and the checked ``case`` (:func:`~dualmech.models.linkages.linkage_case`)."""
+    ``kind``, the checked ``case`` (:func:`~dualmech.models.linkages.linkage_case`) and its parsed case
+    table ``data`` (what a run stores and its workers read)."""
 
     id: str
     source: str
     kind: str
     case: Any
+    data: dict
 
 
 @dataclass(frozen=True)
@@ -173,7 +175,7 @@ def _checked(data: dict, source: str, where: str) -> LinkageEntry:
     """The entry of a parsed case table ``data`` (checked by its kind's reader); its id from its name."""
     case = linkage_case(data)
     case_id = ID_SAFE.sub("_", case.name).strip("._-")[:80] or "case"
-    return LinkageEntry(check_file_name(f"{where} name", case_id), source, linkage_kind(data), case)
+    return LinkageEntry(check_file_name(f"{where} name", case_id), source, linkage_kind(data), case, data)
 
 
 def _sweep(k: int, sweep: Any, matrix_file: Path | None) -> list[LinkageEntry]:

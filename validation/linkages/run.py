@@ -1,30 +1,35 @@
 """A linkage run: every case of a :class:`~dualmech.validation.linkages.matrix.LinkageMatrix` on every engine
-that solves it, compared by the gate (:mod:`~dualmech.validation.linkages.gate`), written to a run folder.
+that solves it, by the matrix runner (:func:`~dualmech.validation.runner.run_matrix`: a process pool, each
+result stored in the run folder as it finishes, ``resume``), then compared by the gate
+(:mod:`~dualmech.validation.linkages.gate`).
 
-The engines run in this process, one after the other (the bundled cases take ~1.5 s together).  The
-simulated judge's rows are its simulated input states, so it is compared with the in-house engine at those
-states (the mechanism's ``analyze(case, crank)`` of
+The simulated judge's rows are its simulated input states, so it is compared with the in-house engine at
+those states (the mechanism's ``analyze(case, crank)`` of
 :data:`~dualmech.models.linkages.forward_dynamics.MECHANISMS`); every other judge with the reference table
 itself.
 """
 
 from __future__ import annotations
 
-import time
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
+from tempfile import TemporaryDirectory
 
 import numpy as np
 
 from dualmech.core.status import Status, is_status
-from dualmech.models.linkages import table_spec
+from dualmech.models.case_format import SLIDER_CRANK
+from dualmech.models.kinds import kind_of
+from dualmech.models.linkages import linkage_case, table_spec
 from dualmech.models.linkages.forward_dynamics import MECHANISMS
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.compare import Check, Comparison, Verdict
-from dualmech.validation.engines import solve_case
 from dualmech.validation.linkages.gate import engine_check, judge_checks, reference_check
 from dualmech.validation.linkages.matrix import LinkageEntry, LinkageMatrix
+from dualmech.validation.matrix import Matrix, MatrixCase
 from dualmech.validation.rundir import write_file
+from dualmech.validation.runner import ProgressCallback, load_entries, run_matrix, timings
 
 
 @dataclass(frozen=True)
@@ -72,15 +77,6 @@ class LinkageRun:
         return out
 
 
-def _solve(entry: LinkageEntry, engine: str) -> tuple[LinkageTable | str, float]:
-    start = time.perf_counter()
-    try:
-        table: LinkageTable | str = solve_case(engine, entry.case)
-    except Exception as err:  # an engine's failure is a result of the run (a failing check), not a crash
-        table = f"{type(err).__name__}: {err}"
-    return table, time.perf_counter() - start
-
-
 def _reference_for(entry: LinkageEntry, reference: LinkageTable, judge: LinkageTable, name: str
                    ) -> LinkageTable | str:
     """The reference table ``judge`` is compared with: ``reference``, or for a judge whose rows are its own
@@ -94,24 +90,56 @@ def _reference_for(entry: LinkageEntry, reference: LinkageTable, judge: LinkageT
     return mechanism.table(mechanism.analyze(entry.case, crank))
 
 
-def run_linkages(matrix: LinkageMatrix) -> LinkageRun:
-    """Solve every case of ``matrix`` on its engines and compare each judge with the reference."""
-    tables: dict[str, dict[str, LinkageTable | str]] = {}
-    seconds: dict[str, dict[str, float]] = {}
+def as_run_matrix(matrix: LinkageMatrix) -> Matrix:
+    """The matrix the runner runs: every case's table as written (``raw``) and the engines that solve it
+    (:meth:`~dualmech.validation.linkages.matrix.LinkageMatrix.engines_of`); a linkage matrix has no
+    sweeps, load modes or per-quantity tolerances of the slider crank's kind (its gate takes them from each
+    kind's table spec)."""
+    cases = tuple(MatrixCase(e.id, e.data, "", {}, (), {}, False, None, matrix.engines_of(e))
+                  for e in matrix.cases)
+    return Matrix(matrix.name, matrix.description, matrix.source, matrix.reference, matrix.engines, (), (),
+                  cases, (), {}, {})
+
+
+def stored_linkage_matrix(matrix: Matrix) -> LinkageMatrix | None:
+    """The linkage matrix a stored run of ``matrix`` (its ``run.json``) was made from, its cases read again
+    from their stored tables; ``None`` for a run of slider-crank cases."""
+    if all(kind_of(mc.raw) == SLIDER_CRANK for mc in matrix.cases):
+        return None
+    entries = tuple(LinkageEntry(mc.id, matrix.source, kind_of(mc.raw), linkage_case(mc.raw), mc.raw)
+                    for mc in matrix.cases)
+    return LinkageMatrix(matrix.name, matrix.description, matrix.source, matrix.engines, matrix.reference,
+                         entries)
+
+
+def run_linkages(matrix: LinkageMatrix, outdir: str | Path | None = None, *, jobs: int = 1,
+                 resume: bool = False, scheduler: str | None = None,
+                 progress: ProgressCallback | None = None) -> LinkageRun:
+    """Solve every case of ``matrix`` on its engines, storing each result in ``outdir`` as it finishes (a
+    folder of its own when ``None``, removed after), and compare each judge with the reference.
+
+    ``jobs``, ``resume``, ``scheduler`` and ``progress`` are :func:`~dualmech.validation.runner.run_matrix`'s.
+    """
+    runnable = as_run_matrix(matrix)
+    with TemporaryDirectory(prefix="dualmech-linkages-") if outdir is None else nullcontext(outdir) as folder:
+        outcome = run_matrix(runnable, folder, jobs=jobs, resume=resume, scheduler=scheduler,
+                             progress=progress)
+        seconds = timings(load_entries(Path(folder), runnable))
+    tables: dict[str, dict[str, LinkageTable | str]] = {e.id: {} for e in matrix.cases}
+    for case_id, per in outcome.results.items():
+        tables[case_id] = {e: t for e, t in per.items() if isinstance(t, (LinkageTable, str))}
     references: dict[str, dict[str, LinkageTable]] = {}
     ratios: dict[str, dict[str, tuple[np.ndarray, ...]]] = {}
     checks: list[Check] = []
     for entry in matrix.cases:
-        solved = {e: _solve(entry, e) for e in matrix.engines_of(entry)}
-        tables[entry.id] = {e: t for e, (t, _) in solved.items()}
-        seconds[entry.id] = {e: s for e, (_, s) in solved.items()}
         references[entry.id], ratios[entry.id] = {}, {}
         checks += _compare_case(matrix, entry, tables[entry.id], references[entry.id], ratios[entry.id])
     errors = {cid: {e: t for e, t in per.items() if isinstance(t, str)} for cid, per in tables.items()}
     dead = {cid: {e: int(is_status(t.status, Status.DEAD_CENTRE).sum()) for e, t in per.items()
                   if not isinstance(t, str)} for cid, per in tables.items()}
     comparison = Comparison(tuple(checks), {}, dead, errors)
-    return LinkageRun(matrix, tables, references, comparison, ratios, seconds)
+    return LinkageRun(matrix, tables, references, comparison, ratios,
+                      {e.id: seconds.get(e.id, {}) for e in matrix.cases})
 
 
 def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, LinkageTable | str],

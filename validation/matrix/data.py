@@ -120,6 +120,8 @@ class MatrixCase:
     expect : str or None
         The declared expectation of its sweep (a key of :data:`EXPECTATIONS`, e.g.
         ``"no_assembly"``), or ``None``: the case is expected to assemble.
+    engines : tuple of str
+        The matrix's engines that solve this case (a linkage's simulation solves only some); empty: all.
     """
 
     id: str
@@ -130,6 +132,7 @@ class MatrixCase:
     labels: dict[str, str]
     is_base: bool
     expect: str | None = None
+    engines: tuple[str, ...] = ()
 
     def case(self) -> Case:
         """Build the :class:`~dualmech.models.case.Case`."""
@@ -182,6 +185,10 @@ class Matrix:
         """Engines compared against the reference."""
         return tuple(e for e in self.engines if e != self.reference)
 
+    def engines_of(self, case: MatrixCase) -> tuple[str, ...]:
+        """The engines that run ``case``: its own (:attr:`MatrixCase.engines`) or every one of the matrix."""
+        return tuple(e for e in self.engines if e in case.engines) if case.engines else self.engines
+
     def tolerance(self, engine: str, quantity: str) -> ResolvedTolerance:
         """Tolerance for ``quantity`` (a column or ``"stroke"``) of judge ``engine``."""
         try:
@@ -228,6 +235,7 @@ class Matrix:
                     "labels": c.labels,
                     "is_base": c.is_base,
                     "expect": c.expect,
+                    **({"engines": list(c.engines)} if c.engines else {}),
                 }
                 for c in self.cases
             ],
@@ -264,6 +272,10 @@ def matrix_from_dict(d: dict) -> Matrix:
     for c in d["cases"]:
         check_file_name("case id", c["id"])
         check_expect(f"case {c['id']}.expect", c.get("expect"))
+        alien = [e for e in c.get("engines", ()) if e not in d["engines"]]
+        if alien:
+            raise MatrixError(f"case {c['id']}.engines: {show(alien[0])} is not one of the matrix's engines "
+                              f"({', '.join(d['engines'])})")
     return Matrix(
         name=d["name"],
         description=d["description"],
@@ -283,6 +295,7 @@ def matrix_from_dict(d: dict) -> Matrix:
                 dict(c["labels"]),
                 c["is_base"],
                 c.get("expect"),
+                tuple(c.get("engines", ())),
             )
             for c in d["cases"]
         ),

@@ -12,7 +12,9 @@ from typing import Any, Callable
 import numpy as np
 
 from dualmech.core.table import NUMERIC_COLUMNS, STATUSES
+from dualmech.models.case_format import SLIDER_CRANK
 from dualmech.models.inputs import show
+from dualmech.models.kinds import kind_of
 
 MANIFEST_FORMAT = "dualmech-manifest/1"
 RUN_FORMAT = "dualmech-run/1"
@@ -149,7 +151,7 @@ MATRIX_SCHEMA = {
     "name": str, "description": str, "source": str, "base?": str, "reference": str, "engines": [str],
     "quantities": [str], "modes": [str], "labels": MapOf(str),
     "cases": [{"id": str, "raw": dict, "mode": str, "values": dict, "sweeps": [str], "labels": MapOf(str),
-               "is_base": bool, "expect?": Nullable(str)}],
+               "is_base": bool, "expect?": Nullable(str), "engines?": [str]}],
     "sweeps": [{"name": str, "label": str, "keys": [str], "case_ids": MapOf([str])}],
     "tolerances": MapOf(MapOf({"name": str, "value": NUMBER, "reason": str})),
 }
@@ -160,9 +162,10 @@ RUN_SCHEMA = {
     "machine": MapOf((str, int, float, type(None))), "versions": MapOf(str), "registry": MapOf(str),
     "resumed": bool, "ran?": int, "skipped?": int,
 }
-#: One engine's stored table in a case file (:func:`dualmech.validation.runner.table_to_dict`).
-TABLE_SCHEMA = {"engine": str, "case": str, "columns": {c: NUMBER_LIST for c in NUMERIC_COLUMNS},
-                "status": STATUS_LIST, "meta?": dict}
+#: One engine's stored table in a case file (:func:`dualmech.validation.runner.table_to_dict`): a slider
+#: crank's holds every one of its columns (:func:`check_case_file`), another kind's its own.
+TABLE_SCHEMA = {"engine": str, "case": str, "columns": MapOf(NUMBER_LIST), "status": STATUS_LIST,
+                "meta?": dict}
 #: ``cases/<id>.json`` (:class:`dualmech.validation.runner.CaseFileText`).
 CASE_SCHEMA = {
     "format": str, "id": str, "fingerprint": str, "raw": dict,
@@ -174,8 +177,10 @@ CASE_SCHEMA = {
 
 def check_case_file(data: Any, file: str | Path, case_id: str) -> dict:
     """A case file's content (:data:`CASE_SCHEMA`) for case ``case_id``: every engine has a table or an
-    error, and every column of a table as many rows as its status; else a one-line :class:`RunDirError`."""
+    error, a slider crank's table every column of :data:`~dualmech.core.table.NUMERIC_COLUMNS`, and every
+    column of a table as many rows as its status; else a one-line :class:`RunDirError`."""
     conform(data, CASE_SCHEMA, file)
+    needed = NUMERIC_COLUMNS if kind_of(data["raw"]) == SLIDER_CRANK else ()
     if data["id"] != case_id:
         raise RunDirError(f"{file}: id: {show(data['id'])}; expected {case_id!r} (the file's name)")
     for engine, entry in data["engines"].items():
@@ -186,8 +191,12 @@ def check_case_file(data: Any, file: str | Path, case_id: str) -> dict:
         if not entry.get("error") and table is None:
             raise RunDirError(f"{file}: {where}: neither a table nor an error")
         if table is not None:
+            missing = next((c for c in needed if c not in table["columns"]), None)
+            if missing is not None:
+                raise RunDirError(f"{file}: {where}.table.columns.{missing}: missing (expected a list of "
+                                  "numbers)")
             n = len(table["status"])
-            bad = next((c for c in NUMERIC_COLUMNS if len(table["columns"][c]) != n), None)
+            bad = next((c for c in table["columns"] if len(table["columns"][c]) != n), None)
             if bad is not None:
                 raise RunDirError(f"{file}: {where}.table.columns.{bad}: {len(table['columns'][bad])} rows; "
                                   f"expected {n} (as many as its status)")

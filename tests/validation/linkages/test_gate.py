@@ -12,7 +12,6 @@ import pytest
 from dualmech.models.linkages import rssr as rssr_module
 from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
 from dualmech.models.linkages.rssr import SPEC as RSSR_SPEC
-from dualmech.validation.linkages import run as run_module
 from dualmech.validation.linkages.gate import judge_tolerances
 from dualmech.validation.linkages.matrix import load_linkage_matrix
 from dualmech.validation.linkages.run import run_linkages
@@ -24,6 +23,7 @@ from dualmech.validation.tolerances import (
     PINOCCHIO_REACTIONS,
     SIM_REACTIONS,
 )
+from tests.validation.engine_faults import fault_engine
 
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
@@ -63,13 +63,7 @@ def test_the_tolerances_are_the_slider_cranks_per_judge() -> None:
 
 def _faulty(engine: str, fault, monkeypatch: pytest.MonkeyPatch) -> None:
     """Make ``engine``'s tables pass through ``fault`` (table -> table) in the runner."""
-    real = run_module.solve_case
-
-    def solve(name, kind, case):
-        table = real(name, kind, case)
-        return fault(table) if name == engine else table
-
-    monkeypatch.setattr(run_module, "solve_case", solve)
+    fault_engine(monkeypatch, engine, fault)
 
 
 def _failed(run) -> set[tuple[str, str, str]]:

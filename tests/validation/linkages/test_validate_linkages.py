@@ -12,8 +12,8 @@ from click.testing import CliRunner
 from dualmech.cli import main
 from dualmech.models.linkages import CASES
 from dualmech.validation.exit_codes import EXIT_BAD_INPUT, EXIT_FAIL, EXIT_PASS
-from dualmech.validation.linkages import run as run_module
 from dualmech.validation.linkages.matrix import MatrixError, is_linkage_source, load_linkage_matrix
+from tests.validation.engine_faults import fault_engine
 
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
@@ -91,24 +91,60 @@ def test_validate_rssr_passes_and_writes_its_report(tmp_path) -> None:
 
 def test_validate_fails_with_exit_code_1_on_a_faulty_judge(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Deliberate fault: Pinocchio's output angle 1e-6 deg off on the RCCC."""
-    real = run_module.solve_case
-
-    def solve(name, kind, case):
-        table = real(name, kind, case)
-        if (name, kind) != ("pinocchio", "rccc"):
-            return table
+    def shifted(table):
         return replace(table, columns={**table.columns, "theta4_deg": table.columns["theta4_deg"] + 1e-6})
 
-    monkeypatch.setattr(run_module, "solve_case", solve)
-    result = CliRunner().invoke(main, ["validate", "linkages", "-o", str(tmp_path / "run")])
+    fault_engine(monkeypatch, "pinocchio", shifted, ("rccc",))
+    result = CliRunner().invoke(main, ["validate", "linkages", "-o", str(tmp_path / "run"), "--jobs", "1"])
     assert result.exit_code == EXIT_FAIL, result.output
     assert "FAIL: 145 of 146 checks passed" in result.output
     assert "✗ rccc-example / pinocchio: theta4_deg: max rel" in result.output
     assert json.loads((tmp_path / "run" / "summary.json").read_text())["n_failed"] == 1
 
 
-@pytest.mark.parametrize("flag", [["--junit", "x.xml"], ["--resume"], ["--baseline", "b.json"]])
+@pytest.mark.parametrize("flag", [["--junit", "x.xml"], ["--scheduler", "tcp://h:1"],
+                                  ["--baseline", "b.json"]])
 def test_options_of_the_slider_cranks_runs_are_refused(tmp_path, flag: list[str]) -> None:
     result = CliRunner().invoke(main, ["validate", "rccc", "-o", str(tmp_path / "run"), *flag])
     assert result.exit_code == EXIT_BAD_INPUT and result.output.count("\n") == 1, result.output
     assert f"{flag[0]}: not available for a linkage run (rccc)" in result.output
+
+
+def test_a_linkage_run_stores_each_result_and_resumes(tmp_path) -> None:
+    """The matrix runner's rules for a linkage run: every result stored in ``cases/<id>.json`` as it
+    finishes, and ``--resume`` runs only what is missing (here the judge added to a finished run)."""
+    out = tmp_path / "run"
+    first = CliRunner().invoke(main, ["validate", "rssr", "-o", str(out), "--engines", "dualmech,pinocchio",
+                                      "--jobs", "1"])
+    assert first.exit_code == EXIT_PASS, first.output
+    stored = json.loads((out / "cases" / "rssr-crank-rocker.json").read_text())["engines"]
+    assert set(stored) == {"dualmech", "pinocchio"}
+    again = CliRunner().invoke(main, ["validate", "rssr", "-o", str(out), "--engines",
+                                      "dualmech,pinocchio,mujoco", "--jobs", "1", "--resume"])
+    assert again.exit_code == EXIT_PASS, again.output
+    run = json.loads((out / "run.json").read_text())
+    assert (run["ran"], run["skipped"], run["resumed"]) == (1, 2, True)
+    resumed = json.loads((out / "cases" / "rssr-crank-rocker.json").read_text())["engines"]
+    assert set(resumed) == {"dualmech", "pinocchio", "mujoco"} and resumed["pinocchio"] == stored["pinocchio"]
+
+
+def test_report_of_a_linkage_run_compares_its_stored_results(tmp_path) -> None:
+    """``dualmech report`` of a linkage run folder rewrites its report from the stored tables (it was an
+    internal error: the slider crank's report read a linkage case): the same summary, and a stored table
+    changed afterwards (a deliberate fault: the judge's output angle 1e-6 deg off) makes it FAIL."""
+    out = tmp_path / "run"
+    first = CliRunner().invoke(main, ["validate", "rssr", "-o", str(out), "--engines", "dualmech,pinocchio",
+                                      "--jobs", "1"])
+    assert first.exit_code == EXIT_PASS, first.output
+    summary = json.loads((out / "summary.json").read_text())
+    again = CliRunner().invoke(main, ["report", str(out)])
+    assert again.exit_code == EXIT_PASS and again.output.startswith("PASS: report"), again.output
+    rewritten = json.loads((out / "summary.json").read_text())
+    assert (rewritten["verdict"], rewritten["n_checks"]) == (summary["verdict"], summary["n_checks"])
+    path = out / "cases" / "rssr-crank-rocker.json"
+    stored = json.loads(path.read_text())
+    column = stored["engines"]["pinocchio"]["table"]["columns"]["phi4_deg"]
+    stored["engines"]["pinocchio"]["table"]["columns"]["phi4_deg"] = [v + 1e-6 for v in column]
+    path.write_text(json.dumps(stored))
+    faulty = CliRunner().invoke(main, ["report", str(out)])
+    assert faulty.exit_code == EXIT_FAIL and faulty.output.startswith("FAIL: report"), faulty.output
