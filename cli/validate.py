@@ -62,7 +62,7 @@ def summary_table(matrix, comparison, title: str):
     """The rich table ``validate`` prints: one row per case, one column per judge."""
     from rich.table import Table
 
-    from dualmech.validation.report import summary_rows
+    from dualmech.validation.report.sections import summary_rows
 
     table = Table(title=title, title_justify="left", pad_edge=False, show_edge=False)
     table.add_column("case", no_wrap=True)
@@ -136,7 +136,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     from dualmech.validation.derived import findings_ahead
     from dualmech.validation.junit import write_junit
     from dualmech.validation.linkages.matrix import is_linkage_source
-    from dualmech.validation.report import write_report
+    from dualmech.validation.report.render import write_report
     from dualmech.validation.rundir import check_output_folder
     from dualmech.validation.runner import load_entries, timings
 
@@ -313,7 +313,7 @@ def _cores() -> int:
 def report(rundir, outdir, jobs) -> None:
     """Write the report (HTML, Markdown, figures, summary.json) of the run stored in RUNDIR."""
     from dualmech.validation.api import report_linkage_run
-    from dualmech.validation.report import write_report
+    from dualmech.validation.report.render import write_report
 
     on_interrupt(f"the report in {outdir or rundir} is not finished; run dualmech report again")
     linkages = report_linkage_run(rundir, outdir)

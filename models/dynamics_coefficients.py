@@ -25,9 +25,10 @@ import numpy as np
 from dualmech.core import generalized_inertia as gi
 from dualmech.core.assembly import reach
 from dualmech.core.status import RATES_GIVEN, is_status
+from dualmech.models.angle_ranges import format_angle_ranges, no_assembly_ranges
 from dualmech.models.case import Case
 from dualmech.models.mechanism import crank_pin
-from dualmech.models.slider_crank import Analysis, analyze, format_angle_ranges, no_assembly_ranges
+from dualmech.models.slider_crank import Analysis, analyze
 
 #: Largest number of samples of the coefficient table before falling back to direct evaluation.
 MAX_TABLE_SIZE = 2**15

@@ -27,6 +27,7 @@ from dualmech.core.status import Status, flag_joint_lock, is_status, joint_locke
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
 from dualmech.core.universal import joint_axes, link_frame, universal_motion
+from dualmech.models.angle_ranges import status_messages
 from dualmech.models.case import Case
 from dualmech.models.slider_crank_closure import close_loop
 from dualmech.models.slider_crank_loop import DEAD_CENTRE, LOOP, Batch
@@ -189,20 +190,6 @@ def analyze(case: Case, crank: CrankState | None = None) -> Analysis:
     return analyze_many([case], None if crank is None else [crank])[0]
 
 
-def no_assembly_ranges(theta_deg: np.ndarray, mask: np.ndarray) -> list[tuple[float, float]]:
-    """Contiguous runs of ``mask`` as (first, last) crank angles in degrees."""
-    return row_ranges(theta_deg, np.flatnonzero(mask))
-
-
-def row_ranges(theta_deg: np.ndarray, rows: np.ndarray) -> list[tuple[float, float]]:
-    """Runs of consecutive indices in ``rows`` (increasing) as (first, last) crank angles in degrees."""
-    if rows.size == 0:
-        return []
-    cut = np.flatnonzero(np.diff(rows) != 1)
-    starts, ends = rows[np.r_[0, cut + 1]], rows[np.r_[cut, rows.size - 1]]
-    return [(float(theta_deg[a]), float(theta_deg[b])) for a, b in zip(starts, ends)]
-
-
 def to_table(an: Analysis) -> ResultTable:
     """The common result table of an :class:`Analysis`, settled by :func:`~dualmech.core.status.settle`.
 
@@ -221,25 +208,6 @@ def to_table(an: Analysis) -> ResultTable:
     meta = {"iterations": an.iterations, "dynamics_residual": r.residual,
             "messages": status_messages(cols["theta1_deg"], status == Status.NO_ASSEMBLY)}
     return ResultTable("dualmech", an.case.name, cols, status, meta)
-
-
-def status_messages(theta_deg: np.ndarray, no_assembly: np.ndarray) -> list[str]:
-    """The in-house engine's messages about a case's rows: where it cannot assemble (``no_assembly``, a
-    ``(n,)`` mask of the rows whose status is ``no_assembly``)."""
-    return no_assembly_message(no_assembly_ranges(theta_deg, no_assembly))
-
-
-def no_assembly_message(ranges: list[tuple[float, float]]) -> list[str]:
-    """The message naming the crank-angle ranges (degrees) where the rod cannot reach the slider line."""
-    if not ranges:
-        return []
-    return ["no_assembly: the rod cannot reach the slider line at crank angles "
-            f"{format_angle_ranges(ranges)} deg"]
-
-
-def format_angle_ranges(ranges: list[tuple[float, float]]) -> str:
-    """``"a..b, c..d"``: crank-angle ranges (degrees) as every message about them writes them."""
-    return ", ".join(f"{a:g}..{b:g}" for a, b in ranges)
 
 
 def solve_case(case: Case) -> ResultTable:

@@ -30,6 +30,7 @@ from dualmech.core.kernel.pool import threads
 from dualmech.core.motion import CrankState
 from dualmech.core.status import STATUSES, Status
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
+from dualmech.models.angle_ranges import status_messages
 from dualmech.models.case import Case
 from dualmech.models.slider_crank_nb import (
     Rules,
@@ -325,8 +326,6 @@ def _ahead(begun: Iterator[Running], ahead: int) -> Iterator[Running]:
 def to_table(case: Case, chunk: Chunk, copy: bool = True) -> ResultTable:
     """The common result table of one case's :class:`Chunk`; ``copy``: columns copied out of the buffer
     (``False`` where the chunk's arrays are the table's to keep)."""
-    from dualmech.models.slider_crank import status_messages
-
     cols = {c: chunk.columns[c].copy() if copy else chunk.columns[c] for c in NUMERIC_COLUMNS}
     meta = {
         "iterations": chunk.iterations.copy() if copy else chunk.iterations,

@@ -77,6 +77,96 @@ def test_the_command_line_is_the_top_floor() -> None:
         "validation/x.py:1 imports dualmech.cli.errors (a validation module may not import cli)"]
 
 
+# ----------------------------------------------------------------------------- no import cycles (issue 32)
+
+def module_name(path: Path, root: Path = ROOT) -> str:
+    """The dotted name of the package module at ``path`` (a package's ``__init__.py`` is the package)."""
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    return ".".join(["dualmech", *(parts[:-1] if parts[-1] == "__init__" else parts)])
+
+
+def import_graph(sources: dict[str, str]) -> dict[str, set[str]]:
+    """Module -> the package modules it imports (``sources``: dotted name -> text), nested imports
+    included; ``from a.b import c`` reaches ``a.b.c`` if that is a module, else ``a.b``.  Importing a module
+    also runs its parent packages' ``__init__``, so it depends on them too, except on its own parents
+    (which Python runs before it anyway) unless it imports a name from one of them."""
+    def owner(name: str) -> str:
+        while name and name not in sources:
+            name = name.rpartition(".")[0]
+        return name
+
+    graph: dict[str, set[str]] = {m: set() for m in sources}
+    for module, source in sources.items():
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [f"{node.module}.{alias.name}" for alias in node.names]
+            else:
+                continue
+            for name in names:
+                target = owner(name)
+                parts = target.split(".")
+                parents = {".".join(parts[:k]) for k in range(2, len(parts))}
+                graph[module] |= {p for p in parents if p in sources and not module.startswith(p + ".")}
+                if target and target != module:
+                    graph[module].add(target)
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import cycles of ``graph``: its strongly connected components of more than one module (Tarjan),
+    each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while not component or component[-1] != v:
+                component.append(stack.pop())
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_two_modules_import_each_other_through_any_path() -> None:
+    """Seen failing before the fix: models.slider_crank <-> models.slider_crank_kernel (the kernel took the
+    status messages from the module that calls it; they are models/angle_ranges.py now)."""
+    paths = [p for floor in FLOORS for p in sorted((ROOT / floor).rglob("*.py"))]
+    sources = {module_name(p): p.read_text() for p in paths}
+    assert not cycles(import_graph(sources))
+
+
+def test_the_cycle_check_sees_a_lazy_import_and_a_package_that_re_exports() -> None:
+    a_b = {"dualmech.x.a": "def f():\n    from dualmech.x.b import g\n",
+           "dualmech.x.b": "import dualmech.x.a\n"}
+    assert cycles(import_graph({"dualmech.x": "", **a_b})) == [["dualmech.x.a", "dualmech.x.b"]]
+    re_export = {"dualmech.x": "from dualmech.x.a import f\nH = 1\n",
+                 "dualmech.x.a": "from dualmech.x import H\n"}
+    assert cycles(import_graph(re_export)) == [["dualmech.x", "dualmech.x.a"]]
+    through = {"dualmech.x": "from dualmech.x.a import f\n", "dualmech.x.a": "",
+               "dualmech.y": "import dualmech.x\n", "dualmech.y.b": "from dualmech.x.a import f\n",
+               "dualmech.x.c": "from dualmech.y.b import f\n"}
+    assert cycles(import_graph(through)) == []  # x.c -> y.b -> y, x.a: no way back to x.c
+    assert cycles(import_graph({"dualmech.x": "", "dualmech.x.a": "from dualmech.x.b import g\n",
+                                "dualmech.x.b": ""})) == []
+
+
 # ----------------------------------------------------------------------------- size limits (issue 16)
 
 #: The house's limits (docs/conventions.md): lines per module, lines per function (``def`` to last line).

@@ -131,7 +131,7 @@ class ValidationRun:
 
         ``jobs`` processes draw the figures; returns the files written (paths, verdict, seconds).
         """
-        from dualmech.validation.report import write_report
+        from dualmech.validation.report.render import write_report
 
         return write_report(self.outdir, report_dir, jobs=jobs, comparison=lambda: self.comparison,
                             results=self.results)

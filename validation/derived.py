@@ -4,7 +4,7 @@
   the matrix's base case and the last case of each sweep, solved in-house;
 * :func:`findings`: the thesis's printed findings with verdicts, from the model package.
 
-:func:`dualmech.validation.report.write_report` calls each once per report, as a section whose
+:func:`dualmech.validation.report.render.write_report` calls each once per report, as a section whose
 failure fails the report.  The per-row relative differences its difference figures draw are the
 gate's own, kept by :func:`dualmech.validation.compare.compare_run`
 (:attr:`~dualmech.validation.compare.Comparison.row_differences`).

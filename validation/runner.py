@@ -28,19 +28,14 @@ import platform
 import time
 import traceback
 from contextlib import AbstractContextManager
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from importlib import import_module
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
-
-from dualmech.core.motion import CrankState
-from dualmech.core.table import NUMERIC_COLUMNS, ColumnTable, ResultTable
-from dualmech.models.case_format import SLIDER_CRANK
+from dualmech.core.table import ColumnTable
 from dualmech.models.kinds import case_from_data, kind_of
-from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation import rundir
 from dualmech.validation.durable import json_text
 from dualmech.validation.engines import ENGINES, runs_here
@@ -55,6 +50,7 @@ from dualmech.validation.provenance import (
     versions,
 )
 from dualmech.validation.rundir import CASE_FORMAT, RUN_FORMAT, locked
+from dualmech.validation.rundir.tables import entry_result, table_to_dict
 
 CASES_DIR = "cases"
 RUN_FILE = "run.json"
@@ -82,50 +78,21 @@ class RunOutcome:
     Attributes
     ----------
     results : dict
-        Case id -> engine -> :class:`ResultTable`, or the error text when it raised.
+        Case id -> engine -> its result table (a slider crank's
+        :class:`~dualmech.core.table.ResultTable`), or the error text when it raised.
     ran, skipped : int
         (case, engine) tasks run now, and taken from earlier files (``resume``).
     seconds : float
         Wall time of this invocation.
     """
 
-    results: dict[str, dict[str, ResultTable | str]]
+    results: dict[str, dict[str, ColumnTable | str]]
     ran: int
     skipped: int
     seconds: float
 
 
 # ----------------------------------------------------------------------------- files
-
-def table_to_dict(table: ColumnTable) -> dict:
-    """JSON-ready form of a table (floats round-trip exactly; NaN is written as ``NaN``): a slider crank's
-    :data:`~dualmech.core.table.NUMERIC_COLUMNS`, another kind's every column in its order; a simulated
-    judge's input states (``meta["crank"]``, a :class:`~dualmech.core.motion.CrankState`) as their arrays."""
-    names = NUMERIC_COLUMNS if isinstance(table, ResultTable) else tuple(table.columns)
-    meta = dict(table.meta)
-    if isinstance(meta.get("crank"), CrankState):
-        meta["crank"] = {f.name: getattr(meta["crank"], f.name) for f in fields(CrankState)}
-    return {
-        "engine": table.engine,
-        "case": table.case,
-        "columns": {c: np.asarray(table.columns[c], dtype=float).tolist() for c in names},
-        "status": [str(s) for s in table.status],
-        "meta": json.loads(json_text(meta)),
-    }
-
-
-def table_from_dict(d: dict, kind: str = SLIDER_CRANK) -> ColumnTable:
-    """Inverse of :func:`table_to_dict`, for a case of ``kind``."""
-    status = np.asarray(d["status"], dtype=object)
-    meta = dict(d.get("meta", {}))
-    if kind == SLIDER_CRANK:
-        columns = {c: np.asarray(d["columns"][c], dtype=float) for c in NUMERIC_COLUMNS}
-        return ResultTable(d["engine"], d["case"], columns, status, meta)
-    if isinstance(meta.get("crank"), dict):
-        meta["crank"] = CrankState(**{k: np.asarray(v, dtype=float) for k, v in meta["crank"].items()})
-    columns = {c: np.asarray(v, dtype=float) for c, v in d["columns"].items()}
-    return LinkageTable(d["engine"], d["case"], columns, status, meta)
-
 
 class CaseFileText:
     """The text of one case file, kept up to date as its engines finish.
@@ -171,11 +138,6 @@ def read_case_file(outdir: Path, case_id: str) -> dict | None:
     if not isinstance(data, dict) or data.get("format") != CASE_FORMAT:
         return None
     return rundir.check_case_file(data, case_file(outdir, case_id), case_id)
-
-
-def entry_result(entry: dict, kind: str = SLIDER_CRANK) -> ColumnTable | str:
-    """A stored engine entry of a case of ``kind`` as a table, or its error text."""
-    return entry["error"] if entry.get("error") else table_from_dict(entry["table"], kind)
 
 
 def load_entries(outdir: Path, matrix: Matrix) -> dict[str, dict[str, dict]]:

@@ -141,7 +141,7 @@ def stream_solve(case: Case, path: str | Path, progress: ProgressCallback | None
     ``path`` and renamed onto it once whole and fsynced (:func:`~dualmech.core.files.replacing`):
     an error, a full disk or Ctrl-C leaves the old file as it was and no partial one.
     """
-    from dualmech.models.slider_crank import no_assembly_message, row_ranges
+    from dualmech.models.angle_ranges import no_assembly_message, row_ranges
     from dualmech.models.slider_crank_kernel import CHUNK_POSITIONS, iter_chunks, to_table
 
     parquet = output_format(path) == ".parquet"

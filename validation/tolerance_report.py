@@ -27,7 +27,7 @@ from dualmech.models.tolerance.summary import CONSTANT_RELATIVE
 from dualmech.validation.rundir import locked, write_file
 
 if TYPE_CHECKING:
-    from dualmech.validation.report import Figure
+    from dualmech.validation.report.plots import Figure
 
 TEMPLATES = Path(__file__).parent / "templates"
 #: Histogram bins (at most; fewer for small studies).
@@ -63,7 +63,7 @@ def _png(fig: Any) -> bytes:
 def histogram_figure(name: str, values: np.ndarray, nominal: float | None, p99: float | None,
                      unit: str = "") -> Figure:
     """Histogram of one output (in ``unit``) over the ``ok`` designs, nominal and p99 as vertical lines."""
-    from dualmech.validation.report import Figure  # here: a command starts its figure worker sooner
+    from dualmech.validation.report.plots import Figure  # here: a command starts its figure worker sooner
 
     fig = histogram_plot(name, values, nominal, p99, unit)
     n = int(np.isfinite(values).sum())
@@ -105,7 +105,7 @@ def _key_width(fig: Any, keys: list[str]) -> float:
 
 def tornado_figure(name: str, keys: list[str], sobol: dict | None, linear: dict | None) -> Figure:
     """Horizontal bars: each key's share of the variance of ``name`` (Sobol first order, linear share)."""
-    from dualmech.validation.report import Figure
+    from dualmech.validation.report.plots import Figure
 
     fig = tornado_plot(name, keys, sobol, linear)
     return Figure(f"tornado-{name}", "tornado", name, name, f"{name}: share of variance per key", _png(fig))
@@ -240,7 +240,7 @@ def write_tolerance_report(outdir: Path, summary: dict, x: np.ndarray | None,
     ``figures``: already drawn, or being drawn (:class:`FigureDrawing`: collected once the templates are
     loaded); by default drawn here from ``summary`` and ``samples``.
     """
-    from dualmech.validation.report import environment
+    from dualmech.validation.report.render import environment
 
     templates = [(environment(TEMPLATES, markdown).get_template(template), target)
                  for template, target, markdown in (("tolerance.html.j2", "report.html", False),

@@ -9,8 +9,9 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from dualmech.core.motion import CrankState
+from dualmech.models.angle_ranges import no_assembly_ranges
 from dualmech.models.case import load_case
-from dualmech.models.slider_crank import analyze, analyze_many, no_assembly_ranges, solve_case, to_table
+from dualmech.models.slider_crank import analyze, analyze_many, solve_case, to_table
 from dualmech.validation.api import solve
 from dualmech.validation.engines import ENGINES
 from tests.oracles import assembly_margin, assert_slider_motion, exact_slider_motion

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from dualmech.validation.matrix import load_matrix
-from dualmech.validation.report import write_report
+from dualmech.validation.report.render import write_report
 from dualmech.validation.rundir import RunDirError, locked
 from dualmech.validation.runner import run_matrix
 

@@ -196,7 +196,7 @@ def _failed_report(small, tmp_path, monkeypatch) -> list:
     while the workers draw its figures; its figure jobs."""
     from dualmech.validation import derived
     from dualmech.validation.matrix import Matrix, load_matrix
-    from dualmech.validation.report import ReportError, write_report
+    from dualmech.validation.report.render import ReportError, write_report
     from dualmech.validation.runner import run_matrix
 
     from .test_validate import FAKE_REGISTRY
@@ -355,7 +355,7 @@ def test_the_first_figures_are_drawn_while_the_run_is_compared(small, tmp_path, 
     workers would otherwise wait; a report given a function that makes the comparison calls it once its
     first figures are in the workers.  Fault seen: the comparison made before the figures start."""
     from dualmech.validation.matrix import load_matrix
-    from dualmech.validation.report import write_report
+    from dualmech.validation.report.render import write_report
     from dualmech.validation.runner import load_results, run_matrix
 
     from .test_validate import FAKE_REGISTRY
@@ -382,7 +382,7 @@ def test_a_report_in_a_relative_folder_removes_the_figures_it_no_longer_draws(sm
     path from the working folder, so a later report, drawing fewer PNGs, could not see its own old figures
     as stale, and left them."""
     from dualmech.validation.matrix import load_matrix
-    from dualmech.validation.report import write_report
+    from dualmech.validation.report.render import write_report
     from dualmech.validation.rundir import created_files
     from dualmech.validation.runner import run_matrix
 

@@ -24,7 +24,8 @@ import pytest
 
 from dualmech.validation.compare import compare_run
 from dualmech.validation.matrix import load_matrix
-from dualmech.validation.report import figures, interactive, plots, write_report
+from dualmech.validation.report import figures, interactive, plots
+from dualmech.validation.report.render import write_report
 from dualmech.validation.runner import run_matrix
 
 from .test_validate import FAKE_REGISTRY, chromium

@@ -19,7 +19,7 @@ from dualmech.cli import main
 from dualmech.validation import executors
 from dualmech.validation.executors import ClusterLost, check_address
 from dualmech.validation.matrix import load_matrix
-from dualmech.validation.report import write_report
+from dualmech.validation.report.render import write_report
 from dualmech.validation.rundir import RunDirError, created_files, locked
 from dualmech.validation.runner import load_entries, run_matrix
 

@@ -22,7 +22,7 @@ from dualmech.validation import engines, runner
 from dualmech.validation.baseline import baseline_summary, compare_baseline
 from dualmech.validation.compare import compare_run
 from dualmech.validation.matrix import MatrixError, load_matrix, parse_matrix
-from dualmech.validation.report import write_report
+from dualmech.validation.report.render import write_report
 from dualmech.validation.runner import load_entries, load_results, run_matrix
 
 ROOT = Path(__file__).resolve().parents[2]

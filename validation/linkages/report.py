@@ -20,8 +20,9 @@ from dualmech.models.linkages import table_spec
 from dualmech.validation.linkages.matrix import LinkageEntry
 from dualmech.validation.linkages.run import LinkageRun, write_tables
 from dualmech.validation.provenance import KEY_LIBRARIES, versions
-from dualmech.validation.report import Figure, environment, fig_to_png
-from dualmech.validation.report.plots import JUDGE_MARKERS, LOG_FLOOR
+from dualmech.validation.report.canvas import fig_to_png
+from dualmech.validation.report.plots import JUDGE_MARKERS, LOG_FLOOR, Figure
+from dualmech.validation.report.render import environment
 from dualmech.validation.rundir import locked, record_files, write_file, write_json
 
 #: The report's Jinja2 templates (beside the slider crank's).

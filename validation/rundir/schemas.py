@@ -162,8 +162,8 @@ RUN_SCHEMA = {
     "machine": MapOf((str, int, float, type(None))), "versions": MapOf(str), "registry": MapOf(str),
     "resumed": bool, "ran?": int, "skipped?": int,
 }
-#: One engine's stored table in a case file (:func:`dualmech.validation.runner.table_to_dict`): a slider
-#: crank's holds every one of its columns (:func:`check_case_file`), another kind's its own.
+#: One engine's stored table in a case file (:func:`~dualmech.validation.rundir.tables.table_to_dict`): a
+#: slider crank's holds every one of its columns (:func:`check_case_file`), another kind's its own.
 TABLE_SCHEMA = {"engine": str, "case": str, "columns": MapOf(NUMBER_LIST), "status": STATUS_LIST,
                 "meta?": dict}
 #: ``cases/<id>.json`` (:class:`dualmech.validation.runner.CaseFileText`).

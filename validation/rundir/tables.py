@@ -1,0 +1,50 @@
+"""A result table as a run folder's case file stores it (``cases/<id>.json``, :data:`~.schemas.TABLE_SCHEMA`):
+its columns as JSON numbers (floats round-trip exactly, NaN as ``NaN``), its status words and its meta."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import fields
+
+import numpy as np
+
+from dualmech.core.motion import CrankState
+from dualmech.core.table import NUMERIC_COLUMNS, ColumnTable, ResultTable
+from dualmech.models.case_format import SLIDER_CRANK
+from dualmech.models.linkages.table import LinkageTable
+from dualmech.validation.durable import json_text
+
+
+def table_to_dict(table: ColumnTable) -> dict:
+    """JSON-ready form of a table (floats round-trip exactly; NaN is written as ``NaN``): a slider crank's
+    :data:`~dualmech.core.table.NUMERIC_COLUMNS`, another kind's every column in its order; a simulated
+    judge's input states (``meta["crank"]``, a :class:`~dualmech.core.motion.CrankState`) as their arrays."""
+    names = NUMERIC_COLUMNS if isinstance(table, ResultTable) else tuple(table.columns)
+    meta = dict(table.meta)
+    if isinstance(meta.get("crank"), CrankState):
+        meta["crank"] = {f.name: getattr(meta["crank"], f.name) for f in fields(CrankState)}
+    return {
+        "engine": table.engine,
+        "case": table.case,
+        "columns": {c: np.asarray(table.columns[c], dtype=float).tolist() for c in names},
+        "status": [str(s) for s in table.status],
+        "meta": json.loads(json_text(meta)),
+    }
+
+
+def table_from_dict(d: dict, kind: str = SLIDER_CRANK) -> ColumnTable:
+    """Inverse of :func:`table_to_dict`, for a case of ``kind``."""
+    status = np.asarray(d["status"], dtype=object)
+    meta = dict(d.get("meta", {}))
+    if kind == SLIDER_CRANK:
+        columns = {c: np.asarray(d["columns"][c], dtype=float) for c in NUMERIC_COLUMNS}
+        return ResultTable(d["engine"], d["case"], columns, status, meta)
+    if isinstance(meta.get("crank"), dict):
+        meta["crank"] = CrankState(**{k: np.asarray(v, dtype=float) for k, v in meta["crank"].items()})
+    columns = {c: np.asarray(v, dtype=float) for c, v in d["columns"].items()}
+    return LinkageTable(d["engine"], d["case"], columns, status, meta)
+
+
+def entry_result(entry: dict, kind: str = SLIDER_CRANK) -> ColumnTable | str:
+    """A stored engine entry of a case of ``kind`` as a table, or its error text."""
+    return entry["error"] if entry.get("error") else table_from_dict(entry["table"], kind)
