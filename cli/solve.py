@@ -20,15 +20,13 @@ from dualmech.core.table import ResultTable
 from dualmech.core.thresholds import ASSEMBLY_REACH
 from dualmech.models.case import Case, load_case, preset_names, preset_path
 from dualmech.models.inputs import CaseError, show
-from dualmech.models.linkages import bundled_names, bundled_path, is_linkage, linkage_kind, read_linkage
+from dualmech.models.kinds import SLIDER_CRANK, kind_of
+from dualmech.models.linkages import bundled_names, bundled_path, is_linkage, read_linkage
 from dualmech.models.mechanism import crank_pin
 from dualmech.models.plausibility import implausible, masses_line
 from dualmech.models.units import column_unit
 from dualmech.validation.engines import ENGINES, run_engine
 from dualmech.validation.solve_output import STREAM_POSITIONS, output_format, stream_solve, write_table
-
-#: The kind ``dualmech cases`` lists for a slider crank (a case without ``[mechanism] kind``).
-SLIDER_CRANK = "slider-crank"
 
 
 def bundled_cases() -> list[tuple[str, str, str]]:
@@ -44,7 +42,7 @@ def bundled_cases() -> list[tuple[str, str, str]]:
                      f"{case.raw.get('description', '')}"))
     for name in bundled_names():
         data = read_linkage(name)
-        rows.append((name, str(linkage_kind(data)), str(data.get("description", ""))))
+        rows.append((name, kind_of(data), str(data.get("description", ""))))
     return rows
 
 

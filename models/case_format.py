@@ -39,6 +39,7 @@ from dualmech.models.inputs import (
     check_vector,
     show,
 )
+from dualmech.models.kinds import KINDS, LINKAGE_KINDS, SLIDER_CRANK
 from dualmech.models.mechanism import JOINT_TYPES, Bodies, Geometry, Joints, Loads
 from dualmech.models.units import UNIT_SYSTEMS
 
@@ -83,8 +84,6 @@ _SCHEMA: dict[str, dict[str, tuple[type | tuple, bool]]] = {
     "simulation": {"steps_per_degree": ((int, float), False)},
 }
 _TOP = {"name": (str, True), "units": (str, False), "description": (str, False)}
-#: ``[mechanism] kind`` of this case format (optional; the other linkages: :mod:`dualmech.models.linkages`).
-SLIDER_CRANK = "slider-crank"
 
 
 def deep_copy(d: Any) -> Any:
@@ -152,17 +151,15 @@ def _simulation_steps(sim: dict) -> int | None:
 def _slider_crank(kind: Any) -> None:
     """Refuse a ``[mechanism] kind`` other than the slider crank's (the other linkages have their own case
     format: ``docs/conventions.md``, "Linkages")."""
-    from dualmech.models.linkages import KINDS
-
     if not isinstance(kind, str):
-        raise CaseError(f"mechanism.kind: expected a string, one of {', '.join((SLIDER_CRANK, *KINDS))}; "
+        raise CaseError(f"mechanism.kind: expected a string, one of {', '.join(KINDS)}; "
                         f"got {show(kind)}")
-    if kind in KINDS:
+    if kind in LINKAGE_KINDS:
         raise CaseError(f"mechanism.kind: {show(kind)} is read by dualmech solve or "
                         f"dualmech.models.linkages, not as a slider crank (valid here: {SLIDER_CRANK})")
     if kind != SLIDER_CRANK:
         raise CaseError(f"mechanism.kind: {show(kind)} is not a known mechanism (valid: "
-                        f"{', '.join((SLIDER_CRANK, *KINDS))})")
+                        f"{', '.join(KINDS)})")
 
 
 def _angles(spec: dict) -> np.ndarray:

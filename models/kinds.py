@@ -3,37 +3,74 @@
 A case table names its kind in ``[mechanism] kind`` (``docs/conventions.md``, "Case files", "Linkages",
 "Loop tables"): ``slider-crank`` (the default of a table without one; :mod:`dualmech.models.case`),
 ``rssr``, ``rccc`` (:mod:`dualmech.models.linkages`) or ``loop`` (a joint table, :mod:`dualmech.models.loop`).
-Each kind has its own reader, which checks the table into its case record; the engines that solve each kind
-are registered in :data:`dualmech.validation.engines.ENGINES`.
+Each kind has its own checked case record, reader, in-house solver and result-table spec, named here as
+``"module:name"`` and imported at first use, so that this module depends on none of them (every kind's
+modules may read it); the engines that solve each kind are registered in
+:data:`dualmech.validation.engines.ENGINES`.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from importlib import import_module
+from typing import Any, NamedTuple
 
-from dualmech.models.case_format import SLIDER_CRANK
+#: ``[mechanism] kind`` of the generalized slider crank (also a case table without ``[mechanism]``).
+SLIDER_CRANK = "slider-crank"
 
-#: ``[mechanism] kind`` -> ``"module:Class"`` of its checked case record.
-CASE_RECORDS: dict[str, str] = {
-    SLIDER_CRANK: "dualmech.models.case:Case",
-    "rssr": "dualmech.models.linkages.rssr_case:RssrCase",
-    "rccc": "dualmech.models.linkages.rccc_case:RcccCase",
-    "loop": "dualmech.models.loop.description:LoopMechanism",
-}
+
+class Kind(NamedTuple):
+    """Where a kind's parts live, each ``"module:name"``: its checked case ``record`` (a class), its
+    ``reader`` (parsed case table -> record, one-line CaseError), its in-house ``solver`` (record ->
+    result table) and its table's ``spec`` (a :class:`~dualmech.models.linkages.table.TableSpec`, or a
+    function of the record; empty for the slider crank, whose table is
+    :class:`~dualmech.core.table.ResultTable`)."""
+
+    record: str
+    reader: str
+    solver: str
+    spec: str
+
+
 #: Every kind dualmech solves.
-KINDS = tuple(CASE_RECORDS)
-_KIND_OF_RECORD = {record: kind for kind, record in CASE_RECORDS.items()}
+KIND_HOMES: dict[str, Kind] = {
+    SLIDER_CRANK: Kind("dualmech.models.case:Case", "dualmech.models.case:case_from_dict",
+                       "dualmech.models.slider_crank:solve_case", ""),
+    "rssr": Kind("dualmech.models.linkages.rssr_case:RssrCase",
+                 "dualmech.models.linkages.rssr_case:rssr_from_dict",
+                 "dualmech.models.linkages.rssr:solve_rssr", "dualmech.models.linkages.rssr:SPEC"),
+    "rccc": Kind("dualmech.models.linkages.rccc_case:RcccCase",
+                 "dualmech.models.linkages.rccc_case:rccc_from_dict",
+                 "dualmech.models.linkages.rccc:solve_rccc", "dualmech.models.linkages.rccc:SPEC"),
+    "loop": Kind("dualmech.models.loop.description:LoopMechanism",
+                 "dualmech.models.loop.table_format:loop_from_dict",
+                 "dualmech.models.loop.table:solve_loop_table", "dualmech.models.loop.columns:loop_spec"),
+}
+KINDS = tuple(KIND_HOMES)
+#: The kinds other than the slider crank (the linkages: their own case format and table columns).
+LINKAGE_KINDS = tuple(k for k in KINDS if k != SLIDER_CRANK)
+_KIND_OF_RECORD = {home.record: kind for kind, home in KIND_HOMES.items()}
+
+
+def resolve(home: str) -> Any:
+    """The object a ``"module:name"`` names (its module imported now)."""
+    module, name = home.split(":")
+    return getattr(import_module(module), name)
+
+
+def declared_kind(data: Any) -> Any:
+    """``[mechanism] kind`` of a parsed case table as written (any value), or ``None`` without one."""
+    mech = data.get("mechanism") if isinstance(data, dict) else None
+    return mech.get("kind") if isinstance(mech, dict) else None
 
 
 def kind_of(case: Any) -> str:
-    """The kind of ``case``: a checked case record (:data:`CASE_RECORDS`) or a parsed case table (its
+    """The kind of ``case``: a checked case record (:data:`KIND_HOMES`) or a parsed case table (its
     ``[mechanism] kind`` if that is one of :data:`KINDS`; otherwise the slider crank's, whose reader then
     refuses a kind it does not know in one line).  Never raises."""
     record = _KIND_OF_RECORD.get(f"{type(case).__module__}:{type(case).__qualname__}")
     if record is not None:
         return record
-    mech = case.get("mechanism") if isinstance(case, dict) else None
-    kind = mech.get("kind") if isinstance(mech, dict) else None
+    kind = declared_kind(case)
     return kind if isinstance(kind, str) and kind in KINDS else SLIDER_CRANK
 
 
@@ -45,10 +82,4 @@ def case_from_data(data: dict) -> Any:
     CaseError
         One line, for any invalid input.
     """
-    if kind_of(data) == SLIDER_CRANK:
-        from dualmech.models.case import case_from_dict
-
-        return case_from_dict(data)
-    from dualmech.models.linkages import linkage_case
-
-    return linkage_case(data)
+    return resolve(KIND_HOMES[kind_of(data)].reader)(data)

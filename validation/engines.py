@@ -17,16 +17,12 @@ from typing import Any, Callable
 
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import ColumnTable
-from dualmech.models.case_format import SLIDER_CRANK
 from dualmech.models.inputs import CaseError, show
-from dualmech.models.kinds import kind_of
+from dualmech.models.kinds import KIND_HOMES, SLIDER_CRANK, kind_of
 
 #: engine -> ``[mechanism] kind`` -> "module:function".
 ENGINES: dict[str, dict[str, str]] = {
-    "dualmech": {SLIDER_CRANK: "dualmech.models.slider_crank:solve_case",
-                 "rssr": "dualmech.models.linkages.rssr:solve_rssr",
-                 "rccc": "dualmech.models.linkages.rccc:solve_rccc",
-                 "loop": "dualmech.models.loop.table:solve_loop_table"},
+    "dualmech": {kind: home.solver for kind, home in KIND_HOMES.items()},  # each kind's own (models/kinds.py)
     "pinocchio": {SLIDER_CRANK: "dualmech.validation.pinocchio_engine:solve_case",
                   "rssr": "dualmech.validation.linkages.pinocchio_rssr:solve_pinocchio",
                   "rccc": "dualmech.validation.linkages.pinocchio_rccc:solve_pinocchio_rccc",
@@ -139,13 +135,13 @@ def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> Column
     CaseError
         One line, for any invalid input, and for an engine that does not solve the case.
     """
-    from dualmech.models.linkages import linkage_case, linkage_kind, read_linkage
+    from dualmech.models.linkages import linkage_case, read_linkage
 
     if engine not in ENGINES:
         raise CaseError(f"engine: {show(engine)} does not solve linkages (valid: {', '.join(ENGINES)})")
     data = read_linkage(source)
     case = linkage_case(data)
-    kind = linkage_kind(data)
+    kind = kind_of(case)
     if not solves(engine, kind, case):
         valid = [e for e in ENGINES if solves(e, kind, case)]
         why = SIM_REFUSALS.get(kind, SIM_REFUSALS["rssr"]) if kind in ENGINES[engine] else ""

@@ -8,36 +8,15 @@ The judges of these linkages (Pinocchio, MuJoCo) live in :mod:`dualmech.validati
 
 from __future__ import annotations
 
-from importlib import import_module
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from dualmech.models.inputs import CaseError, show
+from dualmech.models.kinds import KIND_HOMES, LINKAGE_KINDS, declared_kind, resolve
 from dualmech.models.linkages.table import LinkageTable, TableSpec
 from dualmech.models.toml_input import read_toml
-
-#: ``[mechanism] kind`` -> its case reader, its in-house solver and its table's
-#: :class:`~dualmech.models.linkages.table.TableSpec` (a constant, or a function of the checked case), each
-#: ``"module:name"``.  A loop table (``kind = "loop"``, :mod:`dualmech.models.loop`) is read and checked by
-#: its own parser (one-line errors, mobility).
-_HOMES: dict[str, tuple[str, str, str]] = {
-    "rssr": ("dualmech.models.linkages.rssr_case:rssr_from_dict", "dualmech.models.linkages.rssr:solve_rssr",
-             "dualmech.models.linkages.rssr:SPEC"),
-    "rccc": ("dualmech.models.linkages.rccc_case:rccc_from_dict", "dualmech.models.linkages.rccc:solve_rccc",
-             "dualmech.models.linkages.rccc:SPEC"),
-    "loop": ("dualmech.models.loop.table_format:loop_from_dict",
-             "dualmech.models.loop.table:solve_loop_table", "dualmech.models.loop.columns:loop_spec"),
-}
-#: ``[mechanism] kind`` values this package solves.
-KINDS = tuple(_HOMES)
-
-
-def _resolve(home: str) -> Any:
-    module, name = home.split(":")
-    return getattr(import_module(module), name)
-
 
 #: The bundled RSSR and RCCC cases (``<stem>.toml``).
 CASES = Path(__file__).resolve().parent / "cases"
@@ -74,23 +53,17 @@ def read_linkage(source: str | Path | dict) -> dict:
     return read_toml(path if path.is_file() else bundled_path(str(source)), CaseError)
 
 
-def linkage_kind(data: Any) -> str | None:
-    """``[mechanism] kind`` of a parsed case, or ``None`` for a case without one (the slider crank)."""
-    mech = data.get("mechanism") if isinstance(data, dict) else None
-    return mech.get("kind") if isinstance(mech, dict) else None
-
-
 def is_linkage(source: str | Path | dict) -> bool:
     """Whether ``source`` (a dict, a TOML file or a name) is a linkage case: ``[mechanism] kind`` in
-    :data:`KINDS`, or a bundled linkage stem.  Never raises: a slider-crank case or preset name is ``False``
-    (for the command line's dispatch)."""
+    :data:`~dualmech.models.kinds.LINKAGE_KINDS`, or a bundled linkage stem.  Never raises: a slider-crank
+    case or preset name is ``False`` (for the command line's dispatch)."""
     if isinstance(source, dict):
-        return linkage_kind(source) in KINDS
+        return declared_kind(source) in LINKAGE_KINDS
     path = Path(source)
     if not path.is_file():
         return str(source) in _bundled()
     try:
-        return linkage_kind(read_toml(path, CaseError)) in KINDS
+        return declared_kind(read_toml(path, CaseError)) in LINKAGE_KINDS
     except CaseError:
         return False
 
@@ -103,14 +76,15 @@ def linkage_case(source: str | Path | dict) -> Any:
     Raises
     ------
     CaseError
-        One line, for any invalid input (including a ``kind`` not in :data:`KINDS`).
+        One line, for any invalid input (including a ``kind`` not one of
+        :data:`~dualmech.models.kinds.LINKAGE_KINDS`).
     """
     data = read_linkage(source)
-    kind = linkage_kind(data)
-    if kind in _HOMES:
-        return _resolve(_HOMES[kind][0])(data)
+    kind = declared_kind(data)
+    if kind in LINKAGE_KINDS:
+        return resolve(KIND_HOMES[kind].reader)(data)
     raise CaseError(f"mechanism.kind: {show(kind)} is not a linkage dualmech solves here "
-                    f"(valid: {', '.join(KINDS)})")
+                    f"(valid: {', '.join(LINKAGE_KINDS)})")
 
 
 def solve_linkage(source: str | Path | dict) -> LinkageTable:
@@ -122,17 +96,18 @@ def solve_linkage(source: str | Path | dict) -> LinkageTable:
     Raises
     ------
     CaseError
-        One line, for any invalid input (including a ``kind`` not in :data:`KINDS`).
+        One line, for any invalid input (including a ``kind`` not one of
+        :data:`~dualmech.models.kinds.LINKAGE_KINDS`).
     """
     data = read_linkage(source)
     case = linkage_case(data)  # first: an unknown kind is a one-line CaseError
-    return _resolve(_HOMES[linkage_kind(data)][1])(case)
+    return resolve(KIND_HOMES[declared_kind(data)].solver)(case)
 
 
 def table_spec(kind: str, case: Any) -> TableSpec:
     """The :class:`~dualmech.models.linkages.table.TableSpec` of ``case``'s table (a checked case of
     ``kind``): the RSSR's and RCCC's are fixed, a loop table's follows its joints."""
-    spec = _resolve(_HOMES[kind][2])
+    spec = resolve(KIND_HOMES[kind].spec)
     return spec if isinstance(spec, TableSpec) else spec(case)
 
 

@@ -242,7 +242,7 @@ def test_the_run_solves_small_cases_with_the_inhouse_engine_and_pinocchio_here_a
     interrupt need not wait for it; a case table that does not parse goes to a worker, which stores why.
     Faults seen: everything here (no bound), the engine chosen by its name only."""
     from dualmech.models.case import load_case
-    from dualmech.models.case_format import SLIDER_CRANK
+    from dualmech.models.kinds import SLIDER_CRANK
     from dualmech.validation.engines import ENGINES, IN_PROCESS_ENGINES, runs_here
 
     raw = load_case("thesis/ideal").raw

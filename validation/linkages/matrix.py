@@ -32,14 +32,8 @@ from pathlib import Path
 from typing import Any
 
 from dualmech.models.inputs import CaseError, check_keys, key_text, show
-from dualmech.models.linkages import (
-    KINDS,
-    bundled_names,
-    is_linkage,
-    linkage_case,
-    linkage_kind,
-    read_linkage,
-)
+from dualmech.models.kinds import LINKAGE_KINDS, kind_of
+from dualmech.models.linkages import bundled_names, is_linkage, linkage_case, read_linkage
 from dualmech.models.toml_input import read_toml
 from dualmech.validation.engines import ENGINES, solves
 from dualmech.validation.matrix import MatrixError, check_file_name
@@ -175,7 +169,7 @@ def _checked(data: dict, source: str, where: str) -> LinkageEntry:
     """The entry of a parsed case table ``data`` (checked by its kind's reader); its id from its name."""
     case = linkage_case(data)
     case_id = ID_SAFE.sub("_", case.name).strip("._-")[:80] or "case"
-    return LinkageEntry(check_file_name(f"{where} name", case_id), source, linkage_kind(data), case, data)
+    return LinkageEntry(check_file_name(f"{where} name", case_id), source, kind_of(case), case, data)
 
 
 def _sweep(k: int, sweep: Any, matrix_file: Path | None) -> list[LinkageEntry]:
@@ -239,7 +233,7 @@ def _case_data(source: Any, matrix_file: Path | None, where: str) -> dict:
     if not is_linkage(target):
         raise MatrixError(f"{where}: {show(source)} is not a linkage case (a bundled name: "
                           f"{', '.join(bundled_names())}, or a file whose [mechanism] kind is one of "
-                          f"{', '.join(KINDS)})")
+                          f"{', '.join(LINKAGE_KINDS)})")
     return read_linkage(target)
 
 

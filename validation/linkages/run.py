@@ -19,8 +19,7 @@ from tempfile import TemporaryDirectory
 import numpy as np
 
 from dualmech.core.status import Status, is_status
-from dualmech.models.case_format import SLIDER_CRANK
-from dualmech.models.kinds import kind_of
+from dualmech.models.kinds import SLIDER_CRANK, kind_of
 from dualmech.models.linkages import linkage_case, table_spec
 from dualmech.models.linkages.forward_dynamics import MECHANISMS
 from dualmech.models.linkages.table import LinkageTable

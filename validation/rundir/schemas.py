@@ -12,9 +12,8 @@ from typing import Any, Callable
 import numpy as np
 
 from dualmech.core.table import NUMERIC_COLUMNS, STATUSES
-from dualmech.models.case_format import SLIDER_CRANK
 from dualmech.models.inputs import show
-from dualmech.models.kinds import kind_of
+from dualmech.models.kinds import SLIDER_CRANK, kind_of
 
 MANIFEST_FORMAT = "dualmech-manifest/1"
 RUN_FORMAT = "dualmech-run/1"

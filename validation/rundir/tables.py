@@ -10,7 +10,7 @@ import numpy as np
 
 from dualmech.core.motion import CrankState
 from dualmech.core.table import NUMERIC_COLUMNS, ColumnTable, ResultTable
-from dualmech.models.case_format import SLIDER_CRANK
+from dualmech.models.kinds import SLIDER_CRANK
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.durable import json_text
 
