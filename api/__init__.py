@@ -47,11 +47,11 @@ _HOMES: dict[str, str] = {
     "case_from_dict": "dualmech.models.case",
     "load_case": "dualmech.models.case",
     "preset_names": "dualmech.models.case",
-    "solve": "dualmech.validation.api",
-    "validate": "dualmech.validation.api",
-    "ValidationRun": "dualmech.validation.api",
-    "tolerance_study": "dualmech.validation.api",
-    "ToleranceStudy": "dualmech.validation.api",
+    "solve": "dualmech.verbs",
+    "validate": "dualmech.verbs",
+    "ValidationRun": "dualmech.verbs",
+    "tolerance_study": "dualmech.verbs",
+    "ToleranceStudy": "dualmech.verbs",
     "simulate": "dualmech.models.forward_dynamics",
     "Simulation": "dualmech.models.simulation",
     "ResultTable": "dualmech.core.table",
@@ -70,8 +70,8 @@ if TYPE_CHECKING:  # the same names, for type checkers and the documentation's s
     from dualmech.models.forward_dynamics import simulate
     from dualmech.models.inputs import CaseError
     from dualmech.models.simulation import Simulation
-    from dualmech.validation.api import ToleranceStudy, ValidationRun, solve, tolerance_study, validate
     from dualmech.validation.engines import ENGINES
+    from dualmech.verbs import ToleranceStudy, ValidationRun, solve, tolerance_study, validate
 
 
 def __getattr__(name: str) -> Any:

@@ -23,8 +23,8 @@ from dualmech.cli.simulate import simulate
 from dualmech.cli.solve import benchmark, case_path, cases, mjcf, solve
 from dualmech.cli.tolerance import tolerance
 from dualmech.cli.validate import report, validate
-from dualmech.validation.executors import end_all_pools
 from dualmech.validation.exit_codes import EXIT_INTERRUPTED
+from dualmech.validation.run.executors import end_all_pools
 from dualmech.validation.warning_lines import show_warnings_as_lines
 
 #: Every subcommand of ``dualmech``, by module: one case (cases, case-path, solve, mjcf, benchmark),

@@ -13,7 +13,7 @@
   a command with an output file (``-o``) that no partial file is left there (every writer is atomic:
   :mod:`dualmech.core.files`).
 * The workers running a command's tasks lost (a pool's worker killed, a Dask cluster gone:
-  :class:`~dualmech.validation.executors.WorkersLost`): ``dualmech: error: <what>; <note>`` and exit code
+  :class:`~dualmech.validation.run.executors.WorkersLost`): ``dualmech: error: <what>; <note>`` and exit code
   :data:`~dualmech.validation.exit_codes.EXIT_WORKERS_LOST` (4).
 * click's own exceptions (usage errors, ``--help``, exits) pass through untouched.
 
@@ -36,8 +36,8 @@ from typing import Callable
 import click
 import numpy as np
 
-from dualmech.validation.executors import WorkersLost
 from dualmech.validation.exit_codes import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_WORKERS_LOST
+from dualmech.validation.run.executors import WorkersLost
 
 #: Exit code for an unexpected internal error (``EX_SOFTWARE``).
 EXIT_INTERNAL = 70

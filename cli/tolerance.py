@@ -1,6 +1,6 @@
 """``dualmech tolerance``: distributions of the stroke and joint loads under manufacturing tolerances.
 
-A thin shell over :func:`dualmech.validation.api.tolerance_study` (``dualmech.tolerance_study``);
+A thin shell over :func:`dualmech.verbs.tolerance_study` (``dualmech.tolerance_study``);
 ``docs/conventions.md`` ("Tolerance analysis") defines the SPEC, every column and the summary.
 Exit codes: 0 every spot check passed; 1 a judge disagreed, or the exact sensitivities disagree with
 central differences of the solver (named on stderr); 2 bad input (a folder that is not dualmech's, or
@@ -75,7 +75,7 @@ def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir:
     """Tolerance study of CASE: Monte Carlo of SPEC and exact sensitivities, judged and reported."""
     from dualmech.models.case import load_case
     from dualmech.models.plausibility import ImplausibleUnitsWarning
-    from dualmech.validation.api import tolerance_study
+    from dualmech.verbs import tolerance_study
 
     on_interrupt(f"finished chunks are kept in {outdir}; re-run the same command to finish")
     nominal = load_case(case)

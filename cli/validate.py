@@ -1,6 +1,6 @@
 """``dualmech validate`` and ``dualmech report``: the suite's main job, as a thin shell.
 
-``validate`` runs a matrix (:mod:`dualmech.validation.runner`), compares every judge
+``validate`` runs a matrix (:mod:`dualmech.validation.run.runner`), compares every judge
 with the reference (:mod:`dualmech.validation.compare`), optionally writes JUnit XML
 and checks or writes a baseline, writes the report, prints a one-screen summary and
 exits with one of :data:`dualmech.validation.exit_codes.EXIT_CODES`.
@@ -23,7 +23,7 @@ from dualmech.models.plausibility import masses_line
 from dualmech.validation.arguments import MAX_JOBS
 from dualmech.validation.engines import ENGINES
 from dualmech.validation.exit_codes import exit_code
-from dualmech.validation.runner import run_versions
+from dualmech.validation.run.runner import run_versions
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -131,14 +131,14 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     `validate rccc`, `validate linkages`, a loop table (`validate rscr`, `validate loops`), or a linkage
     case or matrix file; -o, --engines, --jobs and --resume apply.
     """
-    from dualmech.validation.api import open_run, run_and_compare
-    from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline, write_baseline
-    from dualmech.validation.derived import findings_ahead
-    from dualmech.validation.junit import write_junit
+    from dualmech.validation.compare import baseline as regression
+    from dualmech.validation.compare.junit import write_junit
     from dualmech.validation.linkages.matrix import is_linkage_source
+    from dualmech.validation.report.derived import findings_ahead
     from dualmech.validation.report.render import write_report
+    from dualmech.validation.run.runner import load_entries, timings
     from dualmech.validation.rundir import check_output_folder
-    from dualmech.validation.runner import load_entries, timings
+    from dualmech.verbs import open_run, run_and_compare
 
     if is_linkage_source(matrix_file):  # rssr, rccc, linkages, a linkage case or matrix file
         _validate_linkages(matrix_file, outdir, _engine_list(engines), jobs, resume, {
@@ -147,7 +147,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     matrix, outdir = open_run(matrix_file, outdir, _engine_list(engines))
     on_interrupt(f"finished results are kept in {outdir}; re-run with --resume to finish")
     warn_units(*_one_design(matrix))
-    baseline = read_baseline(baseline_file, matrix.name) if baseline_file else None  # before the run
+    baseline = regression.read_baseline(baseline_file, matrix.name) if baseline_file else None  # first
     if report_dir:
         check_output_folder(report_dir)
     console = summary_console(sys.stdout.isatty())
@@ -163,13 +163,13 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
                                  results=run.results, progress=bar, findings=findings)
     finally:  # also after a failed report: the JUnit file and the baseline of the run
         outcome, comparison = run.outcome, run.comparison
-        summary = baseline_summary(matrix, comparison, outcome.results)
-        regressions = compare_baseline(summary, baseline) if baseline is not None else []
+        summary = regression.baseline_summary(matrix, comparison, outcome.results)
+        regressions = regression.compare_baseline(summary, baseline) if baseline is not None else []
         if junit_file:
             write_junit(junit_file, matrix, comparison, timings(load_entries(outdir, matrix)),
                         regressions=regressions, versions=run_versions(outdir))
         if write_baseline_file:
-            write_baseline(write_baseline_file, summary)
+            regression.write_baseline(write_baseline_file, summary)
 
     how = f"Dask {scheduler}" if scheduler else f"{jobs or _cores()} jobs"
     title = (f"{matrix.name}: {len(matrix.cases)} cases, engines {', '.join(matrix.engines)} — "
@@ -202,7 +202,7 @@ def _print_design(console: Console, matrix: Matrix, results: dict) -> None:
 def _print_verdict(console, comparison, files, regressions: list, baseline_file: str | None,
                    write_baseline_file: str | None, junit_file: str | None) -> None:
     """The verdict line, the first failures, the baseline's regressions and the files written."""
-    from dualmech.validation.junit import describe
+    from dualmech.validation.compare.junit import describe
 
     failures = comparison.failures()
     n_ok = len(comparison.checks) - len(failures)
@@ -239,9 +239,9 @@ def _validate_linkages(source: str, outdir: str | None, engines: tuple[str, ...]
                        resume: bool, refused: dict) -> None:
     """``validate`` of a linkage case or matrix (:mod:`dualmech.validation.linkages`): run (each result
     stored as it finishes), compare, report, print the table and the verdict, exit 0 (PASS) or 1 (FAIL)."""
-    from dualmech.validation.api import run_linkage_validation
-    from dualmech.validation.junit import describe
+    from dualmech.validation.compare.junit import describe
     from dualmech.validation.linkages.matrix import load_linkage_matrix
+    from dualmech.verbs import run_linkage_validation
 
     given = next((flag for flag, value in refused.items() if value), None)
     if given:
@@ -298,7 +298,7 @@ def _linkage_table(run, title: str):
 
 
 def _cores() -> int:
-    from dualmech.validation.runner import default_jobs
+    from dualmech.validation.run.runner import default_jobs
 
     return default_jobs()
 
@@ -312,8 +312,8 @@ def _cores() -> int:
 @one_line_errors
 def report(rundir, outdir, jobs) -> None:
     """Write the report (HTML, Markdown, figures, summary.json) of the run stored in RUNDIR."""
-    from dualmech.validation.api import report_linkage_run
     from dualmech.validation.report.render import write_report
+    from dualmech.verbs import report_linkage_run
 
     on_interrupt(f"the report in {outdir or rundir} is not finished; run dualmech report again")
     linkages = report_linkage_run(rundir, outdir)

@@ -36,9 +36,9 @@ def thesis_cases() -> list[Case]:
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     """End the worker pools the tests left for reuse, as a command does when it is done
-    (:func:`~dualmech.validation.executors.end_all_pools`): left to the interpreter's teardown, a pool
+    (:func:`~dualmech.validation.run.executors.end_all_pools`): left to the interpreter's teardown, a pool
     was collected after ``multiprocessing.util`` was gone ("Exception ignored in ... weakref_cb")."""
-    from dualmech.validation.executors import end_all_pools
+    from dualmech.validation.run.executors import end_all_pools
 
     end_all_pools()
 

@@ -90,7 +90,7 @@ def test_an_unknown_key_is_named_with_every_valid_key_sorted():
 
 def test_report_of_a_crank_at_rest_has_no_balancing_ratio():
     """crank_rpm = 0 (quasi-static, a meaningful case) divided by a zero shaking force in the report."""
-    from dualmech.validation.derived import balancing
+    from dualmech.validation.report.derived import balancing
 
     data = tomllib.loads(MATRIX.format(name="rest"))
     data["set"]["motion.crank_rpm"] = 0.0

@@ -1,4 +1,4 @@
-"""The Python API's argument checks: what :mod:`dualmech.validation.api` (the package face's verbs) accepts,
+"""The Python API's argument checks: what :mod:`dualmech.verbs` (the package face's verbs) accepts,
 as the command line does, each refusal a one-line ``TypeError`` or ``ValueError`` naming the argument."""
 
 from __future__ import annotations

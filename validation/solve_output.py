@@ -27,7 +27,7 @@ from dualmech.models.units import column_unit
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
     from dualmech.models.slider_crank_kernel import Chunk
-    from dualmech.validation.runner import ProgressCallback
+    from dualmech.validation.progress import ProgressCallback
 
 #: Cases longer than this stream to their file (one chunk of the kernel each).
 STREAM_POSITIONS = 100_000

@@ -33,7 +33,8 @@ MATRIX_REACTIONS = Tolerance(1e-8, "reactions are linear solves on the kinematic
 #: Kinematics of the MuJoCo simulation (integrated, soft-constrained motion).
 MATRIX_SIM_KINEMATICS = Tolerance(1e-3, "the simulation integrates the motion and holds the loop by soft "
                                         "constraints; 1e-3 of a2 is its drift budget")
-#: Regression gate (validation/baseline.py): a judge's worst relative difference may grow by this factor.
+#: Regression gate (validation/compare/baseline.py): a judge's worst relative difference may grow by this
+#: factor.
 BASELINE_AGREEMENT_FACTOR = Tolerance(10.0, "differences near round-off move with BLAS, compiler and library "
                                             "versions; an order of magnitude absorbs that")
 #: Regression gate: relative differences below this never count as a regression.

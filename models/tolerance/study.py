@@ -1,7 +1,7 @@
 """A tolerance study's parts: sample designs in chunks, solve them batched, and stream the rows.
 
 Designs are independent; chunks of :data:`~dualmech.models.tolerance.sampling.CHUNK_DESIGNS`
-are tasks (:func:`solve_chunk`, picklable), run by :mod:`dualmech.validation.tolerance_study` in
+are tasks (:func:`solve_chunk`, picklable), run by :mod:`dualmech.validation.tolerance.study` in
 this process, a process pool or on a Dask cluster, which also stores them, judges and summarises.
 Each chunk's designs are solved together as the compiled kernel's arrays, in blocks of bounded memory,
 and reduced per design (:mod:`~dualmech.models.tolerance.designs`).  A stored chunk

@@ -122,7 +122,7 @@ def test_ctrl_c_in_a_long_simulation_exits_130_and_writes_nothing(tmp_path):
 
 def test_ctrl_c_in_report_exits_130_and_says_how_to_finish(tmp_path):
     from dualmech.validation.matrix import load_matrix
-    from dualmech.validation.runner import run_matrix
+    from dualmech.validation.run.runner import run_matrix
 
     from ..validation.conftest import SMALL
     from ..validation.test_validate import FAKE_REGISTRY

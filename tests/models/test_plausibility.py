@@ -100,7 +100,7 @@ def test_masses_line_has_units() -> None:
 
 def test_the_api_solve_warns(tmp_path) -> None:
     """``dualmech.validation.solve`` (the API) issues the warning and still solves."""
-    from dualmech.validation.api import solve
+    from dualmech.verbs import solve
 
     with pytest.warns(ImplausibleUnitsWarning) as record:
         table = solve(_case(tmp_path, "m-kg-s", 7850.0))

@@ -12,8 +12,8 @@ from dualmech.core.motion import CrankState
 from dualmech.models.angle_ranges import no_assembly_ranges
 from dualmech.models.case import load_case
 from dualmech.models.slider_crank import analyze, analyze_many, solve_case, to_table
-from dualmech.validation.api import solve
 from dualmech.validation.engines import ENGINES
+from dualmech.verbs import solve
 from tests.oracles import assembly_margin, assert_slider_motion, exact_slider_motion
 from tests.tolerances import (
     BATCH_VS_SINGLE,

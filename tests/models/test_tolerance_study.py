@@ -14,8 +14,8 @@ from dualmech.models.tolerance.sampling import CHUNK_DESIGNS
 from dualmech.models.tolerance.sensitivity import output_group
 from dualmech.models.tolerance.spec import design_case, spec_from_dict
 from dualmech.models.tolerance.study import SampleStream, StudyInput, columns
-from dualmech.validation import tolerance_study
-from dualmech.validation.tolerance_study import run_study
+from dualmech.validation.tolerance import study as tolerance_study
+from dualmech.validation.tolerance.study import run_study
 
 N = CHUNK_DESIGNS + 9  # two chunks, the second short
 #: A design's outputs in a batch against the design solved alone, relative to its output group's peak: the

@@ -13,7 +13,7 @@ from dualmech.models.tolerance.outputs import design_outputs
 from dualmech.models.tolerance.spec import design_case, nominal_values, spec_from_dict
 from dualmech.models.tolerance.study import StudyInput
 from dualmech.models.tolerance.summary import Z95, describe, sobol_first_order, wilson
-from dualmech.validation.tolerance_study import run_study
+from dualmech.validation.tolerance.study import run_study
 
 #: Coverage of a 95 % interval over 400 seeded replications: 380 expected, binomial sd 4.4; ~3.4 sd each side.
 COVERAGE_RANGE = (0.91, 0.99)
@@ -111,7 +111,7 @@ def test_round_off_outputs_are_reported_as_zero_with_their_level(tmp_path):
     with its round-off level, no variance share, sensitivity 0 (its exact derivative), no histogram; the
     other peaks are not (issue 30, "Noise shown as results")."""
     from dualmech.core.thresholds import ROUND_OFF_RELATIVE
-    from dualmech.validation.tolerance_report import figure_jobs
+    from dualmech.validation.tolerance.report import figure_jobs
 
     raw = copy.deepcopy(load_case("a4-20-alpha-232").raw)  # the slider's mass centre at P3: no j4 moment
     del raw["loads"]["drive_torque"]
@@ -139,7 +139,7 @@ def test_round_off_outputs_are_reported_as_zero_with_their_level(tmp_path):
     assert summary["units"] == {"stroke": "in", **{f"peak_j{j}_force": "lbf" for j in range(1, 5)},
                                 "peak_j1_moment": "lbf·in", "peak_j4_moment": "lbf·in",
                                 "peak_drive_torque": "lbf·in"}
-    from dualmech.validation.tolerance_report import write_tolerance_report
+    from dualmech.validation.tolerance.report import write_tolerance_report
 
     write_tolerance_report(tmp_path, summary, None, samples)
     text = (tmp_path / "report.md").read_text().replace("\\", "")  # Markdown's escapes
@@ -155,7 +155,7 @@ def test_a_constant_output_gets_no_distribution_and_no_shares(tmp_path):
     for data range", issue 31's fuzz): it is reported as constant, with its spread, no figure and no
     variance share."""
     from dualmech.models.tolerance.summary import CONSTANT_RELATIVE
-    from dualmech.validation.tolerance_report import figure_jobs, write_tolerance_report
+    from dualmech.validation.tolerance.report import figure_jobs, write_tolerance_report
 
     raw = copy.deepcopy(load_case("ideal").raw)
     raw["motion"]["angles_deg"] = {"start": 0.0, "stop": 360.0, "step": 10.0}

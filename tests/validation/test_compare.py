@@ -18,13 +18,14 @@ from click.testing import CliRunner
 from dualmech.cli import main
 from dualmech.core.status import Status
 from dualmech.core.table import ResultTable
-from dualmech.validation import derived, provenance, report
-from dualmech.validation.baseline import baseline_summary, compare_baseline
+from dualmech.validation import provenance, report
 from dualmech.validation.compare import STATUS, Verdict, compare_case, compare_run
+from dualmech.validation.compare.baseline import baseline_summary, compare_baseline
 from dualmech.validation.compare.conditioning import Conditioning, edge_error
-from dualmech.validation.junit import junit_tree
+from dualmech.validation.compare.junit import junit_tree
 from dualmech.validation.matrix import load_matrix
-from dualmech.validation.runner import case_file, load_results, run_matrix
+from dualmech.validation.report import derived
+from dualmech.validation.run.runner import case_file, load_results, run_matrix
 from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, CLOSURE_PRECISION
 
 from . import matrix_fakes

@@ -262,7 +262,7 @@ def test_the_report_names_the_odd_one_out(small, tmp_path):
 
     from dualmech.cli import main
     from dualmech.validation.matrix import load_matrix
-    from dualmech.validation.runner import run_matrix
+    from dualmech.validation.run.runner import run_matrix
     from tests.validation.test_validate import FAKE_REGISTRY
 
     out = tmp_path / "run"

@@ -1,13 +1,13 @@
-"""The report's in-house sections solved ahead (validation/derived.py): the thesis's findings solved in a
-background thread while the run's workers solve are the findings solved after, and a failure there is the
+"""The report's in-house sections solved ahead (validation/report/derived.py): the thesis's findings solved
+in a background thread while the run's workers solve are the findings solved after, and a failure there is the
 report's, not lost in the thread."""
 
 from __future__ import annotations
 
 import pytest
 
-from dualmech.validation import derived
 from dualmech.validation.matrix import load_matrix
+from dualmech.validation.report import derived
 
 
 def test_findings_solved_ahead_are_the_findings():

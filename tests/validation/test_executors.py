@@ -1,4 +1,4 @@
-"""The end of a command's worker pools (``validation/executors.py``): bounded, whatever the workers do.
+"""The end of a command's worker pools (``validation/run/executors.py``): bounded, whatever the workers do.
 
 Why: CI timed out (90 min) after the main job had printed part of its table: the command had done its
 work and never exited.  A pool kept for reuse was left to the interpreter's exit, which joins its
@@ -20,7 +20,7 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 
-from dualmech.validation import executors
+from dualmech.validation.run import executors
 
 from .test_validate import ROOT
 from .worker_exits import exit_code
@@ -40,7 +40,7 @@ def _program(end: str, keep: bool = True) -> str:
     reference to the pool (else only the executors module does, as in a command)."""
     pool = "pool" if keep else "executors.shared_pool(1)"
     return textwrap.dedent(f"""
-        from dualmech.validation import executors
+        from dualmech.validation.run import executors
         from tests.validation.test_executors import never_ending_thread
         if __name__ == "__main__":
             pool = executors.shared_pool(1)

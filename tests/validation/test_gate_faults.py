@@ -15,8 +15,8 @@ import pytest
 
 from dualmech.core.status import Status
 from dualmech.core.table import REACTION_COLUMNS
-from dualmech.validation.baseline import baseline_summary, compare_baseline
 from dualmech.validation.compare import compare_case, compare_run
+from dualmech.validation.compare.baseline import baseline_summary, compare_baseline
 from dualmech.validation.matrix import GROUPS, load_matrix
 
 from .test_compare import _edited

@@ -19,8 +19,8 @@ import pytest
 
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.report.render import write_report
+from dualmech.validation.run.runner import run_matrix
 from dualmech.validation.rundir import RunDirError, locked
-from dualmech.validation.runner import run_matrix
 
 from .conftest import SMALL
 from .test_validate import FAKE_REGISTRY, ROOT

@@ -21,9 +21,9 @@ from click.testing import CliRunner
 
 from dualmech.cli import main
 from dualmech.validation import durable
-from dualmech.validation.baseline import baseline_summary, compare_baseline, read_baseline
 from dualmech.validation.compare import compare_run
-from dualmech.validation.tolerance_study import run_study
+from dualmech.validation.compare.baseline import baseline_summary, compare_baseline, read_baseline
+from dualmech.validation.tolerance.study import run_study
 
 from ..models.test_tolerance_study import _study
 from .conftest import fake_results

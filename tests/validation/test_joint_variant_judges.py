@@ -36,7 +36,7 @@ pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
 
 from dualmech.validation import mujoco_closure, mujoco_engine, mujoco_sim, pinocchio_engine  # noqa: E402
-from dualmech.validation.api import validate  # noqa: E402
+from dualmech.verbs import validate  # noqa: E402
 
 PRESETS = ("thesis/a4-30-s1-3.5", "thesis/a4-20-alpha-232")
 VARIANTS = (("rod_slider", "universal"),), (("crank", "revolute"),), (("crank", "revolute"),

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from dualmech.models import slider_crank_kernel
-from dualmech.validation.api import validate
+from dualmech.verbs import validate
 
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")

@@ -9,10 +9,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dualmech.validation import derived, executors
 from dualmech.validation.compare import compare_run
-from dualmech.validation.report import canvas, figures, plots
+from dualmech.validation.report import canvas, derived, figures, plots
 from dualmech.validation.report.sections import balancing_spec
+from dualmech.validation.run import executors
 
 
 def _specs(matrix, results):
@@ -194,10 +194,10 @@ def _record_started(monkeypatch) -> list:
 def _failed_report(small, tmp_path, monkeypatch) -> list:
     """A report whose findings section (the last before the figures are collected; a thesis matrix's) fails
     while the workers draw its figures; its figure jobs."""
-    from dualmech.validation import derived
     from dualmech.validation.matrix import Matrix, load_matrix
+    from dualmech.validation.report import derived
     from dualmech.validation.report.render import ReportError, write_report
-    from dualmech.validation.runner import run_matrix
+    from dualmech.validation.run.runner import run_matrix
 
     from .test_validate import FAKE_REGISTRY
 
@@ -356,7 +356,7 @@ def test_the_first_figures_are_drawn_while_the_run_is_compared(small, tmp_path, 
     first figures are in the workers.  Fault seen: the comparison made before the figures start."""
     from dualmech.validation.matrix import load_matrix
     from dualmech.validation.report.render import write_report
-    from dualmech.validation.runner import load_results, run_matrix
+    from dualmech.validation.run.runner import load_results, run_matrix
 
     from .test_validate import FAKE_REGISTRY
 
@@ -383,8 +383,8 @@ def test_a_report_in_a_relative_folder_removes_the_figures_it_no_longer_draws(sm
     as stale, and left them."""
     from dualmech.validation.matrix import load_matrix
     from dualmech.validation.report.render import write_report
+    from dualmech.validation.run.runner import run_matrix
     from dualmech.validation.rundir import created_files
-    from dualmech.validation.runner import run_matrix
 
     from .test_validate import FAKE_REGISTRY
 

@@ -26,7 +26,7 @@ from dualmech.validation.compare import compare_run
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.report import figures, interactive, plots
 from dualmech.validation.report.render import write_report
-from dualmech.validation.runner import run_matrix
+from dualmech.validation.run.runner import run_matrix
 
 from .test_validate import FAKE_REGISTRY, chromium
 
@@ -224,7 +224,7 @@ def _static(spec):
 
 
 def _all_specs(matrix, results):
-    from dualmech.validation import derived
+    from dualmech.validation.report import derived
     from dualmech.validation.report.sections import balancing_spec
 
     comparison = compare_run(matrix, results)

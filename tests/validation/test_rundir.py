@@ -16,12 +16,12 @@ import pytest
 from click.testing import CliRunner
 
 from dualmech.cli import main
-from dualmech.validation import executors
-from dualmech.validation.executors import ClusterLost, check_address
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.report.render import write_report
+from dualmech.validation.run import executors
+from dualmech.validation.run.executors import ClusterLost, check_address
+from dualmech.validation.run.runner import load_entries, run_matrix
 from dualmech.validation.rundir import RunDirError, created_files, locked
-from dualmech.validation.runner import load_entries, run_matrix
 
 from .test_validate import FAKE_REGISTRY, FAKES, ROOT
 
@@ -96,7 +96,7 @@ def test_sigint_keeps_every_finished_result(small, tmp_path):
     # SIGINT handled as at a terminal, even when this test runs as a background job (SIG_IGN inherited)
     script = (
         "import signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
-        "from dualmech.validation.matrix import load_matrix; from dualmech.validation.runner import "
+        "from dualmech.validation.matrix import load_matrix; from dualmech.validation.run.runner import "
         "run_matrix; "
         f"run_matrix(load_matrix({str(small)!r}), {str(out)!r}, jobs=2, registry={slow!r})"
     )

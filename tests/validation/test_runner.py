@@ -14,7 +14,7 @@ import pytest
 
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.provenance import case_fingerprint
-from dualmech.validation.runner import CASE_FORMAT, CaseFileText, run_matrix
+from dualmech.validation.run.runner import CASE_FORMAT, CaseFileText, run_matrix
 
 from .test_validate import FAKE_REGISTRY, FAKES, ROOT
 from .worker_exits import exit_code
@@ -56,7 +56,7 @@ def test_workers_die_with_a_killed_run(small, tmp_path, sig):
     slow = dict(FAKE_REGISTRY, dualmech=f"{FAKES}:solve_case_slow")
     out = tmp_path / "run"
     script = (
-        "from dualmech.validation.matrix import load_matrix; from dualmech.validation.runner import "
+        "from dualmech.validation.matrix import load_matrix; from dualmech.validation.run.runner import "
         "run_matrix; "
         f"run_matrix(load_matrix({str(small)!r}), {str(out)!r}, jobs=2, registry={slow!r})"
     )
@@ -105,7 +105,7 @@ def test_case_file_text_is_the_json_of_the_whole_case(small):
 
 def test_case_file_text_in_finishing_order_is_seen(small, monkeypatch):
     """The fault the test above must see: engines written in the order they finished."""
-    import dualmech.validation.runner as runner
+    import dualmech.validation.run.runner as runner
 
     mc = load_matrix(small).cases[0]
     real = runner.CaseFileText.add
@@ -126,7 +126,7 @@ def test_case_file_text_in_finishing_order_is_seen(small, monkeypatch):
 
 
 def _pool_pids(jobs: int) -> set[int]:
-    from dualmech.validation import executors
+    from dualmech.validation.run import executors
 
     pool = executors._SHARED.get(jobs)
     return set((getattr(pool, "_processes", None) or {}).keys()) if pool is not None else set()
@@ -135,7 +135,7 @@ def _pool_pids(jobs: int) -> set[int]:
 def test_a_finished_run_leaves_its_workers_to_the_next_work(small, tmp_path):
     """Why: the run's pool was ended and the report spawned another (workers importing their libraries
     again, ~1 s each); a finished run keeps its workers for the report and the next run."""
-    from dualmech.validation import executors
+    from dualmech.validation.run import executors
 
     matrix = load_matrix(small)
     executors.end_shared_pool()
@@ -153,7 +153,7 @@ def test_a_finished_run_leaves_its_workers_to_the_next_work(small, tmp_path):
 
 def test_a_run_that_ends_its_pool_is_seen(small, tmp_path, monkeypatch):
     """The fault the test above must see: the pool ended after each run (as before)."""
-    from dualmech.validation import executors
+    from dualmech.validation.run import executors
 
     matrix = load_matrix(small)
     real = executors._on_pool
@@ -175,7 +175,7 @@ def test_an_interrupted_run_ends_its_busy_workers_at_once():
     """``end_shared_pool(grace=0)`` (what an interrupted run calls) ends a worker still busy with its
     task by a signal, not after the task (``shutdown`` forgets the pool's processes: they are taken
     first; taken after, none was ended and the 60 s task below ran on)."""
-    from dualmech.validation import executors
+    from dualmech.validation.run import executors
 
     executors.end_shared_pool()
     pool = executors.shared_pool(1)

@@ -1,11 +1,11 @@
-"""The tolerance report's figures (validation/tolerance_report.py): drawn once with margins set from their
+"""The tolerance report's figures (validation/tolerance/report.py): drawn once with margins set from their
 labels, nothing cut off; the same PNG bytes whether a worker process draws them or this one."""
 
 import numpy as np
 import pytest
 
-import dualmech.validation.tolerance_report as report
-from dualmech.validation.tolerance_report import FigureDrawing, draw_figures, figure_jobs
+import dualmech.validation.tolerance.report as report
+from dualmech.validation.tolerance.report import FigureDrawing, draw_figures, figure_jobs
 
 from .worker_exits import exit_code
 

@@ -18,12 +18,13 @@ from click.testing import CliRunner
 from numpy.testing import assert_array_equal
 
 from dualmech.cli import main
-from dualmech.validation import engines, runner
-from dualmech.validation.baseline import baseline_summary, compare_baseline
+from dualmech.validation import engines
 from dualmech.validation.compare import compare_run
+from dualmech.validation.compare.baseline import baseline_summary, compare_baseline
 from dualmech.validation.matrix import MatrixError, load_matrix, parse_matrix
 from dualmech.validation.report.render import write_report
-from dualmech.validation.runner import load_entries, load_results, run_matrix
+from dualmech.validation.run import runner
+from dualmech.validation.run.runner import load_entries, load_results, run_matrix
 
 ROOT = Path(__file__).resolve().parents[2]
 FAKES = "tests.validation.matrix_fakes"
@@ -132,7 +133,7 @@ def test_interrupted_run_resumes_to_identical_results(small, tmp_path, monkeypat
     killed = tmp_path / "killed"
     script = (
         "import sys; from dualmech.validation.matrix import load_matrix; "
-        "from dualmech.validation.runner import run_matrix; "
+        "from dualmech.validation.run.runner import run_matrix; "
         f"run_matrix(load_matrix({str(small)!r}), {str(killed)!r}, jobs=1, registry={slow!r})"
     )
     env = dict(os.environ, MATRIX_FAKES_DELAY="0.3", PYTHONPATH=str(ROOT))
@@ -211,7 +212,7 @@ def test_the_results_in_memory_are_those_stored(tmp_path):
     """The report draws from the run's results in memory (``write_report(results=...)``), so they must be
     what ``load_results`` reads back from the run's files: the same engines in the matrix's order, the same
     meta and the same bits in every column (NaN where NaN)."""
-    from dualmech.validation.api import validate
+    from dualmech.verbs import validate
 
     run = validate("thesis/a4-30-s1-3.5", tmp_path / "run", engines=("dualmech", "mujoco"), jobs=2)
     matrix, _ = runner.load_run(run.outdir)

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import pytest
 
-from dualmech.validation import executors
-from dualmech.validation.executors import WorkerDied
 from dualmech.validation.matrix import load_matrix
-from dualmech.validation.runner import load_entries, run_matrix
+from dualmech.validation.run import executors
+from dualmech.validation.run.executors import WorkerDied
+from dualmech.validation.run.runner import load_entries, run_matrix
 
 from .test_validate import FAKE_REGISTRY, FAKES, ROOT
 
@@ -61,7 +61,7 @@ def _program(moment: str) -> str:
     figure-like task runs in a pool made after a first one was ended."""
     return textwrap.dedent(f"""
         import sys, time
-        from dualmech.validation import executors
+        from dualmech.validation.run import executors
         if __name__ == "__main__":
             moment = {moment!r}
             pool = executors.shared_pool(2)
@@ -267,7 +267,7 @@ def test_a_worker_killed_while_the_report_draws_its_figures_is_one_line():
 def test_a_killed_figure_worker_of_a_tolerance_study_is_one_line():
     """The tolerance study draws its figures in a worker of its own (``FigureDrawing``): killed, it is a
     :class:`WorkerDied` too (found by hand: killing it gave ``BrokenProcessPool``)."""
-    from dualmech.validation.tolerance_report import FigureDrawing
+    from dualmech.validation.tolerance.report import FigureDrawing
 
     drawing = FigureDrawing(parallel=True)
     drawing.warm()

@@ -381,7 +381,7 @@ def _relative_rows(case_id: str, engine: str, mode: str, reference: ResultTable,
 def first_line(message: str, width: int = 200) -> str:
     """The line of an engine's error text that says what went wrong, at most ``width`` characters.
 
-    Engines store ``"<ExceptionType>: <message>"`` first (:func:`dualmech.validation.runner.run_task`);
+    Engines store ``"<ExceptionType>: <message>"`` first (:func:`dualmech.validation.run.runner.run_task`);
     a stored traceback is read from its end, where Python puts that line.
     """
     lines = [ln.strip() for ln in message.strip().splitlines() if ln.strip()]

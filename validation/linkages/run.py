@@ -1,5 +1,5 @@
 """A linkage run: every case of a :class:`~dualmech.validation.linkages.matrix.LinkageMatrix` on every engine
-that solves it, by the matrix runner (:func:`~dualmech.validation.runner.run_matrix`: a process pool, each
+that solves it, by the matrix runner (:func:`~dualmech.validation.run.runner.run_matrix`: a process pool, each
 result stored in the run folder as it finishes, ``resume``), then compared by the gate
 (:mod:`~dualmech.validation.linkages.gate`).
 
@@ -27,8 +27,9 @@ from dualmech.validation.compare import Check, Comparison, Verdict
 from dualmech.validation.linkages.gate import engine_check, judge_checks, reference_check
 from dualmech.validation.linkages.matrix import LinkageEntry, LinkageMatrix
 from dualmech.validation.matrix import Matrix, MatrixCase
+from dualmech.validation.progress import ProgressCallback
+from dualmech.validation.run.runner import load_entries, run_matrix, timings
 from dualmech.validation.rundir import write_file
-from dualmech.validation.runner import ProgressCallback, load_entries, run_matrix, timings
 
 
 @dataclass(frozen=True)
@@ -117,7 +118,8 @@ def run_linkages(matrix: LinkageMatrix, outdir: str | Path | None = None, *, job
     """Solve every case of ``matrix`` on its engines, storing each result in ``outdir`` as it finishes (a
     folder of its own when ``None``, removed after), and compare each judge with the reference.
 
-    ``jobs``, ``resume``, ``scheduler`` and ``progress`` are :func:`~dualmech.validation.runner.run_matrix`'s.
+    ``jobs``, ``resume``, ``scheduler`` and ``progress`` are
+    :func:`~dualmech.validation.run.runner.run_matrix`'s.
     """
     runnable = as_run_matrix(matrix)
     with TemporaryDirectory(prefix="dualmech-linkages-") if outdir is None else nullcontext(outdir) as folder:

@@ -19,12 +19,12 @@ import numpy as np
 
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation.compare import STROKE, Comparison
-from dualmech.validation.executors import shared_pool, worker_died
 from dualmech.validation.matrix import Matrix
+from dualmech.validation.progress import ProgressCallback
 from dualmech.validation.report import interactive
 from dualmech.validation.report.canvas import drawing
 from dualmech.validation.report.plots import Figure, heatmap_figure, shaking_force_figure, sweep_figure
-from dualmech.validation.runner import ProgressCallback
+from dualmech.validation.run.executors import shared_pool, worker_died
 
 #: Figures of each sweep and load mode: (key, title, columns, panel grid (rows, cols)).
 SWEEP_FIGURES: tuple[tuple[str, str, tuple[str, ...], tuple[int, int]], ...] = (
@@ -257,7 +257,7 @@ class PendingFigures:
 def start_figures(matrix: Matrix, results: dict, jobs: int = 1) -> PendingFigures:
     """Plan the report's sweep figures (they need the results only) and start drawing those of the
     matrix's first sweep in the ``jobs`` workers of the shared pool (the run's own:
-    :func:`~dualmech.validation.executors.shared_pool`); :meth:`PendingFigures.add_judged` adds the rest
+    :func:`~dualmech.validation.run.executors.shared_pool`); :meth:`PendingFigures.add_judged` adds the rest
     once the run is compared.
 
     The first sweep's figures keep the workers busy while this process compares the run (the thesis

@@ -15,11 +15,12 @@ from pathlib import Path
 from typing import Any, Callable
 
 from dualmech.models.design_summary import JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION
-from dualmech.validation import derived, runner
 from dualmech.validation.compare import Check, Comparison, compare_run
 from dualmech.validation.durable import json_text
 from dualmech.validation.matrix import Matrix
+from dualmech.validation.progress import ProgressCallback
 from dualmech.validation.provenance import key_versions
+from dualmech.validation.report import derived
 from dualmech.validation.report.figures import PendingFigures, start_figures
 from dualmech.validation.report.interactive import plotly_js
 from dualmech.validation.report.plots import Figure
@@ -33,8 +34,8 @@ from dualmech.validation.report.sections import (
     summary_rows,
     tolerance_rows,
 )
+from dualmech.validation.run import runner
 from dualmech.validation.rundir import locked, record_files, remove_stale, write_file
-from dualmech.validation.runner import ProgressCallback
 
 #: The report's Jinja2 templates.
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
@@ -145,11 +146,11 @@ def write_report(
     (:mod:`~dualmech.validation.rundir`: only a dualmech folder, one writer at a time,
     and only figures it wrote before are removed when they are no longer drawn).
     ``comparison`` and ``results`` (case id -> engine -> table or error text), if given, are the run's as
-    :func:`~dualmech.validation.api.run_and_compare` has them in memory; else they are read and made here.
+    :func:`~dualmech.verbs.run_and_compare` has them in memory; else they are read and made here.
     ``comparison`` may also be a function that makes it: it is called once the first figures are being
     drawn (:func:`~dualmech.validation.report.figures.start_figures`), so that ``jobs`` workers draw while
     this process compares.  ``findings``, if given, gives the thesis's findings (e.g. solved while the run
-    ran: :func:`~dualmech.validation.derived.findings_ahead`); else they are solved here.
+    ran: :func:`~dualmech.validation.report.derived.findings_ahead`); else they are solved here.
     """
     start = time.perf_counter()
     rundir = Path(rundir)

@@ -3,7 +3,7 @@
 Every function here returns plain rows (dicts), a figure's plan or
 :class:`~dualmech.models.design_summary.DesignSummary` objects; :mod:`~dualmech.validation.report.render`
 puts them into the templates.  The numbers no stored table holds (balancing, the thesis's findings)
-come from :mod:`dualmech.validation.derived`.
+come from :mod:`dualmech.validation.report.derived`.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from dualmech.core.status import Status, is_status
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.models.design_summary import DesignSummary, design_summary
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Comparison
-from dualmech.validation.derived import Balancing
 from dualmech.validation.matrix import Matrix
+from dualmech.validation.report.derived import Balancing
 from dualmech.validation.report.figures import FigureSpec
 from dualmech.validation.rundir import write_file
 

@@ -154,7 +154,7 @@ MATRIX_SCHEMA = {
     "sweeps": [{"name": str, "label": str, "keys": [str], "case_ids": MapOf([str])}],
     "tolerances": MapOf(MapOf({"name": str, "value": NUMBER, "reason": str})),
 }
-#: ``run.json`` (:func:`dualmech.validation.runner.run_matrix`).
+#: ``run.json`` (:func:`dualmech.validation.run.runner.run_matrix`).
 RUN_SCHEMA = {
     "format": Check(lambda v: v == RUN_FORMAT, repr(RUN_FORMAT)), "matrix": MATRIX_SCHEMA,
     "started": str, "seconds?": NUMBER, "jobs": int, "scheduler": Nullable(str),
@@ -165,7 +165,7 @@ RUN_SCHEMA = {
 #: slider crank's holds every one of its columns (:func:`check_case_file`), another kind's its own.
 TABLE_SCHEMA = {"engine": str, "case": str, "columns": MapOf(NUMBER_LIST), "status": STATUS_LIST,
                 "meta?": dict}
-#: ``cases/<id>.json`` (:class:`dualmech.validation.runner.CaseFileText`).
+#: ``cases/<id>.json`` (:class:`dualmech.validation.run.runner.CaseFileText`).
 CASE_SCHEMA = {
     "format": str, "id": str, "fingerprint": str, "raw": dict,
     "engines": MapOf({"engine": str, "error?": Nullable(str), "table?": Nullable(TABLE_SCHEMA),

@@ -78,17 +78,17 @@ def gate_main(argv: list[str]) -> int:
     regression, 3 INCOMPLETE).  Prints one JSON line: ``verdict``, ``checks``,
     ``failures``, ``regressions`` (a few of each) and their counts.
     """
-    from dualmech.validation.baseline import (
+    from dualmech.validation.compare import compare_run
+    from dualmech.validation.compare.baseline import (
         baseline_summary,
         compare_baseline,
         read_baseline,
         write_baseline,
     )
-    from dualmech.validation.compare import compare_run
+    from dualmech.validation.compare.junit import describe, write_junit
     from dualmech.validation.exit_codes import exit_code
-    from dualmech.validation.junit import describe, write_junit
     from dualmech.validation.matrix import load_matrix
-    from dualmech.validation.runner import load_entries, run_matrix, run_versions, timings
+    from dualmech.validation.run.runner import load_entries, run_matrix, run_versions, timings
 
     matrix_file, outdir, baseline_in, baseline_out = argv
     matrix = load_matrix(matrix_file)

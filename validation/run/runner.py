@@ -27,20 +27,19 @@ import os
 import platform
 import time
 import traceback
-from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from importlib import import_module
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from dualmech.core.table import ColumnTable
 from dualmech.models.kinds import case_from_data, kind_of
 from dualmech.validation import rundir
 from dualmech.validation.durable import json_text
 from dualmech.validation.engines import ENGINES, runs_here
-from dualmech.validation.executors import check_address, execute
 from dualmech.validation.matrix import Matrix, matrix_from_dict
+from dualmech.validation.progress import ProgressCallback
 from dualmech.validation.provenance import (
     KEY_LIBRARIES,
     case_fingerprint,
@@ -49,6 +48,7 @@ from dualmech.validation.provenance import (
     result_fingerprint,
     versions,
 )
+from dualmech.validation.run.executors import check_address, execute
 from dualmech.validation.rundir import CASE_FORMAT, RUN_FORMAT, locked
 from dualmech.validation.rundir.tables import entry_result, table_to_dict
 
@@ -64,11 +64,6 @@ ENGINE_COST = {"mujoco-sim": 5.0, "mujoco": 1.0, "pinocchio": 0.3, "dualmech": 0
 #: or engine -> ``[mechanism] kind`` -> ``"module:function"`` (:data:`~dualmech.validation.engines.ENGINES`).
 Registry = dict[str, Any]
 
-#: ``progress(done, total, label)``, called after each finished (case, engine).
-ProgressCallback = Callable[[int, int, str], None]
-#: ``tasks(description, unit=...)``: a context manager whose value is the :data:`ProgressCallback` of one
-#: stage of work, shown while inside (the command line's :func:`dualmech.cli.progress.progress`).
-ProgressTasks = Callable[..., AbstractContextManager[ProgressCallback]]
 
 
 @dataclass(frozen=True)

@@ -183,7 +183,7 @@ class FigureDrawing:
     def warm(self) -> None:
         """Spawn the worker now (``parallel`` only)."""
         if self.parallel and self._pool is None:
-            from dualmech.validation.executors import process_pool
+            from dualmech.validation.run.executors import process_pool
 
             self._pool = process_pool(1)
             self._pool.submit(warm_up)
@@ -207,10 +207,10 @@ class FigureDrawing:
 
     def _in_worker(self, step: Any) -> Any:
         """``step()``; a killed worker (``BrokenProcessPool``) as one line, exit 4 at the command line
-        (:func:`~dualmech.validation.executors.worker_died`)."""
+        (:func:`~dualmech.validation.run.executors.worker_died`)."""
         from concurrent.futures.process import BrokenProcessPool
 
-        from dualmech.validation.executors import worker_died
+        from dualmech.validation.run.executors import worker_died
 
         try:
             return step()
@@ -220,10 +220,10 @@ class FigureDrawing:
     def close(self) -> None:
         """End the worker: once the figures were collected it exits by itself (not waited for: it tears
         down while this process writes and prints; the command's end waits for it,
-        :func:`~dualmech.validation.executors.end_all_pools`), else at once."""
+        :func:`~dualmech.validation.run.executors.end_all_pools`), else at once."""
         if self._pool is None:
             return
-        from dualmech.validation.executors import end_pool, let_go
+        from dualmech.validation.run.executors import end_pool, let_go
 
         pool, self._pool = self._pool, None
         if self._collected:

@@ -19,8 +19,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from dualmech.core.files import write_bytes_durable
-from dualmech.validation.baseline import Regression
 from dualmech.validation.compare import ENGINE, Check, Comparison, first_line
+from dualmech.validation.compare.baseline import Regression
 from dualmech.validation.matrix import Matrix
 
 

@@ -41,8 +41,9 @@ if TYPE_CHECKING:
     from dualmech.validation.linkages.report import LinkageReport
     from dualmech.validation.linkages.run import LinkageRun
     from dualmech.validation.matrix import Matrix
+    from dualmech.validation.progress import ProgressCallback, ProgressTasks
     from dualmech.validation.report.render import ReportFiles
-    from dualmech.validation.runner import ProgressCallback, ProgressTasks, RunOutcome
+    from dualmech.validation.run.runner import RunOutcome
 
 
 def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") -> ResultTable:
@@ -164,9 +165,9 @@ def run_and_compare(matrix: Matrix, outdir: Path, *, jobs: int | None = None, re
     """Run every case of ``matrix`` on its engines into ``outdir``; the run compares the judges with the
     reference at the first use of its :attr:`~ValidationRun.comparison`.
 
-    The arguments are those of :func:`~dualmech.validation.runner.run_matrix`.
+    The arguments are those of :func:`~dualmech.validation.run.runner.run_matrix`.
     """
-    from dualmech.validation.runner import run_matrix
+    from dualmech.validation.run.runner import run_matrix
 
     outcome = run_matrix(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=progress)
     return ValidationRun(matrix, outdir, outcome)
@@ -218,7 +219,7 @@ def run_linkage_validation(source: str | Path = "linkages", outdir: str | Path |
                            progress: ProgressCallback | None = None
                            ) -> tuple[LinkageRun, LinkageReport, float]:
     """``dualmech validate`` of the other linkages: solve (each result stored in the run folder as it
-    finishes; ``jobs``, ``resume`` and ``progress`` as :func:`~dualmech.validation.runner.run_matrix`'s),
+    finishes; ``jobs``, ``resume`` and ``progress`` as :func:`~dualmech.validation.run.runner.run_matrix`'s),
     compare, write the report; the run, its files and the seconds spent solving and comparing (the command
     line prints them)."""
     import time
@@ -246,7 +247,7 @@ def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None
 
     from dualmech.validation.linkages.report import write_linkage_report
     from dualmech.validation.linkages.run import run_linkages, stored_linkage_matrix
-    from dualmech.validation.runner import load_run
+    from dualmech.validation.run.runner import load_run
 
     matrix = stored_linkage_matrix(load_run(Path(rundir))[0])
     if matrix is None:
@@ -338,7 +339,7 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
         Sampled designs re-solved by Pinocchio and MuJoCo rigid (>= 0).
     progress : callable, optional
         Shows the Monte Carlo chunks and the spot checks as they are done
-        (:data:`~dualmech.validation.runner.ProgressTasks`; the command line's display).
+        (:data:`~dualmech.validation.run.runner.ProgressTasks`; the command line's display).
 
     Returns
     -------
@@ -347,8 +348,8 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
     """
     from dualmech.models.tolerance.study import StudyInput
     from dualmech.validation.rundir import locked
-    from dualmech.validation.tolerance_report import FigureDrawing, write_tolerance_report
-    from dualmech.validation.tolerance_study import run_study
+    from dualmech.validation.tolerance.report import FigureDrawing, write_tolerance_report
+    from dualmech.validation.tolerance.study import run_study
 
     nominal = as_case(case)
     warn_implausible(nominal)

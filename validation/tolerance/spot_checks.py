@@ -23,7 +23,7 @@ from dualmech.validation.compare import compare_case
 from dualmech.validation.matrix import COMPARABLE, resolve_tolerances
 
 if TYPE_CHECKING:
-    from dualmech.validation.runner import ProgressCallback
+    from dualmech.validation.progress import ProgressCallback
 
 #: The judges of a tolerance study: the exact rigid-body engines (the simulation's tolerances are
 #: far looser than a design's spread, so it would not tell designs apart).

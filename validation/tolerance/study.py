@@ -6,11 +6,11 @@ This module runs them in the study's folder (:mod:`~dualmech.validation.rundir`'
 file atomic; a chunk fsynced when stored, so that a resume can rely on it, and recomputed if it is
 damaged or of another study): the chunks in this process (:data:`IN_FLIGHT` at once, so that the kernel's
 threads solve one chunk while this process reduces, stores and writes another), in a process pool
-(``jobs``) or on a Dask cluster (``scheduler``) through :func:`dualmech.validation.executors.execute`,
+(``jobs``) or on a Dask cluster (``scheduler``) through :func:`dualmech.validation.run.executors.execute`,
 each stored as it finishes and streamed into the samples files in design order; then the exact
-sensitivities and their check, the judges' spot checks (:mod:`~dualmech.validation.tolerance_judges`)
+sensitivities and their check, the judges' spot checks (:mod:`~dualmech.validation.tolerance.spot_checks`)
 and ``DIR/summary.json`` with the library versions.  The report's figures, which need only the samples
-and the statistics, may be drawn meanwhile (:class:`~dualmech.validation.tolerance_report.FigureDrawing`).
+and the statistics, may be drawn meanwhile (:class:`~dualmech.validation.tolerance.report.FigureDrawing`).
 """
 
 from __future__ import annotations
@@ -51,13 +51,13 @@ from dualmech.models.tolerance.study import (
 from dualmech.models.tolerance.summary import summarize
 from dualmech.validation import rundir
 from dualmech.validation.durable import json_text
-from dualmech.validation.executors import execute
 from dualmech.validation.provenance import versions
-from dualmech.validation.tolerance_judges import candidates, run_spot_checks
-from dualmech.validation.tolerance_report import FigureDrawing
+from dualmech.validation.run.executors import execute
+from dualmech.validation.tolerance.report import FigureDrawing
+from dualmech.validation.tolerance.spot_checks import candidates, run_spot_checks
 
 if TYPE_CHECKING:
-    from dualmech.validation.runner import ProgressCallback, ProgressTasks
+    from dualmech.validation.progress import ProgressCallback, ProgressTasks
 
 #: Chunks solved at once in this process (``jobs = 1``): the kernel releases the GIL, so while its
 #: threads work on one chunk's positions this thread reduces, stores and writes another, and the
@@ -222,9 +222,9 @@ def run_study(study: StudyInput, method: str, outdir: Path, jobs: int = 1, sched
     dualmech's, locked while the study runs, every file written atomically.
 
     Sampled key values ``(n, k)`` and outputs are ``None`` for ``method = "linear"``.  ``figures``: started
-    (:meth:`~dualmech.validation.tolerance_report.FigureDrawing.start`) once the statistics are known,
+    (:meth:`~dualmech.validation.tolerance.report.FigureDrawing.start`) once the statistics are known,
     before the spot checks.  ``tasks``: the progress of the Monte Carlo chunks and of the spot checks is
-    shown as two of its tasks (:data:`~dualmech.validation.runner.ProgressTasks`).
+    shown as two of its tasks (:data:`~dualmech.validation.run.runner.ProgressTasks`).
     """
     _check_inputs(study, method, judge_samples)
     with rundir.locked(outdir) as outdir:
