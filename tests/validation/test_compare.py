@@ -18,13 +18,13 @@ from click.testing import CliRunner
 from dualmech.cli import main
 from dualmech.core.status import Status
 from dualmech.core.table import ResultTable
-from dualmech.validation import provenance, report
+from dualmech.validation import provenance
 from dualmech.validation.compare import STATUS, Verdict, compare_case, compare_run
 from dualmech.validation.compare.baseline import baseline_summary, compare_baseline
 from dualmech.validation.compare.conditioning import Conditioning, edge_error
 from dualmech.validation.compare.junit import junit_tree
 from dualmech.validation.matrix import load_matrix
-from dualmech.validation.report import derived
+from dualmech.validation.report import derived, render
 from dualmech.validation.run.runner import case_file, load_results, run_matrix
 from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, CLOSURE_PRECISION
 
@@ -241,8 +241,8 @@ def test_a_broken_report_section_fails_the_report(small, tmp_path, monkeypatch):
     out = tmp_path / "run"
     run_matrix(matrix, out, jobs=1, registry=FAKE_REGISTRY)
     monkeypatch.setattr(derived, "FINDINGS_FUNCTION", f"{FAKES}:solve_case_raises")
-    with pytest.raises(report.ReportError, match="report section 'findings' failed: TypeError"):
-        report.write_report(out, None, jobs=1)
+    with pytest.raises(render.ReportError, match="report section 'findings' failed: TypeError"):
+        render.write_report(out, None, jobs=1)
     assert not Path(out / "summary.json").exists()
 
 
