@@ -107,8 +107,8 @@ def mechanism(case: Any) -> Mechanism:
     """The :class:`Mechanism` of a checked linkage case (``ValueError`` for anything else)."""
     kinds = {RssrCase: "rssr", RcccCase: "rccc"}
     if type(case) not in kinds:
-        raise ValueError(f"forward dynamics: a {type(case).__name__} is not simulated (an RSSR or RCCC case "
-                         "is; a loop table has no forward dynamics yet: solve or validate it)")
+        raise ValueError(f"forward dynamics: a {type(case).__name__} is not simulated here (an RSSR or RCCC "
+                         "case is; a loop table by dualmech.models.loop.forward_dynamics)")
     return MECHANISMS[kinds[type(case)]]
 
 
@@ -181,7 +181,7 @@ def interpolation_error(c: Coefficients) -> float:
 
 
 @dataclass(frozen=True)
-class _EquationOfMotion:
+class EquationOfMotion:
     """The right-hand side for ``y = (theta, theta_dot, W^A, W^O, D)``: the input angle and rate, the work
     of the drive and of the output torque, and the energy the input bearing dissipated.  ``model(theta)``
     ``(4, k)`` is the coefficients' interface of :func:`dualmech.models.forward_dynamics.integrate`."""
@@ -247,7 +247,7 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
                                                                                           CRANK_ANGLE)
     psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0, CRANK_SPEED)
     c = coefficients(case) if coeffs is None else coeffs
-    rhs = _EquationOfMotion(c.spline(), tau, output_torque, damping)
+    rhs = EquationOfMotion(c.spline(), tau, output_torque, damping)
     sol = integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
                      np.linspace(0.0, duration, int(samples)), method, rtol, atol, progress)
     info = {"method": method, "rtol": rtol, "atol": atol, "nfev": int(sol.nfev), "coefficients": "table",
@@ -325,7 +325,7 @@ def energy(case: Any, theta: np.ndarray, theta_dot: np.ndarray) -> np.ndarray:
     return sum(energies(case, an))
 
 
-def trajectory(case: Any, rhs: _EquationOfMotion, t: np.ndarray, y: np.ndarray,
+def trajectory(case: Any, rhs: EquationOfMotion, t: np.ndarray, y: np.ndarray,
                info: dict) -> LinkageSimulation:
     """The in-house pose, rates, reactions and energies along an integrated motion ``y`` ``(5, n)``."""
     psi, w = y[0], y[1]
