@@ -130,22 +130,26 @@ def inverse_case(case: Any) -> Any:
 class Coefficients:
     """``theta`` ``(m,)`` rad (a full turn, both ends) and there ``inertia`` (F·L·s²), ``velocity``
     (F·L·s²), ``load`` (F·L), ``ratio`` (the output link's rate per unit input rate): the drive torque is
-    ``inertia * theta_ddot + velocity * theta_dot^2 + load``."""
+    ``inertia * theta_ddot + velocity * theta_dot^2 + load``.  ``periodic``: ``theta`` spans a turn whose
+    ends are the same pose; ``False``: only the range a loop table's drive assembles over
+    (:mod:`dualmech.models.loop.forward_dynamics`)."""
 
     theta: np.ndarray
     inertia: np.ndarray
     velocity: np.ndarray
     load: np.ndarray
     ratio: np.ndarray
+    periodic: bool = True
 
     def stacked(self) -> np.ndarray:
         """``(m, 4)``: inertia, velocity, load, ratio."""
         return np.stack([self.inertia, self.velocity, self.load, self.ratio], axis=1)
 
     def spline(self, step: int = 1) -> BSpline:
-        """The periodic spline (:data:`SPLINE_DEGREE`) of :meth:`stacked` on every ``step``-th angle."""
+        """The spline (:data:`SPLINE_DEGREE`; periodic if :attr:`periodic`, else not-a-knot) of
+        :meth:`stacked` on every ``step``-th angle."""
         return make_interp_spline(self.theta[::step], self.stacked()[::step], k=SPLINE_DEGREE,
-                                  bc_type="periodic")
+                                  bc_type="periodic" if self.periodic else None)
 
 
 def coefficients(case: Any, points: int = POINTS, analyze: Mechanism | None = None) -> Coefficients:
