@@ -43,7 +43,8 @@ from dualmech.models.mjcf_export import SPEED_SERVO_STEPS, comment_text
 from dualmech.validation.judges.mujoco_loop.closure import build as build_loop
 from dualmech.validation.judges.mujoco_loop.mjcf import CUT_SITES, joint_name
 from dualmech.validation.judges.mujoco_loop.sim_mjcf import HALF_SITE, SimSettings, loop_sim_mjcf
-from dualmech.validation.judges.mujoco_loop.sim_plan import length, plan, survey
+from dualmech.validation.judges.mujoco_loop.sim_plan import Survey, length, plan, survey
+from dualmech.validation.judges.mujoco_loop.sim_plan import settings as sim_settings
 from dualmech.validation.judges.mujoco_loop.simulation import reference, run_start
 from dualmech.validation.mujoco_engine import assembled_state, build
 from dualmech.validation.tolerances import MJCF_EXPORT_CRANK_SPEED, MJCF_EXPORT_LOOP_GAP
@@ -130,6 +131,15 @@ def check_export(xml: str, case: Case, steps: int) -> ExportCheck:
     return ExportCheck(m.opt.timestep, steps, assembled, loop_gap, speed_error if not unstable else math.inf)
 
 
+def shrink(check: ExportCheck) -> float:
+    """The factor of the next time step to try after a failed ``check``: the loop gap shrinks like
+    :math:`\\Delta t^2`, the speed servo's lag like :math:`\\Delta t` (its gain ~ 1/dt); 0.25 where the run
+    blew up."""
+    factor = min(0.9 * math.sqrt(CHECK_MARGIN * MJCF_EXPORT_LOOP_GAP.value / check.loop_gap),
+                 0.9 * CHECK_MARGIN * MJCF_EXPORT_CRANK_SPEED.value / max(check.speed_error, 1e-300), 0.9)
+    return factor if factor > 0.0 else 0.25
+
+
 def export_mjcf(case: Case, file_name: str = "model.xml") -> tuple[str, ExportCheck]:
     """The MJCF text of :func:`~dualmech.models.mjcf.runnable_mjcf` with a measured time step, and its check.
 
@@ -152,10 +162,7 @@ def export_mjcf(case: Case, file_name: str = "model.xml") -> tuple[str, ExportCh
             second = (f"  the crank speed within {check.speed_error:.2g} of the case's "
                       f"(limit {MJCF_EXPORT_CRANK_SPEED.value:g}).")
             return runnable_mjcf(case, start, dt, file_name, (first, second)), check
-        # the gap shrinks like dt^2, the speed servo's lag like dt (its gain ~ 1/dt)
-        shrink = min(0.9 * math.sqrt(CHECK_MARGIN * MJCF_EXPORT_LOOP_GAP.value / check.loop_gap),
-                     0.9 * CHECK_MARGIN * MJCF_EXPORT_CRANK_SPEED.value / max(check.speed_error, 1e-300), 0.9)
-        dt *= shrink if shrink > 0.0 else 0.25
+        dt *= shrink(check)
     raise ValueError(f"case: the exported model does not keep its loop closed (gap "
                      f"{check.loop_gap:.3g} of a2 at dt = {check.timestep:.3g} s over {check.steps} steps; "
                      "does it assemble at every crank angle?)")
@@ -193,19 +200,19 @@ class LoopStart:
     """The exported loop model's keyframe: ``qpos``, ``qvel`` of the simulation MJCF (joints 1 .. n-1, then
     joint n's on the ground half), the loop closed at the first drive position by the MuJoCo judge and
     moving at the drive's speed; ``ctrl`` the drive's speed, a C drive's slide, then the loads' efforts;
-    ``speed_kv`` the drive's velocity servo gain: the largest effective inertia about the drive the judge's
-    survey measured, over :data:`~dualmech.models.mjcf_export.SPEED_SERVO_STEPS` time steps (as the slider
-    crank's ``crank_speed``; ``implicitfast`` integrates it implicitly)."""
+    ``drive_inertia`` the largest effective inertia about the drive the judge's survey measured (the
+    velocity servo's gain is it over :data:`~dualmech.models.mjcf_export.SPEED_SERVO_STEPS` time steps, as
+    the slider crank's ``crank_speed``; ``implicitfast`` integrates it implicitly)."""
 
     qpos: np.ndarray
     qvel: np.ndarray
     ctrl: np.ndarray
-    speed_kv: float
+    drive_inertia: float
 
 
-def loop_start(mechanism: LoopMechanism) -> tuple[LoopStart, SimSettings]:
-    """The keyframe and the simulated judge's settings of ``mechanism`` (its survey and plan,
-    :mod:`dualmech.validation.judges.mujoco_loop.sim_plan`).
+def loop_start(mechanism: LoopMechanism) -> tuple[LoopStart, Survey]:
+    """The keyframe of ``mechanism`` and the simulated judge's survey of it
+    (:mod:`dualmech.validation.judges.mujoco_loop.sim_plan`).
 
     Raises
     ------
@@ -222,12 +229,10 @@ def loop_start(mechanism: LoopMechanism) -> tuple[LoopStart, SimSettings]:
     if sv.status[0] != Status.OK.value:
         raise ValueError(f"drive.positions: {mechanism.name!r} does not close at its first drive position "
                          f"({sv.status[0]}); start the case where it assembles")
-    s, _, _ = plan(mechanism, sv)
     values, rates = reference(mechanism, 0, np.array([0.0]))
     qpos, qvel = run_start(build_loop(mechanism), sv, 0, values[0], rates[0])
     loads = [0.0 if load.value is None else load.value for load in mechanism.loads]
-    kv = sv.inertia_high[0] / (SPEED_SERVO_STEPS * s.timestep)
-    return LoopStart(qpos, qvel, np.array([rates[0, 0], *values[0, 1:], *loads]), kv), s
+    return LoopStart(qpos, qvel, np.array([rates[0, 0], *values[0, 1:], *loads]), sv.inertia_high[0]), sv
 
 
 def loop_export_xml(mechanism: LoopMechanism, start: LoopStart, s: SimSettings, file_name: str,
@@ -239,7 +244,7 @@ def loop_export_xml(mechanism: LoopMechanism, start: LoopStart, s: SimSettings, 
     actuators = root.find("actuator")
     servo = actuators[0]
     speed = ET.Element("velocity", name=LOOP_DRIVE_ACTUATOR, joint=servo.get("joint"),
-                       kv=repr(start.speed_kv))
+                       kv=repr(start.drive_inertia / (SPEED_SERVO_STEPS * s.timestep)))
     actuators.remove(servo)
     actuators.insert(0, speed)
     ET.SubElement(ET.SubElement(root, "keyframe"), "key", name=KEY_NAME, qpos=_text(start.qpos),
@@ -315,9 +320,18 @@ def check_loop_export(xml: str, mechanism: LoopMechanism, steps: int) -> ExportC
     return ExportCheck(m.opt.timestep, steps, assembled, loop_gap, error if not unstable else math.inf)
 
 
+def _checked(check: ExportCheck) -> tuple[str, str]:
+    """The header's lines on a passed check of a loop model."""
+    return (f"Checked when written: {check.steps} steps from the keyframe; the cut's gap stayed within "
+            f"{check.loop_gap:.2g} of the table's length (limit {MJCF_EXPORT_LOOP_GAP.value:g}),",
+            f"  the drive's rate within {check.speed_error:.2g} of its speed "
+            f"(limit {MJCF_EXPORT_CRANK_SPEED.value:g}).")
+
+
 def export_loop_mjcf(case: Any, file_name: str = "model.xml") -> tuple[str, ExportCheck]:
     """The MJCF of a linkage case's loop table (:func:`loop_table_of`) that runs as written, and its check:
-    stepped from its keyframe over the drive's range of positions (at most :data:`CHECK_STEPS` steps).
+    stepped from its keyframe over the drive's range of positions (at most :data:`CHECK_STEPS` steps), the
+    judge's time step shrunk (:func:`shrink`, at most :data:`TIMESTEP_TRIALS` trials) until it passes.
 
     Raises
     ------
@@ -325,18 +339,17 @@ def export_loop_mjcf(case: Any, file_name: str = "model.xml") -> tuple[str, Expo
         One line: :func:`loop_start`'s, or the check run does not keep the loop closed and the speed.
     """
     mechanism = loop_table_of(case)
-    start, s = loop_start(mechanism)
+    start, sv = loop_start(mechanism)
+    s = plan(mechanism, sv)[0]
     d = mechanism.drive
     least = math.radians(1.0) if d.coordinate == "theta" else length(mechanism)
     span = max(float(np.ptp(d.positions)), least)
-    steps = min(CHECK_STEPS, math.ceil(span / (abs(d.speed) * s.timestep))) if d.speed else CHECK_STEPS
-    check = check_loop_export(loop_export_xml(mechanism, start, s, file_name), mechanism, steps)
-    if not check.passed:
-        raise ValueError(f"case: the exported model does not keep its loop closed and its speed (gap "
-                         f"{check.loop_gap:.3g} of the table's length, speed error {check.speed_error:.3g} "
-                         f"at dt = {check.timestep:.3g} s over {check.steps} steps)")
-    notes = (f"Checked when written: {check.steps} steps from the keyframe; the cut's gap stayed within "
-             f"{check.loop_gap:.2g} of the table's length (limit {MJCF_EXPORT_LOOP_GAP.value:g}),",
-             f"  the drive's rate within {check.speed_error:.2g} of its speed "
-             f"(limit {MJCF_EXPORT_CRANK_SPEED.value:g}).")
-    return loop_export_xml(mechanism, start, s, file_name, notes), check
+    for _ in range(TIMESTEP_TRIALS):
+        steps = min(CHECK_STEPS, math.ceil(span / (abs(d.speed) * s.timestep))) if d.speed else CHECK_STEPS
+        check = check_loop_export(loop_export_xml(mechanism, start, s, file_name), mechanism, steps)
+        if check.passed:
+            return loop_export_xml(mechanism, start, s, file_name, _checked(check)), check
+        s = sim_settings(mechanism, s.timestep * shrink(check), sv)
+    raise ValueError(f"case: the exported model does not keep its loop closed and its speed (gap "
+                     f"{check.loop_gap:.3g} of the table's length, speed error {check.speed_error:.3g} "
+                     f"at dt = {check.timestep:.3g} s over {check.steps} steps)")

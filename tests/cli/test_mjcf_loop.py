@@ -85,3 +85,17 @@ def test_mjcf_refuses_a_loop_table_driven_at_its_last_joint(tmp_path: Path) -> N
     result = CliRunner().invoke(main, ["mjcf", str(path), "-o", str(tmp_path / "x.xml")])
     assert result.exit_code == EXIT_BAD_INPUT and result.output.count("\n") == 1, result.output
     assert "is driven at its last joint (4); the exported model cuts the loop" in result.output
+
+
+def test_mjcf_of_a_loop_at_rest_shrinks_the_time_step_until_it_holds(tmp_path: Path) -> None:
+    """At speed 0 the velocity servo holds the drive against gravity with a lag ~ 1/kv ~ dt: the judge's
+    time step lets it creep 1.8e-4 rad/s, over the limit; the export shrinks the step as the slider
+    crank's."""
+    case = CliRunner().invoke(main, ["case-path", "rscr"]).output.strip()
+    path = tmp_path / "still.toml"
+    path.write_text(Path(case).read_text().replace("speed = 10.0", "speed = 0.0"))
+    out = tmp_path / "still.xml"
+    result = CliRunner().invoke(main, ["mjcf", str(path), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    m = mujoco.MjModel.from_xml_path(str(out))
+    assert m.opt.timestep < 1e-4 and "Checked when written" in out.read_text()
