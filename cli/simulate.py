@@ -74,17 +74,17 @@ def summarize_loop(sim) -> str:
     """The same for a loop table (:class:`~dualmech.models.loop.forward_dynamics.LoopSimulation`): the work
     of its given loads in place of the slider."""
     middle = f"given loads: work {sim.work_loads[-1]:.6g}; dissipated {sim.dissipated[-1]:.6g}"
-    return _summary(sim, middle, (sim.work_drive, sim.work_loads))
+    return _summary(sim, middle, (sim.work_drive, sim.work_loads), "drive")
 
 
-def _summary(sim, middle: str, works: tuple[np.ndarray, ...]) -> str:
-    """Span, crank, ``middle``, the work-energy residual over the largest of the kinetic energy and
-    ``works``, the integrator."""
+def _summary(sim, middle: str, works: tuple[np.ndarray, ...], driven: str = "crank") -> str:
+    """Span, the ``driven`` angle, ``middle``, the work-energy residual over the largest of the kinetic energy
+    and ``works``, the integrator."""
     e_scale = max(float(np.abs(sim.kinetic).max()), *(float(np.abs(w).max()) for w in works), 1e-300)
     info = sim.info
     lines = [
         f"case {sim.case.name}: {len(sim.t)} samples over {sim.t[-1]:.6g} s",
-        f"crank: {np.degrees(sim.psi[0]):.6g} -> {np.degrees(sim.psi[-1]):.6g} deg "
+        f"{driven}: {np.degrees(sim.psi[0]):.6g} -> {np.degrees(sim.psi[-1]):.6g} deg "
         f"({(sim.psi[-1] - sim.psi[0]) / (2 * np.pi):.4g} rev), "
         f"speed {sim.psi_dot[0]:.6g} -> {sim.psi_dot[-1]:.6g} rad/s",
         middle,

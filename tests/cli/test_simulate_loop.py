@@ -68,6 +68,7 @@ def test_simulate_writes_the_loop_motion(name: str, tmp_path: Path) -> None:
         assert_allclose(values[:, k], direct.columns()[column], rtol=0, atol=0, err_msg=column)
     assert values[0, header.index("psi")] == np.radians(30.0) and values[0, header.index("psi_dot")] == 5.0
     assert "given loads: work" in result.output and "work-energy residual" in result.output
+    assert "\ndrive: " in result.output
 
 
 @pytest.mark.parametrize(("args", "words"), [
