@@ -27,9 +27,9 @@ columns and the energies (``docs/conventions.md``, "Loop tables", simulate).
 
 A drive that does not turn fully (or a loop that does not come back to its pose after a turn) is tabulated
 over the range of its drive positions instead, and a motion leaving that range stops in one line.  Refused
-in one line: a drive by a slide (P: no turn to tabulate, its stroke ends where a crank it drives has a dead
-centre), a C drive whose axial law does not repeat every turn, a loop that neither turns fully nor
-assembles over its drive positions.
+in one line: a drive by a slide (P: its stroke ends where a crank it drives has a dead centre, the slide's
+generalized inertia unbounded there), a C drive whose axial law does not repeat every turn, a loop that
+neither turns fully nor assembles over its drive positions.
 """
 
 from __future__ import annotations
@@ -88,9 +88,9 @@ def check_simulated(mechanism: LoopMechanism) -> None:
     kind = mechanism.joints[d.joint].type
     if d.coordinate != "theta":
         raise ValueError(f"simulate: {mechanism.name!r} is driven at joint[{d.joint + 1}]'s slide ({kind}); "
-                         "a loop's forward dynamics integrates a drive angle over its turn (a slide has no "
-                         "turn, and its stroke ends where the joint it drives has a dead centre): drive an "
-                         "R or C joint")
+                         "a loop's forward dynamics integrates a drive angle (a slide's stroke ends where "
+                         "the joint it drives has a dead centre, its inertia unbounded there): drive an R or "
+                         "C joint")
     if kind == "C" and d.axial_amplitude and d.axial_cycles != round(d.axial_cycles):
         raise ValueError(f"simulate: drive.axial_cycles = {d.axial_cycles!r} does not repeat the C joint's "
                          "axial law every turn; the forward dynamics needs a whole number")
