@@ -70,14 +70,21 @@ def summarize_linkage(sim) -> str:
     return _summary(sim, middle, (sim.work_drive, sim.work_output))
 
 
-def _summary(sim, middle: str, works: tuple[np.ndarray, ...]) -> str:
-    """Span, crank, ``middle``, the work-energy residual over the largest of the kinetic energy and
-    ``works``, the integrator."""
+def summarize_loop(sim) -> str:
+    """The same for a loop table (:class:`~dualmech.models.loop.forward_dynamics.LoopSimulation`): the work
+    of its given loads in place of the slider."""
+    middle = f"given loads: work {sim.work_loads[-1]:.6g}; dissipated {sim.dissipated[-1]:.6g}"
+    return _summary(sim, middle, (sim.work_drive, sim.work_loads), "drive")
+
+
+def _summary(sim, middle: str, works: tuple[np.ndarray, ...], driven: str = "crank") -> str:
+    """Span, the ``driven`` angle, ``middle``, the work-energy residual over the largest of the kinetic energy
+    and ``works``, the integrator."""
     e_scale = max(float(np.abs(sim.kinetic).max()), *(float(np.abs(w).max()) for w in works), 1e-300)
     info = sim.info
     lines = [
         f"case {sim.case.name}: {len(sim.t)} samples over {sim.t[-1]:.6g} s",
-        f"crank: {np.degrees(sim.psi[0]):.6g} -> {np.degrees(sim.psi[-1]):.6g} deg "
+        f"{driven}: {np.degrees(sim.psi[0]):.6g} -> {np.degrees(sim.psi[-1]):.6g} deg "
         f"({(sim.psi[-1] - sim.psi[0]) / (2 * np.pi):.4g} rev), "
         f"speed {sim.psi_dot[0]:.6g} -> {sim.psi_dot[-1]:.6g} rad/s",
         middle,
@@ -128,7 +135,9 @@ def simulate(case: str, duration: str, torque: str | None, slider_load: str | No
 
     A linkage case (``[mechanism] kind`` rssr or rccc) integrates its input's equation of motion under
     --torque (an expression in t, psi, psidot) and the case's output torque, and writes its own columns
-    (docs/conventions.md, "Linkages"); --slider-load and --slider-damping do not apply to it."""
+    (docs/conventions.md, "Linkages"); a loop table (``kind = "loop"``, driven by an angle) integrates its
+    drive's under --torque (the drive effort) and its given loads, and writes the loop table's columns
+    (docs/conventions.md, "Loop tables"); --slider-load and --slider-damping apply to neither."""
     from dualmech.models import forward_dynamics as fd
 
     psi0_deg = parse_number("--psi0", psi0, ANGLE_DEG)
@@ -137,12 +146,17 @@ def simulate(case: str, duration: str, torque: str | None, slider_load: str | No
         _refuse_slider_options(case)
         from dualmech.models.linkages import forward_dynamics as lfd
         from dualmech.models.linkages import linkage_case
+        from dualmech.models.loop import forward_dynamics as loop_fd
+        from dualmech.models.loop.description import LoopMechanism
 
         settings = _settings(duration, psidot0, damping, None, samples, method, rtol, atol, max_evaluations,
                              time_limit)
+        c = linkage_case(case)
+        loop = isinstance(c, LoopMechanism)
         with progress(f"simulate {case}", unit="s") as bar:
-            sim = lfd.simulate(linkage_case(case), torque=torque, psi0=psi0_rad, progress=bar, **settings)
-        summary = summarize_linkage(sim)
+            run = loop_fd.simulate if loop else lfd.simulate
+            sim = run(c, torque=torque, psi0=psi0_rad, progress=bar, **settings)
+        summary = summarize_loop(sim) if loop else summarize_linkage(sim)
     else:
         settings = _settings(duration, psidot0, damping, slider_damping, samples, method, rtol, atol,
                              max_evaluations, time_limit)
@@ -187,6 +201,6 @@ def _refuse_slider_options(case: str) -> None:
     given = [flag for name, flag in SLIDER_OPTIONS.items()
              if ctx.get_parameter_source(name) is not ParameterSource.DEFAULT]
     if given:
-        raise ValueError(f"{given[0]}: {case!r} is a linkage (no slider); its load is the case's "
-                         "loads.output_torque, its options --torque, --damping, --psi0, --psidot0 and the "
-                         "integrator's")
+        raise ValueError(f"{given[0]}: {case!r} is a linkage (no slider); its loads are the case's "
+                         "(loads.output_torque, or a loop table's [[load]] rows), its options --torque, "
+                         "--damping, --psi0, --psidot0 and the integrator's")

@@ -189,12 +189,19 @@ def mjcf(case: str, output: str) -> None:
     case's first crank angle (found by MuJoCo itself); the keyframe sets the
     crank-speed servo to the case's speed; the time step is the largest found
     to keep the loop closed while the crank turns (validation/mujoco_export.py).
+    An RSSR, RCCC or loop-table case writes its loop table's model, built by the
+    MuJoCo judge's own builder, with its keyframe "turning" (docs/conventions.md,
+    "Loop tables").
     """
+    from dualmech.models.linkages import is_linkage
     from dualmech.models.mjcf import KEY_NAME
     from dualmech.validation.mujoco_export import export_mjcf
 
-    c = load_case(case)
     path = Path(output)
+    if is_linkage(case):
+        _loop_mjcf(case, path)
+        return
+    c = load_case(case)
     xml, check = export_mjcf(c, path.name)
     write_text_durable(path, xml)
     w = c.motion.speed
@@ -206,6 +213,22 @@ def mjcf(case: str, output: str) -> None:
         click.echo("note: the model turns the crank at a constant speed with S1 held; the case's crank_accel "
                    "and axial S1 law need a controller that sets ctrl over time")
     click.echo(f"open it: python -m mujoco.viewer --mjcf={output}, then Simulation > Load key")
+
+
+def _loop_mjcf(case: str, path: Path) -> None:
+    """``mjcf`` of a linkage case: its loop table's model (:func:`~dualmech.validation.mujoco_export.
+    export_loop_mjcf`), written and summed up in one line."""
+    from dualmech.models.linkages import linkage_case
+    from dualmech.models.mjcf import KEY_NAME
+    from dualmech.validation.mujoco_export import export_loop_mjcf
+
+    xml, check = export_loop_mjcf(linkage_case(case), path.name)
+    write_text_durable(path, xml)
+    click.echo(f"wrote {path}: loop table closed at the first drive position (cut gap "
+               f"{check.assembled_gap:.2g} of its length); time step {check.timestep:.3g} s; {check.steps} "
+               f"steps from key {KEY_NAME!r}: cut gap <= {check.loop_gap:.2g}, drive rate within "
+               f"{check.speed_error:.2g} of its speed")
+    click.echo(f"open it: python -m mujoco.viewer --mjcf={path}, then Simulation > Load key")
 
 
 @click.command()

@@ -22,14 +22,30 @@ what the text needs and only MuJoCo can give without the in-house solver
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, replace
+from typing import Any
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from dualmech.core.status import Status
 from dualmech.models.case import Case
+from dualmech.models.linkages.rccc_case import RcccCase
+from dualmech.models.linkages.rssr_case import RssrCase
+from dualmech.models.loop.columns import COORDINATES
+from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.loop.presets import rccc_start, rccc_table, rssr_start, rssr_table
+from dualmech.models.loop.translate import to_loop
 from dualmech.models.mjcf import KEY_NAME, MjcfStart, check_exportable, runnable_mjcf
+from dualmech.models.mjcf_export import SPEED_SERVO_STEPS, comment_text
+from dualmech.validation.judges.mujoco_loop.closure import build as build_loop
+from dualmech.validation.judges.mujoco_loop.mjcf import CUT_SITES, joint_name
+from dualmech.validation.judges.mujoco_loop.sim_mjcf import HALF_SITE, SimSettings, loop_sim_mjcf
+from dualmech.validation.judges.mujoco_loop.sim_plan import Survey, length, plan, survey
+from dualmech.validation.judges.mujoco_loop.sim_plan import settings as sim_settings
+from dualmech.validation.judges.mujoco_loop.simulation import reference, run_start
 from dualmech.validation.mujoco_engine import assembled_state, build
 from dualmech.validation.tolerances import MJCF_EXPORT_CRANK_SPEED, MJCF_EXPORT_LOOP_GAP
 
@@ -115,6 +131,15 @@ def check_export(xml: str, case: Case, steps: int) -> ExportCheck:
     return ExportCheck(m.opt.timestep, steps, assembled, loop_gap, speed_error if not unstable else math.inf)
 
 
+def shrink(check: ExportCheck) -> float:
+    """The factor of the next time step to try after a failed ``check``: the loop gap shrinks like
+    :math:`\\Delta t^2`, the speed servo's lag like :math:`\\Delta t` (its gain ~ 1/dt); 0.25 where the run
+    blew up."""
+    factor = min(0.9 * math.sqrt(CHECK_MARGIN * MJCF_EXPORT_LOOP_GAP.value / check.loop_gap),
+                 0.9 * CHECK_MARGIN * MJCF_EXPORT_CRANK_SPEED.value / max(check.speed_error, 1e-300), 0.9)
+    return factor if factor > 0.0 else 0.25
+
+
 def export_mjcf(case: Case, file_name: str = "model.xml") -> tuple[str, ExportCheck]:
     """The MJCF text of :func:`~dualmech.models.mjcf.runnable_mjcf` with a measured time step, and its check.
 
@@ -137,10 +162,194 @@ def export_mjcf(case: Case, file_name: str = "model.xml") -> tuple[str, ExportCh
             second = (f"  the crank speed within {check.speed_error:.2g} of the case's "
                       f"(limit {MJCF_EXPORT_CRANK_SPEED.value:g}).")
             return runnable_mjcf(case, start, dt, file_name, (first, second)), check
-        # the gap shrinks like dt^2, the speed servo's lag like dt (its gain ~ 1/dt)
-        shrink = min(0.9 * math.sqrt(CHECK_MARGIN * MJCF_EXPORT_LOOP_GAP.value / check.loop_gap),
-                     0.9 * CHECK_MARGIN * MJCF_EXPORT_CRANK_SPEED.value / max(check.speed_error, 1e-300), 0.9)
-        dt *= shrink if shrink > 0.0 else 0.25
+        dt *= shrink(check)
     raise ValueError(f"case: the exported model does not keep its loop closed (gap "
                      f"{check.loop_gap:.3g} of a2 at dt = {check.timestep:.3g} s over {check.steps} steps; "
                      "does it assemble at every crank angle?)")
+
+
+# ----------------------------------------------------------------------------- a loop table's model
+
+#: Name of the exported loop model's drive-speed actuator (the judge's position servo made a velocity one).
+LOOP_DRIVE_ACTUATOR = "drive_speed"
+
+
+def loop_table_of(case: Any) -> LoopMechanism:
+    """The loop table of any linkage case: a loop table as is; an RSSR or RCCC by its preset
+    (:mod:`dualmech.models.loop.presets`), every joint's ``start`` its own estimate at the first crank angle
+    on the case's branch (the RSSR's closed form, the RCCC's spherical estimate)."""
+    if isinstance(case, LoopMechanism):
+        return case
+    table, start = {RssrCase: (rssr_table, rssr_start), RcccCase: (rccc_table, rccc_start)}[type(case)]
+    mechanism, state = table(case), start(case)
+    values = dict(zip(to_loop(mechanism).unknowns, state.scalars[0]))
+    rotations = list(state.rotations[0])
+    joints = []
+    for i, joint in enumerate(mechanism.joints):
+        if joint.type == "S":
+            start_values = tuple(Rotation.from_matrix(rotations.pop(0)).as_rotvec().tolist())
+        else:
+            # a prescribed coordinate's start is not read (the drive gives it): 0
+            start_values = tuple(float(values.get(f"{c}{i + 1}", 0.0)) for c in COORDINATES[joint.type])
+        joints.append(replace(joint, start=start_values))
+    return replace(mechanism, joints=tuple(joints))
+
+
+@dataclass(frozen=True)
+class LoopStart:
+    """The exported loop model's keyframe: ``qpos``, ``qvel`` of the simulation MJCF (joints 1 .. n-1, then
+    joint n's on the ground half), the loop closed at the first drive position by the MuJoCo judge and
+    moving at the drive's speed; ``ctrl`` the drive's speed, a C drive's slide, then the loads' efforts;
+    ``drive_inertia`` the largest effective inertia about the drive the judge's survey measured (the
+    velocity servo's gain is it over :data:`~dualmech.models.mjcf_export.SPEED_SERVO_STEPS` time steps, as
+    the slider crank's ``crank_speed``; ``implicitfast`` integrates it implicitly)."""
+
+    qpos: np.ndarray
+    qvel: np.ndarray
+    ctrl: np.ndarray
+    drive_inertia: float
+
+
+def loop_start(mechanism: LoopMechanism) -> tuple[LoopStart, Survey]:
+    """The keyframe of ``mechanism`` and the simulated judge's survey of it
+    (:mod:`dualmech.validation.judges.mujoco_loop.sim_plan`).
+
+    Raises
+    ------
+    ValueError
+        The table is driven at its last joint (the simulation model hangs the ground's half from it), or
+        the loop does not close at the first drive position.
+    """
+    n = len(mechanism.joints)
+    if mechanism.drive.joint == n - 1:
+        raise ValueError(f"drive.joint: {mechanism.name!r} is driven at its last joint ({n}); the exported "
+                         "model cuts the loop inside the ground, whose half hangs from that joint: number "
+                         "the joints so that another is the last")
+    sv = survey(mechanism)
+    if sv.status[0] != Status.OK.value:
+        raise ValueError(f"drive.positions: {mechanism.name!r} does not close at its first drive position "
+                         f"({sv.status[0]}); start the case where it assembles")
+    values, rates = reference(mechanism, 0, np.array([0.0]))
+    qpos, qvel = run_start(build_loop(mechanism), sv, 0, values[0], rates[0])
+    loads = [0.0 if load.value is None else load.value for load in mechanism.loads]
+    return LoopStart(qpos, qvel, np.array([rates[0, 0], *values[0, 1:], *loads]), sv.inertia_high[0]), sv
+
+
+def loop_export_xml(mechanism: LoopMechanism, start: LoopStart, s: SimSettings, file_name: str,
+                    notes: tuple[str, ...] = ()) -> str:
+    """The simulated judge's MJCF (:func:`~dualmech.validation.judges.mujoco_loop.sim_mjcf.loop_sim_mjcf`)
+    with the drive's servo on its coordinate made a velocity servo (``ctrl`` = its rate, as the slider
+    crank's ``crank_speed``), the keyframe :data:`~dualmech.models.mjcf_export.KEY_NAME` and a header."""
+    root = ET.fromstring(loop_sim_mjcf(mechanism, s))
+    actuators = root.find("actuator")
+    servo = actuators[0]
+    speed = ET.Element("velocity", name=LOOP_DRIVE_ACTUATOR, joint=servo.get("joint"),
+                       kv=repr(start.drive_inertia / (SPEED_SERVO_STEPS * s.timestep)))
+    actuators.remove(servo)
+    actuators.insert(0, speed)
+    ET.SubElement(ET.SubElement(root, "keyframe"), "key", name=KEY_NAME, qpos=_text(start.qpos),
+                  qvel=_text(start.qvel), ctrl=_text(start.ctrl))
+    ET.indent(root)
+    body = ET.tostring(root, encoding="unicode") + "\n"
+    return loop_header(mechanism, start, s, file_name, [a.get("name") for a in actuators], notes) + body
+
+
+def _text(values: np.ndarray) -> str:
+    return " ".join(repr(float(v)) for v in np.ravel(values))
+
+
+def loop_header(mechanism: LoopMechanism, start: LoopStart, s: SimSettings, file_name: str,
+                actuators: list[str], notes: tuple[str, ...]) -> str:
+    """The comment block of :func:`loop_export_xml` (as :func:`~dualmech.models.mjcf_export.export_header`:
+    every line through :func:`~dualmech.models.mjcf_export.comment_text`)."""
+    d = mechanism.drive
+    n = len(mechanism.joints)
+    first = f"{math.degrees(d.positions[0]):.6g} deg" if d.coordinate == "theta" else f"{d.positions[0]:.6g}"
+    rate = "rad/s" if d.coordinate == "theta" else "length/s"
+    lines = [
+        f"dualmech MuJoCo model of the loop table, case {mechanism.name!r}: joints "
+        + " ".join(j.type for j in mechanism.joints) + f", driven at joint {d.joint + 1} ({d.coordinate})",
+        "(written by dualmech mjcf with the MuJoCo judge's own builder, validation/judges/mujoco_loop/;",
+        "frames and signs: dualmech docs/conventions.md, \"Loop tables\"). Units: the case file's; angles in",
+        "rad.",
+        "",
+        "Run it:",
+        f"  python -c \"import mujoco.viewer; mujoco.viewer.launch_from_path({file_name!r})\"",
+        "  then Simulation > Load key: the drive turns.",
+        f"  m = mujoco.MjModel.from_xml_path({file_name!r}); d = mujoco.MjData(m)",
+        f"  mujoco.mj_resetDataKeyframe(m, d, m.key('{KEY_NAME}').id); mujoco.mj_step(m, d, nstep=1000)",
+        "",
+        f"Bodies: link1 .. link{n - 1}, each carrying its joint's MuJoCo joints joint<i>_<coordinate> (body",
+        "  frame = the table's link frame); ground_half carries joint n's, and the equality weld 'cut' holds",
+        "  it on the world's site cut_ground (the loop cut inside the ground; soft:",
+        f"  solref {_text(s.weld_solref)}, solimp {_text(s.weld_solimp)}). ground_half's mass is the judge's",
+        "  (sim_mjcf.py).",
+        f"Keyframe {KEY_NAME!r}: the loop closed at the first drive position ({first}) by the MuJoCo judge,",
+        f"  moving at the drive's speed {d.speed:.6g} {rate}.",
+        "Actuators (ctrl in the keyframe): " + ", ".join(actuators) + ";",
+        f"  {LOOP_DRIVE_ACTUATOR}: velocity servo on the drive (ctrl = its rate); a C drive's slide:",
+        "  position servo (ctrl = the slide, held); load_<joint>: motor, ctrl = the effort on the joint's",
+        "  link from the previous one (the case's given loads; 0 for the one it solves).",
+        f"Time step {s.timestep:.3g} s, integrator implicitfast.",
+        *notes,
+    ]
+    text = "".join(f"  {comment_text(line)}\n" if line else "\n" for line in lines)
+    return "<!--\n" + text + "-->\n"
+
+
+def check_loop_export(xml: str, mechanism: LoopMechanism, steps: int) -> ExportCheck:
+    """Step the exported loop model ``steps`` times from its keyframe: the cut's gap over the table's length
+    and the drive's rate against its speed, as :func:`check_export`."""
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key(KEY_NAME).id)
+    mujoco.mj_forward(m, d)
+    size = length(mechanism)
+    half, ground = m.site(HALF_SITE).id, m.site(CUT_SITES[1]).id
+    dof = m.jnt_dofadr[m.joint(joint_name(mechanism.drive.joint, mechanism.drive.coordinate)).id]
+    assembled = float(np.linalg.norm(d.site_xpos[half] - d.site_xpos[ground])) / size
+    gaps, rates = np.empty(steps), np.empty(steps)
+    for i in range(steps):  # time steps of one trajectory: sequential by nature
+        mujoco.mj_step(m, d)
+        gaps[i] = np.linalg.norm(d.site_xpos[half] - d.site_xpos[ground])
+        rates[i] = d.qvel[dof]
+    unstable = d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
+    loop_gap = math.inf if unstable or not np.all(np.isfinite(gaps)) else float(gaps.max()) / size
+    w = mechanism.drive.speed
+    error = float(np.abs(rates / w - 1.0).max() if w != 0.0 else np.abs(rates).max())
+    return ExportCheck(m.opt.timestep, steps, assembled, loop_gap, error if not unstable else math.inf)
+
+
+def _checked(check: ExportCheck) -> tuple[str, str]:
+    """The header's lines on a passed check of a loop model."""
+    return (f"Checked when written: {check.steps} steps from the keyframe; the cut's gap stayed within "
+            f"{check.loop_gap:.2g} of the table's length (limit {MJCF_EXPORT_LOOP_GAP.value:g}),",
+            f"  the drive's rate within {check.speed_error:.2g} of its speed "
+            f"(limit {MJCF_EXPORT_CRANK_SPEED.value:g}).")
+
+
+def export_loop_mjcf(case: Any, file_name: str = "model.xml") -> tuple[str, ExportCheck]:
+    """The MJCF of a linkage case's loop table (:func:`loop_table_of`) that runs as written, and its check:
+    stepped from its keyframe over the drive's range of positions (at most :data:`CHECK_STEPS` steps), the
+    judge's time step shrunk (:func:`shrink`, at most :data:`TIMESTEP_TRIALS` trials) until it passes.
+
+    Raises
+    ------
+    ValueError
+        One line: :func:`loop_start`'s, or the check run does not keep the loop closed and the speed.
+    """
+    mechanism = loop_table_of(case)
+    start, sv = loop_start(mechanism)
+    s = plan(mechanism, sv)[0]
+    d = mechanism.drive
+    least = math.radians(1.0) if d.coordinate == "theta" else length(mechanism)
+    span = max(float(np.ptp(d.positions)), least)
+    for _ in range(TIMESTEP_TRIALS):
+        steps = min(CHECK_STEPS, math.ceil(span / (abs(d.speed) * s.timestep))) if d.speed else CHECK_STEPS
+        check = check_loop_export(loop_export_xml(mechanism, start, s, file_name), mechanism, steps)
+        if check.passed:
+            return loop_export_xml(mechanism, start, s, file_name, _checked(check)), check
+        s = sim_settings(mechanism, s.timestep * shrink(check), sv)
+    raise ValueError(f"case: the exported model does not keep its loop closed and its speed (gap "
+                     f"{check.loop_gap:.3g} of the table's length, speed error {check.speed_error:.3g} "
+                     f"at dt = {check.timestep:.3g} s over {check.steps} steps)")

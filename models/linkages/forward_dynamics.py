@@ -107,8 +107,8 @@ def mechanism(case: Any) -> Mechanism:
     """The :class:`Mechanism` of a checked linkage case (``ValueError`` for anything else)."""
     kinds = {RssrCase: "rssr", RcccCase: "rccc"}
     if type(case) not in kinds:
-        raise ValueError(f"forward dynamics: a {type(case).__name__} is not simulated (an RSSR or RCCC case "
-                         "is; a loop table has no forward dynamics yet: solve or validate it)")
+        raise ValueError(f"forward dynamics: a {type(case).__name__} is not simulated here (an RSSR or RCCC "
+                         "case is; a loop table by dualmech.models.loop.forward_dynamics)")
     return MECHANISMS[kinds[type(case)]]
 
 
@@ -130,22 +130,26 @@ def inverse_case(case: Any) -> Any:
 class Coefficients:
     """``theta`` ``(m,)`` rad (a full turn, both ends) and there ``inertia`` (F·L·s²), ``velocity``
     (F·L·s²), ``load`` (F·L), ``ratio`` (the output link's rate per unit input rate): the drive torque is
-    ``inertia * theta_ddot + velocity * theta_dot^2 + load``."""
+    ``inertia * theta_ddot + velocity * theta_dot^2 + load``.  ``periodic``: ``theta`` spans a turn whose
+    ends are the same pose; ``False``: only the range a loop table's drive assembles over
+    (:mod:`dualmech.models.loop.forward_dynamics`)."""
 
     theta: np.ndarray
     inertia: np.ndarray
     velocity: np.ndarray
     load: np.ndarray
     ratio: np.ndarray
+    periodic: bool = True
 
     def stacked(self) -> np.ndarray:
         """``(m, 4)``: inertia, velocity, load, ratio."""
         return np.stack([self.inertia, self.velocity, self.load, self.ratio], axis=1)
 
     def spline(self, step: int = 1) -> BSpline:
-        """The periodic spline (:data:`SPLINE_DEGREE`) of :meth:`stacked` on every ``step``-th angle."""
+        """The spline (:data:`SPLINE_DEGREE`; periodic if :attr:`periodic`, else not-a-knot) of
+        :meth:`stacked` on every ``step``-th angle."""
         return make_interp_spline(self.theta[::step], self.stacked()[::step], k=SPLINE_DEGREE,
-                                  bc_type="periodic")
+                                  bc_type="periodic" if self.periodic else None)
 
 
 def coefficients(case: Any, points: int = POINTS, analyze: Mechanism | None = None) -> Coefficients:
@@ -181,7 +185,7 @@ def interpolation_error(c: Coefficients) -> float:
 
 
 @dataclass(frozen=True)
-class _EquationOfMotion:
+class EquationOfMotion:
     """The right-hand side for ``y = (theta, theta_dot, W^A, W^O, D)``: the input angle and rate, the work
     of the drive and of the output torque, and the energy the input bearing dissipated.  ``model(theta)``
     ``(4, k)`` is the coefficients' interface of :func:`dualmech.models.forward_dynamics.integrate`."""
@@ -247,7 +251,7 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
                                                                                           CRANK_ANGLE)
     psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0, CRANK_SPEED)
     c = coefficients(case) if coeffs is None else coeffs
-    rhs = _EquationOfMotion(c.spline(), tau, output_torque, damping)
+    rhs = EquationOfMotion(c.spline(), tau, output_torque, damping)
     sol = integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
                      np.linspace(0.0, duration, int(samples)), method, rtol, atol, progress)
     info = {"method": method, "rtol": rtol, "atol": atol, "nfev": int(sol.nfev), "coefficients": "table",
@@ -325,7 +329,7 @@ def energy(case: Any, theta: np.ndarray, theta_dot: np.ndarray) -> np.ndarray:
     return sum(energies(case, an))
 
 
-def trajectory(case: Any, rhs: _EquationOfMotion, t: np.ndarray, y: np.ndarray,
+def trajectory(case: Any, rhs: EquationOfMotion, t: np.ndarray, y: np.ndarray,
                info: dict) -> LinkageSimulation:
     """The in-house pose, rates, reactions and energies along an integrated motion ``y`` ``(5, n)``."""
     psi, w = y[0], y[1]

@@ -113,7 +113,7 @@ def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
     spread positions where one exists."""
     if any(j.start for j in mechanism.joints):
         return start_state(mechanism, loop), 0
-    n = mechanism.drive.positions.shape[0]
+    n = drive.values[variable(*mechanism.driven_coordinate)].shape[0]
     for at in np.unique(np.linspace(0, n - 1, min(n, SEARCH_POSITIONS)).round().astype(int)):
         values = drive.take(slice(at, at + 1)).values
         found = search_assembly(loop, values, seed, size=length_scale(mechanism))
@@ -124,17 +124,20 @@ def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
 
 
 def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: int = 0, *,
-                 compiled: bool = True) -> LoopAnalysis:
+                 compiled: bool = True, drive: DriveState | None = None) -> LoopAnalysis:
     """Closure, rates, reactions and statuses at every drive position of ``mechanism``.
 
     ``start`` ``(1,)`` positions: a pose at drive position ``at`` (0-based; assembled or nearly), whose
     branch is followed; default :func:`find_start`.  ``compiled``: by the compiled kernel
     (:func:`dualmech.core.kernel.loop_engine.solve_loop`, the same algorithm per position), else by the
-    numpy solver (the reference the kernel is tested against).
+    numpy solver (the reference the kernel is tested against).  ``drive``: the prescribed coordinates with
+    their own rate and acceleration at each position, e.g. a simulated motion's (default
+    :func:`~dualmech.models.loop.translate.drive_state` of the mechanism's drive: one speed and acceleration
+    at every position).
     """
     check_mobility(mechanism)
     loop = to_loop(mechanism)
-    drive = drive_state(mechanism)
+    drive = drive_state(mechanism) if drive is None else drive
     n = drive.values[variable(*mechanism.driven_coordinate)].shape[0]
     pose, at = find_start(mechanism, loop, drive) if start is None else (start, at)
     efforts, solved = efforts_of(mechanism, n)

@@ -73,25 +73,29 @@ class DriveState:
         return DriveState(*({k: v[index] for k, v in d.items()} for d in parts))
 
 
-def drive_state(mechanism: LoopMechanism) -> DriveState:
+def drive_state(mechanism: LoopMechanism, positions: np.ndarray | None = None,
+                rates: np.ndarray | None = None, accels: np.ndarray | None = None) -> DriveState:
     """Prescribed values and rates at the drive's positions, plus the length-scale parameter.
 
-    A C joint driven by its angle gets its slide from the axial law of
+    ``positions``, ``rates``, ``accels`` ``(n,)``: the driven coordinate with its own rate and acceleration
+    at each position (a simulated motion's); default the drive's positions, speed and acceleration.  A C
+    joint driven by its angle gets its slide from the axial law of
     :meth:`dualmech.core.motion.CrankMotion.at` (thesis eq. 27-28, errata E7).
     """
     d = mechanism.drive
-    x = d.positions
+    x = d.positions if positions is None else np.asarray(positions, dtype=float)
     n = x.shape[0]
-    speed, accel = np.full(n, d.speed), np.full(n, d.accel)
+    speed = np.full(n, d.speed) if rates is None else np.asarray(rates, dtype=float)
+    accel = np.full(n, d.accel) if accels is None else np.asarray(accels, dtype=float)
     name = variable(d.joint, d.coordinate)
-    values, rates, accels = {name: x}, {name: speed}, {name: accel}
+    values, rates_, accels_ = {name: x}, {name: speed}, {name: accel}
     if mechanism.joints[d.joint].type == "C":
         law = CrankMotion(np.degrees(x), d.speed, d.accel, d.axial_amplitude, d.axial_cycles)
         crank = law.at(d.axial_shift, x, speed, accel)
         slide = variable(d.joint, "s")
-        values[slide], rates[slide], accels[slide] = crank.s, crank.s_dot, crank.s_ddot
+        values[slide], rates_[slide], accels_[slide] = crank.s, crank.s_dot, crank.s_ddot
     values[SCALE] = np.full(n, length_scale(mechanism))
-    return DriveState(values, rates, accels)
+    return DriveState(values, rates_, accels_)
 
 
 def start_state(mechanism: LoopMechanism, loop: Loop) -> LoopState:

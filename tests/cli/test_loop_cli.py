@@ -1,7 +1,7 @@
 """The command line on a loop table (``[mechanism] kind = "loop"``): ``cases`` and ``case-path`` list the
 bundled ones, ``solve`` writes every engine's table, ``validate`` runs every engine that solves it and
-passes, and fails when one engine's table is wrong (a sign flipped: the gate's proof); ``simulate`` and the
-simulated judge of a table driven at its last joint refuse in one line."""
+passes, and fails when one engine's table is wrong (a sign flipped: the gate's proof); the simulated judge
+of a table driven at its last joint refuses in one line (``simulate``: tests/cli/test_simulate_loop.py)."""
 
 from __future__ import annotations
 
@@ -77,12 +77,6 @@ def test_the_simulated_judge_refuses_a_drive_at_the_last_joint(tmp_path: Path) -
     assert refused.exit_code == EXIT_BAD_INPUT and refused.output.count("\n") == 1, refused.output
     assert "engine: 'mujoco-sim' does not solve this LOOP case (valid: dualmech, pinocchio, mujoco; the " \
            "simulation cuts the loop inside the ground" in refused.output
-
-
-def test_simulate_refuses_a_loop_table_in_one_line() -> None:
-    result = CliRunner().invoke(main, ["simulate", "rscr", "--duration", "0.1"])
-    assert result.exit_code == EXIT_BAD_INPUT and result.output.count("\n") == 1
-    assert "a loop table has no forward dynamics yet" in result.output
 
 
 def test_validate_a_loop_table_passes(tmp_path: Path) -> None:
