@@ -188,14 +188,14 @@ def mjcf(case: str, output: str) -> None:
     The default pose and the keyframe "turning" have the loop closed at the
     case's first crank angle (found by MuJoCo itself); the keyframe sets the
     crank-speed servo to the case's speed; the time step is the largest found
-    to keep the loop closed while the crank turns (validation/mujoco_export.py).
+    to keep the loop closed while the crank turns (validation/judges/mujoco_export.py).
     An RSSR, RCCC or loop-table case writes its loop table's model, built by the
     MuJoCo judge's own builder, with its keyframe "turning" (docs/conventions.md,
     "Loop tables").
     """
     from dualmech.models.linkages import is_linkage
     from dualmech.models.mjcf import KEY_NAME
-    from dualmech.validation.mujoco_export import export_mjcf
+    from dualmech.validation.judges.mujoco_export import export_mjcf
 
     path = Path(output)
     if is_linkage(case):
@@ -216,11 +216,11 @@ def mjcf(case: str, output: str) -> None:
 
 
 def _loop_mjcf(case: str, path: Path) -> None:
-    """``mjcf`` of a linkage case: its loop table's model (:func:`~dualmech.validation.mujoco_export.
+    """``mjcf`` of a linkage case: its loop table's model (:func:`~dualmech.validation.judges.mujoco_export.
     export_loop_mjcf`), written and summed up in one line."""
     from dualmech.models.linkages import linkage_case
     from dualmech.models.mjcf import KEY_NAME
-    from dualmech.validation.mujoco_export import export_loop_mjcf
+    from dualmech.validation.judges.mujoco_export import export_loop_mjcf
 
     xml, check = export_loop_mjcf(linkage_case(case), path.name)
     write_text_durable(path, xml)

@@ -1,6 +1,6 @@
 """``dualmech mjcf`` of an RSSR, RCCC or loop-table case: the loop table's model by the MuJoCo judge's own
-builder (``validation/mujoco_export.py``), loaded back in MuJoCo and checked against the case: every link's
-mass and inertia, and at the keyframe the loop closed at the first drive position, each link where the
+builder (``validation/judges/mujoco_export.py``), loaded back in MuJoCo and checked against the case: every
+link's mass and inertia, and at the keyframe the loop closed at the first drive position, each link where the
 in-house engine puts it."""
 
 from __future__ import annotations
