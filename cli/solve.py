@@ -162,17 +162,17 @@ def warn_units(*cases: Case) -> None:
 
 def _solve_linkage(case: str, output: str | None, engine: str, frames: str) -> None:
     """A case whose ``[mechanism] kind`` is another linkage (RSSR, RCCC, a loop table): its own table, as
-    CSV, from the linkages' engine registry (:mod:`dualmech.validation.engines`)."""
+    CSV or Parquet, from the engine registry (:mod:`dualmech.validation.engines`)."""
     from dualmech.models.linkages import summary
     from dualmech.validation.engines import solve_linkage
 
     if frames != "world":
         raise ValueError(f"--frames {frames}: a linkage's table is in world frames only (--frames world)")
-    if output and Path(output).suffix.lower() != ".csv":
-        raise ValueError(f"-o {output}: a linkage's table is written as CSV (OUT.csv)")
+    if output:
+        output_format(output)  # before solving: OUT.csv or OUT.parquet
     table = solve_linkage(case, engine)
     if output:
-        table.to_csv(output)  # atomic: written beside, renamed
+        write_table(table, output)  # atomic: written beside, renamed
     else:
         sys.stdout.write(table.to_csv())
     click.echo(summary(table), err=output is None)

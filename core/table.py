@@ -194,11 +194,11 @@ def status_codes(words: np.ndarray) -> np.ndarray:
     return np.array([STATUSES.index(w) for w in found], dtype=np.int8)[inverse.reshape(-1)]
 
 
-def _float_columns(columns: dict[str, np.ndarray], n: int) -> list[np.ndarray]:
-    """The :data:`NUMERIC_COLUMNS` of ``columns`` as contiguous float64 arrays ``(n,)`` (copied only if
-    they are not already)."""
-    data = [np.ascontiguousarray(columns[c], dtype=np.float64) for c in NUMERIC_COLUMNS]
-    for name, col in zip(NUMERIC_COLUMNS, data):
+def _float_columns(columns: dict[str, np.ndarray], names: tuple[str, ...], n: int) -> list[np.ndarray]:
+    """The ``names`` of ``columns`` as contiguous float64 arrays ``(n,)`` (copied only if they are not
+    already)."""
+    data = [np.ascontiguousarray(columns[c], dtype=np.float64) for c in names]
+    for name, col in zip(names, data):
         if col.shape != (n,):
             raise ValueError(f"columns[{name!r}]: expected shape ({n},), got {col.shape}")
     return data
@@ -213,8 +213,9 @@ WRITE_BATCH_ROWS = 65_536
 class ParquetWriter:
     """Stream result rows into a Parquet file, one row group per :meth:`write` (pyarrow).
 
-    The columns are :data:`COLUMNS` (the contract of :meth:`ResultTable.to_csv`): the numeric
-    ones as float64 (plain encoding: a dictionary of distinct floats costs time and does not shrink
+    The columns are ``names`` (default the slider crank's :data:`NUMERIC_COLUMNS`, the contract of
+    :meth:`ResultTable.to_csv`; another kind's table names its own) then ``status``: the numeric ones as
+    float64 (plain encoding: a dictionary of distinct floats costs time and does not shrink
     the file), ``status`` dictionary-encoded over :data:`STATUSES`; snappy, with min/max statistics.
     Use as a context manager; memory is bounded by one row group.  A contiguous float64 column (as the
     kernel gives them: rows of one ``(31, n)`` array) is handed to pyarrow as it is, without a copy;
@@ -222,13 +223,14 @@ class ParquetWriter:
     a close waits for a write in progress.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, names: tuple[str, ...] = NUMERIC_COLUMNS) -> None:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
         self._pa = pa
+        self._names = tuple(names)
         self._dictionary = pa.array(STATUSES, type=pa.string())
-        fields = [pa.field(c, pa.float64()) for c in NUMERIC_COLUMNS]
+        fields = [pa.field(c, pa.float64()) for c in self._names]
         self.schema = pa.schema(fields + [pa.field("status", pa.dictionary(pa.int8(), pa.string()))])
         self._writer = pq.ParquetWriter(
             str(path), self.schema, compression="snappy", use_dictionary=["status"],
@@ -237,11 +239,11 @@ class ParquetWriter:
         self._lock = threading.Lock()
 
     def write(self, columns: dict[str, np.ndarray], codes: np.ndarray) -> None:
-        """Append rows: every name of :data:`NUMERIC_COLUMNS` ``(n,)``, status codes ``(n,)``
+        """Append rows: every one of the writer's column names ``(n,)``, status codes ``(n,)``
         (:func:`status_codes`)."""
         pa = self._pa
         with self._lock:
-            rows = _float_columns(columns, np.asarray(codes).shape[0])
+            rows = _float_columns(columns, self._names, np.asarray(codes).shape[0])
             status = pa.DictionaryArray.from_arrays(pa.array(codes, type=pa.int8()), self._dictionary)
             arrays = [pa.array(row) for row in rows] + [status]  # contiguous float64: no copy
             self._writer.write_table(pa.Table.from_arrays(arrays, schema=self.schema))
@@ -257,10 +259,12 @@ class ParquetWriter:
         self.close()
 
 
-def write_parquet(table: ResultTable, path: str | Path) -> None:
+def write_parquet(table: ColumnTable, path: str | Path) -> None:
     """Write ``table`` as Parquet (one row group; :class:`ParquetWriter` for streams), atomically (beside,
-    fsynced, renamed: :func:`~dualmech.core.files.replacing`)."""
-    with replacing(path) as (tmp, _), ParquetWriter(tmp) as writer:
+    fsynced, renamed: :func:`~dualmech.core.files.replacing`): a slider crank's
+    :data:`NUMERIC_COLUMNS`, another kind's every column in its order, then ``status``."""
+    names = NUMERIC_COLUMNS if isinstance(table, ResultTable) else tuple(table.columns)
+    with replacing(path) as (tmp, _), ParquetWriter(tmp, names) as writer:
         writer.write(table.columns, status_codes(table.status))
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from dualmech.core.files import replacing
 from dualmech.core.status import STATUSES
-from dualmech.core.table import ParquetWriter, ResultTable, write_parquet
+from dualmech.core.table import ColumnTable, ParquetWriter, write_parquet
 from dualmech.models.case import Case
 from dualmech.models.units import column_unit
 
@@ -45,7 +45,7 @@ def output_format(path: str | Path) -> str:
     return suffix
 
 
-def write_table(table: ResultTable, path: str | Path) -> None:
+def write_table(table: ColumnTable, path: str | Path) -> None:
     """Write ``table`` to ``path`` in the format of its suffix (:func:`output_format`), atomically: written
     beside, fsynced, renamed (:func:`~dualmech.core.files.replacing`); a failed or interrupted write
     leaves the old file as it was."""
