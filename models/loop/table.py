@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from dualmech.models.linkages.table import LinkageTable
-from dualmech.models.loop.columns import coordinate_names, effort_names, loop_table, wrench_columns
+from dualmech.core.status import Status, is_status
+from dualmech.models.angle_ranges import format_angle_ranges, no_assembly_ranges
+from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.models.loop.columns import coordinate_names, effort_names, loop_spec, loop_table, wrench_columns
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.engine import LoopAnalysis, analyze_loop
 
@@ -35,9 +37,22 @@ def analysis_columns(an: LoopAnalysis) -> dict[str, np.ndarray]:
 
 def analysis_table(an: LoopAnalysis) -> LinkageTable:
     """The in-house table of ``an`` (settled by its status words; ``meta["iterations"]``: the closure's
-    iterations per position)."""
-    return loop_table(ENGINE, an.mechanism, analysis_columns(an), an.status,
-                      {"iterations": np.asarray(an.iterations)})
+    iterations per position; ``meta["messages"]``: where the loop does not close, :func:`gap_messages`)."""
+    table = loop_table(ENGINE, an.mechanism, analysis_columns(an), an.status,
+                       {"iterations": np.asarray(an.iterations)})
+    table.meta["messages"] = gap_messages(table, loop_spec(an.mechanism))
+    return table
+
+
+def gap_messages(table: LinkageTable, spec: TableSpec) -> list[str]:
+    """The message naming the drive positions (``"a..b"`` runs of the table's key) where the loop does not
+    close (``no_assembly``), or none."""
+    ranges = no_assembly_ranges(table.columns[spec.key], is_status(table.status, Status.NO_ASSEMBLY))
+    if not ranges:
+        return []
+    name, unit = spec.key_label
+    return [f"no_assembly: the loop does not close at {name} = {format_angle_ranges(ranges)}"
+            + (f" {unit}" if unit else " (the case's length unit)")]
 
 
 def solve_loop_table(mechanism: LoopMechanism) -> LinkageTable:
