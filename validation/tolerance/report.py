@@ -29,7 +29,7 @@ from dualmech.validation.rundir import locked, write_file
 if TYPE_CHECKING:
     from dualmech.validation.report.plots import Figure
 
-TEMPLATES = Path(__file__).parent / "templates"
+TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 #: Histogram bins (at most; fewer for small studies).
 HIST_BINS = 40
 #: A histogram gets a logarithmic axis when its largest value exceeds the median this many times.
