@@ -20,8 +20,11 @@ the output link about the last axis ``z4``) is minus joint 4's effort (on the gr
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from dualmech.core.inertia import BodyInertia
 from dualmech.core.loop import LoopState
@@ -30,7 +33,9 @@ from dualmech.models.case import Case
 from dualmech.models.linkages import rccc, rssr
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
+from dualmech.models.loop.columns import COORDINATES
 from dualmech.models.loop.description import Drive, Joint, Load, LoopMechanism
+from dualmech.models.loop.translate import to_loop
 
 #: The RSSR's output crank frame in its ball-3 link frame: turned by pi about z (x toward P3).
 FLIP = np.diag([-1.0, -1.0, 1.0])
@@ -159,3 +164,24 @@ def rccc_start(case: RcccCase) -> LoopState:
     (:func:`dualmech.models.linkages.rccc.spherical_estimate`)."""
     theta = np.radians(case.motion.angles_deg[:1])
     return rccc.estimate(case.geometry, theta, rccc.spherical_estimate(case.geometry, theta, case.branch)[0])
+
+
+def loop_table_of(case: Any) -> LoopMechanism:
+    """The loop table of any linkage case: a loop table as is; an RSSR or RCCC by its preset
+    (:mod:`dualmech.models.loop.presets`), every joint's ``start`` its own estimate at the first crank angle
+    on the case's branch (the RSSR's closed form, the RCCC's spherical estimate)."""
+    if isinstance(case, LoopMechanism):
+        return case
+    table, start = {RssrCase: (rssr_table, rssr_start), RcccCase: (rccc_table, rccc_start)}[type(case)]
+    mechanism, state = table(case), start(case)
+    values = dict(zip(to_loop(mechanism).unknowns, state.scalars[0]))
+    rotations = list(state.rotations[0])
+    joints = []
+    for i, joint in enumerate(mechanism.joints):
+        if joint.type == "S":
+            start_values = tuple(Rotation.from_matrix(rotations.pop(0)).as_rotvec().tolist())
+        else:
+            # a prescribed coordinate's start is not read (the drive gives it): 0
+            start_values = tuple(float(values.get(f"{c}{i + 1}", 0.0)) for c in COORDINATES[joint.type])
+        joints.append(replace(joint, start=start_values))
+    return replace(mechanism, joints=tuple(joints))

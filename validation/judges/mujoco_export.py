@@ -23,21 +23,16 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from dualmech.core.status import Status
 from dualmech.models.case import Case
-from dualmech.models.linkages.rccc_case import RcccCase
-from dualmech.models.linkages.rssr_case import RssrCase
-from dualmech.models.loop.columns import COORDINATES
 from dualmech.models.loop.description import LoopMechanism
-from dualmech.models.loop.presets import rccc_start, rccc_table, rssr_start, rssr_table
-from dualmech.models.loop.translate import to_loop
+from dualmech.models.loop.presets import loop_table_of
 from dualmech.models.mjcf import KEY_NAME, MjcfStart, check_exportable, runnable_mjcf
 from dualmech.models.mjcf_export import SPEED_SERVO_STEPS, comment_text
 from dualmech.validation.judges.mujoco_loop.closure import build as build_loop
@@ -172,27 +167,6 @@ def export_mjcf(case: Case, file_name: str = "model.xml") -> tuple[str, ExportCh
 
 #: Name of the exported loop model's drive-speed actuator (the judge's position servo made a velocity one).
 LOOP_DRIVE_ACTUATOR = "drive_speed"
-
-
-def loop_table_of(case: Any) -> LoopMechanism:
-    """The loop table of any linkage case: a loop table as is; an RSSR or RCCC by its preset
-    (:mod:`dualmech.models.loop.presets`), every joint's ``start`` its own estimate at the first crank angle
-    on the case's branch (the RSSR's closed form, the RCCC's spherical estimate)."""
-    if isinstance(case, LoopMechanism):
-        return case
-    table, start = {RssrCase: (rssr_table, rssr_start), RcccCase: (rccc_table, rccc_start)}[type(case)]
-    mechanism, state = table(case), start(case)
-    values = dict(zip(to_loop(mechanism).unknowns, state.scalars[0]))
-    rotations = list(state.rotations[0])
-    joints = []
-    for i, joint in enumerate(mechanism.joints):
-        if joint.type == "S":
-            start_values = tuple(Rotation.from_matrix(rotations.pop(0)).as_rotvec().tolist())
-        else:
-            # a prescribed coordinate's start is not read (the drive gives it): 0
-            start_values = tuple(float(values.get(f"{c}{i + 1}", 0.0)) for c in COORDINATES[joint.type])
-        joints.append(replace(joint, start=start_values))
-    return replace(mechanism, joints=tuple(joints))
 
 
 @dataclass(frozen=True)
