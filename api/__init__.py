@@ -25,7 +25,7 @@ solve
 validate, ValidationRun
     A validation matrix (or one case on every engine): run, compared, ``.write_report()``.
 simulate, Simulation
-    Forward dynamics: the crank's equation of motion integrated under given loads.
+    Forward dynamics of any kind: the input's equation of motion integrated under given loads.
 tolerance_study, ToleranceStudy
     Monte Carlo and exact sensitivities of a design under manufacturing tolerances, judged and reported.
 ResultTable, Status, ENGINES
@@ -52,7 +52,7 @@ _HOMES: dict[str, str] = {
     "ValidationRun": "dualmech.verbs",
     "tolerance_study": "dualmech.verbs",
     "ToleranceStudy": "dualmech.verbs",
-    "simulate": "dualmech.models.forward_dynamics",
+    "simulate": "dualmech.verbs",
     "Simulation": "dualmech.models.simulation",
     "ResultTable": "dualmech.core.table",
     "Status": "dualmech.core.status",
@@ -67,11 +67,10 @@ if TYPE_CHECKING:  # the same names, for type checkers and the documentation's s
     from dualmech.core.status import Status
     from dualmech.core.table import ResultTable
     from dualmech.models.case import Case, case_from_dict, load_case, preset_names
-    from dualmech.models.forward_dynamics import simulate
     from dualmech.models.inputs import CaseError
     from dualmech.models.simulation import Simulation
     from dualmech.validation.engines import ENGINES
-    from dualmech.verbs import ToleranceStudy, ValidationRun, solve, tolerance_study, validate
+    from dualmech.verbs import ToleranceStudy, ValidationRun, simulate, solve, tolerance_study, validate
 
 
 def __getattr__(name: str) -> Any:

@@ -21,29 +21,35 @@ SLIDER_CRANK = "slider-crank"
 class Kind(NamedTuple):
     """Where a kind's parts live, each ``"module:name"``: its checked case ``record`` (a class), its
     ``reader`` (parsed case table -> record, one-line CaseError), its in-house ``solver`` (record ->
-    result table) and its table's ``spec`` (a :class:`~dualmech.models.linkages.table.TableSpec`, or a
+    result table), its table's ``spec`` (a :class:`~dualmech.models.linkages.table.TableSpec`, or a
     function of the record; empty for the slider crank, whose table is
-    :class:`~dualmech.core.table.ResultTable`)."""
+    :class:`~dualmech.core.table.ResultTable`) and its forward dynamics ``simulator`` (record, duration,
+    options -> a simulation)."""
 
     record: str
     reader: str
     solver: str
     spec: str
+    simulator: str
 
 
 #: Every kind dualmech solves.
 KIND_HOMES: dict[str, Kind] = {
     SLIDER_CRANK: Kind("dualmech.models.case:Case", "dualmech.models.case:case_from_dict",
-                       "dualmech.models.slider_crank:solve_case", ""),
+                       "dualmech.models.slider_crank:solve_case", "",
+                       "dualmech.models.forward_dynamics:simulate"),
     "rssr": Kind("dualmech.models.linkages.rssr_case:RssrCase",
                  "dualmech.models.linkages.rssr_case:rssr_from_dict",
-                 "dualmech.models.linkages.rssr:solve_rssr", "dualmech.models.linkages.rssr:SPEC"),
+                 "dualmech.models.linkages.rssr:solve_rssr", "dualmech.models.linkages.rssr:SPEC",
+                 "dualmech.models.linkages.forward_dynamics:simulate"),
     "rccc": Kind("dualmech.models.linkages.rccc_case:RcccCase",
                  "dualmech.models.linkages.rccc_case:rccc_from_dict",
-                 "dualmech.models.linkages.rccc:solve_rccc", "dualmech.models.linkages.rccc:SPEC"),
+                 "dualmech.models.linkages.rccc:solve_rccc", "dualmech.models.linkages.rccc:SPEC",
+                 "dualmech.models.linkages.forward_dynamics:simulate"),
     "loop": Kind("dualmech.models.loop.description:LoopMechanism",
                  "dualmech.models.loop.table_format:loop_from_dict",
-                 "dualmech.models.loop.table:solve_loop_table", "dualmech.models.loop.columns:loop_spec"),
+                 "dualmech.models.loop.table:solve_loop_table", "dualmech.models.loop.columns:loop_spec",
+                 "dualmech.models.loop.forward_dynamics:simulate"),
 }
 KINDS = tuple(KIND_HOMES)
 #: The kinds other than the slider crank (the linkages: their own case format and table columns).

@@ -139,7 +139,9 @@ def test_solve_takes_a_preset_a_file_or_a_table() -> None:
      r"^jobs: expected a whole number from 1 to 1024, got 2147483647$"),
     (lambda: dualmech.validate(42), TypeError, r"^source: expected a matrix or case file"),
     (lambda: dualmech.validate("thesis/ideal", resume="yes"), TypeError, r"^resume: expected True or False"),
-    (lambda: dualmech.simulate("thesis/ideal", 1.0), TypeError, r"^case: expected a dualmech\.Case"),
+    (lambda: dualmech.simulate(42, 1.0), TypeError, r"^case: expected a dualmech\.Case"),
+    (lambda: dualmech.simulate("rssr", 1.0, slider_load=5.0), ValueError,
+     r"^slider_load: a rssr case has no slider \(valid options: torque, psi0"),
     (lambda: dualmech.tolerance_study("thesis/ideal", 7), TypeError, r"^spec: expected a tolerance SPEC"),
     (lambda: dualmech.load_case(None), TypeError, r"^source: expected a case file path or a preset name"),
     (lambda: dualmech.load_case("thesis/ideal").with_values(3), TypeError, r"^updates: expected a dict"),
@@ -275,3 +277,19 @@ def test_a_tolerance_study_passes_as_the_command_exits_0(tmp_path, judges, check
     sensitivities agree with central differences (or were not checked)."""
     summary = {"judges": judges, "sensitivity_check": check}
     assert dualmech.ToleranceStudy(tmp_path, summary, None, None, []).passed is passed
+
+
+@pytest.mark.parametrize(("source", "kind"), [("thesis/ideal", "Simulation"), ("rssr", "LinkageSimulation"),
+                                              ("rscr", "LoopSimulation")])
+def test_simulate_takes_every_kind(source: str, kind: str) -> None:
+    """``dualmech.simulate`` integrates any kind's case by its own forward dynamics (it took a slider crank
+    ``Case`` only; a linkage needed ``dualmech.models.linkages.forward_dynamics``): the same numbers as that
+    module's ``simulate``, which its own tests hold to energy balance and to the in-house solver."""
+    from dualmech.models.kinds import KIND_HOMES, case_from_data, kind_of, resolve
+    from dualmech.models.linkages import is_linkage, read_linkage
+
+    sim = dualmech.simulate(source, 0.02, samples=5)
+    assert type(sim).__name__ == kind
+    case = case_from_data(read_linkage(source)) if is_linkage(source) else dualmech.load_case(source)
+    direct = resolve(KIND_HOMES[kind_of(case)].simulator)(case, 0.02, samples=5)
+    assert sim.to_csv() == direct.to_csv()
