@@ -39,8 +39,6 @@ if TYPE_CHECKING:
 
     from dualmech.models.tolerance.spec import Spec
     from dualmech.validation.compare import Comparison, Verdict
-    from dualmech.validation.linkages.report import LinkageReport
-    from dualmech.validation.linkages.run import LinkageRun
     from dualmech.validation.matrix import Matrix
     from dualmech.validation.progress import ProgressCallback, ProgressTasks
     from dualmech.validation.report.render import ReportFiles
@@ -244,7 +242,8 @@ def validate(source: str | Path | Case | None = None, outdir: str | Path | None 
     ValidationRun
         ``.verdict`` (``PASS``/``FAIL``/``INCOMPLETE``), ``.comparison``, ``.results``;
         ``.write_report()`` renders it.  A linkage source (``"linkages"``, ``"rssr"``, ``"rccc"``, a
-        linkage case or matrix file) gives :func:`validate_linkages`'s run, its report already written.
+        linkage case or matrix file) gives the run of
+        :func:`~dualmech.validation.linkages.validate.validate_linkages`, its report already written.
     """
     from dualmech.validation.linkages.matrix import is_linkage_source
 
@@ -253,77 +252,11 @@ def validate(source: str | Path | Case | None = None, outdir: str | Path | None 
     if not isinstance(resume, bool):
         raise TypeError(f"resume: expected True or False, got {show(resume)}")
     if isinstance(source, (str, os.PathLike)) and is_linkage_source(source):
+        from dualmech.validation.linkages.validate import validate_linkages
+
         return validate_linkages(source, outdir, engines=engine_names(engines))
     matrix, folder = open_run(source, outdir, engine_names(engines))
     return run_and_compare(matrix, folder, jobs=jobs, resume=resume, scheduler=scheduler)
-
-
-def run_linkage_validation(source: str | Path = "linkages", outdir: str | Path | None = None,
-                           engines: Sequence[str] = (), *, jobs: int = 1, resume: bool = False,
-                           progress: ProgressCallback | None = None
-                           ) -> tuple[LinkageRun, LinkageReport, float]:
-    """``dualmech validate`` of the other linkages: solve (each result stored in the run folder as it
-    finishes; ``jobs``, ``resume`` and ``progress`` as :func:`~dualmech.validation.run.runner.run_matrix`'s),
-    compare, write the report; the run, its files and the seconds spent solving and comparing (the command
-    line prints them)."""
-    import time
-
-    from dualmech.validation.linkages.matrix import load_linkage_matrix
-    from dualmech.validation.linkages.report import write_linkage_report
-    from dualmech.validation.linkages.run import run_linkages
-    from dualmech.validation.rundir import check_output_folder
-
-    matrix = load_linkage_matrix(source)
-    matrix = matrix.with_engines(tuple(engines)) if engines else matrix
-    folder = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
-    start = time.perf_counter()
-    run = run_linkages(matrix, folder, jobs=jobs, resume=resume, progress=progress)
-    seconds = time.perf_counter() - start
-    return run, write_linkage_report(run, folder, seconds), seconds
-
-
-def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None
-                       ) -> tuple[LinkageRun, LinkageReport, float] | None:
-    """``dualmech report`` of a stored linkage run: its results compared again and its report written (to
-    ``outdir``, default the run folder); ``None`` for a run of slider-crank cases (for the slider crank's
-    report).  A result missing from the folder is run now (as ``--resume`` would)."""
-    import time
-
-    from dualmech.validation.linkages.report import write_linkage_report
-    from dualmech.validation.linkages.run import run_linkages, stored_linkage_matrix
-    from dualmech.validation.run.runner import load_run
-
-    matrix = stored_linkage_matrix(load_run(Path(rundir))[0])
-    if matrix is None:
-        return None
-    start = time.perf_counter()
-    run = run_linkages(matrix, rundir, resume=True)
-    seconds = time.perf_counter() - start
-    return run, write_linkage_report(run, Path(outdir or rundir), seconds), seconds
-
-
-def validate_linkages(source: str | Path = "linkages", outdir: str | Path | None = None, *,
-                      engines: Sequence[str] = ()) -> LinkageRun:
-    """Validate the RSSR and RCCC linkages as ``dualmech validate linkages`` does (without its console).
-
-    Parameters
-    ----------
-    source : str or pathlib.Path
-        ``"linkages"`` (the bundled linkage matrix), ``"rssr"``, ``"rccc"``, a linkage case file or a
-        linkage matrix file (``docs/matrix-format.md``, "Linkage matrices").
-    outdir : str or pathlib.Path, optional
-        Run directory for ``summary.json`` and the report (new, empty, or an earlier dualmech run);
-        default ``runs/<matrix name>``.
-    engines : sequence of str, optional
-        Run only these engines (the reference, ``dualmech``, among them).
-
-    Returns
-    -------
-    LinkageRun
-        ``.verdict`` (``PASS``/``FAIL``/``INCOMPLETE``), ``.comparison``, ``.tables`` (case -> engine ->
-        its :class:`~dualmech.models.linkages.table.LinkageTable`), ``.worst()`` per judge.
-    """
-    return run_linkage_validation(source, outdir, engines)[0]
 
 
 @dataclass(frozen=True)

@@ -241,7 +241,7 @@ def _validate_linkages(source: str, outdir: str | None, engines: tuple[str, ...]
     stored as it finishes), compare, report, print the table and the verdict, exit 0 (PASS) or 1 (FAIL)."""
     from dualmech.validation.compare.junit import describe
     from dualmech.validation.linkages.matrix import load_linkage_matrix
-    from dualmech.verbs import run_linkage_validation
+    from dualmech.validation.linkages.validate import run_linkage_validation
 
     given = next((flag for flag, value in refused.items() if value), None)
     if given:
@@ -312,8 +312,8 @@ def _cores() -> int:
 @one_line_errors
 def report(rundir, outdir, jobs) -> None:
     """Write the report (HTML, Markdown, figures, summary.json) of the run stored in RUNDIR."""
+    from dualmech.validation.linkages.validate import report_linkage_run
     from dualmech.validation.report.render import write_report
-    from dualmech.verbs import report_linkage_run
 
     on_interrupt(f"the report in {outdir or rundir} is not finished; run dualmech report again")
     linkages = report_linkage_run(rundir, outdir)
