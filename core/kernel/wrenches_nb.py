@@ -213,6 +213,37 @@ def _reflect(qr: np.ndarray, j: int, end: int, tau: float, c0: int, c1: int) -> 
 
 
 @njit(**INLINE)
+def _link_residual(a: np.ndarray, b: np.ndarray, x: np.ndarray, i: int, lo: int, hi: int, efforts: int,
+                   rr: float) -> float:
+    """``rr`` plus the squared residuals of a link's equations ``i`` to ``i + 5``, summed over the columns
+    ``lo`` to ``hi - 1`` and ``efforts`` on, in order, the six sums interleaved."""
+    s0, s1, s2, s3, s4, s5 = -b[i], -b[i + 1], -b[i + 2], -b[i + 3], -b[i + 4], -b[i + 5]
+    for j in range(lo, hi):
+        xj = x[j]
+        s0 += a[i, j] * xj
+        s1 += a[i + 1, j] * xj
+        s2 += a[i + 2, j] * xj
+        s3 += a[i + 3, j] * xj
+        s4 += a[i + 4, j] * xj
+        s5 += a[i + 5, j] * xj
+    for j in range(efforts, a.shape[1]):
+        xj = x[j]
+        s0 += a[i, j] * xj
+        s1 += a[i + 1, j] * xj
+        s2 += a[i + 2, j] * xj
+        s3 += a[i + 3, j] * xj
+        s4 += a[i + 4, j] * xj
+        s5 += a[i + 5, j] * xj
+    rr += s0 * s0
+    rr += s1 * s1
+    rr += s2 * s2
+    rr += s3 * s3
+    rr += s4 * s4
+    rr += s5 * s5
+    return rr
+
+
+@njit(**INLINE)
 def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np.ndarray, qb: np.ndarray,
                        x: np.ndarray) -> tuple[float, float]:
     """Least squares of ``a x = b`` by Householder QR (``qr``, ``qb``: the factors and ``Q^T b``), a
@@ -226,6 +257,9 @@ def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np
     rows: the constraint columns up to the first whose first equation is below them, and the efforts.  The
     rows and columns left out hold exact zeros, which the dense factorization would add without changing a
     bit; :func:`_reflect` keeps every sum's order, so the factors are the dense factorization's to the bit.
+    The back substitution and the residual skip the same zeros (row ``c`` of ``R`` is zero from the first
+    constraint column two joints below column ``c``'s, link ``l``'s equations outside the columns of joints
+    ``l`` and ``l + 1``), unless an unknown is not finite: a zero times it is NaN, as in the dense sums.
     """
     m, k = a.shape
     efforts = k  # the first solved effort's column
@@ -261,29 +295,29 @@ def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np
         qb[j] -= s
         for i in range(j + 1, end):
             qb[i] -= s * qr[i, j]
+    finite, hi = True, efforts  # hi: the first constraint column two joints below column c's
     for c in range(k - 1, -1, -1):
         s = qb[c]
-        for j in range(c + 1, k):
-            s -= qr[c, j] * x[j]
+        if c < efforts and c < 6 * columns[c, 0] + 6 and finite:  # row c of R: its band and the efforts
+            while hi > c + 1 and columns[hi - 1, 0] >= columns[c, 0] + 2:
+                hi -= 1
+            for j in range(c + 1, hi):
+                s -= qr[c, j] * x[j]
+            for j in range(efforts, k):
+                s -= qr[c, j] * x[j]
+        else:
+            for j in range(c + 1, k):
+                s -= qr[c, j] * x[j]
         d = qr[c, c]
         x[c] = s / (d if abs(d) > TINY else TINY)
-    rr, bb, last = 0.0, 0.0, 0.0
-    for i in range(0, m, 6):  # a link's six equations, their sums interleaved (each in the same order)
-        s0, s1, s2, s3, s4, s5 = -b[i], -b[i + 1], -b[i + 2], -b[i + 3], -b[i + 4], -b[i + 5]
-        for j in range(k):
-            xj = x[j]
-            s0 += a[i, j] * xj
-            s1 += a[i + 1, j] * xj
-            s2 += a[i + 2, j] * xj
-            s3 += a[i + 3, j] * xj
-            s4 += a[i + 4, j] * xj
-            s5 += a[i + 5, j] * xj
-        rr += s0 * s0
-        rr += s1 * s1
-        rr += s2 * s2
-        rr += s3 * s3
-        rr += s4 * s4
-        rr += s5 * s5
+        finite = finite and math.isfinite(x[c])
+    rr, bb, last, lo, hi = 0.0, 0.0, 0.0, 0, 0
+    for i in range(0, m, 6):  # link i / 6: the columns of its two joints and the efforts
+        while lo < efforts and columns[lo, 0] < i // 6:
+            lo += 1
+        while hi < efforts and columns[hi, 0] < i // 6 + 2:
+            hi += 1
+        rr = _link_residual(a, b, x, i, lo if finite else 0, hi if finite else efforts, efforts, rr)
     for i in range(m):
         bb += b[i] * b[i]
         last += a[i, k - 1] * a[i, k - 1]
