@@ -47,8 +47,9 @@ from dualmech.core.loop_reactions import JointWrenches, effort_slots, joint_free
 from dualmech.core.rates import Rates
 from dualmech.core.reactions import Body
 
-#: Fewest positions worth a block (a thread's task) of their own.
-BLOCK = 256
+#: Fewest positions worth a block (a thread's task) of their own: a table of two blocks' positions (a
+#: turn in degrees: 360) keeps both threads of a 2-core machine busy.
+BLOCK = 128
 #: Blocks per thread: uneven work (DFP near an edge of assembly) evens out.
 BLOCKS_PER_THREAD = 4
 
@@ -107,6 +108,12 @@ def wrench_spec(fl: FlatLoop, loop: Loop, bodies: Sequence[Body], gravity: np.nd
     )
     given_values = np.ascontiguousarray(np.stack(values, axis=1)) if values else np.zeros((n, 0))
     return spec, given_values, labels
+
+
+def _warm() -> bool:
+    """Whether this process holds the block pass's and the repairs' entry points (loaded or compiled):
+    calling them once inside the compile session is then needless."""
+    return bool(analyze_block.signatures and outputs_at.signatures and refine_one.signatures)
 
 
 def _flat_state(state: LoopState) -> np.ndarray:
@@ -236,15 +243,17 @@ def solve_loop(loop: Loop, inputs: dict[str, np.ndarray], input_rates: dict[str,
     with compile_session():  # a cold cache compiles every entry point here, as one compile
         good_pos, good_x = _stations(closer, n, start, at, stations)
         args = (fl, tols, tols._replace(closure=0.0), spec, values, good_pos, good_x, out)
-        analyze_block(0, 0, *args, make_work(fl), make_wrench_work(rows, len(labels)))
-        outputs_at(np.zeros(0, dtype=np.int64), fl, spec, values, out, closer.work,
-                   make_wrench_work(rows, len(labels)))
-        closer.refine(int(good_pos[0]), good_x[0].copy())  # the repairs' entry point (the start, closed)
+        if not _warm():
+            analyze_block(0, 0, *args, closer.work, make_wrench_work(rows, len(labels)))
+            outputs_at(np.zeros(0, dtype=np.int64), fl, spec, values, out, closer.work,
+                       make_wrench_work(rows, len(labels)))
+            closer.refine(int(good_pos[0]), good_x[0].copy())  # the repairs' entry point (the start, closed)
     parts = max(1, min(n // BLOCK, threads() * BLOCKS_PER_THREAD))
     bounds = np.unique(np.linspace(0, n, parts + 1).round().astype(int))
-    blocks = [kernel_pool().submit(analyze_block, int(a), int(b), *args, make_work(fl),
+    works = [closer.work] + [make_work(fl) for _ in range(bounds.size - 2)]  # the closer waits meanwhile
+    blocks = [kernel_pool().submit(analyze_block, int(a), int(b), *args, work,
                                    make_wrench_work(rows, len(labels)))
-              for a, b in zip(bounds[:-1], bounds[1:])]
+              for a, b, work in zip(bounds[:-1], bounds[1:], works)]
     for block in blocks:
         block.result()
     repaired = _repair(closer, out, at)

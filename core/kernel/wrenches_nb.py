@@ -168,23 +168,114 @@ def _equations(fl: FlatLoop, spec: WrenchSpec, vals: np.ndarray, x: np.ndarray, 
 
 
 @njit(**INLINE)
+def _first_row(columns: np.ndarray, c: int) -> int:
+    """The first equation that column ``c`` touches: link ``r - 1``'s for a joint of row ``r``."""
+    return max(6 * columns[c, 0] - 6, 0)
+
+
+@njit(**INLINE)
+def _reflect(qr: np.ndarray, j: int, end: int, tau: float, c0: int, c1: int) -> None:
+    """Columns ``c0`` to ``c1 - 1`` of ``qr`` times ``H = I - tau v v^T``, ``v = (1, qr[j+1:end, j])`` on rows
+    ``j`` to ``end - 1``, four columns at a time: each column's sum is taken in the same order as one column
+    at a time (the same numbers to the bit), the four chains of dependent additions interleaved."""
+    c = c0
+    while c + 4 <= c1:
+        s0, s1, s2, s3 = qr[j, c], qr[j, c + 1], qr[j, c + 2], qr[j, c + 3]
+        for i in range(j + 1, end):
+            v = qr[i, j]
+            s0 += v * qr[i, c]
+            s1 += v * qr[i, c + 1]
+            s2 += v * qr[i, c + 2]
+            s3 += v * qr[i, c + 3]
+        s0 *= tau
+        s1 *= tau
+        s2 *= tau
+        s3 *= tau
+        qr[j, c] -= s0
+        qr[j, c + 1] -= s1
+        qr[j, c + 2] -= s2
+        qr[j, c + 3] -= s3
+        for i in range(j + 1, end):
+            v = qr[i, j]
+            qr[i, c] -= s0 * v
+            qr[i, c + 1] -= s1 * v
+            qr[i, c + 2] -= s2 * v
+            qr[i, c + 3] -= s3 * v
+        c += 4
+    for c in range(c, c1):
+        s = qr[j, c]
+        for i in range(j + 1, end):
+            s += qr[i, j] * qr[i, c]
+        s *= tau
+        qr[j, c] -= s
+        for i in range(j + 1, end):
+            qr[i, c] -= s * qr[i, j]
+
+
+@njit(**INLINE)
+def _link_residual(a: np.ndarray, b: np.ndarray, x: np.ndarray, i: int, lo: int, hi: int, efforts: int,
+                   rr: float) -> float:
+    """``rr`` plus the squared residuals of a link's equations ``i`` to ``i + 5``, summed over the columns
+    ``lo`` to ``hi - 1`` and ``efforts`` on, in order, the six sums interleaved."""
+    s0, s1, s2, s3, s4, s5 = -b[i], -b[i + 1], -b[i + 2], -b[i + 3], -b[i + 4], -b[i + 5]
+    for j in range(lo, hi):
+        xj = x[j]
+        s0 += a[i, j] * xj
+        s1 += a[i + 1, j] * xj
+        s2 += a[i + 2, j] * xj
+        s3 += a[i + 3, j] * xj
+        s4 += a[i + 4, j] * xj
+        s5 += a[i + 5, j] * xj
+    for j in range(efforts, a.shape[1]):
+        xj = x[j]
+        s0 += a[i, j] * xj
+        s1 += a[i + 1, j] * xj
+        s2 += a[i + 2, j] * xj
+        s3 += a[i + 3, j] * xj
+        s4 += a[i + 4, j] * xj
+        s5 += a[i + 5, j] * xj
+    rr += s0 * s0
+    rr += s1 * s1
+    rr += s2 * s2
+    rr += s3 * s3
+    rr += s4 * s4
+    rr += s5 * s5
+    return rr
+
+
+@njit(**INLINE)
 def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np.ndarray, qb: np.ndarray,
                        x: np.ndarray) -> tuple[float, float]:
     """Least squares of ``a x = b`` by Householder QR (``qr``, ``qb``: the factors and ``Q^T b``), a
     diagonal of ``R`` at or below :data:`TINY` raised to it (the numpy solver's ``_least_squares``): the
     relative residual and the last column's ``|R_kk| / |a_k|``.
 
-    A column of row ``r`` (``columns``) touches the equations of links ``r - 1`` and ``r`` only, so the
-    reflection of column ``j`` works on the rows down to the last that any column up to ``j`` touches: the
-    rows below hold exact zeros, which the dense factorization would add without changing a bit."""
+    The system is block-bidiagonal: a column of row ``r`` (``columns``) touches the equations of links
+    ``r - 1`` and ``r`` only, and the constraint columns come first in row order, the solved efforts after
+    them (:func:`~dualmech.core.kernel.loop_engine.wrench_spec`).  So the reflection of column ``j`` works
+    on the rows down to the last that any column up to ``j`` touches, and on the columns that touch those
+    rows: the constraint columns up to the first whose first equation is below them, and the efforts.  The
+    rows and columns left out hold exact zeros, which the dense factorization would add without changing a
+    bit; :func:`_reflect` keeps every sum's order, so the factors are the dense factorization's to the bit.
+    The back substitution and the residual skip the same zeros (row ``c`` of ``R`` is zero from the first
+    constraint column two joints below column ``c``'s, link ``l``'s equations outside the columns of joints
+    ``l`` and ``l + 1``), unless an unknown is not finite: a zero times it is NaN, as in the dense sums.
+    """
     m, k = a.shape
+    efforts = k  # the first solved effort's column
+    for c in range(k - 1, -1, -1):
+        if columns[c, 1] == TURN or columns[c, 1] == SLIDE:
+            efforts = c
     for i in range(m):
         qb[i] = b[i]
         for j in range(k):
             qr[i, j] = a[i, j]
-    end = 0
+    end, touched = 0, 0  # rows j .. end - 1 of the reflection; constraint columns j + 1 .. touched - 1
     for j in range(k):
-        end = max(end, min(6 * columns[j, 0] + 6, m))  # rows j .. end - 1 of the reflection
+        end = max(end, min(6 * columns[j, 0] + 6, m))
+        touched = max(touched, j + 1)
+        while touched < efforts and _first_row(columns, touched) < end:
+            touched += 1
         alpha, xnorm = qr[j, j], 0.0
         for i in range(j + 1, end):
             xnorm += qr[i, j] * qr[i, j]
@@ -195,14 +286,8 @@ def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np
         for i in range(j + 1, end):
             qr[i, j] *= scale
         qr[j, j] = beta
-        for c in range(j + 1, k):  # H = I - tau v v^T, v = (1, qr[j+1:end, j])
-            s = qr[j, c]
-            for i in range(j + 1, end):
-                s += qr[i, j] * qr[i, c]
-            s *= tau
-            qr[j, c] -= s
-            for i in range(j + 1, end):
-                qr[i, c] -= s * qr[i, j]
+        _reflect(qr, j, end, tau, j + 1, touched)
+        _reflect(qr, j, end, tau, max(efforts, touched), k)
         s = qb[j]
         for i in range(j + 1, end):
             s += qr[i, j] * qb[i]
@@ -210,18 +295,30 @@ def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np
         qb[j] -= s
         for i in range(j + 1, end):
             qb[i] -= s * qr[i, j]
+    finite, hi = True, efforts  # hi: the first constraint column two joints below column c's
     for c in range(k - 1, -1, -1):
         s = qb[c]
-        for j in range(c + 1, k):
-            s -= qr[c, j] * x[j]
+        if c < efforts and c < 6 * columns[c, 0] + 6 and finite:  # row c of R: its band and the efforts
+            while hi > c + 1 and columns[hi - 1, 0] >= columns[c, 0] + 2:
+                hi -= 1
+            for j in range(c + 1, hi):
+                s -= qr[c, j] * x[j]
+            for j in range(efforts, k):
+                s -= qr[c, j] * x[j]
+        else:
+            for j in range(c + 1, k):
+                s -= qr[c, j] * x[j]
         d = qr[c, c]
         x[c] = s / (d if abs(d) > TINY else TINY)
-    rr, bb, last = 0.0, 0.0, 0.0
+        finite = finite and math.isfinite(x[c])
+    rr, bb, last, lo, hi = 0.0, 0.0, 0.0, 0, 0
+    for i in range(0, m, 6):  # link i / 6: the columns of its two joints and the efforts
+        while lo < efforts and columns[lo, 0] < i // 6:
+            lo += 1
+        while hi < efforts and columns[hi, 0] < i // 6 + 2:
+            hi += 1
+        rr = _link_residual(a, b, x, i, lo if finite else 0, hi if finite else efforts, efforts, rr)
     for i in range(m):
-        s = -b[i]
-        for j in range(k):
-            s += a[i, j] * x[j]
-        rr += s * s
         bb += b[i] * b[i]
         last += a[i, k - 1] * a[i, k - 1]
     return math.sqrt(rr) / max(math.sqrt(bb), TINY), abs(qr[k - 1, k - 1]) / max(math.sqrt(last), TINY)

@@ -18,6 +18,7 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from dualmech.core.continuation import closure_jacobian, search_assembly
+from dualmech.core.kernel import loop_engine
 from dualmech.models.case import load_case, preset_names
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rccc_case import rccc_from_dict
@@ -229,3 +230,23 @@ def test_random_tables(seed: int, topology: str) -> None:
     ref = analyze_loop(mech, start, compiled=False)
     assume(np.isin(ref.status, ("ok", "dead_centre")).all())
     assert_same(analyze_loop(mech, start), ref)
+
+
+@pytest.mark.parametrize("block", [1, 180])  # as many blocks as the threads take; two blocks
+def test_answers_do_not_depend_on_the_blocks(monkeypatch: pytest.MonkeyPatch, block: int) -> None:
+    """Blocks of positions on the threads, one of them on the stations' scratch (whatever its remembered
+    turns): every output the same to the bit as one block's, the no-assembly gap and its repairs included."""
+    mech, start = _slider_crank("no-assembly-gap")
+    monkeypatch.setattr(loop_engine, "BLOCK", 10**9)
+    one = analyze_loop(mech, start)
+    monkeypatch.setattr(loop_engine, "BLOCK", block)
+    many = analyze_loop(mech, start)
+    assert (many.status == one.status).all()
+    pairs = {"state": (many.state.scalars, one.state.scalars),
+             "q_ddot": (many.rates.q_ddot, one.rates.q_ddot),
+             "force": (many.wrenches.force, one.wrenches.force),
+             "moment": (many.wrenches.moment, one.wrenches.moment),
+             "transmission": (many.wrenches.transmission, one.wrenches.transmission),
+             "iterations": (many.iterations, one.iterations)}
+    for name, (mine, ref) in pairs.items():
+        np.testing.assert_array_equal(mine, ref, err_msg=name)
