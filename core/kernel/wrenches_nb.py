@@ -244,28 +244,11 @@ def _link_residual(a: np.ndarray, b: np.ndarray, x: np.ndarray, i: int, lo: int,
 
 
 @njit(**INLINE)
-def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np.ndarray, qb: np.ndarray,
-                       x: np.ndarray) -> tuple[float, float]:
-    """Least squares of ``a x = b`` by Householder QR (``qr``, ``qb``: the factors and ``Q^T b``), a
-    diagonal of ``R`` at or below :data:`TINY` raised to it (the numpy solver's ``_least_squares``): the
-    relative residual and the last column's ``|R_kk| / |a_k|``.
-
-    The system is block-bidiagonal: a column of row ``r`` (``columns``) touches the equations of links
-    ``r - 1`` and ``r`` only, and the constraint columns come first in row order, the solved efforts after
-    them (:func:`~dualmech.core.kernel.loop_engine.wrench_spec`).  So the reflection of column ``j`` works
-    on the rows down to the last that any column up to ``j`` touches, and on the columns that touch those
-    rows: the constraint columns up to the first whose first equation is below them, and the efforts.  The
-    rows and columns left out hold exact zeros, which the dense factorization would add without changing a
-    bit; :func:`_reflect` keeps every sum's order, so the factors are the dense factorization's to the bit.
-    The back substitution and the residual skip the same zeros (row ``c`` of ``R`` is zero from the first
-    constraint column two joints below column ``c``'s, link ``l``'s equations outside the columns of joints
-    ``l`` and ``l + 1``), unless an unknown is not finite: a zero times it is NaN, as in the dense sums.
-    """
+def _factor_band(a: np.ndarray, b: np.ndarray, columns: np.ndarray, efforts: int, qr: np.ndarray,
+                 qb: np.ndarray) -> None:
+    """The Householder factors of ``a`` into ``qr`` and ``Q^T b`` into ``qb``, each reflection on the band
+    it reaches (:func:`_householder_solve`); ``efforts`` the first solved effort's column."""
     m, k = a.shape
-    efforts = k  # the first solved effort's column
-    for c in range(k - 1, -1, -1):
-        if columns[c, 1] == TURN or columns[c, 1] == SLIDE:
-            efforts = c
     for i in range(m):
         qb[i] = b[i]
         for j in range(k):
@@ -295,6 +278,13 @@ def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np
         qb[j] -= s
         for i in range(j + 1, end):
             qb[i] -= s * qr[i, j]
+
+
+@njit(**INLINE)
+def _back_substitute(columns: np.ndarray, k: int, efforts: int, qr: np.ndarray, qb: np.ndarray,
+                     x: np.ndarray) -> bool:
+    """``R x = Q^T b`` for the ``k`` unknowns, into ``x``, on ``R``'s band (:func:`_householder_solve`), a
+    diagonal at or below :data:`TINY` raised to it; whether every unknown is finite."""
     finite, hi = True, efforts  # hi: the first constraint column two joints below column c's
     for c in range(k - 1, -1, -1):
         s = qb[c]
@@ -311,6 +301,34 @@ def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np
         d = qr[c, c]
         x[c] = s / (d if abs(d) > TINY else TINY)
         finite = finite and math.isfinite(x[c])
+    return finite
+
+
+@njit(**INLINE)
+def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np.ndarray, qb: np.ndarray,
+                       x: np.ndarray) -> tuple[float, float]:
+    """Least squares of ``a x = b`` by Householder QR (``qr``, ``qb``: the factors and ``Q^T b``), a
+    diagonal of ``R`` at or below :data:`TINY` raised to it (the numpy solver's ``_least_squares``): the
+    relative residual and the last column's ``|R_kk| / |a_k|``.
+
+    The system is block-bidiagonal: a column of row ``r`` (``columns``) touches the equations of links
+    ``r - 1`` and ``r`` only, and the constraint columns come first in row order, the solved efforts after
+    them (:func:`~dualmech.core.kernel.loop_engine.wrench_spec`).  So the reflection of column ``j`` works
+    on the rows down to the last that any column up to ``j`` touches, and on the columns that touch those
+    rows: the constraint columns up to the first whose first equation is below them, and the efforts.  The
+    rows and columns left out hold exact zeros, which the dense factorization would add without changing a
+    bit; :func:`_reflect` keeps every sum's order, so the factors are the dense factorization's to the bit.
+    The back substitution and the residual skip the same zeros (row ``c`` of ``R`` is zero from the first
+    constraint column two joints below column ``c``'s, link ``l``'s equations outside the columns of joints
+    ``l`` and ``l + 1``), unless an unknown is not finite: a zero times it is NaN, as in the dense sums.
+    """
+    m, k = a.shape
+    efforts = k  # the first solved effort's column
+    for c in range(k - 1, -1, -1):
+        if columns[c, 1] == TURN or columns[c, 1] == SLIDE:
+            efforts = c
+    _factor_band(a, b, columns, efforts, qr, qb)
+    finite = _back_substitute(columns, k, efforts, qr, qb, x)
     rr, bb, last, lo, hi = 0.0, 0.0, 0.0, 0, 0
     for i in range(0, m, 6):  # link i / 6: the columns of its two joints and the efforts
         while lo < efforts and columns[lo, 0] < i // 6:
