@@ -92,7 +92,7 @@ def solves(engine: str, kind: str, case: Any) -> bool:
     if kind == "loop":
         return case.drive.joint != len(case.joints) - 1
     given = kind == "rccc" or getattr(case, "mode", "") == "output"
-    return given and bool(is_status(solve_case("dualmech", case).status, Status.OK).all())
+    return given and bool(is_status(run_engine("dualmech", case).status, Status.OK).all())
 
 
 def spec_of(engine: str, kind: str) -> str:
@@ -112,15 +112,10 @@ def get_engine(name: str, kind: str = SLIDER_CRANK) -> Callable[[Any], ColumnTab
     return getattr(import_module(module), func)
 
 
-def solve_case(engine: str, case: Any) -> ColumnTable:
-    """The checked ``case`` (a slider-crank :class:`~dualmech.models.case.Case`, an RSSR, RCCC or loop
-    table case) solved by ``engine``, by its kind."""
-    return get_engine(engine, kind_of(case))(case)
-
-
 def run_engine(name: str, case: Any) -> ColumnTable:
-    """Solve ``case`` with engine ``name`` (:func:`solve_case`)."""
-    return solve_case(name, case)
+    """The checked ``case`` (a slider-crank :class:`~dualmech.models.case.Case`, an RSSR, RCCC or loop
+    table case) solved by engine ``name``, by its kind."""
+    return get_engine(name, kind_of(case))(case)
 
 
 def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> ColumnTable:
@@ -147,4 +142,4 @@ def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> Column
         why = SIM_REFUSALS.get(kind, SIM_REFUSALS["rssr"]) if kind in ENGINES[engine] else ""
         raise CaseError(f"engine: {show(engine)} does not solve this {kind.upper()} case (valid: "
                         f"{', '.join(valid)}{why})")
-    return solve_case(engine, case)
+    return run_engine(engine, case)

@@ -126,9 +126,8 @@ def run_linkages(matrix: LinkageMatrix, outdir: str | Path | None = None, *, job
         outcome = run_matrix(runnable, folder, jobs=jobs, resume=resume, scheduler=scheduler,
                              progress=progress)
         seconds = timings(load_entries(Path(folder), runnable))
-    tables: dict[str, dict[str, LinkageTable | str]] = {e.id: {} for e in matrix.cases}
-    for case_id, per in outcome.results.items():
-        tables[case_id] = {e: t for e, t in per.items() if isinstance(t, (LinkageTable, str))}
+    tables: dict[str, dict[str, LinkageTable | str]] = {e.id: dict(outcome.results.get(e.id, {}))
+                                                         for e in matrix.cases}
     references: dict[str, dict[str, LinkageTable]] = {}
     ratios: dict[str, dict[str, tuple[np.ndarray, ...]]] = {}
     checks: list[Check] = []
