@@ -64,10 +64,10 @@ from dualmech.validation.selftest.run import (
     format_report,
     run_selftest,
 )
-from dualmech.validation.selftest.scratch import check_source, make_scratch, source_root
+from dualmech.validation.selftest.scratch import PACKAGES, check_source, make_scratch, source_root
 
 __all__ = [
-    "BOOT", "CATALOGUE", "CLASSES", "WRONG_IMPORT", "Catalogue", "GateRun", "Mutant", "Outcome", "Report",
-    "SelftestError", "check_source", "format_report", "gate_main", "load_catalogue", "make_scratch",
+    "BOOT", "CATALOGUE", "CLASSES", "WRONG_IMPORT", "Catalogue", "GateRun", "Mutant", "Outcome", "PACKAGES",
+    "Report", "SelftestError", "check_source", "format_report", "gate_main", "load_catalogue", "make_scratch",
     "parse_catalogue", "run_gate", "run_selftest", "source_root", "stale_reason",
 ]

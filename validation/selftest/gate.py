@@ -33,15 +33,16 @@ sys.meta_path[:] = [f for f in sys.meta_path
 sys.path_hooks[:] = [h for h in sys.path_hooks if "__editable__" not in str(getattr(h, "__module__", ""))]
 sys.path[:] = [os.path.join(_root, ".pkg"), _root] + [p for p in sys.path if "__editable__" not in p]
 sys.path_importer_cache.clear()
-import importlib
-for _name in {list(PACKAGES)!r}:
-    try:  # the packages' __init__ files are empty: a failure here is the copy's layout, never a fault
-        _file = str(importlib.import_module("dualmech." + _name).__file__)
-    except ImportError as _err:
-        _file = f"nowhere ({{_err}})"
+from importlib.machinery import PathFinder
+_path = sys.path
+for _name in {list(PACKAGES)!r}:  # found, not imported: importing would run the code under test
+    _spec = PathFinder.find_spec(_name, _path)
+    _file = str(_spec.origin) if _spec is not None else "nowhere"
     if not os.path.abspath(_file).startswith(os.path.join(_root, ".pkg") + os.sep):
-        print(f"selftest: dualmech.{{_name}} imported from {{_file}}, not from {{_root}}", file=sys.stderr)
+        print(f"selftest: {{_name}} found in {{_file}}, not in {{_root}}", file=sys.stderr)
         sys.exit({WRONG_IMPORT})
+    if _name == "dualmech":
+        _path = list(_spec.submodule_search_locations)
 """
 
 _MATRIX_GATE = "from dualmech.validation.selftest.gate import gate_main\nsys.exit(gate_main(sys.argv[2:]))\n"

@@ -7,13 +7,14 @@ from pathlib import Path
 
 from dualmech.validation.selftest.catalogue import Mutant, SelftestError, stale_reason
 
+#: Import packages and the folders that hold them: pyproject.toml's ``package-dir``, which a test compares
+#: with this table (the ``dualmech`` package itself is ``api/``).
+PACKAGES: dict[str, str] = {"dualmech": "api", "dualmech.core": "core", "dualmech.models": "models",
+                            "dualmech.validation": "validation", "dualmech.cli": "cli"}
 #: What a scratch copy holds (relative to the source root); absent optional entries are skipped.
-COPIED: tuple[str, ...] = (
-    "core", "models", "validation", "cli", "tests", "docs", "reports", "pyproject.toml", "README.md")
+COPIED: tuple[str, ...] = (*PACKAGES.values(), "tests", "docs", "reports", "pyproject.toml", "README.md")
 #: Entries a source root must have to be one.
-REQUIRED: tuple[str, ...] = ("core", "models", "validation", "pyproject.toml")
-#: Import packages and the folders that hold them (pyproject.toml ``package-dir``).
-PACKAGES: dict[str, str] = {"core": "core", "models": "models", "validation": "validation", "cli": "cli"}
+REQUIRED: tuple[str, ...] = (*PACKAGES.values(), "pyproject.toml")
 
 
 def source_root() -> Path:
@@ -34,8 +35,9 @@ def check_source(root: Path) -> Path:
 def make_scratch(root: Path, dest: Path, mutant: Mutant | None = None) -> Path:
     """Copy the source tree at ``root`` to ``dest`` (created) and apply ``mutant`` there.
 
-    ``dest/.pkg/dualmech/<name>`` links to ``dest/<folder>``, so a process with
-    ``dest/.pkg`` first on ``sys.path`` (:data:`BOOT`) imports the copy.
+    ``dest/.pkg/dualmech`` holds links to the files of the copy's ``api/`` and one link per
+    subpackage (``dest/.pkg/dualmech/core`` to ``dest/core``, ...), so a process with ``dest/.pkg``
+    first on ``sys.path`` (:data:`BOOT`) imports the copy.
     """
     dest = Path(dest)
     dest.mkdir(parents=True)
@@ -50,8 +52,12 @@ def make_scratch(root: Path, dest: Path, mutant: Mutant | None = None) -> Path:
             shutil.copy2(src, dest / name)
     pkg = dest / ".pkg" / "dualmech"
     pkg.mkdir(parents=True)
+    for entry in (dest / PACKAGES["dualmech"]).iterdir():
+        if entry.name != "__pycache__":
+            (pkg / entry.name).symlink_to(entry, target_is_directory=entry.is_dir())
     for name, folder in PACKAGES.items():
-        (pkg / name).symlink_to(dest / folder, target_is_directory=True)
+        if name != "dualmech":
+            (pkg / name.removeprefix("dualmech.")).symlink_to(dest / folder, target_is_directory=True)
     if mutant is not None:
         why = stale_reason(mutant, dest)
         if why:
