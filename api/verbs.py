@@ -27,12 +27,12 @@ from typing import TYPE_CHECKING, Any
 
 from dualmech.core.table import ResultTable
 from dualmech.models.case import Case
+from dualmech.models.catalogue import load_mechanism
 from dualmech.models.inputs import show
-from dualmech.models.kinds import KIND_HOMES, SLIDER_CRANK, kind_of, resolve
-from dualmech.models.linkages import is_linkage
+from dualmech.models.kinds import KIND_HOMES, SIM_OPTIONS, SLIDER_CRANK, kind_of, resolve
 from dualmech.models.plausibility import warn_implausible
 from dualmech.validation.arguments import MAX_JOBS, as_case, as_spec, engine_names, whole_number
-from dualmech.validation.engines import ENGINES, run_engine
+from dualmech.validation.engines import ENGINES, solve_checked
 
 if TYPE_CHECKING:
     import numpy as np
@@ -79,13 +79,9 @@ def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") ->
     """
     if not isinstance(engine, str):
         raise TypeError(f"engine: expected an engine name (valid: {', '.join(ENGINES)}), got {show(engine)}")
-    if isinstance(case, (str, os.PathLike, dict)) and is_linkage(case):
-        from dualmech.validation.engines import solve_linkage
-
-        return solve_linkage(case, engine)
-    checked = as_case(case)
+    checked = load_mechanism(case)
     warn_implausible(checked)
-    return run_engine(engine, checked)
+    return solve_checked(engine, checked)
 
 
 @dataclass(frozen=True)
@@ -173,47 +169,40 @@ def run_and_compare(matrix: Matrix, outdir: Path, *, jobs: int | None = None, re
 
 
 
-#: Options of the slider crank's forward dynamics that another kind refuses: it has no slider.
-SLIDER_OPTIONS = ("slider_load", "slider_damping")
-
-
 def simulate(case: Any, duration: float, **options: Any) -> Any:
     """Forward dynamics of ``case``: its input's equation of motion integrated under given loads.
 
     Parameters
     ----------
-    case : Case, str, os.PathLike, dict or a linkage's checked case
-        A slider crank (as :func:`solve` takes it: :func:`dualmech.models.forward_dynamics.simulate`,
-        :class:`~dualmech.models.simulation.Simulation`), or an RSSR, RCCC or loop table (a bundled name,
-        a file, a table or its checked case: :func:`dualmech.models.linkages.forward_dynamics.simulate`,
-        :func:`dualmech.models.loop.forward_dynamics.simulate`), by its kind
+    case : a case of any kind, str, os.PathLike or dict
+        As :func:`solve` takes it: a slider crank (:func:`dualmech.models.forward_dynamics.simulate`,
+        :class:`~dualmech.models.simulation.Simulation`), an RSSR, RCCC
+        (:func:`dualmech.models.linkages.forward_dynamics.simulate`) or loop table
+        (:func:`dualmech.models.loop.forward_dynamics.simulate`), by its kind
         (:data:`~dualmech.models.kinds.KIND_HOMES`).
     duration : float
         The end time, seconds.
     **options
-        The kind's own keyword options (``torque``, ``psi0``, ``psidot0``, ``damping``, ``samples``, ...;
-        the slider crank's also ``slider_load``, ``slider_damping``).
+        :data:`~dualmech.models.kinds.SIM_OPTIONS` (``torque``, ``psi0``, ``psidot0``, ``damping``,
+        ``samples``, ...) and the kind's own (the slider crank's ``slider_load``, ``slider_damping``).
 
     Raises
     ------
     TypeError, ValueError
-        One line: ``case`` is not a case, an option the kind does not take (a linkage has no slider), or
-        an invalid value.
+        One line: ``case`` is not a case, an option the kind does not take (only the slider crank has a
+        slider), or an invalid value.
     """
-    if isinstance(case, (str, os.PathLike, dict)) and is_linkage(case):
-        from dualmech.models.linkages import linkage_case
+    checked = load_mechanism(case)
+    warn_implausible(checked)
+    kind = kind_of(checked)
+    home = KIND_HOMES[kind]
+    valid = (*SIM_OPTIONS, *home.sim_options)
+    for name, value in options.items():
+        if name not in valid:
+            why = "has no slider" if name in KIND_HOMES[SLIDER_CRANK].sim_options else "does not take it"
+            raise ValueError(f"{name}: a {kind} case {why} (valid options: {', '.join(valid)})")
+    return resolve(home.simulator)(checked, duration, **options)
 
-        case = linkage_case(case)
-    kind = kind_of(case)
-    if kind == SLIDER_CRANK:
-        case = as_case(case)
-        warn_implausible(case)
-    given = [o for o in SLIDER_OPTIONS if options.get(o) is not None]
-    if kind != SLIDER_CRANK and given:
-        raise ValueError(f"{given[0]}: a {kind} case has no slider (valid options: torque, psi0, psidot0, "
-                         "damping, samples, method, rtol, atol, max_evaluations, time_limit)")
-    options = {k: v for k, v in options.items() if k not in SLIDER_OPTIONS or kind == SLIDER_CRANK}
-    return resolve(KIND_HOMES[kind].simulator)(case, duration, **options)
 
 def validate(source: str | Path | Case | None = None, outdir: str | Path | None = None, *,
              engines: Sequence[str] | str = (), jobs: int | None = None, resume: bool = False,

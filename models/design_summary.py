@@ -20,6 +20,8 @@ import numpy as np
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import ResultTable
 from dualmech.core.thresholds import ROUND_OFF_RELATIVE
+from dualmech.models.case import Case
+from dualmech.models.plausibility import masses_line
 from dualmech.models.units import column_unit
 
 #: |transmission| below this is a warning: the slider load (torque mode) or the drive torque (force mode)
@@ -163,3 +165,15 @@ def design_summary(table: ResultTable, units: str = "consistent") -> DesignSumma
         near_dead_centres=tuple(float(a) for a in theta[near]),
         statuses={str(w): int(n) for w, n in zip(words, counts)},
     )
+
+
+def solve_summary(table: ResultTable, case: Case) -> str:
+    """What ``dualmech solve`` prints about a slider crank's table: the design summary with the body masses,
+    the worst closure residual, the engine's notes; units from ``case.units``."""
+    lines = design_summary(table, case.units).lines()
+    lines.insert(1, masses_line(case))
+    res = table["residual"][table.status != Status.NO_ASSEMBLY]  # there: the reach's excess, not a closure's
+    if np.isfinite(res).any():
+        lines.append(f"worst closure residual: {np.nanmax(res):.3g}")
+    lines += list(table.meta.get("messages", []))
+    return "\n".join(lines)

@@ -19,37 +19,63 @@ SLIDER_CRANK = "slider-crank"
 
 
 class Kind(NamedTuple):
-    """Where a kind's parts live, each ``"module:name"``: its checked case ``record`` (a class), its
-    ``reader`` (parsed case table -> record, one-line CaseError), its in-house ``solver`` (record ->
-    result table), its table's ``spec`` (a :class:`~dualmech.models.linkages.table.TableSpec`, or a
-    function of the record; empty for the slider crank, whose table is
-    :class:`~dualmech.core.table.ResultTable`) and its forward dynamics ``simulator`` (record, duration,
-    options -> a simulation)."""
+    """Where a kind's parts live, each ``"module:name"`` (``""``: the kind has none).
+
+    ``record``: its checked case (a class); ``reader``: parsed case table -> record (one-line
+    CaseError); ``solver``: its in-house engine (record -> result table); ``spec``: its table's
+    :class:`~dualmech.models.linkages.table.TableSpec`, or a function of the record (empty for the
+    slider crank, whose table is :class:`~dualmech.core.table.ResultTable`); ``simulator``: its forward
+    dynamics (record, duration, options -> a simulation); ``summary``: (table, record) -> the few lines
+    ``dualmech solve`` prints; ``sim_summary``: simulation -> the lines ``dualmech simulate`` prints;
+    ``sim_options``: the simulator's keyword options beyond the common ones (:data:`SIM_OPTIONS`);
+    ``warnings``: record -> one line per implausible size (warnings, never errors); ``assembly``:
+    record -> why the design assembles at no drive position, or ``None`` (``dualmech solve`` refuses
+    such a design); ``joint_frames``: (record, table, path) -> writes the joint-frame table of
+    ``solve --frames joint``.
+    """
 
     record: str
     reader: str
     solver: str
     spec: str
     simulator: str
+    summary: str
+    sim_summary: str
+    sim_options: tuple[str, ...] = ()
+    warnings: str = ""
+    assembly: str = ""
+    joint_frames: str = ""
 
 
+#: The forward-dynamics options every kind's simulator takes (``dualmech.simulate``).
+SIM_OPTIONS = ("torque", "psi0", "psidot0", "damping", "samples", "method", "rtol", "atol", "max_evaluations",
+               "time_limit", "progress")
+
+_LINKAGES = "dualmech.models.linkages"
 #: Every kind dualmech solves.
 KIND_HOMES: dict[str, Kind] = {
     SLIDER_CRANK: Kind("dualmech.models.case:Case", "dualmech.models.case:case_from_dict",
                        "dualmech.models.slider_crank:solve_case", "",
-                       "dualmech.models.forward_dynamics:simulate"),
-    "rssr": Kind("dualmech.models.linkages.rssr_case:RssrCase",
-                 "dualmech.models.linkages.rssr_case:rssr_from_dict",
-                 "dualmech.models.linkages.rssr:solve_rssr", "dualmech.models.linkages.rssr:SPEC",
-                 "dualmech.models.linkages.forward_dynamics:simulate"),
-    "rccc": Kind("dualmech.models.linkages.rccc_case:RcccCase",
-                 "dualmech.models.linkages.rccc_case:rccc_from_dict",
-                 "dualmech.models.linkages.rccc:solve_rccc", "dualmech.models.linkages.rccc:SPEC",
-                 "dualmech.models.linkages.forward_dynamics:simulate"),
+                       "dualmech.models.forward_dynamics:simulate",
+                       "dualmech.models.design_summary:solve_summary",
+                       "dualmech.models.simulation_summary:slider_crank_summary",
+                       sim_options=("slider_load", "slider_damping"),
+                       warnings="dualmech.models.plausibility:implausible",
+                       assembly="dualmech.models.slider_crank:assembly_failure",
+                       joint_frames="dualmech.models.joint_frames:write_joint_frame_csv"),
+    "rssr": Kind(f"{_LINKAGES}.rssr_case:RssrCase", f"{_LINKAGES}.rssr_case:rssr_from_dict",
+                 f"{_LINKAGES}.rssr:solve_rssr", f"{_LINKAGES}.rssr:SPEC",
+                 f"{_LINKAGES}.forward_dynamics:simulate", f"{_LINKAGES}:summary",
+                 f"{_LINKAGES}.forward_dynamics:linkage_summary"),
+    "rccc": Kind(f"{_LINKAGES}.rccc_case:RcccCase", f"{_LINKAGES}.rccc_case:rccc_from_dict",
+                 f"{_LINKAGES}.rccc:solve_rccc", f"{_LINKAGES}.rccc:SPEC",
+                 f"{_LINKAGES}.forward_dynamics:simulate", f"{_LINKAGES}:summary",
+                 f"{_LINKAGES}.forward_dynamics:linkage_summary"),
     "loop": Kind("dualmech.models.loop.description:LoopMechanism",
                  "dualmech.models.loop.table_format:loop_from_dict",
                  "dualmech.models.loop.table:solve_loop_table", "dualmech.models.loop.columns:loop_spec",
-                 "dualmech.models.loop.forward_dynamics:simulate"),
+                 "dualmech.models.loop.forward_dynamics:simulate", f"{_LINKAGES}:summary",
+                 "dualmech.models.loop.forward_dynamics:loop_summary"),
 }
 KINDS = tuple(KIND_HOMES)
 #: The kinds other than the slider crank (the linkages: their own case format and table columns).
@@ -61,6 +87,11 @@ def resolve(home: str) -> Any:
     """The object a ``"module:name"`` names (its module imported now)."""
     module, name = home.split(":")
     return getattr(import_module(module), name)
+
+
+def is_record(case: Any) -> bool:
+    """Whether ``case`` is a checked case record of a kind (:data:`KIND_HOMES`)."""
+    return f"{type(case).__module__}:{type(case).__qualname__}" in _KIND_OF_RECORD
 
 
 def declared_kind(data: Any) -> Any:

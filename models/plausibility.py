@@ -4,8 +4,8 @@ Nothing is converted (:mod:`dualmech.models.units`), so a case whose numbers are
 than its label says still solves, to numbers that are wrong by powers of ten: the IFToMM crank
 entered in mm under ``m-kg-s`` weighs 1.2e8 kg and needs 1.3e16 N·m.  :func:`implausible` returns
 one line per implausible derived size, naming the likely cause; :func:`warn_implausible` issues
-them as :class:`ImplausibleUnitsWarning` (a :class:`UserWarning`, never an error: an unusual
-mechanism may be real).  The bounds, in SI, and their reasons are in ``docs/conventions.md``
+those of a case of any kind as :class:`ImplausibleUnitsWarning` (a :class:`UserWarning`, never an error: an
+unusual mechanism may be real).  The bounds, in SI, and their reasons are in ``docs/conventions.md``
 ("Plausible sizes"); a case with unstated units (``consistent``) is not checked.
 """
 
@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import Any
 
 import numpy as np
 
 from dualmech.models.case import Case
+from dualmech.models.kinds import KIND_HOMES, kind_of, resolve
 from dualmech.models.units import FOOT, INCH, UnitSystem, unit_system
 
 #: Longest plausible link (a1, a2, |a4|), m: larger than any machine's slider crank (a ship's engine
@@ -122,9 +124,16 @@ def implausible(case: Case) -> list[str]:
     return lengths + _body_warnings(case, system, bool(lengths))
 
 
-def warn_implausible(case: Case, stacklevel: int = 2) -> list[str]:
-    """:func:`implausible`, each line issued as an :class:`ImplausibleUnitsWarning`; the lines."""
-    found = implausible(case)
+def warnings_of(case: Any) -> list[str]:
+    """The implausible sizes of a checked case of any kind: its kind's ``warnings``
+    (:data:`~dualmech.models.kinds.KIND_HOMES`; the slider crank's are :func:`implausible`), else none."""
+    home = KIND_HOMES[kind_of(case)].warnings
+    return resolve(home)(case) if home else []
+
+
+def warn_implausible(case: Any, stacklevel: int = 2) -> list[str]:
+    """:func:`warnings_of`, each line issued as an :class:`ImplausibleUnitsWarning`; the lines."""
+    found = warnings_of(case)
     for line in found:
         warnings.warn(f"{case.name}: {line}", ImplausibleUnitsWarning, stacklevel=stacklevel + 1)
     return found

@@ -16,7 +16,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from dualmech.core.assembly import closure_condition, edge_status
+from dualmech.core.assembly import closure_condition, edge_status, reach
 from dualmech.core.dual import Dual, origin
 from dualmech.core.inertia import MassArrays
 from dualmech.core.loop import LoopState, evaluate
@@ -29,8 +29,10 @@ from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH
 from dualmech.core.universal import joint_axes, link_frame, universal_motion
 from dualmech.models.angle_ranges import status_messages
 from dualmech.models.case import Case
+from dualmech.models.mechanism import crank_pin
 from dualmech.models.slider_crank_closure import close_loop
 from dualmech.models.slider_crank_loop import DEAD_CENTRE, LOOP, Batch
+from dualmech.models.units import column_unit
 
 #: Positions analysed together at most: bounds memory (about 9 kB of work arrays per position) and keeps
 #: the work arrays near the CPU caches (10k: 67k positions/s, 50k: 62k, 2k: 59k on the CI machine).
@@ -220,3 +222,30 @@ def solve_case(case: Case) -> ResultTable:
     from dualmech.models.slider_crank_kernel import solve_case as solve_compiled  # numba loads on first use
 
     return solve_compiled(case)
+
+
+def assembly_failure(case: Case) -> str | None:
+    """Why ``case`` assembles at none of its crank angles, in one line with the reach's numbers, or ``None``
+    where it assembles at one at least.
+
+    The reach test of every engine (:func:`dualmech.core.assembly.reach`, ``docs/conventions.md``, "Edges of
+    assembly"): the loop closes where the crank pin ``P2`` is within ``a2 (1 + ASSEMBLY_REACH)`` of the slider
+    line.  The line names the crank pin's least distance from the line and where, and, when that is the
+    reason, that the offset alone puts the line out of reach (``|a4| - a1 > a2``: the distance is at least
+    ``|a4| - a1`` at every crank angle).
+    """
+    g, crank = case.geometry, case.own_crank_states()
+    rho = reach(crank_pin(g.crank_length, crank.theta, crank.s), g.foot, g.k4, g.rod_length)
+    if (rho <= 1.0 + ASSEMBLY_REACH.value).any():
+        return None
+    i = int(np.argmin(rho))
+    unit = column_unit("S4", case.units)
+    at = f" {unit}" if unit else ""
+    line = (f"{case.name}: the design assembles at no crank angle: the crank pin comes no nearer the slider "
+            f"line than {rho[i] * g.rod_length:.6g}{at} (theta1 = {np.degrees(crank.theta[i]):g} deg), "
+            f"beyond the rod's reach a2 = {g.rod_length:g}{at}")
+    a1, a4 = g.crank_length, abs(g.slider_offset)
+    if a4 - a1 > g.rod_length:
+        line += (f" (the offset |a4| = {a4:g}{at} exceeds the rod plus crank reach "
+                 f"a1 + a2 = {a1 + g.rod_length:g}{at})")
+    return line

@@ -36,6 +36,12 @@ ENGINES: dict[str, dict[str, str]] = {
                    "rccc": "dualmech.validation.linkages.mujoco_rccc_sim:solve_mujoco_sim_rccc",
                    "loop": "dualmech.validation.judges.mujoco_loop.table:solve_sim_table"},
 }
+#: The in-house engine's streamed solve, by kind: ``(is_long, stream)``, each ``"module:function"``:
+#: ``solve -o OUT`` of a case where ``is_long(case)`` writes it chunk by chunk with ``stream(case, OUT,
+#: progress)``, which returns the summary (:mod:`dualmech.validation.solve_output`).
+STREAMED: dict[str, tuple[str, str]] = {
+    SLIDER_CRANK: ("dualmech.validation.solve_output:is_long",
+                   "dualmech.validation.solve_output:stream_solve")}
 #: Why the simulation does not solve a case of a kind it is registered for (its one-line refusal).
 SIM_REFUSALS: dict[str, str] = {
     "rssr": "; its input is servo-driven through every angle of the case: the case must give "
@@ -118,24 +124,19 @@ def run_engine(name: str, case: Any) -> ColumnTable:
     return get_engine(name, kind_of(case))(case)
 
 
-def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> ColumnTable:
-    """Solve every crank position of a linkage case (a TOML file, a bundled case ``"rssr"`` / ``"rccc"`` /
-    ``"rscr"`` ... or a parsed dict) with ``engine``: ``"dualmech"`` (the in-house dual-number method),
-    ``"pinocchio"``, ``"mujoco"`` (the rigid judges; a loop table's are generated from it) or
-    ``"mujoco-sim"`` (MuJoCo's simulation of an RCCC case, an RSSR case in output-torque mode or a loop
-    table driven at another joint than its last: its rows are the simulated input states).
+def solve_checked(engine: str, case: Any) -> ColumnTable:
+    """``case`` (a checked case of any kind) solved by ``engine``: ``"dualmech"`` (the in-house dual-number
+    method), ``"pinocchio"``, ``"mujoco"`` (the rigid judges; a loop table's are generated from it) or
+    ``"mujoco-sim"`` (MuJoCo's simulation; of an RCCC case, an RSSR case in output-torque mode or a loop
+    table driven at another joint than its last, its rows are the simulated input states).
 
     Raises
     ------
     CaseError
-        One line, for any invalid input, and for an engine that does not solve the case.
+        One line, for an engine that is not one or does not solve the case (naming those that do).
     """
-    from dualmech.models.linkages import linkage_case, read_linkage
-
     if engine not in ENGINES:
-        raise CaseError(f"engine: {show(engine)} does not solve linkages (valid: {', '.join(ENGINES)})")
-    data = read_linkage(source)
-    case = linkage_case(data)
+        raise CaseError(f"engine: expected one of {', '.join(ENGINES)}, got {show(engine)}")
     kind = kind_of(case)
     if not solves(engine, kind, case):
         valid = [e for e in ENGINES if solves(e, kind, case)]
@@ -143,3 +144,11 @@ def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> Column
         raise CaseError(f"engine: {show(engine)} does not solve this {kind.upper()} case (valid: "
                         f"{', '.join(valid)}{why})")
     return run_engine(engine, case)
+
+
+def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> ColumnTable:
+    """:func:`solve_checked` of a linkage case (a TOML file, a bundled case ``"rssr"`` / ``"rccc"`` /
+    ``"rscr"`` ... or a parsed dict; a one-line CaseError for any invalid input)."""
+    from dualmech.models.linkages import linkage_case
+
+    return solve_checked(engine, linkage_case(source))

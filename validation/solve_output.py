@@ -23,6 +23,7 @@ from dualmech.core.files import replacing
 from dualmech.core.status import STATUSES
 from dualmech.core.table import ColumnTable, ParquetWriter, write_parquet
 from dualmech.models.case import Case
+from dualmech.models.plausibility import masses_line
 from dualmech.models.units import column_unit
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
@@ -78,7 +79,8 @@ class _Tally:
             self.worst = max(self.worst, float(np.nanmax(closed)))
 
     def text(self, case: Case, messages: list[str]) -> str:
-        lines = [f"case {case.name} (dualmech): {int(self.counts.sum())} positions, streamed"]
+        lines = [f"case {case.name} (dualmech): {int(self.counts.sum())} positions, streamed",
+                 masses_line(case)]
         lines.append("status: " + ", ".join(f"{w} {n}" for w, n in sorted(zip(STATUSES, self.counts)) if n))
         if self.extremes:
             hi = max(self.extremes, key=lambda e: e[0])  # first of equal maxima, as nanargmax
@@ -129,6 +131,11 @@ def _hold_old_file(path: Path) -> int | None:
 def _let_go(held: int | None) -> None:
     if held is not None:
         threading.Thread(target=os.close, args=(held,), name="dualmech-free", daemon=True).start()
+
+
+def is_long(case: Case) -> bool:
+    """Whether ``case`` has more than :data:`STREAM_POSITIONS` crank positions (``solve -o`` streams it)."""
+    return len(case.motion.angles_deg) > STREAM_POSITIONS
 
 
 def stream_solve(case: Case, path: str | Path, progress: ProgressCallback | None = None) -> str:

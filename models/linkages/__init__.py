@@ -111,9 +111,9 @@ def table_spec(kind: str, case: Any) -> TableSpec:
     return spec if isinstance(spec, TableSpec) else spec(case)
 
 
-def summary(table: LinkageTable) -> str:
-    """A short text about a linkage table: engine, case, rows, status counts, worst closure residual, the
-    engine's messages (e.g. the ``no_assembly`` ranges)."""
+def summary(table: LinkageTable, case: Any = None) -> str:
+    """A short text about a linkage table (of ``case``, unused: the table names it): engine, case, rows,
+    status counts, worst closure residual, the engine's messages (e.g. the ``no_assembly`` ranges)."""
     words, counts = np.unique(np.asarray(table.status, dtype=str), return_counts=True)
     lines = [f"{table.engine}: {table.case}, {len(table)} positions: "
              + ", ".join(f"{c} {w}" for w, c in zip(words, counts))]

@@ -57,6 +57,7 @@ from dualmech.models.linkages import rccc, rssr
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.linkages.table import LinkageTable
+from dualmech.models.simulation_summary import simulation_summary
 
 #: Input angles of the coefficient table over a turn: a 0.5 deg grid.
 POINTS = 721
@@ -341,3 +342,13 @@ def trajectory(case: Any, rhs: EquationOfMotion, t: np.ndarray, y: np.ndarray,
     kinetic, potential = energies(case, an)
     return LinkageSimulation(case, t, psi, w, acc, torque, rhs.output_torque, kinetic, potential, y[2], y[3],
                              y[4], mech.table(an), info)
+
+
+def linkage_summary(sim: LinkageSimulation) -> str:
+    """What ``dualmech simulate`` prints about ``sim``
+    (:func:`~dualmech.models.simulation_summary.simulation_summary`): the output torque and its work in
+    place of the
+    slider crank's slider."""
+    middle = (f"output torque {sim.output_torque:.6g} (the case's): work {sim.work_output[-1]:.6g}; "
+              f"dissipated {sim.dissipated[-1]:.6g}")
+    return simulation_summary(sim, middle, (sim.work_drive, sim.work_output))

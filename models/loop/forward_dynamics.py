@@ -70,6 +70,7 @@ from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.engine import LoopAnalysis, analyze_loop, find_start
 from dualmech.models.loop.table import ENGINE, analysis_columns
 from dualmech.models.loop.translate import drive_state, to_loop, variable
+from dualmech.models.simulation_summary import simulation_summary
 
 #: The coefficient table's aim: :func:`~dualmech.models.linkages.forward_dynamics.interpolation_error` at
 #: most this, the grid's step halved until it is (the linkages' tables reach ~1e-13 at 0.5 deg; the 7R's,
@@ -371,3 +372,12 @@ def trajectory(mechanism: LoopMechanism, rhs: EquationOfMotion, t: np.ndarray, y
     table = loop_table(ENGINE, at_samples, cols, an.status[rows], {"iterations": an.iterations[rows]})
     return LoopSimulation(mechanism, t, psi, w, acc, effort, kinetic, potential, y[2], y[3], y[4], table,
                           info)
+
+
+def loop_summary(sim: LoopSimulation) -> str:
+    """What ``dualmech simulate`` prints about ``sim``
+    (:func:`~dualmech.models.simulation_summary.simulation_summary`): the work of its given loads in place
+    of the
+    slider crank's slider."""
+    middle = f"given loads: work {sim.work_loads[-1]:.6g}; dissipated {sim.dissipated[-1]:.6g}"
+    return simulation_summary(sim, middle, (sim.work_drive, sim.work_loads), "drive")

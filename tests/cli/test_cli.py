@@ -1,6 +1,6 @@
 """The dualmech command line: solve and cases (other subcommands are tested beside their modules)."""
 
-import sys
+import re
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +14,7 @@ from dualmech.models.case import load_case, preset_names, preset_path
 from dualmech.models.kinds import kind_of
 from dualmech.models.linkages import bundled_names, read_linkage
 from dualmech.models.slider_crank import solve_case
+from dualmech.validation import solve_output
 from dualmech.validation.exit_codes import EXIT_BAD_INPUT
 
 
@@ -50,7 +51,11 @@ def test_case_path_of_an_unknown_name_is_one_line_naming_every_preset():
     result = CliRunner().invoke(main, ["case-path", "no-such-case"])
     assert result.exit_code == 2
     assert len(result.output.strip().splitlines()) == 1
-    assert "'no-such-case'" in result.output and "thesis/ideal" in result.output and "rssr" in result.output
+    assert "'no-such-case'" in result.output and "..." not in result.output
+    named = re.findall(r"([\w-]+)/\{([^}]*)\}", result.output)  # a folder's presets grouped: thesis/{a, b}
+    grouped = {f"{group}/{stem}" for group, stems in named for stem in stems.split(", ")}
+    assert set(preset_names()) <= grouped
+    assert all(re.search(rf"[ (]{re.escape(name)}[,)]", result.output) for name in bundled_names())
 
 
 def _ideal_with_offset(tmp_path: Path, offset: float) -> Path:
@@ -95,8 +100,7 @@ def test_solve_of_a_partly_assembling_design_names_the_ranges(tmp_path, monkeypa
     and the worst closure residual is a closure's (not the reach's excess on the rows that do not close), also
     in the summary of a long case streamed into the file."""
     if streamed:
-        # the module, not the command of the same name
-        monkeypatch.setattr(sys.modules["dualmech.cli.solve"], "STREAM_POSITIONS", 100)
+        monkeypatch.setattr(solve_output, "STREAM_POSITIONS", 100)
     out = tmp_path / "out.csv"
     result = CliRunner().invoke(main, ["solve", str(_ideal_with_offset(tmp_path, 45.0)), "-o", str(out)])
     assert result.exit_code == 0, result.output

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import csv
 import io
-from importlib import import_module
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +13,7 @@ from click.testing import CliRunner
 from numpy.testing import assert_allclose
 
 from dualmech.cli import main
+from dualmech.models.kinds import KIND_HOMES, SLIDER_CRANK
 from dualmech.models.linkages import CASES, linkage_case, rccc, rssr
 from dualmech.models.linkages import forward_dynamics as lfd
 from dualmech.models.simulation import SIMULATION_COLUMNS
@@ -54,8 +54,8 @@ def test_simulate_writes_a_linkage_csv_to_stdout() -> None:
 
 
 @pytest.mark.parametrize(("option", "words"), [
-    (["--slider-load", "1"], "--slider-load: 'rssr' is a linkage (no slider)"),
-    (["--slider-damping", "0"], "--slider-damping: 'rssr' is a linkage (no slider)"),
+    (["--slider-load", "1"], "--slider-load: 'rssr' is a rssr case, which has no slider"),
+    (["--slider-damping", "0"], "--slider-damping: 'rssr' is a rssr case, which has no slider"),
     (["--torque", "2*s4"], "torque: '2*s4' uses s4, the slider crank's slider"),
     (["--torque", "psi +"], "cannot parse"),
     (["--samples", "1"], "--samples: expected an integer from 2"),
@@ -87,9 +87,12 @@ def test_the_slider_crank_keeps_its_path(tmp_path: Path) -> None:
     assert "slider S4:" in result.output
 
 
-def test_the_dispatch_sends_a_linkage_to_its_forward_dynamics(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Deliberate fault: without the dispatch a linkage case goes to the slider crank's reader, which
-    refuses it."""
-    monkeypatch.setattr(import_module("dualmech.cli.simulate"), "is_linkage", lambda case: False)
-    result = CliRunner().invoke(main, ["simulate", "rssr", "--duration", "0.05", "--samples", "3"])
-    assert result.exit_code == 2 and "output torque" not in result.output
+def test_the_kind_table_sends_a_linkage_to_its_forward_dynamics(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Deliberate fault: with the RSSR's simulator in the kind table swapped for the slider crank's, the
+    command fails instead of integrating the linkage."""
+    args = ["simulate", "rssr", "--duration", "0.05", "--samples", "3"]
+    assert "output torque" in CliRunner().invoke(main, args).output
+    rssr = KIND_HOMES["rssr"]
+    monkeypatch.setitem(KIND_HOMES, "rssr", rssr._replace(simulator=KIND_HOMES[SLIDER_CRANK].simulator))
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code != 0 and "output torque" not in result.output

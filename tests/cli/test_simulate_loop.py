@@ -72,7 +72,7 @@ def test_simulate_writes_the_loop_motion(name: str, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("args", "words"), [
-    (["rscr", "--slider-load", "1"], "--slider-load: 'rscr' is a linkage (no slider); its loads are"),
+    (["rscr", "--slider-load", "1"], "--slider-load: 'rscr' is a loop case, which has no slider"),
     (["rscr", "--torque", "2*s4dot"], "torque: '2*s4dot' uses s4dot, the slider crank's slider"),
     (["7r", "--samples", "3", "--duration", "3"], "simulate: the drive reached -"),
 ])

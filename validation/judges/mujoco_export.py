@@ -31,6 +31,7 @@ import numpy as np
 
 from dualmech.core.status import Status
 from dualmech.models.case import Case
+from dualmech.models.kinds import SLIDER_CRANK, kind_of
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.presets import loop_table_of
 from dualmech.models.mjcf import KEY_NAME, MjcfStart, check_exportable, runnable_mjcf
@@ -327,3 +328,26 @@ def export_loop_mjcf(case: Any, file_name: str = "model.xml") -> tuple[str, Expo
     raise ValueError(f"case: the exported model does not keep its loop closed and its speed (gap "
                      f"{check.loop_gap:.3g} of the table's length, speed error {check.speed_error:.3g} "
                      f"at dt = {check.timestep:.3g} s over {check.steps} steps)")
+
+
+def export_case(case: Any, file_name: str = "model.xml") -> tuple[str, str]:
+    """The MJCF of a checked case of any kind that runs as written (:func:`export_mjcf` for a slider crank,
+    :func:`export_loop_mjcf` for every other kind: its loop table's model), and what ``dualmech mjcf``
+    says about it: where the loop closed, the time step, the check run (one line; a second one where the
+    model leaves part of the case's motion out)."""
+    if kind_of(case) != SLIDER_CRANK:
+        xml, check = export_loop_mjcf(case, file_name)
+        return xml, (f"loop table closed at the first drive position (cut gap {check.assembled_gap:.2g} of "
+                     f"its length); time step {check.timestep:.3g} s; {check.steps} steps from key "
+                     f"{KEY_NAME!r}: cut gap <= {check.loop_gap:.2g}, drive rate within "
+                     f"{check.speed_error:.2g} of its speed")
+    xml, check = export_mjcf(case, file_name)
+    w = case.motion.speed
+    text = (f"loop closed at theta1 = {case.motion.angles_deg[0]:g} deg (gap {check.assembled_gap:.2g} of "
+            f"a2); time step {check.timestep:.3g} s; {check.steps} steps from key {KEY_NAME!r}: loop gap <= "
+            f"{check.loop_gap:.2g} of a2, crank speed within {check.speed_error:.2g} of {w:.6g} rad/s "
+            f"({w * 30.0 / np.pi:.6g} rpm)")
+    if case.motion.accel != 0.0 or case.motion.axial_amplitude != 0.0:
+        text += ("\nnote: the model turns the crank at a constant speed with S1 held; the case's crank_accel "
+                 "and axial S1 law need a controller that sets ctrl over time")
+    return xml, text
