@@ -243,7 +243,8 @@ def validate(source: str | Path | Case | None = None, outdir: str | Path | None 
     if isinstance(source, (str, os.PathLike)) and is_linkage_source(source):
         from dualmech.validation.linkages.validate import validate_linkages
 
-        return validate_linkages(source, outdir, engines=engine_names(engines))
+        return validate_linkages(source, outdir, engines=engine_names(engines),
+                                 jobs=jobs or os.cpu_count() or 1, resume=resume, scheduler=scheduler)
     matrix, folder = open_run(source, outdir, engine_names(engines))
     return run_and_compare(matrix, folder, jobs=jobs, resume=resume, scheduler=scheduler)
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import IO, TYPE_CHECKING
+from typing import IO, TYPE_CHECKING, NamedTuple
 
 import click
 
@@ -101,6 +101,14 @@ def _length_unit(matrix: Matrix) -> str:
     return f" \\[{lengths.pop()}]" if len(lengths) == 1 and "" not in lengths else ""  # \\[: not rich markup
 
 
+class Gate(NamedTuple):
+    """The CI gate's files of a run: JUnit XML to write, a baseline to compare with, one to write."""
+
+    junit: str | None
+    baseline: str | None
+    write_baseline: str | None
+
+
 @click.command()
 @click.argument("matrix_file", required=False, metavar="[MATRIX.toml]")
 @click.option("-o", "--output", "outdir", type=click.Path(file_okay=False),
@@ -129,7 +137,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     Exits 1 when any judge disagrees with the reference beyond tolerance, an engine
     fails, or (with --baseline) anything regressed.  The other linkages: `validate rssr`,
     `validate rccc`, `validate linkages`, a loop table (`validate rscr`, `validate loops`), or a linkage
-    case or matrix file; -o, --engines, --jobs and --resume apply.
+    case or matrix file, with every option (their own report).
     """
     from dualmech.validation.compare import baseline as regression
     from dualmech.validation.compare.junit import write_junit
@@ -140,10 +148,10 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
     from dualmech.validation.rundir import check_output_folder
     from dualmech.verbs import open_run, run_and_compare
 
+    gate = Gate(junit_file, baseline_file, write_baseline_file)
     if is_linkage_source(matrix_file):  # rssr, rccc, linkages, a linkage case or matrix file
-        _validate_linkages(matrix_file, outdir, _engine_list(engines), jobs, resume, {
-            "--scheduler": scheduler, "--junit": junit_file, "--baseline": baseline_file,
-            "--write-baseline": write_baseline_file, "--report-dir": report_dir})
+        _validate_linkages(matrix_file, outdir, _engine_list(engines), jobs, resume, scheduler, gate,
+                           report_dir)
     matrix, outdir = open_run(matrix_file, outdir, _engine_list(engines))
     on_interrupt(f"finished results are kept in {outdir}; re-run with --resume to finish")
     warn_units(*_one_design(matrix))
@@ -176,7 +184,7 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
              f"solved in {outcome.seconds:.1f} s ({how}; {outcome.ran} run, {outcome.skipped} resumed)")
     console.print(summary_table(matrix, comparison, title))
     _print_design(console, matrix, outcome.results)
-    _print_verdict(console, comparison, files, regressions, baseline_file, write_baseline_file, junit_file)
+    _print_verdict(console, comparison, files, regressions, gate)
     console.print(f"report: {files.html} and {files.markdown} ({files.seconds:.1f} s)")
     sys.exit(exit_code(comparison.verdict, regressions))
 
@@ -199,8 +207,7 @@ def _print_design(console: Console, matrix: Matrix, results: dict) -> None:
         console.print("\n".join(lines), markup=False, highlight=False)
 
 
-def _print_verdict(console, comparison, files, regressions: list, baseline_file: str | None,
-                   write_baseline_file: str | None, junit_file: str | None) -> None:
+def _print_verdict(console, comparison, files, regressions: list, gate: Gate) -> None:
     """The verdict line, the first failures, the baseline's regressions and the files written."""
     from dualmech.validation.compare.junit import describe
 
@@ -220,39 +227,40 @@ def _print_verdict(console, comparison, files, regressions: list, baseline_file:
         where = sorted({f"{c.case} / {c.engine}" for c in near_lock})
         console.print(f"near joint lock: {len(near_lock)} passing checks with their tolerance widened "
                       f"({', '.join(where)}; see {files.markdown})", highlight=False)
-    if baseline_file:
-        if regressions:
-            console.print(f"[red]REGRESSION[/] against {baseline_file}: {len(regressions)}")
-            for r in regressions[:SHOWN_FAILURES]:
-                console.print(f"  [red]✗[/] {r}", highlight=False)
-        else:
-            console.print(f"baseline {baseline_file}: no regression")
-    if write_baseline_file:
-        console.print(f"baseline written: {write_baseline_file}")
-    if junit_file:
-        console.print(f"JUnit: {junit_file}")
+    _print_gate(console, gate, regressions)
 
 
 # ------------------------------------------------------------------------ the other linkages (RSSR, RCCC)
 
 def _validate_linkages(source: str, outdir: str | None, engines: tuple[str, ...], jobs: int | None,
-                       resume: bool, refused: dict) -> None:
+                       resume: bool, scheduler: str | None, gate: Gate, report_dir: str | None) -> None:
     """``validate`` of a linkage case or matrix (:mod:`dualmech.validation.linkages`): run (each result
-    stored as it finishes), compare, report, print the table and the verdict, exit 0 (PASS) or 1 (FAIL)."""
-    from dualmech.validation.compare.junit import describe
+    stored as it finishes), compare, report, print the table and the verdict, write the gate's files, exit 0
+    (PASS), 1 (FAIL or a regression) or 3 (INCOMPLETE)."""
+    from dualmech.validation.compare import baseline as regression
+    from dualmech.validation.compare.junit import describe, write_junit
     from dualmech.validation.linkages.matrix import load_linkage_matrix
+    from dualmech.validation.linkages.run import as_run_matrix
     from dualmech.validation.linkages.validate import run_linkage_validation
+    from dualmech.validation.rundir import check_output_folder
 
-    given = next((flag for flag, value in refused.items() if value), None)
-    if given:
-        raise ValueError(f"{given}: not available for a linkage run ({source}); it takes -o, --engines, "
-                         "--jobs, --resume")
     name = load_linkage_matrix(source).name
+    baseline = regression.read_baseline(gate.baseline, name) if gate.baseline else None  # before the run
+    if report_dir:
+        check_output_folder(report_dir)
     folder = outdir or str(Path("runs") / name)
     on_interrupt(f"finished results are kept in {folder}; re-run with --resume to finish")
     with progress(f"{name}: linkage cases", unit="results") as bar:
         run, files, seconds = run_linkage_validation(source, folder, engines, jobs=jobs or _cores(),
-                                                     resume=resume, progress=bar)
+                                                     resume=resume, scheduler=scheduler,
+                                                     report_dir=report_dir, progress=bar)
+    summary = run.baseline()
+    regressions = regression.compare_baseline(summary, baseline) if baseline is not None else []
+    if gate.junit:
+        write_junit(gate.junit, as_run_matrix(run.matrix), run.comparison, run.seconds,
+                    regressions=regressions, versions=run_versions(Path(folder)))
+    if gate.write_baseline:
+        regression.write_baseline(gate.write_baseline, summary)
     matrix = run.matrix
     console = summary_console(sys.stdout.isatty())
     title = (f"{matrix.name}: {len(matrix.cases)} linkage cases, engines {', '.join(matrix.engines)} — "
@@ -268,8 +276,24 @@ def _validate_linkages(source: str, outdir: str | None, engines: tuple[str, ...]
         console.print(f"  [red]✗[/] {describe(c)}", highlight=False)
     if len(failures) > SHOWN_FAILURES:
         console.print(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {files.markdown})")
+    _print_gate(console, gate, regressions)
     console.print(f"report: {files.html} and {files.markdown}; summary {files.summary}")
-    sys.exit(exit_code(run.verdict, []))
+    sys.exit(exit_code(run.verdict, regressions))
+
+
+def _print_gate(console: Console, gate: Gate, regressions: list) -> None:
+    """The baseline's regressions and the gate's files written."""
+    if gate.baseline:
+        if regressions:
+            console.print(f"[red]REGRESSION[/] against {gate.baseline}: {len(regressions)}")
+            for r in regressions[:SHOWN_FAILURES]:
+                console.print(f"  [red]✗[/] {r}", highlight=False)
+        else:
+            console.print(f"baseline {gate.baseline}: no regression")
+    if gate.write_baseline:
+        console.print(f"baseline written: {gate.write_baseline}")
+    if gate.junit:
+        console.print(f"JUnit: {gate.junit}")
 
 
 def _linkage_table(run, title: str):

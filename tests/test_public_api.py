@@ -262,8 +262,9 @@ def test_validate_of_a_linkage_is_the_linkage_gate(tmp_path, monkeypatch) -> Non
         table.columns["phi4_deg"] += 1e-6
         return table
 
-    fault_engine(monkeypatch, "pinocchio", shifted, ("rssr",))
-    assert dualmech.validate("rssr", tmp_path / "bad", engines=["dualmech", "pinocchio"]).verdict == "FAIL"
+    fault_engine(monkeypatch, "pinocchio", shifted, ("rssr",))  # in this process: jobs=1
+    bad = dualmech.validate("rssr", tmp_path / "bad", engines=["dualmech", "pinocchio"], jobs=1)
+    assert bad.verdict == "FAIL"
 
 
 @pytest.mark.parametrize(("judges", "check", "passed"), [

@@ -81,29 +81,36 @@ def reference_values(table: ResultTable, mode: str, quantities: tuple[str, ...])
 def baseline_summary(
     matrix: Matrix, comparison: Comparison, results: dict[str, dict[str, ResultTable | str]]
 ) -> dict:
-    """The baseline of a run (JSON-ready)."""
-    cases = {}
+    """The baseline of a slider-crank run (JSON-ready): :func:`run_summary` with the in-house stroke and
+    scales of each case (:func:`reference_values`)."""
+    references = {}
     for mc in matrix.cases:
-        per = results.get(mc.id, {})
-        ref = per.get(matrix.reference)
-        entry: dict = {"reference": None, "checks": {}}
-        if isinstance(ref, ResultTable):
-            entry["reference"] = reference_values(ref, mc.mode, matrix.quantities)
-        for c in comparison.checks:
-            if c.case == mc.id:
-                entry["checks"].setdefault(c.engine, {})[c.quantity] = {
-                    "max_rel": _num(c.max_rel), "passed": bool(c.passed)}
-        cases[mc.id] = entry
+        ref = results.get(mc.id, {}).get(matrix.reference)
+        references[mc.id] = (reference_values(ref, mc.mode, matrix.quantities) if isinstance(ref, ResultTable)
+                             else None)
+    return run_summary(matrix.name, matrix.reference, matrix.engines, references, comparison)
+
+
+def run_summary(name: str, reference: str, engines: tuple[str, ...], references: dict[str, dict | None],
+                comparison: Comparison) -> dict:
+    """The baseline of a run of any kind (JSON-ready): per case its reference values (``references``: case
+    id -> ``stroke``, ``peaks``, ``scales``, ``length``, or ``None`` where the reference gave no table) and,
+    per engine and quantity, the worst relative difference and whether it passed."""
+    checks: dict[str, dict] = {cid: {} for cid in references}
+    for c in comparison.checks:
+        if c.case in checks:
+            checks[c.case].setdefault(c.engine, {})[c.quantity] = {"max_rel": _num(c.max_rel),
+                                                                   "passed": bool(c.passed)}
     return {
         "format": BASELINE_FORMAT,
-        "matrix": matrix.name,
-        "reference": matrix.reference,
-        "engines": list(matrix.engines),
+        "matrix": name,
+        "reference": reference,
+        "engines": list(engines),
         "tolerances": {
-            name: {"value": getattr(tol, name).value, "reason": getattr(tol, name).reason}
-            for name in ("BASELINE_AGREEMENT_FACTOR", "BASELINE_AGREEMENT_FLOOR", "BASELINE_VALUE_RTOL")
+            t: {"value": getattr(tol, t).value, "reason": getattr(tol, t).reason}
+            for t in ("BASELINE_AGREEMENT_FACTOR", "BASELINE_AGREEMENT_FLOOR", "BASELINE_VALUE_RTOL")
         },
-        "cases": cases,
+        "cases": {cid: {"reference": ref, "checks": checks[cid]} for cid, ref in references.items()},
     }
 
 

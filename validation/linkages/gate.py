@@ -75,6 +75,18 @@ def unit_scales(reference: LinkageTable, judge: LinkageTable, spec: TableSpec,
     return {g: s or 1.0 for g, s in scales.items()}
 
 
+def reference_values(reference: LinkageTable, spec: TableSpec) -> dict:
+    """What a baseline keeps of the reference table
+    (:func:`~dualmech.validation.compare.baseline.run_summary`): per compared column its peak ``max |R|``
+    over the rows that give it and its unit group's scale
+    (:func:`unit_scales`), the ``length`` group's scale; no stroke (a linkage has no slider)."""
+    columns = spec.kinematics + spec.forces + spec.moments
+    scales = unit_scales(reference, reference, spec, columns)
+    peaks = {c: float(np.max(np.abs(reference[c][np.isfinite(reference[c])]), initial=0.0)) for c in columns}
+    return {"stroke": None, "peaks": peaks, "scales": {c: scales[spec.unit_group(c)] for c in columns},
+            "length": scales.get("length", 0.0)}
+
+
 def relative_differences(reference: LinkageTable, judge: LinkageTable, spec: TableSpec,
                          columns: tuple[str, ...]) -> dict[str, np.ndarray]:
     """``r_i`` of each column (module docstring), each ``(n,)``: NaN where neither table gives the value,

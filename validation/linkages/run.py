@@ -24,7 +24,8 @@ from dualmech.models.linkages import linkage_case, table_spec
 from dualmech.models.linkages.forward_dynamics import MECHANISMS
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.compare import Check, Comparison, Verdict
-from dualmech.validation.linkages.gate import engine_check, judge_checks, reference_check
+from dualmech.validation.compare.baseline import run_summary
+from dualmech.validation.linkages.gate import engine_check, judge_checks, reference_check, reference_values
 from dualmech.validation.linkages.matrix import LinkageEntry, LinkageMatrix
 from dualmech.validation.matrix import Matrix, MatrixCase
 from dualmech.validation.progress import ProgressCallback
@@ -64,6 +65,18 @@ class LinkageRun:
     def verdict(self) -> Verdict:
         """``PASS``, ``FAIL`` or ``INCOMPLETE`` (:attr:`Comparison.verdict`)."""
         return self.comparison.verdict
+
+    def baseline(self) -> dict:
+        """The baseline of this run (:func:`~dualmech.validation.compare.baseline.run_summary`; the reference
+        values of each case's table by its spec: :func:`~dualmech.validation.linkages.gate.reference_values`),
+        for ``--write-baseline`` and ``--baseline``."""
+        references = {}
+        for entry in self.matrix.cases:
+            table = self.tables.get(entry.id, {}).get(self.matrix.reference)
+            references[entry.id] = (None if table is None or isinstance(table, str)
+                                    else reference_values(table, table_spec(entry.kind, entry.case)))
+        return run_summary(self.matrix.name, self.matrix.reference, self.matrix.engines, references,
+                           self.comparison)
 
     def worst(self) -> dict[str, Check]:
         """Per judge, its check of the largest ratio to tolerance over every case (a failing one first)."""

@@ -19,20 +19,23 @@ from dualmech.validation.rundir import check_output_folder
 
 def run_linkage_validation(source: str | Path = "linkages", outdir: str | Path | None = None,
                            engines: Sequence[str] = (), *, jobs: int = 1, resume: bool = False,
+                           scheduler: str | None = None, report_dir: str | Path | None = None,
                            progress: ProgressCallback | None = None
                            ) -> tuple[LinkageRun, LinkageReport, float]:
     """``dualmech validate`` of the other linkages: solve (each result stored in the run folder as it
-    finishes; ``jobs``, ``resume`` and ``progress`` as :func:`~dualmech.validation.run.runner.run_matrix`'s),
-    compare, write the report; the run, its files and the seconds spent solving and comparing (the command
+    finishes; ``jobs``, ``resume``, ``scheduler`` and ``progress`` as
+    :func:`~dualmech.validation.run.runner.run_matrix`'s), compare, write the report (into ``report_dir``,
+    default the run folder); the run, its files and the seconds spent solving and comparing (the command
     line prints them)."""
 
     matrix = load_linkage_matrix(source)
     matrix = matrix.with_engines(tuple(engines)) if engines else matrix
     folder = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
+    report = check_output_folder(Path(report_dir)) if report_dir else folder
     start = time.perf_counter()
-    run = run_linkages(matrix, folder, jobs=jobs, resume=resume, progress=progress)
+    run = run_linkages(matrix, folder, jobs=jobs, resume=resume, scheduler=scheduler, progress=progress)
     seconds = time.perf_counter() - start
-    return run, write_linkage_report(run, folder, seconds), seconds
+    return run, write_linkage_report(run, report, seconds), seconds
 
 
 def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None
@@ -51,7 +54,8 @@ def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None
 
 
 def validate_linkages(source: str | Path = "linkages", outdir: str | Path | None = None, *,
-                      engines: Sequence[str] = ()) -> LinkageRun:
+                      engines: Sequence[str] = (), jobs: int = 1, resume: bool = False,
+                      scheduler: str | None = None) -> LinkageRun:
     """Validate the RSSR and RCCC linkages as ``dualmech validate linkages`` does (without its console).
 
     Parameters
@@ -64,6 +68,8 @@ def validate_linkages(source: str | Path = "linkages", outdir: str | Path | None
         default ``runs/<matrix name>``.
     engines : sequence of str, optional
         Run only these engines (the reference, ``dualmech``, among them).
+    jobs, resume, scheduler
+        As :func:`~dualmech.validation.run.runner.run_matrix`'s.
 
     Returns
     -------
@@ -71,4 +77,4 @@ def validate_linkages(source: str | Path = "linkages", outdir: str | Path | None
         ``.verdict`` (``PASS``/``FAIL``/``INCOMPLETE``), ``.comparison``, ``.tables`` (case -> engine ->
         its :class:`~dualmech.models.linkages.table.LinkageTable`), ``.worst()`` per judge.
     """
-    return run_linkage_validation(source, outdir, engines)[0]
+    return run_linkage_validation(source, outdir, engines, jobs=jobs, resume=resume, scheduler=scheduler)[0]

@@ -4,6 +4,7 @@ the verdict line and the exit codes (0 pass, 1 fail, 2 bad input)."""
 from __future__ import annotations
 
 import json
+import xml.etree.ElementTree as ET
 from dataclasses import replace
 
 import pytest
@@ -102,12 +103,48 @@ def test_validate_fails_with_exit_code_1_on_a_faulty_judge(tmp_path, monkeypatch
     assert json.loads((tmp_path / "run" / "summary.json").read_text())["n_failed"] == 1
 
 
-@pytest.mark.parametrize("flag", [["--junit", "x.xml"], ["--scheduler", "tcp://h:1"],
-                                  ["--baseline", "b.json"]])
-def test_options_of_the_slider_cranks_runs_are_refused(tmp_path, flag: list[str]) -> None:
-    result = CliRunner().invoke(main, ["validate", "rccc", "-o", str(tmp_path / "run"), *flag])
-    assert result.exit_code == EXIT_BAD_INPUT and result.output.count("\n") == 1, result.output
-    assert f"{flag[0]}: not available for a linkage run (rccc)" in result.output
+def test_a_linkage_run_is_a_ci_gate_junit_and_baseline(tmp_path) -> None:
+    """--junit (one test per case and engine that solves it), --write-baseline, then --baseline: no
+    regression; the same baseline with the reference's output-angle peak 0.1 % off: a regression, exit 1, in
+    the JUnit file too; --report-dir puts the report elsewhere."""
+    run, junit, baseline = tmp_path / "run", tmp_path / "junit.xml", tmp_path / "baseline.json"
+    args = ["validate", "rccc", "-o", str(run), "--engines", "dualmech,pinocchio", "--jobs", "1"]
+    first = CliRunner().invoke(main, [*args, "--junit", str(junit), "--write-baseline", str(baseline),
+                                      "--report-dir", str(tmp_path / "report")])
+    assert first.exit_code == EXIT_PASS, first.output
+    assert f"baseline written: {baseline}" in first.output and f"JUnit: {junit}" in first.output
+    assert (tmp_path / "report" / "report.md").is_file() and not (run / "report.md").exists()
+    suite = ET.parse(junit).getroot().find("testsuite")
+    assert [(t.get("classname"), t.get("name")) for t in suite.iter("testcase")] == [
+        ("rccc-example.rccc-example", "dualmech"), ("rccc-example.rccc-example", "pinocchio")]
+    assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("2", "0", "0")
+    data = json.loads(baseline.read_text())
+    reference = data["cases"]["rccc-example"]["reference"]
+    assert reference["stroke"] is None and reference["peaks"]["theta4_deg"] > 0
+    checks = data["cases"]["rccc-example"]["checks"]["pinocchio"]
+    assert checks["theta4_deg"]["passed"] and checks["theta4_deg"]["max_rel"] < 1e-9
+    same = CliRunner().invoke(main, [*args, "--resume", "--baseline", str(baseline)])
+    assert same.exit_code == EXIT_PASS and f"baseline {baseline}: no regression" in same.output, same.output
+    reference["peaks"]["theta4_deg"] *= 1.001  # the in-house output angle's peak "was" 0.1 % larger
+    baseline.write_text(json.dumps(data))
+    regressed = CliRunner().invoke(main, [*args, "--resume", "--baseline", str(baseline), "--junit",
+                                          str(junit)])
+    assert regressed.exit_code == EXIT_FAIL, regressed.output
+    assert "REGRESSION against" in regressed.output
+    assert "rccc-example / dualmech: theta4_deg: in-house scale" in regressed.output
+    assert ET.parse(junit).getroot().find("testsuite").get("failures") == "1"
+
+
+def test_a_linkage_baseline_of_another_matrix_is_refused_before_the_run(tmp_path) -> None:
+    baseline = tmp_path / "b.json"
+    first = CliRunner().invoke(main, ["validate", "rccc", "-o", str(tmp_path / "a"), "--engines",
+                                      "dualmech,pinocchio", "--write-baseline", str(baseline)])
+    assert first.exit_code == EXIT_PASS, first.output
+    other = CliRunner().invoke(main, ["validate", "rssr", "-o", str(tmp_path / "b"), "--baseline",
+                                      str(baseline)])
+    assert other.exit_code == EXIT_BAD_INPUT and other.output.count("\n") == 1, other.output
+    assert "is for matrix 'rccc-example', not 'rssr-crank-rocker'" in other.output
+    assert not (tmp_path / "b").exists()
 
 
 def test_a_linkage_run_stores_each_result_and_resumes(tmp_path) -> None:
