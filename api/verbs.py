@@ -19,7 +19,7 @@ MuJoCo rigid, MuJoCo simulation) are drivers in ``validation/``, and their one r
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -39,6 +39,7 @@ if TYPE_CHECKING:
 
     from dualmech.models.tolerance.spec import Spec
     from dualmech.validation.compare import Comparison, Verdict
+    from dualmech.validation.linkages.validate import LinkageValidation
     from dualmech.validation.matrix import Matrix
     from dualmech.validation.progress import ProgressCallback, ProgressTasks
     from dualmech.validation.report.render import ReportFiles
@@ -122,15 +123,48 @@ class ValidationRun:
         """Case id -> engine -> table (or the error text of an engine that raised)."""
         return self.outcome.results
 
-    def write_report(self, report_dir: str | Path | None = None, jobs: int = 1) -> ReportFiles:
+    def write_report(self, report_dir: str | Path | None = None, jobs: int = 1, *,
+                     progress: ProgressCallback | None = None,
+                     findings: Callable[[], list[dict]] | None = None) -> ReportFiles:
         """Write the HTML/Markdown report of this run (default: into :attr:`outdir`), as ``dualmech report``.
 
-        ``jobs`` processes draw the figures; returns the files written (paths, verdict, seconds).
+        ``jobs`` processes draw the figures while this one compares; ``progress`` shows them; ``findings``
+        the thesis's in-house sections if already being solved
+        (:func:`~dualmech.validation.report.derived.findings_ahead`).  Returns the files written (paths,
+        verdict, seconds).
         """
         from dualmech.validation.report.render import write_report
 
         return write_report(self.outdir, report_dir, jobs=jobs, comparison=lambda: self.comparison,
-                            results=self.results)
+                            results=self.results, progress=progress, findings=findings)
+
+    def baseline(self) -> dict:
+        """This run's baseline summary (``--write-baseline``, ``--baseline``:
+        :func:`~dualmech.validation.compare.baseline.baseline_summary`)."""
+        from dualmech.validation.compare.baseline import baseline_summary
+
+        return baseline_summary(self.matrix, self.comparison, self.results)
+
+    def write_junit(self, path: str | Path, regressions: Sequence[Any] = ()) -> None:
+        """The JUnit XML of this run (one test per case and engine, each with its time), ``regressions``
+        failing the tests they concern."""
+        from dualmech.validation.compare.junit import write_junit
+        from dualmech.validation.run.runner import load_entries, run_versions, timings
+
+        write_junit(path, self.matrix, self.comparison, timings(load_entries(self.outdir, self.matrix)),
+                    regressions=list(regressions), versions=run_versions(self.outdir))
+
+    def console_summary(self, how: str, markdown: str) -> list[Any]:
+        """What ``dualmech validate`` prints (rich renderables, :mod:`dualmech.validation.report.console`):
+        the table titled with the run's size, time and ``how`` it ran, a design's own lines, the verdict
+        (the failures beyond those shown: see ``markdown``)."""
+        from dualmech.validation.report.console import design_lines, summary_table, verdict_lines
+
+        m, o = self.matrix, self.outcome
+        title = (f"{m.name}: {len(m.cases)} cases, engines {', '.join(m.engines)} — "
+                 f"solved in {o.seconds:.1f} s ({how}; {o.ran} run, {o.skipped} resumed)")
+        return [summary_table(m, self.comparison, title), *design_lines(m, self.results),
+                *verdict_lines(self.comparison, markdown)]
 
 
 def open_run(source: str | Path | Case | None, outdir: str | Path | None,
@@ -138,9 +172,13 @@ def open_run(source: str | Path | Case | None, outdir: str | Path | None,
     """The matrix of ``source`` (on ``engines`` if given) and its checked output folder.
 
     ``source``: a matrix file or bundled name (``None``: the thesis's study), a case file or a
-    case preset (a one-design matrix).  ``outdir`` defaults to ``runs/<matrix name>``.
-    Raises a one-line ``ValueError`` on a bad source, engine or folder.
+    case preset (a one-design matrix), of any kind: a linkage source (an RSSR, RCCC or loop-table case or
+    matrix, ``docs/matrix-format.md``, "Linkage matrices") gives the runner's matrix of its cases
+    (:func:`~dualmech.validation.linkages.run.as_run_matrix`).  ``outdir`` defaults to
+    ``runs/<matrix name>``.  Raises a one-line ``ValueError`` on a bad source, engine or folder.
     """
+    from dualmech.validation.linkages.matrix import is_linkage_source, load_linkage_matrix
+    from dualmech.validation.linkages.run import as_run_matrix
     from dualmech.validation.matrix import load_matrix
     from dualmech.validation.rundir import check_output_folder
 
@@ -149,21 +187,33 @@ def open_run(source: str | Path | Case | None, outdir: str | Path | None,
                         f"got {show(source)}")
     if outdir is not None and not isinstance(outdir, (str, os.PathLike)):
         raise TypeError(f"outdir: expected a folder path, got {show(outdir)}")
-    matrix = load_matrix(source)
-    if engines:
-        matrix = matrix.with_engines(tuple(engines))
+    if isinstance(source, (str, os.PathLike)) and is_linkage_source(source):
+        linkages = load_linkage_matrix(source)
+        matrix = as_run_matrix(linkages.with_engines(tuple(engines)) if engines else linkages)
+    else:
+        matrix = load_matrix(source)
+        matrix = matrix.with_engines(tuple(engines)) if engines else matrix
     return matrix, check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
 
 
 def run_and_compare(matrix: Matrix, outdir: Path, *, jobs: int | None = None, resume: bool = False,
-                    scheduler: str | None = None, progress: ProgressCallback | None = None) -> ValidationRun:
+                    scheduler: str | None = None, progress: ProgressCallback | None = None
+                    ) -> ValidationRun | LinkageValidation:
     """Run every case of ``matrix`` on its engines into ``outdir``; the run compares the judges with the
-    reference at the first use of its :attr:`~ValidationRun.comparison`.
+    reference at the first use of its :attr:`~ValidationRun.comparison`.  A matrix of linkage cases gives
+    a :class:`~dualmech.validation.linkages.validate.LinkageValidation` (compared by the linkage gate),
+    which has the same face.
 
     The arguments are those of :func:`~dualmech.validation.run.runner.run_matrix`.
     """
-    from dualmech.validation.run.runner import run_matrix
+    from dualmech.validation.linkages.run import stored_linkage_matrix
+    from dualmech.validation.linkages.validate import validate_linkage_matrix
+    from dualmech.validation.run.runner import default_jobs, run_matrix
 
+    linkages = stored_linkage_matrix(matrix)
+    if linkages is not None:
+        return validate_linkage_matrix(linkages, outdir, jobs=jobs or default_jobs(), resume=resume,
+                                       scheduler=scheduler, progress=progress)
     outcome = run_matrix(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=progress)
     return ValidationRun(matrix, outdir, outcome)
 
@@ -228,25 +278,31 @@ def validate(source: str | Path | Case | None = None, outdir: str | Path | None 
 
     Returns
     -------
-    ValidationRun
+    ValidationRun or LinkageValidation
         ``.verdict`` (``PASS``/``FAIL``/``INCOMPLETE``), ``.comparison``, ``.results``;
-        ``.write_report()`` renders it.  A linkage source (``"linkages"``, ``"rssr"``, ``"rccc"``, a
-        linkage case or matrix file) gives the run of
-        :func:`~dualmech.validation.linkages.validate.validate_linkages`, its report already written.
+        ``.write_report()`` renders it, ``.baseline()``, ``.write_junit()``.  A linkage source
+        (``"linkages"``, ``"rssr"``, ``"rccc"``, a loop table, a linkage case or matrix file) gives a
+        :class:`~dualmech.validation.linkages.validate.LinkageValidation`, with the same face.
     """
-    from dualmech.validation.linkages.matrix import is_linkage_source
-
     if jobs is not None:
         whole_number("jobs", jobs, 1, MAX_JOBS)
     if not isinstance(resume, bool):
         raise TypeError(f"resume: expected True or False, got {show(resume)}")
-    if isinstance(source, (str, os.PathLike)) and is_linkage_source(source):
-        from dualmech.validation.linkages.validate import validate_linkages
-
-        return validate_linkages(source, outdir, engines=engine_names(engines),
-                                 jobs=jobs or os.cpu_count() or 1, resume=resume, scheduler=scheduler)
     matrix, folder = open_run(source, outdir, engine_names(engines))
     return run_and_compare(matrix, folder, jobs=jobs, resume=resume, scheduler=scheduler)
+
+
+def report_run(rundir: str | Path, outdir: str | Path | None = None, *, jobs: int = 1) -> Any:
+    """Write the report of the run stored in ``rundir`` (into ``outdir``, default the run folder), as
+    ``dualmech report`` does: a linkage run's by the linkage report
+    (:func:`~dualmech.validation.linkages.validate.report_linkage_run`, a result missing from the folder
+    solved now), else the slider crank's (``jobs`` processes draw the figures).  Returns the files
+    written (``.html``, ``.markdown``, ``.figures``, ``.verdict``, ``.seconds``)."""
+    from dualmech.validation.linkages.validate import report_linkage_run
+    from dualmech.validation.report.render import write_report
+
+    linkages = report_linkage_run(rundir, outdir)
+    return linkages if linkages is not None else write_report(rundir, outdir, jobs=jobs)
 
 
 @dataclass(frozen=True)

@@ -325,6 +325,6 @@ def test_the_fuzz_property_catches_a_write_outside_and_an_internal_error(sandbox
     def broken(*_: Any, **__: Any) -> None:
         raise RuntimeError("a defect")
 
-    monkeypatch.setattr(solve_module, "load_case", broken)
+    monkeypatch.setattr(solve_module, "load_mechanism", broken)
     with sandbox.fresh(), pytest.raises(AssertionError, match="exit 70"):
         run("solve", "thesis/ideal", "-o", "t.csv")

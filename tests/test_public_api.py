@@ -253,7 +253,8 @@ def test_a_missing_dataframe_library_is_named_in_one_line(table: ResultTable, mo
 
 def test_validate_of_a_linkage_is_the_linkage_gate(tmp_path, monkeypatch) -> None:
     run = dualmech.validate("rssr", tmp_path / "run", engines=["dualmech", "pinocchio"])
-    assert run.verdict == "PASS" and (tmp_path / "run" / "summary.json").is_file()
+    assert run.verdict == "PASS" and run.write_report().verdict == "PASS"
+    assert (tmp_path / "run" / "summary.json").is_file()
     assert set(run.tables["rssr-crank-rocker"]) == {"dualmech", "pinocchio"}
     # the same gate fails when the judge's answer is off (a deliberate fault: the output angle 1e-6 deg off)
     from tests.validation.engine_faults import fault_engine

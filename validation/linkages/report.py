@@ -11,8 +11,9 @@ folder rules (a dualmech folder only, one writer at a time, a manifest of what w
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -40,6 +41,8 @@ class LinkageReport:
     html: Path
     figures: tuple[Path, ...]
     tables: tuple[Path, ...]
+    seconds: float
+    verdict: str
 
 
 def engine_rows(run: LinkageRun) -> list[dict]:
@@ -151,11 +154,53 @@ def write_linkage_report(run: LinkageRun, outdir: Path, seconds: float) -> Linka
                    "checks": run.comparison.checks, "report_seconds": time.perf_counter() - start,
                    "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
         files = LinkageReport(outdir / "summary.json", outdir / "report.md", outdir / "report.html",
-                              tuple(paths), tuple(tables))
+                              tuple(paths), tuple(tables), 0.0, str(run.verdict))
         write_json(outdir, files.summary.name, summary, pretty=True, record=False)
         for template, target, markdown in (("linkages.md.j2", files.markdown, True),
                                            ("linkages.html.j2", files.html, False)):
             write_file(outdir, target.name, environment(TEMPLATES, markdown).get_template(template).render(
                 **context), record=False)
         record_files(outdir, [files.summary, files.markdown, files.html, *paths, *tables])
-    return files
+    return replace(files, seconds=time.perf_counter() - start)
+
+
+def console_table(run: LinkageRun, title: str) -> Any:
+    """One row per linkage case, one column per judge: its worst ratio, or what failed; – not applicable."""
+    from rich.table import Table
+
+    table = Table(title=title, title_justify="left", pad_edge=False, show_edge=False)
+    for name in ("case", "kind", f"rows ({run.matrix.reference})", *run.matrix.judges):
+        table.add_column(name, no_wrap=True, justify="right" if name.startswith("rows") else "left")
+    for entry in run.matrix.cases:
+        ref = run.tables[entry.id].get(run.matrix.reference)
+        cells = []
+        for e in run.matrix.judges:
+            checks = run.comparison.for_engine(entry.id, e)
+            failed = [c for c in checks if not c.passed]
+            if not checks:
+                cells.append("[dim]–[/]")
+            elif failed:
+                more = f" +{len(failed) - 1}" if len(failed) > 1 else ""
+                cells.append(f"[red]✗ {failed[0].quantity}{more}[/]")
+            else:
+                cells.append(f"[green]✓[/] {max(c.ratio for c in checks):.1e}")
+        rows = "✗" if ref is None or isinstance(ref, str) else str(len(ref))
+        table.add_row(entry.id, entry.kind, rows, *cells)
+    return table
+
+
+def verdict_lines(run: LinkageRun, markdown: str) -> list[Any]:
+    """The verdict line with each judge's worst ratio, and the first failures (the rest: see ``markdown``)."""
+    from dualmech.validation.compare.junit import describe
+    from dualmech.validation.report.console import SHOWN_FAILURES
+
+    failures = run.comparison.failures()
+    n = len(run.comparison.checks)
+    colour = {"PASS": "green", "FAIL": "red", "INCOMPLETE": "yellow"}[str(run.verdict)]
+    worst = "; ".join(f"{e} {c.ratio:.2g} ({c.case} {c.quantity})" for e, c in run.worst().items())
+    out: list[Any] = [f"[{colour}]{run.verdict}[/]: {n - len(failures)} of {n} checks passed; worst ratio "
+                      f"(relative difference / tolerance): {worst}"]
+    out += [f"  [red]✗[/] {describe(c)}" for c in failures[:SHOWN_FAILURES]]
+    if len(failures) > SHOWN_FAILURES:
+        out.append(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {markdown})")
+    return out

@@ -7,39 +7,87 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from dualmech.validation.linkages.matrix import load_linkage_matrix
-from dualmech.validation.linkages.report import LinkageReport, write_linkage_report
-from dualmech.validation.linkages.run import LinkageRun, run_linkages, stored_linkage_matrix
+from dualmech.validation.compare import Comparison, Verdict
+from dualmech.validation.compare.junit import write_junit
+from dualmech.validation.linkages.matrix import LinkageMatrix
+from dualmech.validation.linkages.report import (
+    LinkageReport,
+    console_table,
+    verdict_lines,
+    write_linkage_report,
+)
+from dualmech.validation.linkages.run import LinkageRun, as_run_matrix, run_linkages, stored_linkage_matrix
 from dualmech.validation.progress import ProgressCallback
-from dualmech.validation.run.runner import load_run
-from dualmech.validation.rundir import check_output_folder
+from dualmech.validation.run.runner import load_run, run_versions
 
 
-def run_linkage_validation(source: str | Path = "linkages", outdir: str | Path | None = None,
-                           engines: Sequence[str] = (), *, jobs: int = 1, resume: bool = False,
-                           scheduler: str | None = None, report_dir: str | Path | None = None,
-                           progress: ProgressCallback | None = None
-                           ) -> tuple[LinkageRun, LinkageReport, float]:
-    """``dualmech validate`` of the other linkages: solve (each result stored in the run folder as it
-    finishes; ``jobs``, ``resume``, ``scheduler`` and ``progress`` as
-    :func:`~dualmech.validation.run.runner.run_matrix`'s), compare, write the report (into ``report_dir``,
-    default the run folder); the run, its files and the seconds spent solving and comparing (the command
-    line prints them)."""
+@dataclass(frozen=True)
+class LinkageValidation:
+    """A compared linkage run in its folder, with the face of the slider crank's
+    :class:`~dualmech.verbs.ValidationRun` (``dualmech validate`` and :func:`dualmech.validate` use either
+    alike): ``verdict``, ``comparison``, ``results`` and the run's report, baseline, JUnit and console
+    summary.  ``seconds``: solving and comparing."""
 
-    matrix = load_linkage_matrix(source)
-    matrix = matrix.with_engines(tuple(engines)) if engines else matrix
-    folder = check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
-    report = check_output_folder(Path(report_dir)) if report_dir else folder
+    matrix: LinkageMatrix
+    outdir: Path
+    run: LinkageRun
+    seconds: float
+
+    @property
+    def verdict(self) -> Verdict:
+        """``PASS``, ``FAIL`` or ``INCOMPLETE``."""
+        return self.run.verdict
+
+    @property
+    def comparison(self) -> Comparison:
+        """Every check of every judge against the reference."""
+        return self.run.comparison
+
+    @property
+    def results(self) -> dict:
+        """Case id -> engine -> its table, or the error text of an engine that raised."""
+        return self.run.tables
+
+    tables = results
+
+    def write_report(self, report_dir: str | Path | None = None, jobs: int = 1, *,
+                     progress: ProgressCallback | None = None, findings: Any = None) -> LinkageReport:
+        """Write the linkage report into ``report_dir`` (default the run folder); ``jobs``, ``progress``
+        and ``findings`` are the slider crank's (its figures are few and drawn here)."""
+        return write_linkage_report(self.run, Path(report_dir or self.outdir), self.seconds)
+
+    def baseline(self) -> dict:
+        """This run's baseline summary (:meth:`~dualmech.validation.linkages.run.LinkageRun.baseline`)."""
+        return self.run.baseline()
+
+    def write_junit(self, path: str | Path, regressions: Sequence[Any] = ()) -> None:
+        """The JUnit XML of this run: one test per case and engine that solves it."""
+        write_junit(path, as_run_matrix(self.matrix), self.comparison, self.run.seconds,
+                    regressions=list(regressions), versions=run_versions(self.outdir))
+
+    def console_summary(self, how: str, markdown: str) -> list[Any]:
+        """What ``dualmech validate`` prints: the table (one row per case) and the verdict."""
+        m = self.matrix
+        title = (f"{m.name}: {len(m.cases)} linkage cases, engines {', '.join(m.engines)} — "
+                 f"solved and compared in {self.seconds:.1f} s ({how})")
+        return [console_table(self.run, title), *verdict_lines(self.run, markdown)]
+
+
+def validate_linkage_matrix(matrix: LinkageMatrix, outdir: Path, *, jobs: int = 1, resume: bool = False,
+                            scheduler: str | None = None,
+                            progress: ProgressCallback | None = None) -> LinkageValidation:
+    """Run and compare ``matrix`` into ``outdir`` (each result stored as it finishes; ``jobs``, ``resume``,
+    ``scheduler`` and ``progress`` as :func:`~dualmech.validation.run.runner.run_matrix`'s)."""
     start = time.perf_counter()
-    run = run_linkages(matrix, folder, jobs=jobs, resume=resume, scheduler=scheduler, progress=progress)
-    seconds = time.perf_counter() - start
-    return run, write_linkage_report(run, report, seconds), seconds
+    run = run_linkages(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=progress)
+    return LinkageValidation(matrix, Path(outdir), run, time.perf_counter() - start)
 
 
-def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None
-                       ) -> tuple[LinkageRun, LinkageReport, float] | None:
+def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None) -> LinkageReport | None:
     """``dualmech report`` of a stored linkage run: its results compared again and its report written (to
     ``outdir``, default the run folder); ``None`` for a run of slider-crank cases (for the slider crank's
     report).  A result missing from the folder is run now (as ``--resume`` would)."""
@@ -47,34 +95,4 @@ def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None
     matrix = stored_linkage_matrix(load_run(Path(rundir))[0])
     if matrix is None:
         return None
-    start = time.perf_counter()
-    run = run_linkages(matrix, rundir, resume=True)
-    seconds = time.perf_counter() - start
-    return run, write_linkage_report(run, Path(outdir or rundir), seconds), seconds
-
-
-def validate_linkages(source: str | Path = "linkages", outdir: str | Path | None = None, *,
-                      engines: Sequence[str] = (), jobs: int = 1, resume: bool = False,
-                      scheduler: str | None = None) -> LinkageRun:
-    """Validate the RSSR and RCCC linkages as ``dualmech validate linkages`` does (without its console).
-
-    Parameters
-    ----------
-    source : str or pathlib.Path
-        ``"linkages"`` (the bundled linkage matrix), ``"rssr"``, ``"rccc"``, a linkage case file or a
-        linkage matrix file (``docs/matrix-format.md``, "Linkage matrices").
-    outdir : str or pathlib.Path, optional
-        Run directory for ``summary.json`` and the report (new, empty, or an earlier dualmech run);
-        default ``runs/<matrix name>``.
-    engines : sequence of str, optional
-        Run only these engines (the reference, ``dualmech``, among them).
-    jobs, resume, scheduler
-        As :func:`~dualmech.validation.run.runner.run_matrix`'s.
-
-    Returns
-    -------
-    LinkageRun
-        ``.verdict`` (``PASS``/``FAIL``/``INCOMPLETE``), ``.comparison``, ``.tables`` (case -> engine ->
-        its :class:`~dualmech.models.linkages.table.LinkageTable`), ``.worst()`` per judge.
-    """
-    return run_linkage_validation(source, outdir, engines, jobs=jobs, resume=resume, scheduler=scheduler)[0]
+    return validate_linkage_matrix(matrix, Path(rundir), resume=True).write_report(outdir)
