@@ -77,6 +77,40 @@ def test_the_command_line_is_the_top_floor() -> None:
         "validation/x.py:1 imports dualmech.cli.errors (a validation module may not import cli)"]
 
 
+#: What a command would import to ask a case "is this a linkage?": the linkages' packages, and the names
+#: that single out a kind.  The command line reads a case of any kind (models/catalogue/) and does the
+#: rest by the kind table (models/kinds.py: KIND_HOMES) and the engine registry (issue 32).
+KIND_QUESTIONS = ("dualmech.models.linkages", "dualmech.validation.linkages", "SLIDER_CRANK", "LINKAGE_KINDS",
+                  "is_linkage", "is_linkage_source")
+
+
+def kind_questions(path: Path, source: str) -> list[str]:
+    """The imports of ``source`` (a module at ``path``) that single out a kind, as messages."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            names = [node.module, *(f"{node.module}.{a.name}" for a in node.names)]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        else:
+            continue
+        for name in names:
+            if any(name == q or name.startswith(q + ".") or name.endswith("." + q) for q in KIND_QUESTIONS):
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno} imports {name}")
+    return found
+
+
+def test_no_command_asks_whether_a_case_is_a_linkage() -> None:
+    """Seen failing before the fix: cli/solve.py and cli/simulate.py imported is_linkage, cli/validate.py
+    is_linkage_source."""
+    bad = [m for path in sorted((ROOT / "cli").rglob("*.py")) for m in kind_questions(path, path.read_text())]
+    assert not bad
+    lazy = "def f():\n    from dualmech.models.linkages import is_linkage\n"
+    assert kind_questions(ROOT / "cli" / "x.py", lazy) == [
+        "cli/x.py:2 imports dualmech.models.linkages",
+        "cli/x.py:2 imports dualmech.models.linkages.is_linkage"]
+
+
 # ----------------------------------------------------------------------------- no import cycles (issue 32)
 
 def module_name(path: Path, root: Path = ROOT) -> str:
