@@ -35,6 +35,8 @@ from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.presets import rccc_table, rssr_table
+from dualmech.validation.judges.mujoco_loop.table import solve_table as mujoco_table
+from dualmech.validation.judges.pinocchio_loop.table import solve_table as pinocchio_table
 
 #: Values of the scanned cut angle in a start (10 deg apart).
 SCAN_POINTS = 36
@@ -265,8 +267,9 @@ def rccc_reach(case: RcccCase, theta1: np.ndarray) -> np.ndarray:
     return (c23**2 + c34**2 - 2.0 * g * c23 * c34) / (1.0 - g**2)
 
 
-def _from_row(mechanism: LoopMechanism, k: int, starts: tuple) -> LoopMechanism:
-    """``mechanism`` driven from its position ``k`` on, every joint started at ``starts``."""
+def with_start(mechanism: LoopMechanism, starts: tuple, k: int = 0) -> LoopMechanism:
+    """``mechanism`` driven from its position ``k`` on, every joint started at ``starts`` (one tuple per
+    joint, as :func:`rssr_start` and :func:`rccc_start` give them)."""
     drive = replace(mechanism.drive, positions=mechanism.drive.positions[k:])
     return replace(mechanism, drive=drive, joints=tuple(replace(j, start=s) for j, s in
                                                         zip(mechanism.joints, starts)))
@@ -293,7 +296,7 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageT
             continue
         restarts.append(k)
         for theta4 in angles(case, float(theta1[k]))[:MAX_CRUDE_STARTS]:
-            run = columns_of(case, judge(_from_row(mechanism, k, start(case, float(theta1[k]), theta4))))
+            run = columns_of(case, judge(with_start(mechanism, start(case, float(theta1[k]), theta4), k)))
             if is_status(run.status[:1], *ACCEPTED)[0]:
                 break
         take = k + np.flatnonzero(~is_status(status[k:], *ACCEPTED) & reaches[k:])
@@ -305,17 +308,23 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageT
                         {"iterations": iterations, "restarts": np.array(restarts, dtype=int)})
 
 
-def solve_pinocchio(case: RssrCase | RcccCase) -> LinkageTable:
-    """The ``pinocchio`` engine of an RSSR or RCCC case: :func:`judge_case` with the generated Pinocchio
-    judge (:func:`~dualmech.validation.judges.pinocchio_loop.table.solve_table`)."""
-    from dualmech.validation.judges.pinocchio_loop.table import ENGINE, solve_table
-
-    return judge_case(case, ENGINE, solve_table)
+def solve_pinocchio_rssr(case: RssrCase) -> LinkageTable:
+    """The ``pinocchio`` engine of an RSSR case: :func:`judge_case` with the generated Pinocchio judge
+    (:func:`~dualmech.validation.judges.pinocchio_loop.table.solve_table`)."""
+    return judge_case(case, "pinocchio", pinocchio_table)
 
 
-def solve_mujoco(case: RssrCase | RcccCase) -> LinkageTable:
-    """The ``mujoco`` engine of an RSSR or RCCC case: :func:`judge_case` with the generated rigid MuJoCo
-    judge (:func:`~dualmech.validation.judges.mujoco_loop.table.solve_table`)."""
-    from dualmech.validation.judges.mujoco_loop.table import ENGINE, solve_table
+def solve_pinocchio_rccc(case: RcccCase) -> LinkageTable:
+    """The ``pinocchio`` engine of an RCCC case (as :func:`solve_pinocchio_rssr`)."""
+    return judge_case(case, "pinocchio", pinocchio_table)
 
-    return judge_case(case, ENGINE, solve_table)
+
+def solve_mujoco_rssr(case: RssrCase) -> LinkageTable:
+    """The ``mujoco`` engine of an RSSR case: :func:`judge_case` with the generated rigid MuJoCo judge
+    (:func:`~dualmech.validation.judges.mujoco_loop.table.solve_table`)."""
+    return judge_case(case, "mujoco", mujoco_table)
+
+
+def solve_mujoco_rccc(case: RcccCase) -> LinkageTable:
+    """The ``mujoco`` engine of an RCCC case (as :func:`solve_mujoco_rssr`)."""
+    return judge_case(case, "mujoco", mujoco_table)
