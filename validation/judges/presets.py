@@ -267,18 +267,25 @@ def rccc_reach(case: RcccCase, theta1: np.ndarray) -> np.ndarray:
     return (c23**2 + c34**2 - 2.0 * g * c23 * c34) / (1.0 - g**2)
 
 
-def with_start(mechanism: LoopMechanism, starts: tuple, k: int = 0) -> LoopMechanism:
-    """``mechanism`` driven from its position ``k`` on, every joint started at ``starts`` (one tuple per
-    joint, as :func:`rssr_start` and :func:`rccc_start` give them)."""
-    drive = replace(mechanism.drive, positions=mechanism.drive.positions[k:])
+def with_start(mechanism: LoopMechanism, starts: tuple, k: int = 0, stop: int | None = None) -> LoopMechanism:
+    """``mechanism`` driven at its positions ``k`` to ``stop`` (exclusive; ``None``: the last), every joint
+    started at ``starts`` (one tuple per joint, as :func:`rssr_start` and :func:`rccc_start` give them)."""
+    drive = replace(mechanism.drive, positions=mechanism.drive.positions[k:stop])
     return replace(mechanism, drive=drive, joints=tuple(replace(j, start=s) for j, s in
                                                         zip(mechanism.joints, starts)))
 
 
 def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageTable:
     """An RSSR or RCCC ``case`` judged by ``judge`` (a generated judge's table of a loop table), as the
-    mechanism's own table of engine ``engine`` (module docstring); ``meta``: ``iterations`` per row (of
-    the run that answered it) and ``restarts``, the rows a run started from."""
+    mechanism's own table of engine ``engine`` (module docstring).
+
+    At a row to start from, each crude start (:data:`MAX_CRUDE_STARTS` at most) is tried on that row alone
+    until one answers on the branch; the judge then runs from there to the last row, and its answers are
+    taken where no run answered on the branch before.  With none on the branch the row keeps the first
+    start's answer and the next row is tried (so a judge that fails everywhere costs a few solves a row).
+    ``meta``: ``iterations`` per row (of the run that answered it) and ``restarts``, the rows a run
+    started from.
+    """
     rssr_kind = isinstance(case, RssrCase)
     table, angles, start, reach, columns_of, spec = (
         (rssr_table, rssr_start_angles, rssr_start, rssr_reach, rssr_columns, rssr.SPEC) if rssr_kind else
@@ -291,19 +298,30 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageT
     reaches = rssr.assembles(reach(case, theta1))
     status[~reaches] = Status.NO_ASSEMBLY.value
     iterations, restarts = np.zeros(n, dtype=int), []
+
+    def take(run: LinkageTable, rows: np.ndarray, k: int) -> None:
+        for c in spec.columns:
+            cols[c][rows] = run[c][rows - k]
+        status[rows] = run.status[rows - k]
+        iterations[rows] = np.asarray(run.meta["iterations"])[rows - k]
+
     for k in range(n):
         if not reaches[k] or is_status(status[k:k + 1], *ACCEPTED)[0]:
             continue
-        restarts.append(k)
+        first, good = None, None
         for theta4 in angles(case, float(theta1[k]))[:MAX_CRUDE_STARTS]:
-            run = columns_of(case, judge(with_start(mechanism, start(case, float(theta1[k]), theta4), k)))
-            if is_status(run.status[:1], *ACCEPTED)[0]:
+            starts = start(case, float(theta1[k]), theta4)
+            probe = columns_of(case, judge(with_start(mechanism, starts, k, k + 1)))
+            first = probe if first is None else first
+            if is_status(probe.status, *ACCEPTED)[0]:
+                good = starts
                 break
-        take = k + np.flatnonzero(~is_status(status[k:], *ACCEPTED) & reaches[k:])
-        for c in spec.columns:
-            cols[c][take] = run[c][take - k]
-        status[take] = run.status[take - k]
-        iterations[take] = np.asarray(run.meta["iterations"])[take - k]
+        if good is None:
+            take(first, np.array([k]), k)
+            continue
+        restarts.append(k)
+        take(columns_of(case, judge(with_start(mechanism, good, k))), k + np.flatnonzero(
+            ~is_status(status[k:], *ACCEPTED) & reaches[k:]), k)
     return LinkageTable(engine, case.name, cols, status,
                         {"iterations": iterations, "restarts": np.array(restarts, dtype=int)})
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import sys
 from contextlib import contextmanager
+from dataclasses import replace
 from typing import Callable, Iterator
 
 import numpy as np
@@ -181,22 +182,22 @@ def _run(kind: str, judge: str, case):
 @pytest.mark.parametrize("judge", ["pinocchio", "mujoco"])
 def test_the_crude_start_closes_each_branch_at_the_first_attempt(kind: str, make, branch: int,
                                                                  judge: str) -> None:
-    """One run from the first row's first crude start, on the case's branch, agreeing with the in-house
-    engine; the bundled cases' own branch and the other one."""
+    """The first row's first crude start on the case's branch (one probe of that row, then one run from
+    it), agreeing with the in-house engine; the bundled cases' own branch and the other one."""
     case = make(branch)
     table, runs = _run(kind, judge, case)
-    assert runs == 1 and table.meta["restarts"].tolist() == [0]
+    assert runs == 2 and table.meta["restarts"].tolist() == [0]
     ok = np.asarray(table.status, dtype=str) == Status.OK.value
     assert ok.any() and (np.sign(table["transmission_out"][ok]) == branch).all()
     _agrees(kind, case, table)
 
 
 def test_a_crude_start_on_the_wrong_side_is_seen(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Deliberate fault: the scan's brackets ordered for the other branch; the first run lands on it."""
+    """Deliberate fault: the scan's brackets ordered for the other branch; the first probe lands on it."""
     real = presets.scan_starts
     monkeypatch.setattr(presets, "scan_starts", lambda mismatch, slope: real(mismatch, -slope))
     table, runs = _run("rssr", "pinocchio", _rssr())
-    assert runs > len(table.meta["restarts"])
+    assert runs > 2 * len(table.meta["restarts"])
 
 
 #: Cases with no_assembly ranges; RSSR 124 and RCCC 111 (5 deg steps) restart next to the assembly limit
@@ -268,3 +269,19 @@ def test_assemble_is_the_judges_own_first_answer(branch: int) -> None:
     assert np.sign(answer.t4) == branch
     assert_allclose(answer.values["phi4_deg"], get_engine("mujoco", "rssr")(case)["phi4_deg"][0],
                     rtol=0, atol=LINKAGE_JUDGE_KINEMATICS.value * 180.0)
+
+
+def test_a_judge_that_fails_everywhere_costs_a_few_solves_a_row() -> None:
+    """A judge that never closes (every word ``not_converged``) is probed row by row, at most
+    MAX_CRUDE_STARTS positions solved a row, never re-run over the rest of the table from every row."""
+    solved = [0]
+
+    def failing(mechanism):
+        table = pinocchio_loop(mechanism)
+        solved[0] += len(table)
+        return replace(table, status=np.full(len(table), Status.NOT_CONVERGED.value, dtype=object))
+
+    case = _rssr()
+    table = presets.judge_case(case, "pinocchio", failing)
+    assert (np.asarray(table.status, dtype=str) == Status.NOT_CONVERGED.value).all()
+    assert solved[0] <= presets.MAX_CRUDE_STARTS * len(table)
