@@ -198,17 +198,6 @@ LOOP_REACTIONS_ROUNDING = 1e-14
 #: the closure's rounding reaches the reactions times 1/c^3 there (as NEAR_EDGE_VS_CLOSED_FORM's kinematics;
 #: measured 3.7e-12 at c = 0.069, error x c^3 = 1.2e-15 of the peak).
 LOOP_EDGE_ROUNDING = 5e-15
-#: The generated judges on the RSSR and RCCC (validation/judges/presets.py) against the hand-written judges
-#: they replace, each value relative to the peak of its column's unit group (the linkage gate's scale): both
-#: close the loop to rounding and solve the same equations (measured <= 5e-13 at |t| >= 0.2 on the bundled
-#: cases and 40 random ones); near an edge the larger of this and GENERATED_EDGE_ROUNDING / |t_out|^3 (the
-#: closure's rounding reaches the reactions times 1/t^3: 3.8e-11 at |t| = 0.042, error x t^3 = 2.8e-15), and
-#: in drive-torque mode GENERATED_DEAD_CENTRE_ROUNDING / |t_in| (the solved output torque ~ 1/t_in: 1.6e-12
-#: at t_in = 1.7e-3, error x t_in = 2.7e-15). A column's own peak is no scale: the RCCC's output torque, a
-#: given load read back from moments up to 1e7 times larger near its edges, differs there by 1e-3 of itself.
-GENERATED_VS_HANDWRITTEN = 1e-12
-GENERATED_EDGE_ROUNDING = 5e-15
-GENERATED_DEAD_CENTRE_ROUNDING = 1e-14
 #: The compiled loop engine (core/kernel/loop_engine.py) against the numpy solver, relative to each column's
 #: peak: the same algorithm per position from the same stations, both closed to the rounding level; only the
 #: order of sums differs (measured <= 1.1e-14 on the presets).
