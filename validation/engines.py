@@ -24,12 +24,12 @@ from dualmech.models.kinds import KIND_HOMES, SLIDER_CRANK, kind_of
 ENGINES: dict[str, dict[str, str]] = {
     "dualmech": {kind: home.solver for kind, home in KIND_HOMES.items()},  # each kind's own (models/kinds.py)
     "pinocchio": {SLIDER_CRANK: "dualmech.validation.pinocchio_engine:solve_case",
-                  "rssr": "dualmech.validation.linkages.pinocchio_rssr:solve_pinocchio",
-                  "rccc": "dualmech.validation.linkages.pinocchio_rccc:solve_pinocchio_rccc",
+                  "rssr": "dualmech.validation.judges.presets:solve_pinocchio_rssr",
+                  "rccc": "dualmech.validation.judges.presets:solve_pinocchio_rccc",
                   "loop": "dualmech.validation.judges.pinocchio_loop.table:solve_table"},
     "mujoco": {SLIDER_CRANK: "dualmech.validation.mujoco_engine:solve_case",
-               "rssr": "dualmech.validation.linkages.mujoco_rssr:solve_mujoco",
-               "rccc": "dualmech.validation.linkages.mujoco_rccc:solve_mujoco_rccc",
+               "rssr": "dualmech.validation.judges.presets:solve_mujoco_rssr",
+               "rccc": "dualmech.validation.judges.presets:solve_mujoco_rccc",
                "loop": "dualmech.validation.judges.mujoco_loop.table:solve_table"},
     "mujoco-sim": {SLIDER_CRANK: "dualmech.validation.mujoco_sim:solve_case",
                    "rssr": "dualmech.validation.linkages.mujoco_rssr_sim:solve_mujoco_sim",

@@ -1,9 +1,12 @@
-"""What the linkages' judges share: their starts, the per-position driver, the table, the comparison.
+"""The rigid MuJoCo answers that start the linkages' simulated judges: their starts, the per-position
+driver, the table.
 
-A judge (``pinocchio_rssr``, ``mujoco_rssr``, ``pinocchio_rccc``, ``mujoco_rccc``) builds its own
-model from the case and answers one position at a time with its own Newton, rates and inverse
-dynamics (:class:`JudgeAnswer`).  It shares nothing with the in-house solver but the case's
-description (geometry, bodies, loads, motion, the branch convention of ``docs/conventions.md``,
+The ``pinocchio`` and ``mujoco`` engines of an RSSR or RCCC case are the generated judges of its joint
+table (:mod:`dualmech.validation.judges.presets`); the simulations (``mujoco_rssr_sim``,
+``mujoco_rccc_sim``) still start from the rigid MuJoCo model of their own MJCF (``mujoco_rssr``,
+``mujoco_rccc``), which builds its model from the case and answers one position at a time with its own
+Newton, rates and inverse dynamics (:class:`JudgeAnswer`).  It shares nothing with the in-house solver
+but the case's description (geometry, bodies, loads, motion, the branch convention of ``docs/conventions.md``,
 "RSSR" / "RCCC") and the status rules (:func:`~dualmech.models.linkages.rssr.assembles` on a reach
 ratio, :func:`~dualmech.models.linkages.rssr.status_words`, ``settle``): no start, reach or pose of
 the in-house solver enters it.
@@ -22,9 +25,8 @@ a2^2``, slope sign ``branch`` (its derivative is ``2 a2 a3 t4``), the coupler ai
 ``z3·z2* - z3·z2`` (``z2*`` the axis the prescribed input pose asks for: the cone condition), slope sign
 ``-branch`` (its derivative is ``-det[z2*, z3, z4]``), then the coupler's and the input link's angles
 turned to ``z2*`` and to the input's ``x`` (:func:`turn_to`), slides 0.  **Reach** from the judge's own
-placements: :func:`circle_reach` (RSSR), :func:`cone_reach` (RCCC).  Tests patch every in-house start
-function to a wrong answer and see the judges' tables unchanged bit for bit
-(``tests/validation/linkages/test_judge_independence.py``).
+placements: :func:`circle_reach` (RSSR), :func:`cone_reach` (RCCC).  The scan and its constants are the
+generated judges' (:func:`~dualmech.validation.judges.presets.scan_starts`).
 """
 
 from __future__ import annotations
@@ -39,19 +41,15 @@ from dualmech.core.motion import CrankState
 from dualmech.core.status import Status, settle
 from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
 from dualmech.models.linkages.rccc_case import RcccCase
-from dualmech.models.linkages.rssr import SPEC, assembles, status_words
+from dualmech.models.linkages.rssr import assembles, status_words
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.validation.judges.presets import MAX_CRUDE_STARTS, SCAN_POINTS, scan_starts
 
 #: A judge's closure is converged when the gap between the two ball centres is below this times a2.
 JUDGE_CLOSURE_TOL = 1e-14
 #: Newton iterations a judge may take per position.
 JUDGE_MAX_ITER = 50
-#: Values of the scanned angle in a crude start (10 deg apart).
-SCAN_POINTS = 36
-#: Crude starts (grid points of the scan, :func:`scan_starts`) tried at a position before the judge reports
-#: its best answer.
-MAX_CRUDE_STARTS = 4
 #: The status words of an accepted answer: a start for the next position.
 ACCEPTED = (Status.OK.value, Status.DEAD_CENTRE.value, Status.ASSEMBLY_LIMIT.value)
 
@@ -87,34 +85,6 @@ class JudgeLoop:
 def scan_grid() -> np.ndarray:
     """The scanned angles of a crude start, ``(SCAN_POINTS,)`` rad, from 0 in equal steps."""
     return 2.0 * np.pi * np.arange(SCAN_POINTS) / SCAN_POINTS
-
-
-def scan_starts(grid: np.ndarray, mismatch: np.ndarray, slope: int) -> list[float]:
-    """Crude starts from a periodic ``mismatch`` ``(m,)`` at the angles ``grid`` ``(m,)`` (rad): grid points,
-    never roots.
-
-    The mismatch has two roots a turn (a circle meets a sphere, a cone meets a cone): the one where it
-    changes sign as ``slope`` (``+1`` rising) is wanted.  A start is taken on the longer of the two arcs
-    between the roots, next to the root, so that Newton meets that root first, not the other one across
-    the shorter arc (which near the assembly limit may be narrower than the grid step): of a bracket (two
-    neighbours, cyclically, of opposite signs) the end with the sign most grid points have; with no sign
-    change on the grid (both roots between two neighbours), the neighbour of the point of the smallest
-    ``|mismatch|`` on the wanted root's outer side.  Order: the wanted root's start, then the other
-    root's, then the ends on the shorter arc.
-    """
-    m = grid.shape[0]
-    below = mismatch < 0.0
-    after = np.roll(below, -1)
-    rising, falling = np.flatnonzero(below & ~after), np.flatnonzero(~below & after)
-    if rising.size + falling.size == 0:
-        i = int(np.argmin(np.abs(mismatch)))
-        side = slope if mismatch[i] >= 0.0 else -slope
-        return [float(grid[(i + side) % m]), float(grid[(i - side) % m])]
-    negative_longer = 2 * int(below.sum()) >= m  # a rising bracket's outer end: its low one, if so
-    pairs = [(rising, True), (falling, False)][::1 if slope > 0 else -1]
-    order = [(int(lo) + int(up != negative_longer)) % m for brackets, up in pairs for lo in brackets]
-    order += [(int(lo) + k) % m for lo in np.concatenate([rising, falling]) for k in (0, 1)]
-    return [float(grid[i]) for i in dict.fromkeys(order)]
 
 
 def rank(answer: JudgeAnswer, branch: int, torque_mode: bool, length: float) -> int:
@@ -214,17 +184,9 @@ def rssr_loop(case: RssrCase, pins: Pins, position: Callable[[float, float, floa
     def crude(theta1: float) -> list[float]:
         p2 = pins(theta1, 0.0)[0]
         span = np.array([np.sum((pins(theta1, phi)[1] - p2) ** 2) for phi in grid])
-        return scan_starts(grid, span - a2**2, case.branch)
+        return scan_starts(span - a2**2, case.branch)
 
     return JudgeLoop(lambda theta1: circle_reach(pins, theta1, a2), crude, position)
-
-
-def judge_table(case: RssrCase, engine: str, pins: Pins,
-                position: Callable[[float, float, float, float], JudgeAnswer]) -> LinkageTable:
-    """:func:`judge_positions` for an RSSR case judged by :func:`rssr_loop` of ``pins`` and ``position``."""
-    crank = case.motion.state(case.geometry.s1)
-    return judge_positions(case.name, engine, crank, case.branch, case.mode == "torque", SPEC,
-                           case.geometry.a2, rssr_loop(case, pins, position))
 
 
 def wrench_columns(f1: np.ndarray, m1_o: np.ndarray, f2: np.ndarray, f3: np.ndarray, f4: np.ndarray,
@@ -320,7 +282,7 @@ def rccc_judge_table(case: RcccCase, engine: str, axes: Axes, wanted: Callable[[
         turned = (axes(np.r_[angle, zero[1:]]) for angle in grid)
         mismatch = np.array([float(z3 @ (z2w - z2)) for z2, z3, _, _ in turned])
         starts = []
-        for angle in scan_starts(grid, mismatch, -case.branch):
+        for angle in scan_starts(mismatch, -case.branch):
             q = np.r_[angle, zero[1:]]
             z2, z3, _, _ = axes(q)
             q[2] = turn_to(z3, z2, z2w)

@@ -1,11 +1,14 @@
-"""The RCCC judged by MuJoCo (rigid): the MJCF of :func:`~dualmech.validation.linkages.mjcf_rssr.rccc_mjcf`.
+"""The RCCC's rigid MuJoCo answer per position, the simulated judge's initial state
+(:mod:`~dualmech.validation.linkages.mujoco_rccc_sim`): the MJCF of
+:func:`~dualmech.validation.linkages.mjcf_rssr.rccc_mjcf`.  The ``mujoco`` engine of an RCCC case is the
+generated judge of its joint table (:mod:`dualmech.validation.judges.presets`).
 
-The same cut as the Pinocchio judge (:mod:`~dualmech.validation.linkages.pinocchio_rccc`): Newton on the
-pose error of the site "input" (``mj_jacSite``), rates and accelerations from the same Jacobian with
-the drift of ``mj_jacDot``; ``mj_rne`` for :math:`M\\ddot q + c`, the cut wrench from
-:math:`M\\ddot q + c = S^T\\tau + J^T w`; then ``w`` applied to the input link (``xfrc_applied``) and
-the joint wrenches read from ``cfrc_int`` after ``mj_rnePostConstraint``.  MuJoCo has no revolute
-equality, and its constraint solver is soft: the rigid judge uses neither.
+The loop cut at the input revolute: Newton on the pose error of the site "input" (``mj_jacSite``), rates
+and accelerations from the same Jacobian with the drift of ``mj_jacDot``; ``mj_rne`` for
+:math:`M\\ddot q + c`, the cut wrench from :math:`M\\ddot q + c = S^T\\tau + J^T w`; then ``w`` applied
+to the input link (``xfrc_applied``) and the joint wrenches read from ``cfrc_int`` after
+``mj_rnePostConstraint``.  MuJoCo has no revolute equality, and its constraint solver is soft: the rigid
+judge uses neither.
 """
 
 from __future__ import annotations
@@ -16,7 +19,6 @@ import mujoco
 import numpy as np
 
 from dualmech.models.linkages.rccc_case import RcccCase
-from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.linkages.judges import (
     JUDGE_MAX_ITER,
     JudgeAnswer,
@@ -24,7 +26,6 @@ from dualmech.validation.linkages.judges import (
     cut_efforts,
     cut_tolerance,
     pose_error,
-    rccc_judge_table,
     rccc_transmission,
     rccc_values,
 )
@@ -132,9 +133,3 @@ def _position(mr: MjRccc, case: RcccCase, theta1: float, w: float, wd: float, st
     return JudgeAnswer(ok, float(-d.qpos[0]), np.nan, rccc_transmission(z2, z3, z4, case), gap, values,
                        d.qpos.copy(), iterations)
 
-
-def solve_mujoco_rccc(case: RcccCase) -> LinkageTable:
-    """Every position of ``case`` judged by rigid MuJoCo, as the common table (engine ``"mujoco"``)."""
-    mr = build(case)
-    return rccc_judge_table(case, "mujoco", lambda q: _axes(mr, q), lambda th: _wanted(mr, th),
-                            lambda th, w, wd, start: _position(mr, case, th, w, wd, start))

@@ -1,5 +1,7 @@
-"""The RSSR judged by MuJoCo (rigid), per position: the MJCF of
-:mod:`~dualmech.validation.linkages.mjcf_rssr`.
+"""The RSSR's rigid MuJoCo answer at one input state, the simulated judge's initial state
+(:func:`assemble`; :mod:`~dualmech.validation.linkages.mujoco_rssr_sim`): the MJCF of
+:mod:`~dualmech.validation.linkages.mjcf_rssr`.  The ``mujoco`` engine of an RSSR case is the generated
+judge of its joint table (:mod:`dualmech.validation.judges.presets`).
 
 Newton on the connect's site gap (``mj_jacSite``, minimum-norm steps, ``mj_integratePos``); rates
 from the gap Jacobian and the coupler's zero-spin row (``mj_jacBody``), accelerations with the
@@ -17,7 +19,6 @@ import mujoco
 import numpy as np
 
 from dualmech.models.linkages.rssr_case import RssrCase
-from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.linkages.judges import (
     JUDGE_CLOSURE_TOL,
     JUDGE_MAX_ITER,
@@ -25,7 +26,6 @@ from dualmech.validation.linkages.judges import (
     cfrc_about,
     coupler_start,
     judge_answer,
-    judge_table,
     loop_efforts,
     min_norm_step,
     motion_values,
@@ -156,9 +156,3 @@ def assemble(mr: MjRssr, case: RssrCase, theta1: float, w: float, wd: float) -> 
                      lambda th, th_dot, th_ddot, phi: _position(mr, case, th, th_dot, th_ddot, phi))
     return judge_answer(loop, (theta1, w, wd), None, case.branch, case.mode == "torque", case.geometry.a2)[0]
 
-
-def solve_mujoco(case: RssrCase) -> LinkageTable:
-    """Every position of ``case`` judged by rigid MuJoCo, as the common table (engine ``"mujoco"``)."""
-    mr = build(case)
-    return judge_table(case, "mujoco", lambda th, phi: _pins(mr, th, phi),
-                       lambda th, w, wd, phi: _position(mr, case, th, w, wd, phi))

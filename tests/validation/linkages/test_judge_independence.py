@@ -1,26 +1,30 @@
 """The linkage judges are independent of the in-house solver: their starts are their own.
 
-With every in-house start function (the RSSR's ``closed_form_phi`` and ``estimate``, the RCCC's
+The registry's ``pinocchio`` and ``mujoco`` engines of an RSSR or RCCC case are the generated judges of its
+joint table, started by :mod:`dualmech.validation.judges.presets` from a crude pose of its own.  With every
+in-house start function (the RSSR's ``closed_form_phi`` and ``estimate``, the RCCC's
 ``spherical_estimate`` and ``estimate``, in their modules and wherever imported) returning an answer
 1 rad off, the judges' tables are bit for bit the same while the in-house solver's change; a judge seeded
-with the in-house start (the old design) is seen.  The crude start closes each branch at the first attempt
-at every position, and a gap in assembly restarts it.
+with the in-house start is seen.  Each run starts on the case's branch at its first crude start, and a gap
+in assembly restarts the judge.  The simulations' rigid start (``mujoco_rssr.assemble``) is its own too.
 """
 
 from __future__ import annotations
 
 import sys
 from contextlib import contextmanager
+from dataclasses import replace
 from typing import Callable, Iterator
 
 import numpy as np
 import pytest
-from numpy.testing import assert_array_equal
+from numpy.testing import assert_allclose, assert_array_equal
 
 from dualmech.core.status import Status
 from dualmech.models.linkages import rccc, read_linkage, rssr
 from dualmech.models.linkages.rccc_case import rccc_from_dict
 from dualmech.models.linkages.rssr_case import rssr_from_dict
+from dualmech.validation.engines import get_engine
 from dualmech.validation.linkages.gate import worst
 from tests.models.linkages.cases import bundled, random_rccc, random_rssr
 from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
@@ -28,16 +32,13 @@ from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
 
-from dualmech.validation.linkages import judges  # noqa: E402
-from dualmech.validation.linkages.mujoco_rccc import solve_mujoco_rccc  # noqa: E402
-from dualmech.validation.linkages.mujoco_rssr import solve_mujoco  # noqa: E402
-from dualmech.validation.linkages.pinocchio_rccc import solve_pinocchio_rccc  # noqa: E402
-from dualmech.validation.linkages.pinocchio_rssr import solve_pinocchio  # noqa: E402
+from dualmech.validation.judges import presets  # noqa: E402
+from dualmech.validation.judges.mujoco_loop.table import solve_table as mujoco_loop  # noqa: E402
+from dualmech.validation.judges.pinocchio_loop.table import solve_table as pinocchio_loop  # noqa: E402
 
 #: How far (rad) the patched in-house start functions put their answer: a wrong start, not a nudge.
 GARBAGE = 1.0
-JUDGES = {"rssr": {"pinocchio": solve_pinocchio, "mujoco": solve_mujoco},
-          "rccc": {"pinocchio": solve_pinocchio_rccc, "mujoco": solve_mujoco_rccc}}
+LOOP_JUDGES = {"pinocchio": pinocchio_loop, "mujoco": mujoco_loop}
 
 
 def _rssr(branch: int | None = None, seed: int | None = None, step: float = 10.0):
@@ -116,10 +117,10 @@ def _same(a, b) -> bool:
 
 
 def _untouched_by_garbage(kind: str, judge: str, case) -> bool:
-    before = JUDGES[kind][judge](case)
+    before = get_engine(judge, kind)(case)
     with _garbage() as patched:
         assert patched >= 4
-        after = JUDGES[kind][judge](case)
+        after = get_engine(judge, kind)(case)
     return _same(before, after)
 
 
@@ -144,81 +145,59 @@ def test_judges_ignore_the_in_house_starts(kind: str, case, judge: str) -> None:
     assert _untouched_by_garbage(kind, judge, case)
 
 
-def _seeded(kind: str, case) -> Callable:
-    """Deliberate fault: a :class:`~dualmech.validation.linkages.judges.JudgeLoop` whose crude start is the
-    in-house start moved by 0.1 rad (the judges' old design), looked up when called."""
-    real = judges.JudgeLoop
-
-    def from_in_house(theta1: float):
+def _from_in_house(kind: str) -> Callable:
+    """Deliberate fault: start angles from the in-house start moved by 0.1 rad, looked up when called."""
+    def angles(case, theta1: float) -> list[float]:
         th = np.array([theta1])
         if kind == "rssr":
-            return [float(rssr.closed_form_phi(case.geometry, th, case.branch)[0][0]) + 0.1]
+            return [np.pi - float(rssr.closed_form_phi(case.geometry, th, case.branch)[0][0]) + 0.1]
         z3 = rccc.spherical_estimate(case.geometry, th, case.branch)[0]
-        s = rccc.estimate(case.geometry, th, z3).scalars[0] + 0.1 * np.array([1, 0, 1, 0, 1, 0])
-        return [-s[[4, 5, 2, 3, 0, 1]]]
+        return [float(rccc.estimate(case.geometry, th, z3).scalars[0][4]) + 0.1]
 
-    return lambda reach, crude, position: real(reach, from_in_house, position)
+    return angles
 
 
 @pytest.mark.parametrize("kind, case", [("rssr", _rssr()), ("rccc", _rccc())], ids=["rssr", "rccc"])
 def test_a_judge_seeded_with_the_in_house_start_is_seen(kind: str, case, monkeypatch: pytest.MonkeyPatch
                                                          ) -> None:
-    monkeypatch.setattr(judges, "JudgeLoop", _seeded(kind, case))
-    _agrees(kind, case, JUDGES[kind]["pinocchio"](case))  # it still agrees: only the start moved
+    monkeypatch.setattr(presets, f"{kind}_start_angles", _from_in_house(kind))
+    _agrees(kind, case, get_engine("pinocchio", kind)(case))  # it still agrees: only the start moved
     assert not _untouched_by_garbage(kind, "pinocchio", case)
 
 
-def _counting(monkeypatch: pytest.MonkeyPatch, every_position_crude: bool) -> list[int]:
-    """Count the judge's attempts (calls of its ``position``); optionally never continue (a crude start at
-    every position)."""
-    calls, real_loop, real_answer = [0], judges.JudgeLoop, judges.judge_answer
+def _run(kind: str, judge: str, case):
+    """The judge's table of ``case`` (:func:`~dualmech.validation.judges.presets.judge_case`) and the number
+    of runs of the generated judge it took."""
+    calls = [0]
 
-    def counted(reach, crude, position):
-        def position_counted(*args):
-            calls[0] += 1
-            return position(*args)
-        return real_loop(reach, crude, position_counted)
+    def counted(mechanism):
+        calls[0] += 1
+        return LOOP_JUDGES[judge](mechanism)
 
-    monkeypatch.setattr(judges, "JudgeLoop", counted)
-    if every_position_crude:
-        monkeypatch.setattr(judges, "judge_answer", lambda loop, state, previous, *rest: real_answer(
-            loop, state, None, *rest))
-    return calls
+    return presets.judge_case(case, judge, counted), calls[0]
 
 
 @pytest.mark.parametrize("kind, make", [("rssr", _rssr), ("rccc", _rccc)])
 @pytest.mark.parametrize("branch", [1, -1])
 @pytest.mark.parametrize("judge", ["pinocchio", "mujoco"])
-def test_the_crude_start_closes_each_branch_at_the_first_attempt(kind: str, make, branch: int, judge: str,
-                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
-    """Every position started crude (no continuation): one attempt each, on the case's branch, agreeing
-    with the in-house engine; the bundled cases' own branch and the other one."""
+def test_the_crude_start_closes_each_branch_at_the_first_attempt(kind: str, make, branch: int,
+                                                                 judge: str) -> None:
+    """The first row's first crude start on the case's branch (one probe of that row, then one run from
+    it), agreeing with the in-house engine; the bundled cases' own branch and the other one."""
     case = make(branch)
-    calls = _counting(monkeypatch, every_position_crude=True)
-    table = JUDGES[kind][judge](case)
-    assembled = np.asarray(table.status, dtype=str) != Status.NO_ASSEMBLY.value
-    assert table.meta["crude"][assembled].all()
-    assert calls[0] == assembled.sum()
+    table, runs = _run(kind, judge, case)
+    assert runs == 2 and table.meta["restarts"].tolist() == [0]
     ok = np.asarray(table.status, dtype=str) == Status.OK.value
     assert ok.any() and (np.sign(table["transmission_out"][ok]) == branch).all()
     _agrees(kind, case, table)
 
 
 def test_a_crude_start_on_the_wrong_side_is_seen(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Deliberate fault: the scan's brackets ordered for the other branch; the first attempts land on it."""
-    real = judges.scan_starts
-    monkeypatch.setattr(judges, "scan_starts", lambda grid, mismatch, slope: real(grid, mismatch, -slope))
-    calls = _counting(monkeypatch, every_position_crude=True)
-    table = solve_pinocchio(_rssr())
-    assert calls[0] > len(table)
-
-
-def _restarts(table) -> tuple[np.ndarray, np.ndarray]:
-    """Where the judge started crude, and where it should have: the first assembled row and every assembled
-    row after a no_assembly one."""
-    gap = np.asarray(table.status, dtype=str) == Status.NO_ASSEMBLY.value
-    expected = ~gap & np.r_[True, gap[:-1]]
-    return table.meta["crude"], expected
+    """Deliberate fault: the scan's brackets ordered for the other branch; the first probe lands on it."""
+    real = presets.scan_starts
+    monkeypatch.setattr(presets, "scan_starts", lambda mismatch, slope: real(mismatch, -slope))
+    table, runs = _run("rssr", "pinocchio", _rssr())
+    assert runs > 2 * len(table.meta["restarts"])
 
 
 #: Cases with no_assembly ranges; RSSR 124 and RCCC 111 (5 deg steps) restart next to the assembly limit
@@ -231,48 +210,50 @@ GAP_CASES = {"rssr-11": ("rssr", _rssr(seed=11)), "rssr-124": ("rssr", _rssr(see
 
 @pytest.mark.parametrize("name", GAP_CASES)
 @pytest.mark.parametrize("judge", ["pinocchio", "mujoco"])
-def test_a_gap_in_assembly_restarts_the_judge(name: str, judge: str) -> None:
-    """Crude exactly at the first row and after each gap (continuation elsewhere), and the table agrees with
-    the in-house engine on both sides of the gap."""
+def test_a_gap_in_assembly_is_crossed_on_the_branch(name: str, judge: str) -> None:
+    """Past a gap (where the judge's own continuation may land on the other branch, or not close) a run
+    restarts from a crude start wherever no run answered on the branch: the table agrees with the in-house
+    engine on both sides of the gap."""
     kind, case = GAP_CASES[name]
-    table = JUDGES[kind][judge](case)
-    crude, expected = _restarts(table)
-    assert expected[1:].any()  # the case has a gap inside its range
-    assert_array_equal(crude, expected)
+    table = get_engine(judge, kind)(case)
+    gap = np.asarray(table.status, dtype=str) == Status.NO_ASSEMBLY.value
+    assert (~gap & np.r_[False, gap[:-1]]).any()  # the case has a gap inside its range
     _agrees(kind, case, table)
+
+
+def test_a_driver_without_restarts_is_seen() -> None:
+    """Deliberate fault: one run from the first row's crude start, its answer taken as it is (no restart
+    where it did not answer on the branch); past the gap the Pinocchio judge's continuation is on the other
+    branch, and the check sees it."""
+    kind, case = GAP_CASES["rssr-11"]
+    theta1 = float(np.radians(case.motion.angles_deg[0]))
+    start = presets.rssr_start(case, theta1, presets.rssr_start_angles(case, theta1)[0])
+    mechanism = presets.rssr_table(case)
+    table = presets.rssr_columns(case, pinocchio_loop(presets.with_start(mechanism, start)))
+    with pytest.raises(AssertionError):
+        _agrees(kind, case, table)
 
 
 @pytest.mark.parametrize("name", ["rssr-124", "rccc-111"])
 def test_a_start_between_close_roots_is_seen(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """Deliberate fault: crude starts at the grid point of the smallest |mismatch| (between the two roots
-    near the assembly limit); the restart next to the limit closes on the other branch."""
-    def nearest(grid, mismatch, slope):
-        return [float(grid[np.argmin(np.abs(mismatch))])]
+    near the assembly limit) and no other; the restart next to the limit closes on the other branch."""
+    def nearest(mismatch, slope):
+        m = mismatch.shape[0]
+        return [float(2.0 * np.pi * np.argmin(np.abs(mismatch)) / m)]
 
-    monkeypatch.setattr(judges, "scan_starts", nearest)
+    monkeypatch.setattr(presets, "scan_starts", nearest)
     kind, case = GAP_CASES[name]
     with pytest.raises(AssertionError):
-        _agrees(kind, case, JUDGES[kind]["pinocchio"](case))
-
-
-def test_continuing_across_a_gap_is_seen(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Deliberate fault: a driver that keeps the last closed pose across a gap; the restart check fails."""
-    real, last = judges.judge_answer, [None]
-
-    def across(loop, state, previous, *rest):
-        out = real(loop, state, last[0] if previous is None else previous, *rest)
-        last[0] = out[0].state
-        return out
-
-    monkeypatch.setattr(judges, "judge_answer", across)
-    crude, expected = _restarts(solve_pinocchio(_rssr(seed=11)))
-    assert not np.array_equal(crude, expected)
+        _agrees(kind, case, get_engine("pinocchio", kind)(case))
 
 
 @pytest.mark.parametrize("branch", [1, -1])
 def test_assemble_is_the_judges_own_first_answer(branch: int) -> None:
     """:func:`~dualmech.validation.linkages.mujoco_rssr.assemble` (a simulation's initial state without the
-    in-house start): the judge's first row, the same under the garbage, ``qpos`` closed."""
+    in-house start): the same under the garbage, ``qpos`` closed, on the branch, the rigid judges' first
+    row."""
+    from dualmech.validation.linkages import judges
     from dualmech.validation.linkages.mujoco_rssr import assemble, build
 
     case = _rssr(branch)
@@ -286,4 +267,21 @@ def test_assemble_is_the_judges_own_first_answer(branch: int) -> None:
     gap = np.linalg.norm(mr.data.site_xpos[mr.pin] - mr.data.site_xpos[mr.end])
     assert gap <= judges.JUDGE_CLOSURE_TOL * case.geometry.a2
     assert np.sign(answer.t4) == branch
-    assert answer.values["phi4_deg"] == solve_mujoco(case)["phi4_deg"][0]
+    assert_allclose(answer.values["phi4_deg"], get_engine("mujoco", "rssr")(case)["phi4_deg"][0],
+                    rtol=0, atol=LINKAGE_JUDGE_KINEMATICS.value * 180.0)
+
+
+def test_a_judge_that_fails_everywhere_costs_a_few_solves_a_row() -> None:
+    """A judge that never closes (every word ``not_converged``) is probed row by row, at most
+    MAX_CRUDE_STARTS positions solved a row, never re-run over the rest of the table from every row."""
+    solved = [0]
+
+    def failing(mechanism):
+        table = pinocchio_loop(mechanism)
+        solved[0] += len(table)
+        return replace(table, status=np.full(len(table), Status.NOT_CONVERGED.value, dtype=object))
+
+    case = _rssr()
+    table = presets.judge_case(case, "pinocchio", failing)
+    assert (np.asarray(table.status, dtype=str) == Status.NOT_CONVERGED.value).all()
+    assert solved[0] <= presets.MAX_CRUDE_STARTS * len(table)

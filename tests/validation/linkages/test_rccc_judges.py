@@ -16,6 +16,7 @@ from dualmech.models.linkages import dynamics as dynamics_module
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rccc import SPEC, analyze_rccc, to_table
 from dualmech.models.linkages.rccc_case import RcccCase, rccc_from_dict
+from dualmech.validation.engines import get_engine
 from dualmech.validation.linkages.gate import worst
 from tests.models.linkages.cases import random_rccc
 from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
@@ -26,12 +27,10 @@ def _bundled() -> RcccCase:
 
 
 def _judges():
+    """The registry's rigid judges of an RCCC case (the generated judges of its joint table)."""
     pytest.importorskip("pinocchio")
     pytest.importorskip("mujoco")
-    from dualmech.validation.linkages.mujoco_rccc import solve_mujoco_rccc
-    from dualmech.validation.linkages.pinocchio_rccc import solve_pinocchio_rccc
-
-    return {"pinocchio": solve_pinocchio_rccc, "mujoco": solve_mujoco_rccc}
+    return {name: get_engine(name, "rccc") for name in ("pinocchio", "mujoco")}
 
 
 def _ratios(case: RcccCase, judge: str) -> dict[str, float]:
@@ -53,7 +52,7 @@ def test_judges_agree(judge: str, seed: int | None) -> None:
 
 
 def test_a_judge_with_the_wrong_twist_sign_fails() -> None:
-    """Deliberate fault: MuJoCo's model built with the coupler's twist of the other sign."""
+    """Deliberate fault: the MuJoCo judge given the coupler's twist of the other sign."""
     case = _bundled()
     g = case.geometry
     flipped = replace(case, geometry=replace(g, alpha=(g.alpha[0], -g.alpha[1], g.alpha[2], g.alpha[3])))

@@ -14,6 +14,7 @@ from dualmech.core.status import Status
 from dualmech.models.linkages import dynamics as dynamics_module
 from dualmech.models.linkages.rssr import SPEC, analyze_rssr, to_table
 from dualmech.models.linkages.rssr_case import RssrCase, rssr_from_dict
+from dualmech.validation.engines import get_engine
 from dualmech.validation.linkages.gate import worst
 from tests.models.linkages.cases import bundled, random_rssr
 from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
@@ -23,10 +24,8 @@ pytest.importorskip("mujoco")
 
 
 def _judges():
-    from dualmech.validation.linkages.mujoco_rssr import solve_mujoco
-    from dualmech.validation.linkages.pinocchio_rssr import solve_pinocchio
-
-    return {"pinocchio": solve_pinocchio, "mujoco": solve_mujoco}
+    """The registry's rigid judges of an RSSR case (the generated judges of its joint table)."""
+    return {name: get_engine(name, "rssr") for name in ("pinocchio", "mujoco")}
 
 
 def _verdict(case: RssrCase, judge) -> dict[str, float]:
@@ -57,7 +56,7 @@ def test_random_cases_agree(judge: str, seed: int, mode: str) -> None:
 
 
 def test_a_judge_with_the_wrong_twist_sign_fails() -> None:
-    """Deliberate fault: Pinocchio's model built with the output axis twisted the other way."""
+    """Deliberate fault: the Pinocchio judge given the output axis twisted the other way."""
     case = rssr_from_dict(bundled())
     flipped = replace(case, geometry=replace(case.geometry, alpha4=-case.geometry.alpha4))
     ours = to_table(analyze_rssr(case))

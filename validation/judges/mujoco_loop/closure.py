@@ -212,7 +212,11 @@ def _descend(lp: MjLoop, error: np.ndarray, size: float, scale: np.ndarray) -> t
         qpos, q_cut = lp.data.qpos.copy(), lp.q_cut.copy()
         for _ in range(40):
             step = np.zeros(lp.n_u)
-            step[lp.free] = np.linalg.solve(normal + mu * np.eye(normal.shape[0]), gradient)
+            try:
+                step[lp.free] = np.linalg.solve(normal + mu * np.eye(normal.shape[0]), gradient)
+            except np.linalg.LinAlgError:  # mu lost in the rounding of a huge normal matrix: damp more
+                mu *= 4.0
+                continue
             move(lp, step)
             positions(lp)
             new = gap(lp)
