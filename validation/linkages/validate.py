@@ -1,7 +1,8 @@
-"""``validate`` of a linkage case or matrix (RSSR, RCCC, loop tables), end to end: the matrix, the run on the
-matrix runner (:mod:`.run`), the comparison and the report (:mod:`.report`) in the run folder; and ``report``
-of a stored linkage run.  The command line (``dualmech validate``, ``dualmech report``) and the package
-face's :func:`dualmech.verbs.validate` call these."""
+"""``validate`` of a linkage matrix (RSSR, RCCC, loop tables): the run on the matrix runner (:mod:`.run`),
+compared by the linkage gate, as a :class:`LinkageValidation` with the face of the slider crank's run (its
+report: :mod:`.report`); and ``report`` of a stored linkage run.  The package face's
+:func:`dualmech.verbs.run_and_compare` and :func:`dualmech.verbs.report_run` call these, for
+``dualmech validate`` and ``dualmech report`` as for :func:`dualmech.validate`."""
 
 from __future__ import annotations
 
