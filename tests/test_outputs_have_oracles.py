@@ -167,7 +167,8 @@ def _rigid_linkage_judges() -> dict[str, dict[str, str]]:
             out[f"{kind}-{judge}"] = {
                 **{c: verdict for c in (*spec.kinematics, *spec.forces, *spec.moments, "status")},
                 **{c: LINKAGE_RESIDUALS for c in ("theta1_deg", "residual", "dynamics_residual")},
-                "meta:restarts": INDEPENDENCE + "test_the_crude_start_closes_each_branch_at_the_first_attempt",
+                "meta:restarts": (INDEPENDENCE
+                                  + "test_the_crude_start_closes_each_branch_at_the_first_attempt"),
                 "meta:iterations": INDEPENDENCE + "test_judges_ignore_the_in_house_starts"}
     return out
 
