@@ -213,11 +213,10 @@ def _reflect(qr: np.ndarray, j: int, end: int, tau: float, c0: int, c1: int) -> 
 
 
 @njit(**INLINE)
-def _link_residual(a: np.ndarray, b: np.ndarray, x: np.ndarray, i: int, lo: int, hi: int, efforts: int,
-                   rr: float) -> float:
-    """``rr`` plus the squared residuals of a link's equations ``i`` to ``i + 5``, summed over the columns
-    ``lo`` to ``hi - 1`` and ``efforts`` on, in order, the six sums interleaved."""
-    s0, s1, s2, s3, s4, s5 = -b[i], -b[i + 1], -b[i + 2], -b[i + 3], -b[i + 4], -b[i + 5]
+def _six_sums(a: np.ndarray, x: np.ndarray, i: int, lo: int, hi: int, s0: float, s1: float, s2: float,
+              s3: float, s4: float, s5: float) -> tuple[float, float, float, float, float, float]:
+    """``s0`` to ``s5`` plus ``a[i + k, j] * x[j]`` over the columns ``lo`` to ``hi - 1``, in order, the six
+    sums interleaved."""
     for j in range(lo, hi):
         xj = x[j]
         s0 += a[i, j] * xj
@@ -226,14 +225,17 @@ def _link_residual(a: np.ndarray, b: np.ndarray, x: np.ndarray, i: int, lo: int,
         s3 += a[i + 3, j] * xj
         s4 += a[i + 4, j] * xj
         s5 += a[i + 5, j] * xj
-    for j in range(efforts, a.shape[1]):
-        xj = x[j]
-        s0 += a[i, j] * xj
-        s1 += a[i + 1, j] * xj
-        s2 += a[i + 2, j] * xj
-        s3 += a[i + 3, j] * xj
-        s4 += a[i + 4, j] * xj
-        s5 += a[i + 5, j] * xj
+    return s0, s1, s2, s3, s4, s5
+
+
+@njit(**INLINE)
+def _link_residual(a: np.ndarray, b: np.ndarray, x: np.ndarray, i: int, lo: int, hi: int, efforts: int,
+                   rr: float) -> float:
+    """``rr`` plus the squared residuals of a link's equations ``i`` to ``i + 5``, summed over the columns
+    ``lo`` to ``hi - 1`` and ``efforts`` on, in order (:func:`_six_sums`)."""
+    s0, s1, s2, s3, s4, s5 = _six_sums(a, x, i, lo, hi, -b[i], -b[i + 1], -b[i + 2], -b[i + 3], -b[i + 4],
+                                       -b[i + 5])
+    s0, s1, s2, s3, s4, s5 = _six_sums(a, x, i, efforts, a.shape[1], s0, s1, s2, s3, s4, s5)
     rr += s0 * s0
     rr += s1 * s1
     rr += s2 * s2
