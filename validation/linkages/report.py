@@ -191,16 +191,12 @@ def console_table(run: LinkageRun, title: str) -> Any:
 
 def verdict_lines(run: LinkageRun, markdown: str) -> list[Any]:
     """The verdict line with each judge's worst ratio, and the first failures (the rest: see ``markdown``)."""
-    from dualmech.validation.compare.junit import describe
-    from dualmech.validation.report.console import SHOWN_FAILURES
+    from dualmech.validation.report.console import VERDICT_COLOURS, failure_lines
 
     failures = run.comparison.failures()
     n = len(run.comparison.checks)
-    colour = {"PASS": "green", "FAIL": "red", "INCOMPLETE": "yellow"}[str(run.verdict)]
     worst = "; ".join(f"{e} {c.ratio:.2g} ({c.case} {c.quantity})" for e, c in run.worst().items())
-    out: list[Any] = [f"[{colour}]{run.verdict}[/]: {n - len(failures)} of {n} checks passed; worst ratio "
-                      f"(relative difference / tolerance): {worst}"]
-    out += [f"  [red]✗[/] {describe(c)}" for c in failures[:SHOWN_FAILURES]]
-    if len(failures) > SHOWN_FAILURES:
-        out.append(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {markdown})")
+    out: list[Any] = [f"[{VERDICT_COLOURS[str(run.verdict)]}]{run.verdict}[/]: {n - len(failures)} of {n} "
+                      f"checks passed; worst ratio (relative difference / tolerance): {worst}",
+                      *failure_lines(failures, markdown)]
     return out

@@ -17,6 +17,8 @@ from dualmech.validation.matrix import Matrix
 
 #: How many failing checks / regressions ``validate`` lists under its table.
 SHOWN_FAILURES = 12
+#: The verdict line's colour (rich markup) by verdict.
+VERDICT_COLOURS = {"PASS": "green", "FAIL": "red", "INCOMPLETE": "yellow"}
 
 
 def summary_table(matrix: Matrix, comparison: Comparison, title: str) -> Any:
@@ -93,21 +95,27 @@ def verdict_lines(comparison: Comparison, markdown: str) -> list[Any]:
     lock."""
     from rich.text import Text
 
-    from dualmech.validation.compare.junit import describe
-
     failures = comparison.failures()
     n_ok = len(comparison.checks) - len(failures)
-    colour = {"PASS": "green", "FAIL": "red", "INCOMPLETE": "yellow"}[str(comparison.verdict)]
+    colour = VERDICT_COLOURS[str(comparison.verdict)]
     missing = f"; {len(comparison.missing)} not run" if comparison.missing else ""
     out: list[Any] = [f"[{colour}]{comparison.verdict}[/]: {n_ok} of {len(comparison.checks)} checks passed"
                       f"{missing} (ratio = worst relative difference / tolerance; "
-                      "dead c. = dead-centre rows excluded, counted)"]
-    out += [f"  [red]✗[/] {describe(c)}" for c in failures[:SHOWN_FAILURES]]
-    if len(failures) > SHOWN_FAILURES:
-        out.append(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {markdown})")
+                      "dead c. = dead-centre rows excluded, counted)", *failure_lines(failures, markdown)]
     near_lock = [c for c in comparison.checks if c.near_joint_lock and c.passed]
     if near_lock:
         where = sorted({f"{c.case} / {c.engine}" for c in near_lock})
         out.append(Text(f"near joint lock: {len(near_lock)} passing checks with their tolerance widened "
                         f"({', '.join(where)}; see {markdown})"))
+    return out
+
+
+def failure_lines(failures: list, markdown: str) -> list[str]:
+    """The first :data:`SHOWN_FAILURES` failing checks, one line each, and how many more (see
+    ``markdown``)."""
+    from dualmech.validation.compare.junit import describe
+
+    out = [f"  [red]✗[/] {describe(c)}" for c in failures[:SHOWN_FAILURES]]
+    if len(failures) > SHOWN_FAILURES:
+        out.append(f"  ... and {len(failures) - SHOWN_FAILURES} more (see {markdown})")
     return out
