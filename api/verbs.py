@@ -178,7 +178,6 @@ def open_run(source: str | Path | Case | None, outdir: str | Path | None,
     ``runs/<matrix name>``.  Raises a one-line ``ValueError`` on a bad source, engine or folder.
     """
     from dualmech.validation.linkages.matrix import is_linkage_source, load_linkage_matrix
-    from dualmech.validation.linkages.run import as_run_matrix
     from dualmech.validation.matrix import load_matrix
     from dualmech.validation.rundir import check_output_folder
 
@@ -188,6 +187,8 @@ def open_run(source: str | Path | Case | None, outdir: str | Path | None,
     if outdir is not None and not isinstance(outdir, (str, os.PathLike)):
         raise TypeError(f"outdir: expected a folder path, got {show(outdir)}")
     if isinstance(source, (str, os.PathLike)) and is_linkage_source(source):
+        from dualmech.validation.linkages.run import as_run_matrix  # with scipy: only for a linkage
+
         linkages = load_linkage_matrix(source)
         matrix = as_run_matrix(linkages.with_engines(tuple(engines)) if engines else linkages)
     else:
@@ -206,14 +207,14 @@ def run_and_compare(matrix: Matrix, outdir: Path, *, jobs: int | None = None, re
 
     The arguments are those of :func:`~dualmech.validation.run.runner.run_matrix`.
     """
-    from dualmech.validation.linkages.run import stored_linkage_matrix
-    from dualmech.validation.linkages.validate import validate_linkage_matrix
     from dualmech.validation.run.runner import default_jobs, run_matrix
 
-    linkages = stored_linkage_matrix(matrix)
-    if linkages is not None:
-        return validate_linkage_matrix(linkages, outdir, jobs=jobs or default_jobs(), resume=resume,
-                                       scheduler=scheduler, progress=progress)
+    if any(kind_of(mc.raw) != SLIDER_CRANK for mc in matrix.cases):  # the linkage gate, scipy: for them only
+        from dualmech.validation.linkages.run import stored_linkage_matrix
+        from dualmech.validation.linkages.validate import validate_linkage_matrix
+
+        return validate_linkage_matrix(stored_linkage_matrix(matrix), outdir, jobs=jobs or default_jobs(),
+                                       resume=resume, scheduler=scheduler, progress=progress)
     outcome = run_matrix(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=progress)
     return ValidationRun(matrix, outdir, outcome)
 

@@ -209,6 +209,20 @@ def test_importing_the_face_imports_no_engine() -> None:
     assert out.split("\n")[:2] == ["", ""]
 
 
+def test_validating_a_slider_crank_loads_no_linkage_machinery(tmp_path: Path) -> None:
+    """In a fresh interpreter: validating a slider-crank design imports neither the linkage gate nor scipy's
+    splines (its forward dynamics: ~1 s of the main job's start).  Seen failing before the fix: ``open_run``
+    and ``run_and_compare`` imported ``dualmech.validation.linkages.run`` for every source."""
+    code = ("import sys, dualmech\n"
+            f"run = dualmech.validate('thesis/ideal', {str(tmp_path / 'run')!r},"
+            " engines='dualmech,pinocchio', jobs=1)\n"
+            "assert str(run.verdict) == 'PASS'\n"
+            "print(' '.join(m for m in ('dualmech.validation.linkages.run', 'scipy.interpolate')"
+            " if m in sys.modules))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.splitlines()[-1] == ""
+
+
 @pytest.fixture(scope="module")
 def table() -> ResultTable:
     return dualmech.solve(dualmech.load_case(PRESET), engine="dualmech")
