@@ -175,7 +175,9 @@ def _rigid_linkage_judges() -> dict[str, dict[str, str]]:
 
 ORACLES |= _rigid_linkage_judges()
 ORACLES |= {f"{kind}-mujoco-sim": {**{c: LINKAGE_SIM_TABLE for c in (*spec.columns, "status")},
-                                  **{f"meta:{k}": LINKAGE_SIM_TABLE for k in ("crank", "gives", "messages")}}
+                                  **{f"meta:{k}": LINKAGE_SIM_TABLE for k in (
+                                      "mujoco", "timestep", "steps_per_degree", "runin_steps", "servo_kp",
+                                      "servo_kv", "max_lag")}}
             for kind, spec in (("rssr", rssr.SPEC), ("rccc", rccc.SPEC))}
 ORACLES["rssr-simulate"] = ORACLES["linkage-simulate"] | {
     c: LINKAGE_SIM + "test_the_simulated_table_is_the_solved_one_at_each_simulated_state"

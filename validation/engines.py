@@ -32,8 +32,8 @@ ENGINES: dict[str, dict[str, str]] = {
                "rccc": "dualmech.validation.judges.presets:solve_mujoco_rccc",
                "loop": "dualmech.validation.judges.mujoco_loop.table:solve_table"},
     "mujoco-sim": {SLIDER_CRANK: "dualmech.validation.mujoco_sim:solve_case",
-                   "rssr": "dualmech.validation.linkages.mujoco_rssr_sim:solve_mujoco_sim",
-                   "rccc": "dualmech.validation.linkages.mujoco_rccc_sim:solve_mujoco_sim_rccc",
+                   "rssr": "dualmech.validation.judges.presets:simulate_rssr",
+                   "rccc": "dualmech.validation.judges.presets:simulate_rccc",
                    "loop": "dualmech.validation.judges.mujoco_loop.table:solve_sim_table"},
 }
 #: The in-house engine's streamed solve, by kind: ``(is_long, stream)``, each ``"module:function"``:

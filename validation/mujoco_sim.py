@@ -25,11 +25,10 @@ not changed by the implicit step.
 **Time step, servos and softness** (constants in :mod:`dualmech.models.mjcf`
 and here; measured in the tests):
 
-* ``dt`` = one degree of the fastest prescribed phase (crank angle or axial
-  cycle; under a crank acceleration also the time in which it changes the speed
-  by ``ACCEL_SPEED_FRACTION``, 1/64) over ``STEPS_PER_DEGREE`` (128; a case may
-  set its own, ``[simulation] steps_per_degree``), at most ``MAX_TIMESTEP``
-  (1e-4 s): 2.6e-5 s for the bundled cases at 50 rpm.  Rows fall on the step grid.  The SIM_* tolerances
+* ``dt`` = one degree of the fastest prescribed phase (crank angle, axial cycle, or the time in which
+  a crank acceleration changes the speed by ``ACCEL_SPEED_FRACTION``, 1/64) over ``STEPS_PER_DEGREE``
+  (128; a case may set its own, ``[simulation] steps_per_degree``), at most ``MAX_TIMESTEP`` (1e-4 s):
+  2.6e-5 s for the bundled cases at 50 rpm.  Rows fall on the step grid.  The SIM_* tolerances
   are the same at any step: a coarser one is judged by them, not excused.
 * Servo stiffness ``kp = I_low ω_n²``, :math:`\\omega_n = 0.5/dt`, with ``I_low``
   the crank's own inertia about its axis (its mass for the axial servo), a lower

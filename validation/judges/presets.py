@@ -32,9 +32,10 @@ from dualmech.core.status import Status, is_status, settle
 from dualmech.models.linkages import rccc, rssr
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
-from dualmech.models.linkages.table import LinkageTable
+from dualmech.models.linkages.table import LinkageTable, TableSpec
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.presets import rccc_table, rssr_table
+from dualmech.validation.judges.mujoco_loop.table import solve_sim_table
 from dualmech.validation.judges.mujoco_loop.table import solve_table as mujoco_table
 from dualmech.validation.judges.pinocchio_loop.table import solve_table as pinocchio_table
 
@@ -185,7 +186,7 @@ def _status(judged: LinkageTable, t1: np.ndarray, t4: np.ndarray, branch: int, t
     return status
 
 
-def rssr_columns(case: RssrCase, judged: LinkageTable) -> LinkageTable:
+def rssr_columns(case: RssrCase, judged: LinkageTable, not_given: tuple[str, ...] = ()) -> LinkageTable:
     """The RSSR table (:data:`~dualmech.models.linkages.rssr.SPEC`) of a generated judge's loop table
     ``judged`` of :func:`~dualmech.models.loop.presets.rssr_table` (``docs/conventions.md``, "RSSR"):
     ``phi4 = pi - theta4``; joint 4's wrench is on the ground from the output crank, about ``Q4``."""
@@ -209,12 +210,10 @@ def rssr_columns(case: RssrCase, judged: LinkageTable) -> LinkageTable:
                 dynamics_residual=judged["dynamics_residual"])
     status = _status(judged, t1, t4, case.branch, case.mode == "torque")
     cols = {c: np.array(cols[c], dtype=float) for c in rssr.COLUMNS}
-    spec = rssr.SPEC
-    return LinkageTable(judged.engine, case.name, cols,
-                        settle(cols, status, spec.reactions, pose=spec.pose, rates=spec.rates), judged.meta)
+    return _settled(case, judged, cols, status, rssr.SPEC, not_given)
 
 
-def rccc_columns(case: RcccCase, judged: LinkageTable) -> LinkageTable:
+def rccc_columns(case: RcccCase, judged: LinkageTable, not_given: tuple[str, ...] = ()) -> LinkageTable:
     """The RCCC table (:data:`~dualmech.models.linkages.rccc.SPEC`) of a generated judge's loop table
     ``judged`` of :func:`~dualmech.models.loop.presets.rccc_table` (``docs/conventions.md``, "RCCC"): joints
     2 and 3's moments moved from their joint points (frames ``{2}``, ``{3}``) to the body origins ``s_i``
@@ -240,9 +239,17 @@ def rccc_columns(case: RcccCase, judged: LinkageTable) -> LinkageTable:
                 dynamics_residual=judged["dynamics_residual"])
     status = _status(judged, np.full_like(t, np.nan), t, case.branch, False)
     cols = {c: np.array(cols[c], dtype=float) for c in rccc.COLUMNS}
-    spec = rccc.SPEC
+    return _settled(case, judged, cols, status, rccc.SPEC, not_given)
+
+
+def _settled(case: RssrCase | RcccCase, judged: LinkageTable, cols: dict[str, np.ndarray], status: np.ndarray,
+             spec: TableSpec, not_given: tuple[str, ...]) -> LinkageTable:
+    """The mechanism's table of ``judged``'s columns ``cols`` and words ``status``, settled
+    (:func:`~dualmech.core.status.settle`); the ``not_given`` columns are NaN at every row and claimed by no
+    word (the simulation's ``dynamics_residual``)."""
+    reactions = tuple(c for c in spec.reactions if c not in not_given)
     return LinkageTable(judged.engine, case.name, cols,
-                        settle(cols, status, spec.reactions, pose=spec.pose, rates=spec.rates), judged.meta)
+                        settle(cols, status, reactions, pose=spec.pose, rates=spec.rates), judged.meta)
 
 
 def rssr_reach(case: RssrCase, theta1: np.ndarray) -> np.ndarray:
@@ -286,10 +293,7 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageT
     ``meta``: ``iterations`` per row (of the run that answered it) and ``restarts``, the rows a run
     started from.
     """
-    rssr_kind = isinstance(case, RssrCase)
-    table, angles, start, reach, columns_of, spec = (
-        (rssr_table, rssr_start_angles, rssr_start, rssr_reach, rssr_columns, rssr.SPEC) if rssr_kind else
-        (rccc_table, rccc_start_angles, rccc_start, rccc_reach, rccc_columns, rccc.SPEC))
+    table, reach, columns_of, spec = _kind_of(case)
     mechanism, theta1 = table(case), np.radians(case.motion.angles_deg)
     n = theta1.shape[0]
     cols = {c: np.full(n, np.nan) for c in spec.columns}
@@ -308,15 +312,8 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageT
     for k in range(n):
         if not reaches[k] or is_status(status[k:k + 1], *ACCEPTED)[0]:
             continue
-        first, good = None, None
-        for theta4 in angles(case, float(theta1[k]))[:MAX_CRUDE_STARTS]:
-            starts = start(case, float(theta1[k]), theta4)
-            probe = columns_of(case, judge(with_start(mechanism, starts, k, k + 1)))
-            first = probe if first is None else first
-            if is_status(probe.status, *ACCEPTED)[0]:
-                good = starts
-                break
-        if good is None:
+        good, accepted, first = crude_start(case, mechanism, k, judge)
+        if not accepted:
             take(first, np.array([k]), k)
             continue
         restarts.append(k)
@@ -324,6 +321,59 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageT
             ~is_status(status[k:], *ACCEPTED) & reaches[k:]), k)
     return LinkageTable(engine, case.name, cols, status,
                         {"iterations": iterations, "restarts": np.array(restarts, dtype=int)})
+
+
+def _kind_of(case: RssrCase | RcccCase) -> tuple[Callable, Callable, Callable, TableSpec]:
+    """The table, reach, column reader and spec of ``case``'s kind."""
+    if isinstance(case, RssrCase):
+        return rssr_table, rssr_reach, rssr_columns, rssr.SPEC
+    return rccc_table, rccc_reach, rccc_columns, rccc.SPEC
+
+
+def crude_start(case: RssrCase | RcccCase, mechanism: LoopMechanism, k: int, judge: Judge
+                ) -> tuple[tuple, bool, LinkageTable]:
+    """The first of the crude starts at row ``k`` (:data:`MAX_CRUDE_STARTS` at most: :func:`rssr_start`,
+    :func:`rccc_start`) from which ``judge`` answers that row alone on the case's branch, ``True`` and that
+    answer (the mechanism's one-row table); with none on the branch, the first start, ``False`` and its
+    answer."""
+    angles, start = ((rssr_start_angles, rssr_start) if isinstance(case, RssrCase) else
+                     (rccc_start_angles, rccc_start))
+    columns_of = _kind_of(case)[2]
+    theta1 = float(np.radians(case.motion.angles_deg[k]))
+    first = None
+    for theta4 in angles(case, theta1)[:MAX_CRUDE_STARTS]:
+        starts = start(case, theta1, theta4)
+        probe = columns_of(case, judge(with_start(mechanism, starts, k, k + 1)))
+        if is_status(probe.status, *ACCEPTED)[0]:
+            return starts, True, probe
+        first = (starts, False, probe) if first is None else first
+    return first
+
+
+def simulate_case(case: RssrCase | RcccCase) -> LinkageTable:
+    """The ``mujoco-sim`` engine of an RSSR or RCCC case: the generated simulated judge
+    (:func:`~dualmech.validation.judges.mujoco_loop.table.solve_sim_table`) on the case's table, every joint
+    started at the first crude start from which the rigid generated MuJoCo judge answers the first row on
+    the branch (:func:`crude_start`; with none, the first crude start: the simulation's words then say where
+    it is), as the mechanism's table (``dynamics_residual`` not given: the simulation has no least squares).
+    The simulation plans its runs from its own rigid closure, so one start serves every row (the engine
+    runs only on cases whose every row assembles: :func:`~dualmech.validation.engines.solves`).  ``meta``:
+    the simulation's (time step, steps per degree, run-in, servo gains, the largest drive lag, ``L_ref``).
+    """
+    table, _, columns_of, _ = _kind_of(case)
+    mechanism = table(case)
+    starts, _, _ = crude_start(case, mechanism, 0, mujoco_table)
+    return columns_of(case, solve_sim_table(with_start(mechanism, starts)), ("dynamics_residual",))
+
+
+def simulate_rssr(case: RssrCase) -> LinkageTable:
+    """The ``mujoco-sim`` engine of an RSSR case (:func:`simulate_case`)."""
+    return simulate_case(case)
+
+
+def simulate_rccc(case: RcccCase) -> LinkageTable:
+    """The ``mujoco-sim`` engine of an RCCC case (:func:`simulate_case`)."""
+    return simulate_case(case)
 
 
 def solve_pinocchio_rssr(case: RssrCase) -> LinkageTable:

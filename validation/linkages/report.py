@@ -136,7 +136,7 @@ def case_figure(run: LinkageRun, entry: LinkageEntry) -> Figure:
         ax.tick_params(labelsize=7)
         ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
-    caption = (f"{column} against the input {name} (the simulation at its own input states), and per row "
+    caption = (f"{column} against the input {name}, and per row "
                "each judge's worst ratio of relative difference to its tolerance (<= 1 passes)")
     png = fig_to_png(fig)
     return Figure(f"linkage-{case_id}", "linkage", case_id, f"{case_id}: {column}", caption, png)

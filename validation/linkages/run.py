@@ -1,12 +1,7 @@
 """A linkage run: every case of a :class:`~dualmech.validation.linkages.matrix.LinkageMatrix` on every engine
 that solves it, by the matrix runner (:func:`~dualmech.validation.run.runner.run_matrix`: a process pool, each
 result stored in the run folder as it finishes, ``resume``), then compared by the gate
-(:mod:`~dualmech.validation.linkages.gate`).
-
-The simulated judge's rows are its simulated input states, so it is compared with the in-house engine at
-those states (the mechanism's ``analyze(case, crank)`` of
-:data:`~dualmech.models.linkages.forward_dynamics.MECHANISMS`); every other judge with the reference table
-itself.
+(:mod:`~dualmech.validation.linkages.gate`): every judge with the reference table, row by row.
 """
 
 from __future__ import annotations
@@ -21,7 +16,6 @@ import numpy as np
 from dualmech.core.status import Status, is_status
 from dualmech.models.kinds import SLIDER_CRANK, kind_of
 from dualmech.models.linkages import linkage_case, table_spec
-from dualmech.models.linkages.forward_dynamics import MECHANISMS
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.compare import Check, Comparison, Verdict
 from dualmech.validation.compare.baseline import run_summary
@@ -90,19 +84,6 @@ class LinkageRun:
         return out
 
 
-def _reference_for(entry: LinkageEntry, reference: LinkageTable, judge: LinkageTable, name: str
-                   ) -> LinkageTable | str:
-    """The reference table ``judge`` is compared with: ``reference``, or for a judge whose rows are its own
-    input states (``meta["crank"]``) the in-house engine at those states."""
-    crank = judge.meta.get("crank")
-    if crank is None:
-        return reference
-    if name != "dualmech":
-        return f"not compared: {judge.engine}'s rows are its own input states, solved again by dualmech only"
-    mechanism = MECHANISMS[entry.kind]
-    return mechanism.table(mechanism.analyze(entry.case, crank))
-
-
 def as_run_matrix(matrix: LinkageMatrix) -> Matrix:
     """The matrix the runner runs: every case's table as written (``raw``) and the engines that solve it
     (:meth:`~dualmech.validation.linkages.matrix.LinkageMatrix.engines_of`); a linkage matrix has no
@@ -169,12 +150,11 @@ def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, 
     checks = [reference_check(entry.id, reference, spec)]
     for e in judges:
         table = tables[e]
-        ref = table if isinstance(table, str) else _reference_for(entry, reference, table, name)
-        if isinstance(ref, str):
-            checks.append(engine_check(entry.id, e, ref))
+        if isinstance(table, str):
+            checks.append(engine_check(entry.id, e, table))
             continue
-        references[e] = ref
-        found, rows = judge_checks(entry.id, ref, table, spec)
+        references[e] = reference
+        found, rows = judge_checks(entry.id, reference, table, spec)
         checks += found
         if rows is not None:
             ratios[e] = rows

@@ -4,11 +4,9 @@ its columns as JSON numbers (floats round-trip exactly, NaN as ``NaN``), its sta
 from __future__ import annotations
 
 import json
-from dataclasses import fields
 
 import numpy as np
 
-from dualmech.core.motion import CrankState
 from dualmech.core.table import NUMERIC_COLUMNS, ColumnTable, ResultTable
 from dualmech.models.kinds import SLIDER_CRANK
 from dualmech.models.linkages.table import LinkageTable
@@ -17,18 +15,14 @@ from dualmech.validation.durable import json_text
 
 def table_to_dict(table: ColumnTable) -> dict:
     """JSON-ready form of a table (floats round-trip exactly; NaN is written as ``NaN``): a slider crank's
-    :data:`~dualmech.core.table.NUMERIC_COLUMNS`, another kind's every column in its order; a simulated
-    judge's input states (``meta["crank"]``, a :class:`~dualmech.core.motion.CrankState`) as their arrays."""
+    :data:`~dualmech.core.table.NUMERIC_COLUMNS`, another kind's every column in its order."""
     names = NUMERIC_COLUMNS if isinstance(table, ResultTable) else tuple(table.columns)
-    meta = dict(table.meta)
-    if isinstance(meta.get("crank"), CrankState):
-        meta["crank"] = {f.name: getattr(meta["crank"], f.name) for f in fields(CrankState)}
     return {
         "engine": table.engine,
         "case": table.case,
         "columns": {c: np.asarray(table.columns[c], dtype=float).tolist() for c in names},
         "status": [str(s) for s in table.status],
-        "meta": json.loads(json_text(meta)),
+        "meta": json.loads(json_text(dict(table.meta))),
     }
 
 
@@ -39,8 +33,6 @@ def table_from_dict(d: dict, kind: str = SLIDER_CRANK) -> ColumnTable:
     if kind == SLIDER_CRANK:
         columns = {c: np.asarray(d["columns"][c], dtype=float) for c in NUMERIC_COLUMNS}
         return ResultTable(d["engine"], d["case"], columns, status, meta)
-    if isinstance(meta.get("crank"), dict):
-        meta["crank"] = CrankState(**{k: np.asarray(v, dtype=float) for k, v in meta["crank"].items()})
     columns = {c: np.asarray(v, dtype=float) for c, v in d["columns"].items()}
     return LinkageTable(d["engine"], d["case"], columns, status, meta)
 

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from dualmech.models.inputs import CaseError
-from dualmech.models.linkages import CASES, summary
+from dualmech.models.linkages import CASES, linkage_case, summary
 from dualmech.models.linkages import solve_linkage as in_house
 from dualmech.validation.engines import ENGINES, solve_linkage
-from dualmech.validation.linkages.mujoco_rssr_sim import SIM_COLUMNS
+from dualmech.validation.judges.presets import simulate_case
 from tests.models.linkages.cases import bundled
 
 pytest.importorskip("pinocchio")
@@ -27,12 +27,15 @@ def test_every_engine_by_name(tmp_path) -> None:
     assert solve_linkage("rccc", engine="mujoco").engine == "mujoco"
 
 
-def test_the_simulation_gives_its_columns_at_its_own_states() -> None:
-    table = solve_linkage("rssr", engine="mujoco-sim")
-    assert table.engine == "mujoco-sim" and len(table) > 150 and (table.status == "ok").all()
-    assert all(np.isfinite(table[c]).all() for c in SIM_COLUMNS)
-    assert np.isnan(table["j1_fx"]).all() and table.meta["gives"] == SIM_COLUMNS
-    assert np.array_equal(np.degrees(table.meta["crank"].theta), table["theta1_deg"])
+@pytest.mark.parametrize("kind", ["rssr", "rccc"])
+def test_the_simulation_is_the_generated_judge(kind: str) -> None:
+    """``mujoco-sim`` of an RSSR or RCCC case is the simulated judge generated from its joint table
+    (:func:`~dualmech.validation.judges.presets.simulate_case`), at the case's rows."""
+    table = solve_linkage(kind, engine="mujoco-sim")
+    again = simulate_case(linkage_case(kind))
+    assert table.engine == again.engine == "mujoco-sim" and (table.status == "ok").all()
+    for column in table.columns:
+        np.testing.assert_array_equal(table[column], again[column], err_msg=column)
 
 
 def test_engines_that_do_not_solve_a_case_are_refused_in_one_line() -> None:

@@ -76,13 +76,13 @@ def test_validate_rssr_passes_and_writes_its_report(tmp_path) -> None:
     out = tmp_path / "run"
     result = CliRunner().invoke(main, ["validate", "rssr", "-o", str(out)])
     assert result.exit_code == EXIT_PASS, result.output
-    assert "PASS: 62 of 62 checks passed; worst ratio (relative difference / tolerance): pinocchio " \
+    assert "PASS: 79 of 79 checks passed; worst ratio (relative difference / tolerance): pinocchio " \
         in result.output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["verdict"] == "PASS" and set(summary["worst"]) == {"pinocchio", "mujoco", "mujoco-sim"}
     assert (out / "figures" / "linkage-rssr-crank-rocker.png").stat().st_size > 10_000
     markdown = (out / "report.md").read_text()
-    assert "| rssr-crank-rocker | rssr | mujoco-sim | 176 | pass | 9 |" in markdown
+    assert "| rssr-crank-rocker | rssr | mujoco-sim | 180 | pass | 26 |" in markdown
     assert (out / "report.html").read_text().count("data:image/png;base64,") == 1
     assert {p.name for p in (out / "tables" / "rssr-crank-rocker").iterdir()} == {
         "dualmech.csv", "pinocchio.csv", "mujoco.csv", "mujoco-sim.csv"}
@@ -98,7 +98,7 @@ def test_validate_fails_with_exit_code_1_on_a_faulty_judge(tmp_path, monkeypatch
     fault_engine(monkeypatch, "pinocchio", shifted, ("rccc",))
     result = CliRunner().invoke(main, ["validate", "linkages", "-o", str(tmp_path / "run"), "--jobs", "1"])
     assert result.exit_code == EXIT_FAIL, result.output
-    assert "FAIL: 145 of 146 checks passed" in result.output
+    assert "FAIL: 181 of 182 checks passed" in result.output
     assert "✗ rccc-example / pinocchio: theta4_deg: max rel" in result.output
     assert json.loads((tmp_path / "run" / "summary.json").read_text())["n_failed"] == 1
 
