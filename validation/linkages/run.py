@@ -36,8 +36,6 @@ class LinkageRun:
     matrix : LinkageMatrix
     tables : dict
         Case id -> engine -> its table, or the error text of an engine that raised.
-    references : dict
-        Case id -> judge -> the reference table it was compared with (the simulation's: at its states).
     comparison : Comparison
         Every check; ``dead_centres`` case -> engine -> rows; ``errors`` case -> engine -> message.
     ratios : dict
@@ -50,7 +48,6 @@ class LinkageRun:
 
     matrix: LinkageMatrix
     tables: dict[str, dict[str, LinkageTable | str]]
-    references: dict[str, dict[str, LinkageTable]]
     comparison: Comparison
     ratios: dict[str, dict[str, tuple[np.ndarray, ...]]]
     seconds: dict[str, dict[str, float]]
@@ -122,23 +119,21 @@ def run_linkages(matrix: LinkageMatrix, outdir: str | Path | None = None, *, job
         seconds = timings(load_entries(Path(folder), runnable))
     tables: dict[str, dict[str, LinkageTable | str]] = {e.id: dict(outcome.results.get(e.id, {}))
                                                          for e in matrix.cases}
-    references: dict[str, dict[str, LinkageTable]] = {}
     ratios: dict[str, dict[str, tuple[np.ndarray, ...]]] = {}
     checks: list[Check] = []
     for entry in matrix.cases:
-        references[entry.id], ratios[entry.id] = {}, {}
-        checks += _compare_case(matrix, entry, tables[entry.id], references[entry.id], ratios[entry.id])
+        ratios[entry.id] = {}
+        checks += _compare_case(matrix, entry, tables[entry.id], ratios[entry.id])
     errors = {cid: {e: t for e, t in per.items() if isinstance(t, str)} for cid, per in tables.items()}
     dead = {cid: {e: int(is_status(t.status, Status.DEAD_CENTRE).sum()) for e, t in per.items()
                   if not isinstance(t, str)} for cid, per in tables.items()}
     comparison = Comparison(tuple(checks), {}, dead, errors)
-    return LinkageRun(matrix, tables, references, comparison, ratios,
+    return LinkageRun(matrix, tables, comparison, ratios,
                       {e.id: seconds.get(e.id, {}) for e in matrix.cases})
 
 
 def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, LinkageTable | str],
-                  references: dict[str, LinkageTable], ratios: dict[str, tuple[np.ndarray, ...]]
-                  ) -> list[Check]:
+                  ratios: dict[str, tuple[np.ndarray, ...]]) -> list[Check]:
     """The checks of one case: the reference's own, then every judge's (engine, status, columns)."""
     name = matrix.reference
     reference = tables[name]
@@ -153,7 +148,6 @@ def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, 
         if isinstance(table, str):
             checks.append(engine_check(entry.id, e, table))
             continue
-        references[e] = reference
         found, rows = judge_checks(entry.id, reference, table, spec)
         checks += found
         if rows is not None:
