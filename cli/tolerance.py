@@ -21,7 +21,7 @@ from dualmech.cli.progress import progress
 from dualmech.cli.solve import warn_units
 from dualmech.models.case import Case
 from dualmech.models.plausibility import masses_line
-from dualmech.validation.arguments import MAX_JOBS
+from dualmech.validation.arguments import MAX_JOBS, as_case
 
 
 def output_units(mode: str, units: str) -> dict[str, str]:
@@ -73,12 +73,11 @@ def _print_summary(summary: dict, case: Case) -> None:
 def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir: str, jobs: int,
               scheduler: str | None, judge_samples: int) -> None:
     """Tolerance study of CASE: Monte Carlo of SPEC and exact sensitivities, judged and reported."""
-    from dualmech.models.case import load_case
     from dualmech.models.plausibility import ImplausibleUnitsWarning
     from dualmech.verbs import tolerance_study
 
     on_interrupt(f"finished chunks are kept in {outdir}; re-run the same command to finish")
-    nominal = load_case(case)
+    nominal = as_case(case)
     warn_units(nominal)  # the command's own one line each; the API's warning of the same is not repeated
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ImplausibleUnitsWarning)

@@ -7,8 +7,8 @@ import os
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-from dualmech.models.case import Case, case_from_dict, load_case
-from dualmech.models.inputs import show
+from dualmech.models.case import Case
+from dualmech.models.inputs import CaseError, show
 from dualmech.validation.engines import ENGINES
 
 if TYPE_CHECKING:
@@ -16,16 +16,23 @@ if TYPE_CHECKING:
 
 
 def as_case(case: Case | str | os.PathLike | dict, argument: str = "case") -> Case:
-    """``case`` as a :class:`Case`: itself, a case file or preset name (:func:`load_case`), or a case table
-    (:func:`case_from_dict`); anything else is a one-line ``TypeError`` naming ``argument``."""
+    """``case`` as a slider-crank :class:`Case`: itself, a case file or preset name, or a case table
+    (:func:`~dualmech.models.catalogue.load_mechanism`); anything else is a one-line ``TypeError`` naming
+    ``argument``, a case of another kind a one-line ``CaseError`` naming its kind (the tolerance study, its
+    one user, serves the slider crank only)."""
+    from dualmech.models.catalogue import load_mechanism
+    from dualmech.models.kinds import kind_of
+
     if isinstance(case, Case):
         return case
-    if isinstance(case, (str, os.PathLike)):
-        return load_case(case)
-    if isinstance(case, dict):
-        return case_from_dict(case)
-    raise TypeError(f"{argument}: expected a dualmech.Case, a case file, a preset name or a case table "
-                    f"(dict), got {show(case)}")
+    if not isinstance(case, (str, os.PathLike, dict)):
+        raise TypeError(f"{argument}: expected a dualmech.Case, a case file, a preset name or a case table "
+                        f"(dict), got {show(case)}")
+    record = load_mechanism(case)
+    if not isinstance(record, Case):
+        raise CaseError(f"{argument}: the tolerance study takes a slider-crank case; {show(case)} is a "
+                        f"{kind_of(record)} case (not built yet for that kind)")
+    return record
 
 
 def as_spec(spec: Spec | str | os.PathLike | dict) -> Spec:

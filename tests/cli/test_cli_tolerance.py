@@ -82,6 +82,20 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, spec_text, args, words):
         assert w in lines[0]
 
 
+@pytest.mark.parametrize("case", ["rssr", "rscr"])
+def test_a_case_of_another_kind_is_refused_by_its_kind(tmp_path, case):
+    """The study serves the slider crank only: a bundled RSSR or loop table is named as such, in one line
+    (seen failing before: it said the name was neither a file nor a bundled preset)."""
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[tolerances]\n"geometry.coupler" = { dist = "normal", sd = 1e-3 }\n')
+    result = _run(case, "--spec", spec, "-o", tmp_path / "out", "-n", 5)
+    assert result.exit_code == 2, result.output + result.stderr
+    kind = {"rssr": "rssr", "rscr": "loop"}[case]
+    assert result.stderr == (f"dualmech: error: case: the tolerance study takes a slider-crank case; "
+                             f"{case!r} is a {kind} case (not built yet for that kind)\n")
+    assert not (tmp_path / "out").exists()
+
+
 def test_joint_variants_get_exact_sensitivities(tmp_path):
     """The sensitivities go through the solver's own analysis, which has the joint variants: a revolute crank
     (the IFToMM benchmark) runs with --method both, and its derivatives pass the run-time check."""
