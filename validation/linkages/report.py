@@ -1,9 +1,10 @@
 """The report of a linkage run: ``summary.json``, ``report.md``, ``report.html`` (self-contained),
 ``figures/<case>.png`` and every engine's table (``tables/<case>/<engine>.csv``) in the run folder.
 
-Per case one figure: the output angle against the input angle from every engine (the reference as a
-line, each judge as markers), and below it each judge's worst ratio of relative difference to tolerance
-per row (log scale; at most 1 passes).  The templates are ``validation/templates/linkages.*.j2``; the
+Per judge the slider crank report's heat map of its ratio to tolerance per case and column
+(:func:`judge_heatmaps`); per case one figure: the output angle against the input angle from every engine
+(the reference as a line, each judge as markers), and below it each judge's worst ratio of relative
+difference to tolerance per row (log scale; at most 1 passes).  The templates are ``validation/templates/linkages.*.j2``; the
 folder rules (a dualmech folder only, one writer at a time, a manifest of what was written) are those of
 :mod:`dualmech.validation.rundir`.
 """
@@ -18,11 +19,19 @@ from typing import Any
 import numpy as np
 
 from dualmech.models.linkages import table_spec
+from dualmech.validation.compare import ENGINE, STATUS
 from dualmech.validation.linkages.matrix import LinkageEntry
 from dualmech.validation.linkages.run import LinkageRun, write_tables
 from dualmech.validation.provenance import KEY_LIBRARIES, versions
-from dualmech.validation.report.canvas import fig_to_png
-from dualmech.validation.report.plots import JUDGE_MARKERS, LOG_FLOOR, Figure
+from dualmech.validation.report.canvas import drawing, fig_to_png
+from dualmech.validation.report.plots import (
+    HEATMAP_CAPTION,
+    JUDGE_MARKERS,
+    LOG_FLOOR,
+    Figure,
+    heatmap_arrays,
+    heatmap_figure,
+)
 from dualmech.validation.report.render import environment
 from dualmech.validation.rundir import locked, record_files, write_file, write_json
 
@@ -142,12 +151,32 @@ def case_figure(run: LinkageRun, entry: LinkageEntry) -> Figure:
     return Figure(f"linkage-{case_id}", "linkage", case_id, f"{case_id}: {column}", caption, png)
 
 
+def judge_heatmaps(run: LinkageRun) -> list[Figure]:
+    """Per judge, the heat map of the slider crank's report (:func:`~dualmech.validation.report.plots.
+    heatmap_figure`): its ratio to tolerance per case and compared column (the columns in the order the
+    cases' checks name them: every kind's, a matrix of several kinds has their union), a failed check
+    marked, a failed status or engine its case's whole row."""
+    figures = []
+    for e in run.matrix.judges:
+        ids = [entry.id for entry in run.matrix.cases if run.comparison.for_engine(entry.id, e)]
+        if not ids:
+            continue
+        qs = list(dict.fromkeys(c.quantity for cid in ids for c in run.comparison.for_engine(cid, e)
+                                if c.quantity not in (STATUS, ENGINE)))
+        arrays = heatmap_arrays(run.comparison, e, ids, qs)
+        with drawing():
+            png = heatmap_figure(e, ids, qs, *arrays)
+        figures.append(Figure(f"heatmap-{e}", "heatmap", e, f"{e}: agreement per case and quantity",
+                              HEATMAP_CAPTION, png))
+    return figures
+
+
 def write_linkage_report(run: LinkageRun, outdir: Path, seconds: float) -> LinkageReport:
     """Write the run folder's tables, figures, ``summary.json``, ``report.md`` and ``report.html``."""
     start = time.perf_counter()
     with locked(outdir) as outdir:
         tables = write_tables(run, outdir)
-        figures = [case_figure(run, e) for e in run.matrix.cases]
+        figures = [*judge_heatmaps(run), *(case_figure(run, e) for e in run.matrix.cases)]
         paths = [write_file(outdir, f"figures/{f.key}.png", f.png, record=False) for f in figures]
         summary = linkage_summary(run, seconds)
         context = {"s": summary, "figures": figures, "failures": run.comparison.failures()[:200],

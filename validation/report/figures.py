@@ -15,15 +15,20 @@ import concurrent.futures as cf
 import re
 from typing import Any, NamedTuple
 
-import numpy as np
-
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.validation.compare import STROKE, Comparison
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.progress import ProgressCallback
 from dualmech.validation.report import interactive
 from dualmech.validation.report.canvas import drawing
-from dualmech.validation.report.plots import Figure, heatmap_figure, shaking_force_figure, sweep_figure
+from dualmech.validation.report.plots import (
+    HEATMAP_CAPTION,
+    Figure,
+    heatmap_arrays,
+    heatmap_figure,
+    shaking_force_figure,
+    sweep_figure,
+)
 from dualmech.validation.run.executors import shared_pool, worker_died
 
 #: Figures of each sweep and load mode: (key, title, columns, panel grid (rows, cols)).
@@ -140,24 +145,13 @@ def _heatmap_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec]:
         if not ids:
             continue
         qs = list(matrix.quantities) + [STROKE]
-        ratios, max_rel, tolerance = (np.full((len(ids), len(qs)), np.nan) for _ in range(3))
-        failed = np.zeros((len(ids), len(qs)), dtype=bool)
-        for i, cid in enumerate(ids):
-            for c in comparison.for_engine(cid, e):
-                if c.quantity in qs:
-                    j = qs.index(c.quantity)
-                    ratios[i, j], max_rel[i, j], tolerance[i, j] = c.ratio, c.max_rel, c.tolerance.value
-                    failed[i, j] = not c.passed
-                elif not c.passed:  # status or engine failure: the whole row
-                    failed[i, :] = True
+        ratios, failed, max_rel, tolerance = heatmap_arrays(comparison, e, ids, qs)
         specs.append(FigureSpec(
             _file_key(f"heatmap-{e}"),
             "heatmap",
             e,
             f"{e}: agreement per case and quantity",
-            "Ratio of the worst relative difference to its tolerance: blue to pale below 1 (pass), red above "
-            "(fail), the boundary marked on the colour bar; ✗: out of tolerance (a whole row: a status or "
-            "the engine failed); grey: not compared.",
+            HEATMAP_CAPTION,
             ("heatmap", (e, ids, qs, ratios, failed, max_rel, tolerance)),
             static=True,
         ))

@@ -26,6 +26,7 @@ import numpy as np
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.units import DIMENSIONS, axis_label, column_unit
+from dualmech.validation.compare import Comparison
 from dualmech.validation.report.canvas import autoscale_y_visible, fig_to_png, kept_line, new_figure, skeleton
 
 #: Rows with |transmission| below this set no axis range in torque mode (their reactions
@@ -305,6 +306,31 @@ def heatmap_ratios(ratios: np.ndarray) -> np.ndarray:
     lo, hi = RATIO_SCALE
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.log10(np.clip(ratios, lo, hi))
+
+
+#: The caption of a judge's heat map (:func:`heatmap_figure`; a slider-crank report's and a linkage run's).
+HEATMAP_CAPTION = ("Ratio of the worst relative difference to its tolerance: blue to pale below 1 (pass), "
+                   "red above (fail), the boundary marked on the colour bar; ✗: out of tolerance (a whole "
+                   "row: a status or the engine failed); grey: not compared.")
+
+
+def heatmap_arrays(comparison: Comparison, engine: str, cases: list[str], quantities: list[str]
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A judge's heat map (:func:`heatmap_figure`): per case and quantity its ratio to tolerance,
+    whether it failed, its worst relative difference and its tolerance, each ``(len(cases),
+    len(quantities))``, NaN where not compared; a failed check of another quantity (a status, the engine)
+    fails the case's whole row."""
+    ratios, max_rel, tolerance = (np.full((len(cases), len(quantities)), np.nan) for _ in range(3))
+    failed = np.zeros((len(cases), len(quantities)), dtype=bool)
+    for i, cid in enumerate(cases):
+        for c in comparison.for_engine(cid, engine):
+            if c.quantity in quantities:
+                j = quantities.index(c.quantity)
+                ratios[i, j], max_rel[i, j], tolerance[i, j] = c.ratio, c.max_rel, c.tolerance.value
+                failed[i, j] = not c.passed
+            elif not c.passed:  # status or engine failure: the whole row
+                failed[i, :] = True
+    return ratios, failed, max_rel, tolerance
 
 
 def heatmap_figure(
