@@ -70,7 +70,11 @@ def rod_spin(p: dict[str, np.ndarray]) -> np.ndarray:
 
 def inertia(phi: np.ndarray, universal: bool = True) -> np.ndarray:
     """Generalized inertia :math:`I(\\varphi)` ``(n,)``, kg m^2."""
-    p = pose(phi)
+    return _inertia_of(pose(phi), universal)
+
+
+def _inertia_of(p: dict[str, np.ndarray], universal: bool) -> np.ndarray:
+    """:func:`inertia` at the :func:`pose` ``p``."""
     u = p["u"]
     w = p["w_perp"] + (rod_spin(p)[:, None] * u if universal else 0.0)
     w_axial = _dot(w, u)
@@ -83,19 +87,24 @@ def inertia(phi: np.ndarray, universal: bool = True) -> np.ndarray:
 
 def potential(phi: np.ndarray) -> np.ndarray:
     """Gravity's potential ``(n,)``, J, zero at ``Z = 0`` (the slider's height)."""
-    p = pose(phi)
+    return _potential_of(pose(phi))
+
+
+def _potential_of(p: dict[str, np.ndarray]) -> np.ndarray:
+    """:func:`potential` at the :func:`pose` ``p``."""
     m1, m2, _ = MASSES
     return GRAVITY * (m1 * (PIVOT[2] + p["B"][:, 2]) / 2 + m2 * p["B"][:, 2] / 2)
 
 
-def _slope(f, phi: np.ndarray, **kw) -> np.ndarray:
-    return np.imag(f(np.atleast_1d(phi) + 1j * _STEP, **kw)) / _STEP
-
-
 def acceleration(phi: np.ndarray, rate: np.ndarray, universal: bool = True) -> np.ndarray:
-    """Crank acceleration ``(n,)``, rad/s^2, of the free motion."""
-    i = inertia(np.atleast_1d(phi), universal)
-    return -(0.5 * _slope(inertia, phi, universal=universal) * rate**2 + _slope(potential, phi)) / i
+    """Crank acceleration ``(n,)``, rad/s^2, of the free motion.
+
+    One pose at the complex angle :math:`\\varphi + ih` gives :math:`I` and :math:`V` with their slopes: the
+    real part of an analytic function there is its value (off by :math:`h^2 f''/2`, nothing in double
+    precision), the imaginary part over ``h`` its derivative."""
+    p = pose(np.atleast_1d(phi) + 1j * _STEP)
+    i, v = _inertia_of(p, universal), _potential_of(p)
+    return -(0.5 * np.imag(i) / _STEP * rate**2 + np.imag(v) / _STEP) / np.real(i)
 
 
 def energy(phi: np.ndarray, rate: np.ndarray, universal: bool = True) -> np.ndarray:

@@ -4,15 +4,19 @@ workers, in plan order, nothing cut off; the static ones (PNG) only those the Ma
 from __future__ import annotations
 
 import concurrent.futures as cf
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from dualmech.validation.compare import compare_run
+from dualmech.validation.matrix import load_matrix
 from dualmech.validation.report import canvas, derived, figures, plots
 from dualmech.validation.report.sections import balancing_spec
 from dualmech.validation.run import executors
+
+from .conftest import SMALL, fake_results
 
 
 def _specs(matrix, results):
@@ -280,40 +284,81 @@ def _without_values(matrix, results, column: str = "j2_fx") -> dict:
             for cid, per in results.items()}
 
 
-def _reused_and_new(matrix, results) -> tuple[list[bytes], list[bytes]]:
-    """Every figure drawn in plan order and then in reverse on the figures this process keeps per kind, and
-    each drawn on a new figure."""
-    specs = [s for s in _specs(matrix, results) if figures._FIGURE_FUNCTIONS[s.job[0]][0] is not None]
+def _static_specs(matrix, results) -> list:
+    """The report's figures that have a static (PNG) drawing, in plan order."""
+    return [s for s in _specs(matrix, results) if figures._FIGURE_FUNCTIONS[s.job[0]][0] is not None]
+
+
+def _draw(spec) -> bytes:
+    """The PNG of ``spec``'s figure (its static drawing alone: the interactive one is not under test here)."""
+    name, args = spec.job
+    with canvas.drawing():
+        return figures._FIGURE_FUNCTIONS[name][0](*args)
+
+
+def _reused(matrix, results) -> Iterator[bytes]:
+    """Every figure drawn in plan order and then in reverse (listed in plan order) on the figures this process
+    keeps per kind, one at a time: a check that fails at the first figure that differs draws no more."""
+    specs = _static_specs(matrix, results)
     canvas._SKELETONS.clear()
-    reused = [figures._render(s.job, static=True)[0] for s in specs]
-    reused += [figures._render(s.job, static=True)[0] for s in reversed(specs)][::-1]
-    assert len(canvas._SKELETONS) < len(specs)  # kinds were shared: the check below compares reuses
-    new = []
-    for s in specs:
+    try:
+        yield from (_draw(s) for s in specs)
+        backward = [_draw(s) for s in reversed(specs)]
+        assert len(canvas._SKELETONS) < len(specs)  # kinds were shared: the check compares reuses
+        yield from reversed(backward)
+    finally:
         canvas._SKELETONS.clear()
-        new.append(figures._render(s.job, static=True)[0])
+
+
+def _new(matrix, results) -> list[bytes]:
+    """Every figure drawn on a new figure, for plan order and for the reverse order (as :func:`_reused`)."""
+    new = []
+    for s in _static_specs(matrix, results):
+        canvas._SKELETONS.clear()
+        new.append(_draw(s))
     canvas._SKELETONS.clear()
-    return reused, new + new
+    return new + new
+
+
+@pytest.fixture(scope="module")
+def new_figures(tmp_path_factory) -> Callable[[str], list[bytes]]:
+    """``data`` -> :func:`_new` of the ``SMALL`` matrix's results as solved or with a panel without values,
+    drawn once per module: a new figure is drawn by the same code whatever fault below is put in the reuse
+    of figures (``canvas._empty`` and ``canvas._autoscale_y`` run on reuse only; a new axis's locator is
+    never an empty one, so a flat panel's locator kept changes nothing on a new figure)."""
+    path = tmp_path_factory.mktemp("small") / "small.toml"
+    path.write_text(SMALL)
+    matrix = load_matrix(path)
+    drawn: dict[str, list[bytes]] = {}
+
+    def new(data: str) -> list[bytes]:
+        if data not in drawn:
+            drawn[data] = _new(matrix, _data(matrix, fake_results(matrix), data))
+        return drawn[data]
+
+    return new
+
+
+def _data(matrix, results, data: str) -> dict:
+    return results if data == "as solved" else _without_values(matrix, results)
 
 
 @pytest.mark.parametrize("data", ["as solved", "a panel without values"])
-def test_a_reused_figure_draws_what_a_new_one_draws(matrix, results, data):
+def test_a_reused_figure_draws_what_a_new_one_draws(matrix, results, new_figures, data):
     """Why: a process draws each figure on the one it kept from the last figure of the same kind (the axes,
     ticks and labels are made once), its data replaced; whatever was drawn there before (another sweep's
     curves and limits, a flat panel without ticks, legends) must leave no trace. Both orders: the small
     matrix's joint-3 figure has a flat panel in force mode, not in torque mode; without values, joint 2's
     first panel autoscales in torque mode and has set limits in force mode.  Faults seen: the lines kept for
     the next figure (canvas.kept_line) left visible; a panel without values autoscaled on them."""
-    if data != "as solved":
-        results = _without_values(matrix, results)
-    reused, new = _reused_and_new(matrix, results)
-    assert reused == new
+    assert list(_reused(matrix, _data(matrix, results, data))) == new_figures(data)
 
 
 @pytest.mark.parametrize("fault", ["data kept", "ticks of a flat panel kept", "limits kept"])
-def test_a_reused_figure_with_traces_is_seen(matrix, results, monkeypatch, fault):
+def test_a_reused_figure_with_traces_is_seen(matrix, results, new_figures, monkeypatch, fault):
     """The faults the test above must see: the last figure's data left in place; a panel's locator left as
     the flat panel before it set it (no ticks); the y limits of the last figure kept where none are set."""
+    data = "as solved"
     if fault == "data kept":
         monkeypatch.setattr(canvas, "_empty", lambda fig: None)
     elif fault == "ticks of a flat panel kept":
@@ -330,9 +375,9 @@ def test_a_reused_figure_with_traces_is_seen(matrix, results, monkeypatch, fault
         monkeypatch.setattr(Axis, "set_major_locator", kept_flat)
     else:
         monkeypatch.setattr(canvas, "_autoscale_y", lambda ax: None)
-        results = _without_values(matrix, results)
-    reused, new = _reused_and_new(matrix, results)
-    assert reused != new
+        data = "a panel without values"
+    new = new_figures(data)
+    assert any(a != b for a, b in zip(_reused(matrix, _data(matrix, results, data)), new, strict=True))
 
 
 def test_figures_are_drawn_under_the_report_settings_only(monkeypatch):

@@ -77,20 +77,36 @@ def validate_design(tmp_path: Path, design: str = SI_DESIGN) -> Path:
     return out / "report.html"
 
 
+def _laid_out(report: Path, tmp_path: Path) -> dict:
+    """``report`` laid out in headless Chromium by the probe: its height, figures, summary table, text."""
+    html = report.read_text(encoding="utf-8")
+    probed = tmp_path / "probed.html"
+    probed.write_text(html.replace("</body>", PROBE), encoding="utf-8")
+    dom = _run_chromium(chromium(), tmp_path / "profile-probe", 1000, "--dump-dom", probed.as_uri())
+    start = dom.index('<pre id="probe">') + len('<pre id="probe">')
+    return json.loads(dom[start:dom.index("</pre>", start)].replace("&lt;", "<").replace("&gt;", ">")
+                      .replace("&amp;", "&"))
+
+
+def _text_failures(page: dict) -> list[str]:
+    """The checks of the page's text: the peak-load table's SI unit labels, no thesis findings."""
+    failed = []
+    text = page["text"]
+    if "Peak joint loads" not in text or not all(re.search(label, text) for label in SI_LABELS):
+        failed.append(f"unit labels: the peak-load table lacks one of {SI_LABELS}")
+    if "thesis's printed findings" in text.lower() or "lbf" in text:
+        failed.append("thesis's printed findings in the report of another design")
+    return failed
+
+
 def check_report_page(report: Path, tmp_path: Path) -> None:
     """Lay out and screenshot ``report`` in headless Chromium; one AssertionError names every failed check."""
     import matplotlib.image
 
-    browser = chromium()
-    html = report.read_text(encoding="utf-8")
-    probed = tmp_path / "probed.html"
-    probed.write_text(html.replace("</body>", PROBE), encoding="utf-8")
-    dom = _run_chromium(browser, tmp_path / "profile-probe", 1000, "--dump-dom", probed.as_uri())
-    start = dom.index('<pre id="probe">') + len('<pre id="probe">')
-    page = json.loads(dom[start:dom.index("</pre>", start)].replace("&lt;", "<").replace("&gt;", ">")
-                      .replace("&amp;", "&"))
+    page = _laid_out(report, tmp_path)
     shot = tmp_path / "report.png"
-    _run_chromium(browser, tmp_path / "profile-shot", page["height"], f"--screenshot={shot}", report.as_uri())
+    _run_chromium(chromium(), tmp_path / "profile-shot", page["height"], f"--screenshot={shot}",
+                  report.as_uri())
     pixels = matplotlib.image.imread(shot)[..., :3]
 
     def region(box: list[float]) -> np.ndarray:
@@ -108,11 +124,14 @@ def check_report_page(report: Path, tmp_path: Path) -> None:
     table = region(page["summary"]) if page["summary"] else np.zeros((0, 0, 3))
     if not np.any(np.all(np.abs(table - PASS_CELL) <= PASS_CELL_MATCH, axis=-1)):
         failed.append("summary table not drawn with its passing cells")
-    text = page["text"]
-    if "Peak joint loads" not in text or not all(re.search(label, text) for label in SI_LABELS):
-        failed.append(f"unit labels: the peak-load table lacks one of {SI_LABELS}")
-    if "thesis's printed findings" in text.lower() or "lbf" in text:
-        failed.append("thesis's printed findings in the report of another design")
+    failed += _text_failures(page)
+    assert not failed, "\n".join(failed)
+
+
+def check_report_text(report: Path, tmp_path: Path) -> None:
+    """The text checks of :func:`check_report_page` alone (the page laid out, no screenshot): what the
+    faults of the page's text are seen by."""
+    failed = _text_failures(_laid_out(report, tmp_path))
     assert not failed, "\n".join(failed)
 
 
@@ -144,9 +163,9 @@ def test_the_thesis_findings_forced_into_the_report_fail(tmp_path, monkeypatch):
 
     monkeypatch.setattr(Matrix, "of_thesis", property(lambda self: True))
     with pytest.raises(AssertionError, match="thesis's printed findings"):
-        check_report_page(validate_design(tmp_path), tmp_path)
+        check_report_text(validate_design(tmp_path), tmp_path)
 
 
 def test_a_design_without_a_unit_label_fails(tmp_path):
     with pytest.raises(AssertionError, match="unit labels"):
-        check_report_page(validate_design(tmp_path, SI_DESIGN.replace('units = "m-N-s"\n', "")), tmp_path)
+        check_report_text(validate_design(tmp_path, SI_DESIGN.replace('units = "m-N-s"\n', "")), tmp_path)

@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 
 from dualmech.core.continuation import search_assembly
 from dualmech.core.inertia import BodyInertia
+from dualmech.core.loop import LoopState
 from dualmech.core.loop_reactions import link_frames
 from dualmech.core.reactions import body_motion
 from dualmech.models.loop.description import Drive, Joint, Load, LoopMechanism
@@ -27,6 +28,10 @@ from tests.tolerances import BALANCE, LOOP_CLOSURE
 #: Single loops of one degree of freedom, joint 1 driven by its angle (by its slide: P; a C by its angle with
 #: its slide by the axial law, so of mobility 2).
 TOPOLOGIES = ("RSSR", "RCCC", "RSCR", "RSSP", "RRSRR", "RSUR", "PSSR", "CSSP")
+#: Random starts of the search for a table's first assembly (the engine's search has 64): the property holds
+#: on any assembly, and 16 find one as often (measured: 10 of 24 random tables with 16 starts or 64) in less
+#: time; most of it goes to the tables that have none.
+FIRST_ASSEMBLY_STARTS = 16
 
 
 def _body(rng: np.random.Generator, axisymmetric: bool) -> BodyInertia:
@@ -59,6 +64,14 @@ def random_table(seed: int, topology: str) -> LoopMechanism:
     return LoopMechanism(f"{topology}-{seed}", joints, drive, bodies, loads, rng.uniform(-10.0, 10.0, 3))
 
 
+def first_assembly(mech: LoopMechanism, seed: int) -> LoopState | None:
+    """An assembly of ``mech`` at its first position by :data:`FIRST_ASSEMBLY_STARTS` random starts (seeded by
+    ``seed``), or None."""
+    found = search_assembly(to_loop(mech), drive_state(mech).take(slice(0, 1)).values, seed % 1000,
+                            starts=FIRST_ASSEMBLY_STARTS)
+    return found.take(slice(0, 1)) if found.scalars.shape[0] else None
+
+
 def power_terms(an) -> tuple[np.ndarray, np.ndarray]:
     """Power of the efforts and of gravity, and the rate of the kinetic energy, ``(n,)`` each."""
     mech, loop = an.mechanism, an.loop
@@ -82,9 +95,9 @@ def test_random_tables_close_and_balance_power(seed: int, topology: str) -> None
     mech = random_table(seed, topology)
     assert mobility(mech.joints) == len(mech.prescribed)
     # an assembly at the first position (one search there: a table that has none is not a counterexample)
-    found = search_assembly(to_loop(mech), drive_state(mech).take(slice(0, 1)).values, seed % 1000)
-    assume(found.scalars.shape[0] > 0)
-    an = analyze_loop(mech, found.take(slice(0, 1)))
+    found = first_assembly(mech, seed)
+    assume(found is not None)
+    an = analyze_loop(mech, found)
     ok = an.status == "ok"
     assert ok[0]
     np.testing.assert_array_less(an.residual[ok], LOOP_CLOSURE)

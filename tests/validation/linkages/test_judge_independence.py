@@ -260,7 +260,9 @@ def test_a_start_between_close_roots_is_seen(name: str, monkeypatch: pytest.Monk
 
 def test_a_judge_that_fails_everywhere_costs_a_few_solves_a_row() -> None:
     """A judge that never closes (every word ``not_converged``) is probed row by row, at most
-    MAX_CRUDE_STARTS positions solved a row, never re-run over the rest of the table from every row."""
+    MAX_CRUDE_STARTS positions solved a row, never re-run over the rest of the table from every row.  The
+    bundled RSSR every 10 deg: runs to the end from each of its 36 rows would solve 4 * (36 + 35 + ... + 1)
+    = 2664 positions, against the 4 * 36 = 144 allowed."""
     solved = [0]
 
     def failing(mechanism):
@@ -268,7 +270,9 @@ def test_a_judge_that_fails_everywhere_costs_a_few_solves_a_row() -> None:
         solved[0] += len(table)
         return replace(table, status=np.full(len(table), Status.NOT_CONVERGED.value, dtype=object))
 
-    case = _rssr()
+    data = bundled()
+    data["motion"]["angles_deg"] = {"start": 0.0, "stop": 360.0, "step": 10.0}
+    case = rssr_from_dict(data)
     table = presets.judge_case(case, "pinocchio", failing)
     assert (np.asarray(table.status, dtype=str) == Status.NOT_CONVERGED.value).all()
     assert solved[0] <= presets.MAX_CRUDE_STARTS * len(table)
