@@ -4,9 +4,9 @@
 Per judge the slider crank report's heat map of its ratio to tolerance per case and column
 (:func:`judge_heatmaps`); per case one figure: the output angle against the input angle from every engine
 (the reference as a line, each judge as markers), and below it each judge's worst ratio of relative
-difference to tolerance per row (log scale; at most 1 passes).  The templates are ``validation/templates/linkages.*.j2``; the
-folder rules (a dualmech folder only, one writer at a time, a manifest of what was written) are those of
-:mod:`dualmech.validation.rundir`.
+difference to tolerance per row (log scale; at most 1 passes).  The templates are
+``validation/templates/linkages.*.j2``; the folder rules (a dualmech folder only, one writer at a time, a
+manifest of what was written) are those of :mod:`dualmech.validation.rundir`.
 """
 
 from __future__ import annotations
