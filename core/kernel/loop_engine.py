@@ -110,10 +110,17 @@ def wrench_spec(fl: FlatLoop, loop: Loop, bodies: Sequence[Body], gravity: np.nd
     return spec, given_values, labels
 
 
+#: Whether :func:`_warm` was true once in this process.
+_WARMED = False
+
+
 def _warm() -> bool:
     """Whether this process holds the block pass's and the repairs' entry points (loaded or compiled):
-    calling them once inside the compile session is then needless."""
-    return bool(analyze_block.signatures and outputs_at.signatures and refine_one.signatures)
+    calling them once inside the compile session is then needless.  Once true, true for the process (a
+    dispatcher's ``signatures`` cost a millisecond, a tenth of a short case)."""
+    global _WARMED
+    _WARMED = _WARMED or bool(analyze_block.signatures and outputs_at.signatures and refine_one.signatures)
+    return _WARMED
 
 
 def _flat_state(state: LoopState) -> np.ndarray:
