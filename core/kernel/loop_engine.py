@@ -27,7 +27,7 @@ from dualmech.core.continuation import STATIONS, Continuation, start_not_closed,
 from dualmech.core.dual import Dual
 from dualmech.core.kernel.closure_nb import closure_tols, make_work
 from dualmech.core.kernel.compiles import compile_session
-from dualmech.core.kernel.continuation_nb import branch_sign, close_one, refine_one
+from dualmech.core.kernel.continuation_nb import branch_sign, close_one, close_stations, refine_one
 from dualmech.core.kernel.dfp_nb import solve_closure
 from dualmech.core.kernel.loop_engine_nb import (
     CODE,
@@ -169,25 +169,16 @@ class _Closer:
 def _stations(closer: _Closer, n: int, start: LoopState, at: int,
               stations: int) -> tuple[np.ndarray, np.ndarray]:
     """The start and the stations closed in turn, walking the positions between where Newton cannot reach
-    a station: the good positions (sorted) and their states."""
-    states = {at: closer.start(start, at)}
+    a station (:func:`~dualmech.core.kernel.continuation_nb.close_stations`, one compiled call each way):
+    the good positions (sorted) and their states."""
+    states, good = np.empty((n, state_size(closer.fl))), np.zeros(n, dtype=bool)
+    states[at], good[at] = closer.start(start, at), True
     idx = station_positions(n, stations)
     for way in (idx[idx > at], idx[idx < at][::-1]):
-        last, p = states[at], at
-        for i in way:
-            x = closer.one(int(i), last)[0]
-            if x is None:  # too far for Newton from the last good pose: walk the positions between
-                sign = int(np.sign(i - p))
-                for j in range(p + sign, int(i), sign):
-                    walked = closer.one(j, last)[0]
-                    if walked is None:
-                        break
-                    states[j], last, p = walked, walked, j
-                x = closer.one(int(i), last)[0] if p == i - sign else None
-            if x is not None:
-                states[int(i)], last, p = x, x, int(i)
-    good = np.array(sorted(states), dtype=np.int64)
-    return good, np.array([states[i] for i in good])
+        close_stations(closer.fl, closer.tols, closer.vals, closer.branch, at, np.ascontiguousarray(way),
+                       states, good, closer.work)
+    good_pos = np.flatnonzero(good)
+    return good_pos, states[good_pos]
 
 
 def _repair(closer: _Closer, out: tuple, at: int) -> np.ndarray:
