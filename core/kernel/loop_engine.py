@@ -54,11 +54,12 @@ BLOCK = 128
 BLOCKS_PER_THREAD = 4
 
 
-def screw_of(fl: FlatLoop, loop: Loop, var: Var) -> int:
-    """The index in ``fl.screws`` of the screw of an input or unknown slot ``var``."""
+def screw_of(fl: FlatLoop, loop: Loop, var: Var, names: tuple[str, ...]) -> int:
+    """The index in ``fl.screws`` of the screw of an input or unknown slot ``var`` (``names``: the loop's
+    :func:`~dualmech.core.kernel.loop_nb.value_names`)."""
     if var.kind == "unknown":
         return int(np.flatnonzero(fl.screws[:, COLUMN] == loop.unknowns.index(var.name))[0])
-    index = value_names(loop).index(var.name)
+    index = names.index(var.name)
     return int(np.flatnonzero((fl.screws[:, COLUMN] < 0) & (fl.screws[:, VALUE_INDEX] == index))[0])
 
 
@@ -82,11 +83,11 @@ def wrench_spec(fl: FlatLoop, loop: Loop, bodies: Sequence[Body], gravity: np.nd
             if k not in turns:
                 columns.append((r, MOMENT, k))
                 labels.append((None, "m" + "xyz"[k], r))
-    solved, given, values = [], [], []
+    solved, given, values, names = [], [], [], value_names(loop)
     for r, name, slide in effort_slots(loop):
         var = next(getattr(loop.rows[r], f) for f in ("theta", "s", "eta")
                    if _moving(getattr(loop.rows[r], f)) and getattr(loop.rows[r], f).name == name)
-        column = (r, SLIDE if slide else TURN, screw_of(fl, loop, var))
+        column = (r, SLIDE if slide else TURN, screw_of(fl, loop, var, names))
         value = efforts.get(name, np.zeros(n))
         if value is None:
             solved.append((column, (name, name, r)))
@@ -96,7 +97,7 @@ def wrench_spec(fl: FlatLoop, loop: Loop, bodies: Sequence[Body], gravity: np.nd
     solved.sort(key=lambda c: c[1][0] == transmission_effort)
     columns += [c for c, _ in solved]
     labels += [label for _, label in solved]
-    eta = [screw_of(fl, loop, row.eta) if _moving(row.eta) else -1 for row in loop.rows]
+    eta = [screw_of(fl, loop, row.eta, names) if _moving(row.eta) else -1 for row in loop.rows]
     spec = WrenchSpec(
         np.array(columns, dtype=np.int64).reshape(-1, 3),
         np.array(given, dtype=np.int64).reshape(-1, 3),
