@@ -29,6 +29,7 @@ from dualmech.core.kernel.dual_nb import ALLOC, INLINE, JIT, copy, tmul, trodrig
 from dualmech.core.kernel.linalg_nb import least_squares
 from dualmech.core.kernel.loop_nb import (
     FlatLoop,
+    _same,
     closure_residual,
     evaluate,
     length_scale,
@@ -86,6 +87,7 @@ class Work(NamedTuple):
     step: np.ndarray  # (K,)
     base: np.ndarray  # (S,)
     guess: np.ndarray  # (S,)
+    seen: np.ndarray  # (S,): the point Newton last evaluated (newton_held)
     runs: np.ndarray  # (3, S): two DFP runs and a polish
     trial: np.ndarray  # (S,)
     jac: np.ndarray  # (18 + G, K): DFP objective's Jacobian, with the gauge rows
@@ -124,6 +126,7 @@ def _make_work(fl: FlatLoop, s: int) -> Work:
         np.zeros((k, k)),
         np.zeros(k),
         np.zeros(k),
+        np.zeros(s),
         np.zeros(s),
         np.zeros(s),
         np.zeros((3, s)),
@@ -207,20 +210,51 @@ def newton_step(
 
 @njit(**INLINE)
 def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work) -> tuple[int, float]:
-    """Newton with step halving from ``x`` (updated in place); returns (iterations, residual).
+    """Newton with step halving from ``x`` (updated in place); returns (iterations, residual)
+    (:func:`newton_held`, the loop not yet evaluated at ``x``)."""
+    iters, residual, _ = newton_held(fl, vals, x, tols, w, False)
+    return iters, residual
+
+
+@njit(**INLINE)
+def _same_point(x: np.ndarray, y: np.ndarray) -> bool:
+    """``x`` and ``y`` are the same state to the bit (signed zeros apart; never where a NaN is)."""
+    for i in range(x.size):
+        if not _same(x[i], y[i]):
+            return False
+    return True
+
+
+@njit(**INLINE)
+def newton_held(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work,
+                held: bool) -> tuple[int, float, bool]:
+    """Newton with step halving from ``x`` (updated in place); returns (iterations, residual, whether the
+    loop is left evaluated at ``x``).  ``held``: it is already (``w.frames``, ``w.lines``, for these
+    ``vals``), as after a Newton that stopped there.
 
     The per-position form of :func:`dualmech.core.closure._newton`: a step that increases
     the residual is halved (up to 6 times); Newton stops when closed, when a
     residual below the rounding level no longer halves, or after 3 stalls; a point
     left unevaluated by the iteration limit is stepped back to the last accepted one.
+
+    A point the same to the bit as the last one evaluated (``w.seen``) is not evaluated again: the
+    frames hold it, and the evaluation would write the same numbers.  At the rounding level a halved step
+    rounds back to the accepted point: the refine's halvings, most of them, cost a comparison.
     """
-    base, step, frames, lines, k0 = w.base, w.step, w.frames, w.lines, fl.n_scalar
+    base, step, frames, lines, k0, seen = w.base, w.step, w.frames, w.lines, fl.n_scalar, w.seen
     mat, gauge, axes, err, sq, rhs = w.mat, w.gauge, w.axes, w.err, w.sq, w.rhs
     copy(x, base)
+    if held:
+        copy(x, seen)
     step[:] = 0.0
     base_res, stalls, halvings, iters, residual, active = math.inf, 0, 0, 0, math.inf, True
     for _ in range(tols.max_newton + 1):
-        res = residual_at(fl, vals, x, w)
+        if held and _same_point(x, seen):
+            res = closure_residual(frames, length_scale(fl, vals))
+        else:
+            res = residual_at(fl, vals, x, w)
+            copy(x, seen)
+            held = True
         residual = res
         done = res <= tols.closure
         if res > base_res and halvings < 6 and not done:
@@ -243,4 +277,4 @@ def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: 
     if active and math.isfinite(base_res):
         copy(base, x)
         residual = base_res
-    return iters, residual
+    return iters, residual, held and _same_point(x, seen)

@@ -17,9 +17,9 @@ import math
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, newton, residual_at
-from dualmech.core.kernel.dfp_nb import solve_closure
-from dualmech.core.kernel.dual_nb import INLINE, JIT, tmul, trodrigues
+from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, newton, newton_held, residual_at
+from dualmech.core.kernel.dfp_nb import solve_closure_held
+from dualmech.core.kernel.dual_nb import INLINE, JIT, copy, tmul, trodrigues
 from dualmech.core.kernel.linalg_nb import determinant_sign
 from dualmech.core.kernel.loop_nb import FlatLoop, length_scale, screw_matrix
 
@@ -29,6 +29,12 @@ def branch_sign(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, w: Work) -> int:
     """Sign of the closure Jacobian's determinant at ``x`` (:func:`dualmech.core.continuation.branch_sign`);
     leaves the loop evaluated at ``x`` in ``w.frames``, ``w.lines``."""
     residual_at(fl, vals, x, w)
+    return _sign_held(fl, vals, w)
+
+
+@njit(**INLINE)
+def _sign_held(fl: FlatLoop, vals: np.ndarray, w: Work) -> int:
+    """:func:`branch_sign` of the point the loop is evaluated at (``w.frames``, ``w.lines``)."""
     screw_matrix(fl, w.frames, w.lines, length_scale(fl, vals), w.mat, w.gauge, w.axes)
     return determinant_sign(w.mat, w.sq, w.piv)
 
@@ -86,8 +92,42 @@ def close_one(fl: FlatLoop, tols: ClosureTols, vals: np.ndarray, x: np.ndarray, 
               w: Work) -> tuple[bool, int, float]:
     """Close one position from ``x`` (in place): whether it closed on the start's ``branch``, the iterations
     and the residual (``_close_one`` of :func:`dualmech.core.continuation.continue_closure`)."""
-    code, iters, res = solve_closure(fl, vals, x, tols, w)
-    return code == OK and branch_sign(fl, vals, x, w) == branch, iters, res
+    code, iters, res, held = solve_closure_held(fl, vals, x, tols, w)
+    if code != OK:
+        return False, iters, res
+    return (_sign_held(fl, vals, w) if held else branch_sign(fl, vals, x, w)) == branch, iters, res
+
+
+@njit(**INLINE)
+def _close_from(fl: FlatLoop, tols: ClosureTols, vals: np.ndarray, branch: int, src: int, dst: int,
+                states: np.ndarray, w: Work) -> bool:
+    """Position ``dst`` closed on the ``branch`` from position ``src``'s state (:func:`close_one`), into
+    ``states[dst]``: whether it closed."""
+    copy(states[src], states[dst])
+    return close_one(fl, tols, vals[dst], states[dst], branch, w)[0]
+
+
+@njit(**JIT)
+def close_stations(fl: FlatLoop, tols: ClosureTols, vals: np.ndarray, branch: int, at: int, way: np.ndarray,
+                   states: np.ndarray, good: np.ndarray, w: Work) -> None:
+    """The stations ``way`` (positions, in the order closed: away from the closed start ``at``) closed in turn
+    from the last good position; where Newton cannot reach a station from there, the positions between walked
+    one after the other, and the station tried again from the last of them if they all closed
+    (``_stations`` of :func:`dualmech.core.continuation.continue_closure`, step for step).  ``states``
+    ``(n, S)``: the states, closed where ``good`` ``(n,)`` (``states[at]`` the start's, ``good[at]``)."""
+    last = at
+    for k in range(way.size):
+        i = way[k]
+        closed = _close_from(fl, tols, vals, branch, last, i, states, w)
+        if not closed:  # too far for Newton from the last good pose: walk the positions between
+            sign = 1 if i > last else -1
+            for j in range(last + sign, i, sign):
+                if not _close_from(fl, tols, vals, branch, last, j, states, w):
+                    break
+                good[j], last = True, j
+            closed = last == i - sign and _close_from(fl, tols, vals, branch, last, i, states, w)
+        if closed:
+            good[i], last = True, i
 
 
 @njit(**JIT)
@@ -105,8 +145,8 @@ def close_position(
     """Close one position from its estimate ``x`` (in place), refine a closed one to the rounding level
     (:func:`dualmech.core.closure.refine`: ``refine_tols`` close at 0) and read its branch sign: (status
     code, iterations, residual, sign); the loop is left evaluated at ``x``."""
-    code, iters, res = solve_closure(fl, vals, x, tols, w)
+    code, iters, res, held = solve_closure_held(fl, vals, x, tols, w)
     if code == OK:
-        more, res = newton(fl, vals, x, refine_tols, w)
+        more, res, held = newton_held(fl, vals, x, refine_tols, w, held)
         iters += more
-    return code, iters, res, branch_sign(fl, vals, x, w)
+    return code, iters, res, _sign_held(fl, vals, w) if held else branch_sign(fl, vals, x, w)

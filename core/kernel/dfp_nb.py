@@ -22,6 +22,7 @@ from dualmech.core.kernel.closure_nb import (
     ClosureTols,
     Work,
     newton,
+    newton_held,
     residual_at,
     retract,
 )
@@ -171,7 +172,19 @@ def _rank(res: float, cosine: float, tols: ClosureTols) -> int:
 def solve_closure(
     fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work
 ) -> tuple[int, int, float]:
-    """Close the loop from the estimate ``x`` (updated in place): (status code, iterations, residual).
+    """Close the loop from the estimate ``x`` (updated in place): (status code, iterations, residual)
+    (:func:`solve_closure_held`)."""
+    code, iters, residual, _ = solve_closure_held(fl, vals, x, tols, w)
+    return code, iters, residual
+
+
+@njit(**JIT)
+def solve_closure_held(
+    fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work
+) -> tuple[int, int, float, bool]:
+    """Close the loop from the estimate ``x`` (updated in place): (status code, iterations, residual,
+    whether the loop is left evaluated at ``x``: where Newton alone closed it,
+    :func:`~dualmech.core.kernel.closure_nb.newton_held`).
 
     :func:`dualmech.core.closure.solve_closure` for one position: Newton; where it
     did not reach the rounding level, DFP from the estimate and from Newton's end
@@ -180,9 +193,9 @@ def solve_closure(
     stationary non-zero minimum, else ``NOT_CONVERGED``.
     """
     copy(x, w.guess)
-    iters, residual = newton(fl, vals, x, tols, w)
+    iters, residual, held = newton_held(fl, vals, x, tols, w, False)
     if not residual > tols.rounding:  # NaN too, as the batched solver
-        return OK, iters, residual
+        return OK, iters, residual, held
     run_a, run_b, polish = w.runs[0], w.runs[1], w.runs[2]
     copy(w.guess, run_a)
     copy(x, run_b)
@@ -201,5 +214,5 @@ def solve_closure(
             res = res_n
         iters += it_n
     if not res > tols.rounding:
-        return OK, iters, res
-    return (NO_ASSEMBLY if cosine <= tols.stationary else NOT_CONVERGED), iters, res
+        return OK, iters, res, False
+    return (NO_ASSEMBLY if cosine <= tols.stationary else NOT_CONVERGED), iters, res, False

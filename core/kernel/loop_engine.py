@@ -27,7 +27,7 @@ from dualmech.core.continuation import STATIONS, Continuation, start_not_closed,
 from dualmech.core.dual import Dual
 from dualmech.core.kernel.closure_nb import closure_tols, make_work
 from dualmech.core.kernel.compiles import compile_session
-from dualmech.core.kernel.continuation_nb import branch_sign, close_one, refine_one
+from dualmech.core.kernel.continuation_nb import branch_sign, close_one, close_stations, refine_one
 from dualmech.core.kernel.dfp_nb import solve_closure
 from dualmech.core.kernel.loop_engine_nb import (
     CODE,
@@ -54,11 +54,12 @@ BLOCK = 128
 BLOCKS_PER_THREAD = 4
 
 
-def screw_of(fl: FlatLoop, loop: Loop, var: Var) -> int:
-    """The index in ``fl.screws`` of the screw of an input or unknown slot ``var``."""
+def screw_of(fl: FlatLoop, loop: Loop, var: Var, names: tuple[str, ...]) -> int:
+    """The index in ``fl.screws`` of the screw of an input or unknown slot ``var`` (``names``: the loop's
+    :func:`~dualmech.core.kernel.loop_nb.value_names`)."""
     if var.kind == "unknown":
         return int(np.flatnonzero(fl.screws[:, COLUMN] == loop.unknowns.index(var.name))[0])
-    index = value_names(loop).index(var.name)
+    index = names.index(var.name)
     return int(np.flatnonzero((fl.screws[:, COLUMN] < 0) & (fl.screws[:, VALUE_INDEX] == index))[0])
 
 
@@ -82,11 +83,11 @@ def wrench_spec(fl: FlatLoop, loop: Loop, bodies: Sequence[Body], gravity: np.nd
             if k not in turns:
                 columns.append((r, MOMENT, k))
                 labels.append((None, "m" + "xyz"[k], r))
-    solved, given, values = [], [], []
+    solved, given, values, names = [], [], [], value_names(loop)
     for r, name, slide in effort_slots(loop):
         var = next(getattr(loop.rows[r], f) for f in ("theta", "s", "eta")
                    if _moving(getattr(loop.rows[r], f)) and getattr(loop.rows[r], f).name == name)
-        column = (r, SLIDE if slide else TURN, screw_of(fl, loop, var))
+        column = (r, SLIDE if slide else TURN, screw_of(fl, loop, var, names))
         value = efforts.get(name, np.zeros(n))
         if value is None:
             solved.append((column, (name, name, r)))
@@ -96,7 +97,7 @@ def wrench_spec(fl: FlatLoop, loop: Loop, bodies: Sequence[Body], gravity: np.nd
     solved.sort(key=lambda c: c[1][0] == transmission_effort)
     columns += [c for c, _ in solved]
     labels += [label for _, label in solved]
-    eta = [screw_of(fl, loop, row.eta) if _moving(row.eta) else -1 for row in loop.rows]
+    eta = [screw_of(fl, loop, row.eta, names) if _moving(row.eta) else -1 for row in loop.rows]
     spec = WrenchSpec(
         np.array(columns, dtype=np.int64).reshape(-1, 3),
         np.array(given, dtype=np.int64).reshape(-1, 3),
@@ -110,10 +111,17 @@ def wrench_spec(fl: FlatLoop, loop: Loop, bodies: Sequence[Body], gravity: np.nd
     return spec, given_values, labels
 
 
+#: Whether :func:`_warm` was true once in this process.
+_WARMED = False
+
+
 def _warm() -> bool:
     """Whether this process holds the block pass's and the repairs' entry points (loaded or compiled):
-    calling them once inside the compile session is then needless."""
-    return bool(analyze_block.signatures and outputs_at.signatures and refine_one.signatures)
+    calling them once inside the compile session is then needless.  Once true, true for the process (a
+    dispatcher's ``signatures`` cost a millisecond, a tenth of a short case)."""
+    global _WARMED
+    _WARMED = _WARMED or bool(analyze_block.signatures and outputs_at.signatures and refine_one.signatures)
+    return _WARMED
 
 
 def _flat_state(state: LoopState) -> np.ndarray:
@@ -162,25 +170,16 @@ class _Closer:
 def _stations(closer: _Closer, n: int, start: LoopState, at: int,
               stations: int) -> tuple[np.ndarray, np.ndarray]:
     """The start and the stations closed in turn, walking the positions between where Newton cannot reach
-    a station: the good positions (sorted) and their states."""
-    states = {at: closer.start(start, at)}
+    a station (:func:`~dualmech.core.kernel.continuation_nb.close_stations`, one compiled call each way):
+    the good positions (sorted) and their states."""
+    states, good = np.empty((n, state_size(closer.fl))), np.zeros(n, dtype=bool)
+    states[at], good[at] = closer.start(start, at), True
     idx = station_positions(n, stations)
     for way in (idx[idx > at], idx[idx < at][::-1]):
-        last, p = states[at], at
-        for i in way:
-            x = closer.one(int(i), last)[0]
-            if x is None:  # too far for Newton from the last good pose: walk the positions between
-                sign = int(np.sign(i - p))
-                for j in range(p + sign, int(i), sign):
-                    walked = closer.one(j, last)[0]
-                    if walked is None:
-                        break
-                    states[j], last, p = walked, walked, j
-                x = closer.one(int(i), last)[0] if p == i - sign else None
-            if x is not None:
-                states[int(i)], last, p = x, x, int(i)
-    good = np.array(sorted(states), dtype=np.int64)
-    return good, np.array([states[i] for i in good])
+        close_stations(closer.fl, closer.tols, closer.vals, closer.branch, at, np.ascontiguousarray(way),
+                       states, good, closer.work)
+    good_pos = np.flatnonzero(good)
+    return good_pos, states[good_pos]
 
 
 def _repair(closer: _Closer, out: tuple, at: int) -> np.ndarray:

@@ -16,6 +16,7 @@ branch than the start pose's, ``dead_centre`` where the solved effort's transmis
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -52,8 +53,6 @@ class LoopAnalysis:
     drive : DriveState
     state : LoopState
         The closed joint variables (meaningful where the status assembles).
-    chain : Chain
-        The table evaluated at ``state``.
     rates : Rates
         ``q_dot``, ``q_ddot`` in the order of ``loop.unknowns`` (then 3 per ball); link twists.
     wrenches : JointWrenches
@@ -67,7 +66,6 @@ class LoopAnalysis:
     loop: Loop
     drive: DriveState
     state: LoopState
-    chain: Chain
     rates: Rates
     wrenches: JointWrenches
     status: np.ndarray
@@ -82,6 +80,12 @@ class LoopAnalysis:
             return self.drive.values[key], self.drive.rates[key], self.drive.accels[key]
         j = self.loop.unknowns.index(key)
         return self.state.scalars[:, j], self.rates.q_dot[:, j], self.rates.q_ddot[:, j]
+
+    @cached_property
+    def chain(self) -> Chain:
+        """The table evaluated at ``state`` (:func:`~dualmech.core.loop.evaluate`), at the first use: few
+        readers need it, and it costs a fifth of the compiled engine's time on a long case."""
+        return evaluate(self.loop, self.drive.values, self.state)
 
 
 def efforts_of(mechanism: LoopMechanism, n: int) -> tuple[dict[str, np.ndarray | None], str]:
@@ -144,7 +148,6 @@ def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: i
     if compiled:
         closed, rates, wrenches = solve_loop(loop, drive.values, drive.rates, drive.accels, pose, at,
                                              mechanism.bodies, mechanism.gravity, efforts, solved)
-        chain = evaluate(loop, drive.values, closed.state)
     else:
         closed = continue_closure(loop, drive.values, pose, at)
         chain = evaluate(loop, drive.values, closed.state)
@@ -157,5 +160,5 @@ def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: i
     status[closed.branch_jump] = Status.BRANCH_JUMP.value
     status[closed.status == ClosureStatus.NOT_CONVERGED] = Status.NOT_CONVERGED.value
     status[closed.status == ClosureStatus.NO_ASSEMBLY] = Status.NO_ASSEMBLY.value
-    return LoopAnalysis(mechanism, loop, drive, closed.state, chain, rates, wrenches, status, closed.residual,
+    return LoopAnalysis(mechanism, loop, drive, closed.state, rates, wrenches, status, closed.residual,
                         closed.iterations)
