@@ -12,8 +12,7 @@ to the columns, reference points and signs of ``docs/conventions.md`` ("RSSR", "
 computed from its own pose, and the status words given by the mechanism's rules
 (:func:`~dualmech.models.linkages.rssr.status_words` on the judge's closure, transmissions and residual).
 
-The simulated judge (:func:`simulate_case`) is the generated simulation of the same table, started at the
-rigid generated MuJoCo judge's first crude start on the branch; it plans its own runs from there.
+The simulated judge (:func:`simulate_case`) runs the generated simulation from the same kind of start.
 
 **Gaps and restarts** (:func:`judge_case`): rows where the case's geometry does not reach (the coupler
 misses the output crank's circle, the cones about ``z2`` and ``z4`` miss: :func:`rssr_reach`,
