@@ -295,7 +295,7 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageT
     ``meta``: ``iterations`` per row (of the run that answered it) and ``restarts``, the rows a run
     started from.
     """
-    table, reach, columns_of, spec = _kind_of(case)
+    table, reach, columns_of, spec = _kind_of(case)[:4]
     mechanism, theta1 = table(case), np.radians(case.motion.angles_deg)
     n = theta1.shape[0]
     cols = {c: np.full(n, np.nan) for c in spec.columns}
@@ -325,11 +325,11 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageT
                         {"iterations": iterations, "restarts": np.array(restarts, dtype=int)})
 
 
-def _kind_of(case: RssrCase | RcccCase) -> tuple[Callable, Callable, Callable, TableSpec]:
-    """The table, reach, column reader and spec of ``case``'s kind."""
+def _kind_of(case: RssrCase | RcccCase) -> tuple[Callable, Callable, Callable, TableSpec, Callable, Callable]:
+    """The table, reach, column reader, spec, crude start angles and crude start of ``case``'s kind."""
     if isinstance(case, RssrCase):
-        return rssr_table, rssr_reach, rssr_columns, rssr.SPEC
-    return rccc_table, rccc_reach, rccc_columns, rccc.SPEC
+        return rssr_table, rssr_reach, rssr_columns, rssr.SPEC, rssr_start_angles, rssr_start
+    return rccc_table, rccc_reach, rccc_columns, rccc.SPEC, rccc_start_angles, rccc_start
 
 
 def crude_start(case: RssrCase | RcccCase, mechanism: LoopMechanism, k: int, judge: Judge
@@ -338,9 +338,7 @@ def crude_start(case: RssrCase | RcccCase, mechanism: LoopMechanism, k: int, jud
     :func:`rccc_start`) from which ``judge`` answers that row alone on the case's branch, ``True`` and that
     answer (the mechanism's one-row table); with none on the branch, the first start, ``False`` and its
     answer."""
-    angles, start = ((rssr_start_angles, rssr_start) if isinstance(case, RssrCase) else
-                     (rccc_start_angles, rccc_start))
-    columns_of = _kind_of(case)[2]
+    _, _, columns_of, _, angles, start = _kind_of(case)
     theta1 = float(np.radians(case.motion.angles_deg[k]))
     first = None
     for theta4 in angles(case, theta1)[:MAX_CRUDE_STARTS]:
@@ -362,7 +360,7 @@ def simulate_case(case: RssrCase | RcccCase) -> LinkageTable:
     runs only on cases whose every row assembles: :func:`~dualmech.validation.engines.solves`).  ``meta``:
     the simulation's (time step, steps per degree, run-in, servo gains, the largest drive lag, ``L_ref``).
     """
-    table, _, columns_of, _ = _kind_of(case)
+    table, _, columns_of, *_ = _kind_of(case)
     mechanism = table(case)
     starts, _, _ = crude_start(case, mechanism, 0, mujoco_table)
     return columns_of(case, solve_sim_table(with_start(mechanism, starts)), ("dynamics_residual",))
