@@ -160,5 +160,8 @@ def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: i
     status[closed.branch_jump] = Status.BRANCH_JUMP.value
     status[closed.status == ClosureStatus.NOT_CONVERGED] = Status.NOT_CONVERGED.value
     status[closed.status == ClosureStatus.NO_ASSEMBLY] = Status.NO_ASSEMBLY.value
-    return LoopAnalysis(mechanism, loop, drive, closed.state, rates, wrenches, status, closed.residual,
-                        closed.iterations)
+    analysis = LoopAnalysis(mechanism, loop, drive, closed.state, rates, wrenches, status, closed.residual,
+                            closed.iterations)
+    if not compiled:  # the numpy path evaluated the chain already: it is the cached one, not evaluated again
+        analysis.__dict__["chain"] = chain
+    return analysis
