@@ -18,13 +18,18 @@ from __future__ import annotations
 import os
 
 import pytest
-from hypothesis import HealthCheck, settings
+from hypothesis import HealthCheck, Phase, settings
 
 from dualmech.models.case import Case, load_case, preset_names
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True,
                           suppress_health_check=[HealthCheck.too_slow])
 settings.register_profile("dev", deadline=None)
+# `dualmech selftest`'s gate (validation/selftest/gate.py): the ci profile's examples, a failure reported as
+# found (no shrinking: the gate needs the verdict, not the smallest example, and shrinking took most of a
+# killed fault's time)
+settings.register_profile("selftest", parent=settings.get_profile("ci"),
+                          phases=[Phase.explicit, Phase.reuse, Phase.generate])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE",
                                      "ci" if os.environ.get("CI", "").lower() == "true" else "dev"))
 

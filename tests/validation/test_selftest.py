@@ -215,3 +215,18 @@ def test_every_module_of_a_scratch_copy_is_imported_from_the_copy(tmp_path):
     assert {"dualmech", "dualmech.verbs", "dualmech.core.dual", "dualmech.cli.solve"} <= set(files)
     outside = {n: f for n, f in files.items() if not f.startswith(str(scratch / ".pkg") + "/")}
     assert not outside
+
+
+def test_the_gates_tests_draw_the_ci_examples_and_do_not_shrink():
+    """The gate's test processes load the ``selftest`` Hypothesis profile (tests/conftest.py): the CI
+    profile's derandomized examples, so a fault is killed by the same examples as in CI, without the shrink
+    phase, which took about 40 of a killed fault's 70 s and gives the gate nothing (it needs the verdict, not
+    the smallest example)."""
+    from hypothesis import Phase, settings
+
+    from dualmech.validation.selftest.gate import _ENV
+
+    assert _ENV["HYPOTHESIS_PROFILE"] == "selftest"
+    profile, ci = settings.get_profile("selftest"), settings.get_profile("ci")
+    assert profile.derandomize and profile.max_examples == ci.max_examples
+    assert Phase.generate in profile.phases and Phase.shrink not in profile.phases

@@ -19,7 +19,8 @@ comparison itself.  For every fault this module
       fails or anything regressed against the baseline that the *unmutated*
       copy wrote in the same selftest run;
    b. only when (a) passes: the catalogue's fast test modules (``tests``),
-      ``pytest -x -q``;
+      ``pytest -x -q`` with the Hypothesis profile ``selftest`` (the CI profile's
+      examples, a failure reported as found, not shrunk);
 
    (for a fault in the comparison, b then a: it leaves every engine's numbers
    as they were, and its unit tests decide faster);

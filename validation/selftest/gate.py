@@ -21,7 +21,7 @@ from dualmech.validation.selftest.scratch import PACKAGES
 WRONG_IMPORT = 97
 #: One thread for the BLAS and the compiled kernel of each gate process: mutants run side by side.
 _ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1",
-        "MPLBACKEND": "Agg", "PYTHONDONTWRITEBYTECODE": "1"}
+        "MPLBACKEND": "Agg", "PYTHONDONTWRITEBYTECODE": "1", "HYPOTHESIS_PROFILE": "selftest"}
 
 
 #: Prelude of every gate process: ``python -c BOOT+code SCRATCH ...`` imports ``dualmech`` from SCRATCH only.
