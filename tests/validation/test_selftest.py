@@ -81,6 +81,8 @@ def _one(**over) -> dict:
     ({"matrix": "m.toml", "mutant": []}, ["mutant", "at least one"]),
     ({"mutant": _one()["mutant"]}, ["matrix", "None"]),
     ({**_one(), "extra": 1}, ["extra", "unknown key"]),
+    ({"matrix": "m.toml", "mutant": [_one()["mutant"][0], {**_one()["mutant"][0], "id": "y"}]},
+     ["mutant y", "same edit of core/dual.py as mutant x"]),
 ])
 def test_bad_catalogue_is_one_line(data, words):
     with pytest.raises(SelftestError) as err:

@@ -85,8 +85,13 @@ def parse_catalogue(data: dict, source: str = "<catalogue>") -> Catalogue:
         old, new = _text(f"{where}.old", m.get("old")), _text(f"{where}.new", m.get("new"), empty=True)
         if old == new:
             raise SelftestError(f"{where}.new: identical to old (a fault must change the source)")
-        mutants.append(Mutant(mid, _text(f"{where}.file", m.get("file")), old, new, cls,
-                              _text(f"{where}.description", m.get("description"))))
+        mutant = Mutant(mid, _text(f"{where}.file", m.get("file")), old, new, cls,
+                        _text(f"{where}.description", m.get("description")))
+        twin = next((t for t in mutants if (t.file, t.old, t.new) == (mutant.file, old, new)), None)
+        if twin is not None:
+            raise SelftestError(f"{where}: the same edit of {mutant.file} as mutant {twin.id} (one fault "
+                                "counted twice)")
+        mutants.append(mutant)
     return Catalogue(tuple(mutants), matrix, tuple(tests))
 
 
