@@ -30,6 +30,7 @@ from dualmech.core.status import Status
 from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.mobility import check_mobility
+from dualmech.models.loop.start import nearest_to_zero, wrapped
 from dualmech.models.loop.translate import (
     SCALE,
     DriveState,
@@ -112,9 +113,10 @@ SEARCH_POSITIONS = 8
 def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
                seed: int = 0) -> tuple[LoopState, int]:
     """A start pose and the drive position it belongs to: the joints' ``start`` values at the first position
-    if any joint gives one, else the first assembly found
+    if any joint gives one, else, among the assemblies found
     (:func:`~dualmech.core.continuation.search_assembly`) at the first of :data:`SEARCH_POSITIONS` evenly
-    spread positions where one exists."""
+    spread positions where one exists, the one nearest the zero pose
+    (:func:`~dualmech.models.loop.start.nearest_to_zero`)."""
     if any(j.start for j in mechanism.joints):
         return start_state(mechanism, loop), 0
     n = drive.values[variable(*mechanism.driven_coordinate)].shape[0]
@@ -122,7 +124,10 @@ def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
         values = drive.take(slice(at, at + 1)).values
         found = search_assembly(loop, values, seed, size=length_scale(mechanism))
         if found.scalars.shape[0]:
-            return found.take(slice(0, 1)), int(at)
+            poses = [wrapped(dict(zip(loop.unknowns, row))) for row in found.scalars]
+            chosen = poses[nearest_to_zero(poses)]
+            scalars = np.array([[chosen[name] for name in loop.unknowns]])
+            return LoopState(scalars, found.rotations[[poses.index(chosen)]]), int(at)
     raise ValueError(f"start: no assembled pose found at {min(n, SEARCH_POSITIONS)} drive positions; give "
                      "the joints' start values")
 

@@ -273,6 +273,12 @@ def branch(lp: MjLoop) -> float:
     return float(np.sign(np.linalg.det(square)))
 
 
+def coordinate_values(lp: MjLoop) -> dict[str, float]:
+    """Every scalar coordinate of the current pose by name (``theta1``, ``s4``, ...; the cut's too)."""
+    return {name: float(lp.data.qpos[address] if address >= 0 else lp.q_cut[index - lp.model.nv])
+            for name, (index, address) in lp.coordinates.items()}
+
+
 def prescribe(lp: MjLoop, values: dict[str, float]) -> None:
     """Set scalar coordinates by name (``theta1``, ...), in ``qpos`` or among the cut's."""
     for name, value in values.items():

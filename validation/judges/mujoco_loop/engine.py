@@ -2,7 +2,8 @@
 
 The start pose is the judge's own: the joints' ``start`` values the user wrote in the table (at the first
 position), or else a search (random poses, :data:`SEARCH_TRIES` of them, at up to :data:`SEARCH_POSITIONS`
-evenly spread positions; the first that closes, so its branch is arbitrary).  From there the loop is
+evenly spread positions; of the poses closed at the first position where any closes, the one nearest the
+zero pose: :func:`~dualmech.models.loop.start.nearest_to_zero`).  From there the loop is
 closed position by position, forward then backward, each from its neighbour's pose (continuation; a
 position that fails leaves the last closed pose as the next start), and the branch is followed by the
 sign of :func:`~.closure.branch`: a position closed on the other branch is a branch jump, except right
@@ -28,11 +29,13 @@ from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
 from dualmech.models.loop.columns import column_names, coordinate_names
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.mobility import check_mobility
+from dualmech.models.loop.start import nearest_to_zero
 from dualmech.validation.judges.mujoco_loop.closure import (
     MjLoop,
     branch,
     build,
     close,
+    coordinate_values,
     positions,
     prescribe,
     scatter,
@@ -53,7 +56,7 @@ ENGINE = "mujoco-loop"
 #: Drive positions tried, evenly spread, when no joint gives a start value.
 SEARCH_POSITIONS = 8
 #: Random poses tried at each of them.
-SEARCH_TRIES = 40
+SEARCH_TRIES = 64
 
 
 @dataclass(frozen=True)
@@ -149,11 +152,17 @@ def find_start(lp: MjLoop, seed: int = 0) -> int:
     n = mech.drive.positions.shape[0]
     rng = np.random.default_rng(seed)
     for at in np.unique(np.linspace(0, n - 1, min(n, SEARCH_POSITIONS)).round().astype(int)):
+        closed = []
         for _ in range(SEARCH_TRIES):
             scatter(lp, rng)
             prescribe(lp, drive_values(mech, int(at))[0])
             if close(lp)[0] == Status.OK:
-                return int(at)
+                closed.append((lp.data.qpos.copy(), lp.q_cut.copy(), coordinate_values(lp)))
+        if closed:
+            qpos, lp.q_cut, _ = closed[nearest_to_zero([c[2] for c in closed])]
+            lp.data.qpos[:] = qpos
+            positions(lp)
+            return int(at)
     raise ValueError(f"start: no assembled pose found at {min(n, SEARCH_POSITIONS)} drive positions; give "
                      "the joints' start values")
 

@@ -7,8 +7,9 @@ The damping keeps the steps minimum-norm in the idle spins' directions.
 
 The first pose is the table's ``start`` values (what the user wrote) at the first position when any joint
 gives them (the last joint's, which are no coordinates of the tree, through a least-squares fit of the cut's
-six relative motions that picks the branch: :func:`_fit_cut`), else the first pose this module's own random
-search closes at up to :data:`SEARCH_POSITIONS` evenly spread positions. From there the loop is closed
+six relative motions that picks the branch: :func:`_fit_cut`), else, of the poses this module's own random
+search closes at the first of up to :data:`SEARCH_POSITIONS` evenly spread positions where any closes, the
+one nearest the zero pose (:func:`~dualmech.models.loop.start.nearest_to_zero`). From there the loop is closed
 position by position, forward then backward, each from the last good pose moved by the tangent (an Euler
 predictor along the drive). The branch is the sign of the determinant of the square rate matrix (the cut's
 rows and the gauge rows over the free coordinates): it changes only through a singular pose, so a pose with
@@ -27,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from dualmech.core.status import Status
+from dualmech.models.loop.start import nearest_to_zero
 from dualmech.validation.judges.pinocchio_loop.model import COORDINATES, LoopModel
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -44,7 +46,7 @@ STATIONARY = 1e-9
 STALL, STALL_FLOOR = 1e-6, 1e-8
 #: Positions tried, evenly spread, random poses tried at each, and iterations per try, when searching for a
 #: start (a random pose that closes does so in a few dozen iterations; the others are dropped early).
-SEARCH_POSITIONS, SEARCH_TRIES, SEARCH_ITER = 8, 20, 50
+SEARCH_POSITIONS, SEARCH_TRIES, SEARCH_ITER = 8, 64, 50
 
 
 @dataclass(frozen=True)
@@ -268,19 +270,45 @@ def _random_pose(lm: LoopModel, rng: np.random.Generator) -> np.ndarray:
     return q
 
 
+def cut_values(lm: LoopModel) -> dict[str, float]:
+    """The cut joint's (joint n's) coordinates, by name (``theta<n>``, ``s<n>``, ``eta<n>``), from the frame
+    placements Pinocchio last computed: the relative pose ``A'^-1 B`` of its two frames."""
+    pin.updateFramePlacements(lm.model, lm.data)
+    r = lm.data.oMf[lm.cut].actInv(lm.ground)
+    rot, n = r.rotation, len(lm.mechanism.joints)
+    kind = lm.mechanism.joints[n - 1].type
+    out = {}
+    if kind in ("R", "C"):
+        out[f"theta{n}"] = float(np.arctan2(rot[1, 0], rot[0, 0]))
+    if kind in ("P", "C"):
+        out[f"s{n}"] = float(r.translation[2])
+    if kind == "U":
+        out[f"theta{n}"] = float(np.arctan2(-rot[0, 1], rot[1, 1]))
+        out[f"eta{n}"] = float(np.arctan2(-rot[2, 0], rot[2, 2]))
+    return out
+
+
+def pose_values(lm: LoopModel, q: np.ndarray) -> dict[str, float]:
+    """Every scalar joint coordinate of the closed pose ``q`` by name (``theta2``, ``s4``, ...)."""
+    pin.forwardKinematics(lm.model, lm.data, q)
+    values = {f"{name}{k + 1}": float(q[iq]) for (k, name), (iq, _) in lm.coordinates.items()}
+    return {**values, **cut_values(lm)}
+
+
 def search_start(lm: LoopModel, values: np.ndarray, seed: int = 0) -> tuple[np.ndarray, int]:
     """A closed start pose and its position: the table's ``start`` values at position 0 if any joint gives
-    them, else the first of :data:`SEARCH_TRIES` random poses that closes at one of
-    :data:`SEARCH_POSITIONS` evenly spread positions (module docstring)."""
+    them, else, at the first of :data:`SEARCH_POSITIONS` evenly spread positions where one of
+    :data:`SEARCH_TRIES` random poses closes, the closed pose nearest the zero pose
+    (:func:`~dualmech.models.loop.start.nearest_to_zero`, module docstring)."""
     if any(j.start for j in lm.mechanism.joints):
         return start_pose(lm, values[0]), 0
     rng = np.random.default_rng(seed)
     n = values.shape[0]
     for at in np.unique(np.linspace(0, n - 1, min(n, SEARCH_POSITIONS)).round().astype(int)):
-        for _ in range(SEARCH_TRIES):
-            q, status, _, _ = close_at(lm, _random_pose(lm, rng), values[at], SEARCH_ITER)
-            if status == Status.OK.value:
-                return q, int(at)
+        closed = [q for q, status, _, _ in (close_at(lm, _random_pose(lm, rng), values[at], SEARCH_ITER)
+                                            for _ in range(SEARCH_TRIES)) if status == Status.OK.value]
+        if closed:
+            return closed[nearest_to_zero([pose_values(lm, q) for q in closed])], int(at)
     raise ValueError(f"start: the Pinocchio judge found no assembled pose at {min(n, SEARCH_POSITIONS)} "
                      "drive positions; give the joints' start values")
 

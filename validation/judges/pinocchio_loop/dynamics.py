@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from dualmech.validation.judges.pinocchio_loop.closure import LWA, cut_rows, rate_matrix
+from dualmech.validation.judges.pinocchio_loop.closure import LWA, cut_rows, cut_values, rate_matrix
 from dualmech.validation.judges.pinocchio_loop.model import LoopModel
 
 
@@ -118,26 +118,24 @@ def motion(lm: LoopModel, q: np.ndarray, rates: np.ndarray,
 def _cut_coordinates(lm: LoopModel) -> dict[str, tuple[float, float, float]]:
     """The cut joint's coordinates from ``A'^-1 B`` and their rates (after the full forward kinematics)."""
     model, data = lm.model, lm.data
-    pin.updateFramePlacements(model, data)
-    a_frame = data.oMf[lm.cut]
-    rel = a_frame.actInv(lm.ground)
+    values = cut_values(lm)
     vel = pin.getFrameVelocity(model, data, lm.cut, LWA)
     acc = pin.getFrameClassicalAcceleration(model, data, lm.cut, LWA)
-    z, r = lm.ground.rotation[:, 2], rel.rotation
+    z = lm.ground.rotation[:, 2]
     n = len(lm.mechanism.joints) - 1
     kind = lm.mechanism.joints[n].type
     out = {}
     if kind in ("R", "C"):
-        out["theta"] = (np.arctan2(r[1, 0], r[0, 0]), -z @ vel.angular, -z @ acc.angular)
+        out["theta"] = (-z @ vel.angular, -z @ acc.angular)
     if kind in ("P", "C"):
-        out["s"] = (rel.translation[2], -z @ vel.linear, -z @ acc.linear)
+        out["s"] = (-z @ vel.linear, -z @ acc.linear)
     if kind == "U":
-        z, y, w = a_frame.rotation[:, 2], lm.ground.rotation[:, 1], vel.angular
+        z, y, w = data.oMf[lm.cut].rotation[:, 2], lm.ground.rotation[:, 1], vel.angular
         theta_dot = -w @ z
-        out["theta"] = (np.arctan2(-r[0, 1], r[1, 1]), theta_dot, -acc.angular @ z)
-        eta_ddot = -acc.angular @ y - theta_dot * np.cross(w, z) @ y
-        out["eta"] = (np.arctan2(-r[2, 0], r[2, 2]), -w @ y, eta_ddot)
-    return {effort_name(n, name): tuple(float(x) for x in value) for name, value in out.items()}
+        out["theta"] = (theta_dot, -acc.angular @ z)
+        out["eta"] = (-w @ y, -acc.angular @ y - theta_dot * np.cross(w, z) @ y)
+    return {effort_name(n, name): (values[effort_name(n, name)], *(float(x) for x in rates))
+            for name, rates in out.items()}
 
 
 def _rotations(lm: LoopModel, q: np.ndarray) -> dict[str, np.ndarray]:
