@@ -10,7 +10,8 @@ gauge of :class:`dualmech.core.loop.Loop` (``docs/conventions.md``, "Rod spin"),
 of freedom to drive nor an unknown of the reactions.  A table is accepted when :math:`M` equals the number of
 prescribed coordinates: 1, or 2 for a C joint driven by its angle (its slide follows the axial law).
 Special geometry (parallel or intersecting axes that make a loop move against the count, such as the planar
-four-bar's :math:`M = -2`) is not recognised: the count is the generic one.
+four-bar's :math:`M = -2`) is not solved: such a loop's reactions are statically indeterminate; its error
+says so (:func:`special_geometry`).
 """
 
 from __future__ import annotations
@@ -72,5 +73,21 @@ def check_mobility(mechanism: LoopMechanism) -> None:
         why += ")"
     what = "a C joint driven by its angle with its axial law" if need == 2 else "one driven coordinate"
     change = abs(need - m)
+    special = special_geometry(joints)
+    hint = (f"; a {special} {len(joints)}R loop moves, but its reactions are statically indeterminate: make "
+            "it spatial, e.g. an RSSR") if special and m < need else ""
     raise ValueError(f"joint: {why}: a single loop needs {need} ({what}); "
-                     f"{'add' if m < need else 'remove'} {change} freedom{'s' if change > 1 else ''}")
+                     f"{'add' if m < need else 'remove'} {change} freedom{'s' if change > 1 else ''}{hint}")
+
+
+def special_geometry(joints: tuple[Joint, ...]) -> str | None:
+    """``"planar"`` for a loop of R joints whose axes are all parallel (every twist 0 or 180 deg),
+    ``"spherical"`` for one whose axes all meet in a point (every length and offset 0), else ``None``: the
+    overconstrained loops (:math:`M = -2` by the count for four joints) that move all the same."""
+    if not joints or any(j.type != "R" for j in joints):
+        return None
+    if all(abs(np.sin(j.alpha)) < 1e-12 for j in joints):
+        return "planar"
+    if all(j.a == 0.0 and j.s == 0.0 for j in joints):
+        return "spherical"
+    return None

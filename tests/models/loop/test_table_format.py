@@ -98,8 +98,16 @@ def test_overconstrained_loop_is_refused() -> None:
                      {"type": "R", "a": 3.0}]
     data["drive"] = {"joint": 1, "positions": [0.0, 10.0], "speed": 1.0}
     data["load"] = []
-    with pytest.raises(CaseError, match=r"^joint: mobility -2 \(freedoms 4 - 6\): a single loop needs 1"):
+    with pytest.raises(CaseError, match=r"^joint: mobility -2 \(freedoms 4 - 6\): a single") as err:
         loop_from_dict(data)
+    assert str(err.value).endswith("add 3 freedoms; a planar 4R loop moves, but its reactions are statically "
+                                   "indeterminate: make it spatial, e.g. an RSSR")
+    spherical = [{"type": "R", "alpha_deg": t} for t in (70.0, 80.0, 60.0, 75.0)]
+    with pytest.raises(CaseError, match="; a spherical 4R loop moves, but"):
+        loop_from_dict({**data, "joint": spherical})
+    twisted = [{**j, "alpha_deg": 30.0} for j in data["joint"]]  # a generic 4R: the count alone
+    with pytest.raises(CaseError, match=r"add 3 freedoms$"):
+        loop_from_dict({**data, "joint": twisted})
 
 
 def test_an_idly_spinning_link_must_be_axisymmetric() -> None:
