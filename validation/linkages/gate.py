@@ -66,13 +66,37 @@ def judge_tolerances(engine: str) -> dict[str, ResolvedTolerance]:
 def unit_scales(reference: LinkageTable, judge: LinkageTable, spec: TableSpec,
                 columns: tuple[str, ...]) -> dict[str, float]:
     """``s_g`` per unit group of ``columns``: the reference's largest ``|R|`` over the rows where both tables
-    give the column; 1 for a group that is zero throughout (the comparison is then absolute)."""
+    give the column; for a group that is zero throughout, the scale of its rates
+    (:func:`zero_group_scale`)."""
     scales: dict[str, float] = {}
     for c in columns:
         both = np.isfinite(reference[c]) & np.isfinite(judge[c])
         group = spec.unit_group(c)
         scales[group] = max(scales.get(group, 0.0), float(np.max(np.abs(reference[c][both]), initial=0.0)))
-    return {g: s or 1.0 for g, s in scales.items()}
+    return {g: s or zero_group_scale(g, reference, spec) for g, s in scales.items()}
+
+
+def _peak(reference: LinkageTable, spec: TableSpec, group: str) -> float:
+    """The reference's largest finite ``|R|`` over every compared column of unit group ``group``."""
+    columns = [c for c in spec.kinematics if spec.unit_group(c) == group]
+    return max((float(np.max(np.abs(reference[c][np.isfinite(reference[c])]), initial=0.0)) for c in columns),
+               default=0.0)
+
+
+def zero_group_scale(group: str, reference: LinkageTable, spec: TableSpec) -> float:
+    """The scale of a unit group that is zero throughout, from the rates of its kind: an angle's acceleration
+    (a drive at constant speed) on ``w²``, a slide's on ``v²/L``, with ``w``, ``v``, ``L`` the reference's
+    peaks of the angle rates, slide rates and slides; 1 (an absolute comparison) where those are zero too
+    or for any other group.  Without it a constant-speed drive's ``theta1_ddot`` was compared in rad/s², so
+    the verdict hung on the unit of time."""
+    if group == "angle_ddot":
+        scale = _peak(reference, spec, "angle_dot") ** 2
+    elif group == "length_ddot":
+        length = _peak(reference, spec, "length")
+        scale = _peak(reference, spec, "length_dot") ** 2 / length if length > 0.0 else 0.0
+    else:
+        scale = 0.0
+    return scale or 1.0
 
 
 def reference_values(reference: LinkageTable, spec: TableSpec) -> dict:

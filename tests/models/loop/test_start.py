@@ -34,11 +34,22 @@ def test_wrapping_keeps_the_pose_and_the_slides():
         np.testing.assert_allclose(math.sin(out[name]), math.sin(pose[name]), rtol=0, atol=ANGLE_ATOL)
 
 
-def test_the_nearest_pose_wins_and_the_first_of_equals():
-    poses = [{"theta2": 2.0}, {"theta2": -0.3 + 2 * math.pi}, {"theta2": 0.3}]
+def test_the_nearest_pose_wins():
+    poses = [{"theta2": 2.0}, {"theta2": -0.5 + 2 * math.pi}, {"theta2": 0.6}]
     assert nearest_to_zero(poses) == 1
     with pytest.raises(ValueError, match="at least one closed pose"):
         nearest_to_zero([])
+
+
+def test_equal_angles_are_told_apart_by_the_slides_then_by_the_greater_coordinate():
+    """An RSSP's two assemblies: the same angles (``theta1``, the drive), the slide at ``+s`` or ``-s``."""
+    a = {"theta1": 0.4, "s4": -0.17376128341343788}
+    b = {"theta1": 0.4 + 2 * math.pi * (1 + 1e-16), "s4": 0.17376128341343735}  # rounding apart
+    assert nearest_to_zero([a, b]) == 1 and nearest_to_zero([b, a]) == 0
+    assert nearest_to_zero([a, {"theta1": 0.4, "s4": 0.5}]) == 0  # the lesser slides first
+    first = {"theta2": -1.0, "theta3": 2.0}  # equal distances; theta2 decides, the greater
+    assert nearest_to_zero([first, {"theta2": 1.0, "theta3": -2.0}]) == 1
+    assert nearest_to_zero([{"theta1": 0.1}, {"theta1": 0.1}]) == 0  # all equal: the first
 
 
 @pytest.mark.parametrize("seed, topology", [(0, "RSUR"), (0, "RSCR")])

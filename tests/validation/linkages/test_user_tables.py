@@ -1,0 +1,48 @@
+"""Loop tables the suite has never seen, written as a user would (no ``start`` values, a drive at constant
+speed), through ``validate`` on every engine: each must PASS.  Both failed before the searched start's rule
+(``models/loop/start.py``) and the scale of a zero group (``zero_group_scale``): the RUSR's Pinocchio judge
+closed the other assembly of its U joint (5.8e9 times its tolerance on ``theta2``), the RSSP's closed the
+slider on the other side (1.6e10 on ``s4``: its two assemblies differ in the slide's sign alone), and the
+RSSP's simulated judge was held to 1e-3 rad/s² absolute on the constant-speed drive's ``theta1_ddot``
+(1.6 times its tolerance; 4e-6 of the drive's w²)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dualmech
+from dualmech.models.linkages import linkage_case, read_linkage, table_spec
+from dualmech.models.loop.table import solve_loop_table
+from dualmech.validation.linkages.gate import unit_scales, zero_group_scale
+
+TABLES = Path(__file__).parent / "tables"
+
+pytest.importorskip("pinocchio")
+pytest.importorskip("mujoco")
+
+
+@pytest.mark.parametrize("name", ["rusr", "rssp"])
+def test_a_new_table_without_start_values_passes_on_every_engine(tmp_path: Path, name: str) -> None:
+    run = dualmech.validate(TABLES / f"{name}.toml", tmp_path / "run")
+    assert str(run.verdict) == "PASS", [c for c in run.comparison.failures()]
+    assert {c.engine for c in run.comparison.checks} == {"dualmech", "pinocchio", "mujoco", "mujoco-sim"}
+
+
+def test_a_zero_group_is_scaled_by_its_rates() -> None:
+    """The RSSP's drive turns at constant speed: ``theta1_ddot`` is 0 at every row, so its group's scale is
+    the drive speed squared; its slide's acceleration is not zero and keeps its own peak."""
+    case = linkage_case(read_linkage(str(TABLES / "rssp.toml")))
+    table = solve_loop_table(case)
+    spec = table_spec("loop", case)
+    assert np.all(table["theta1_ddot"] == 0.0)
+    speed = float(np.max(np.abs(table["theta1_dot"])))
+    assert speed == 20.0
+    scales = unit_scales(table, table, spec, spec.kinematics)
+    assert scales["angle_ddot"] == pytest.approx(speed**2, rel=1e-15)
+    assert scales["length_ddot"] == pytest.approx(np.max(np.abs(table["s4_ddot"])), rel=1e-15)
+    peak_v, peak_l = np.max(np.abs(table["s4_dot"])), np.max(np.abs(table["s4"]))
+    assert zero_group_scale("length_ddot", table, spec) == pytest.approx(peak_v**2 / peak_l, rel=1e-15)
+    assert zero_group_scale("force", table, spec) == 1.0
