@@ -6,7 +6,9 @@ first, and :meth:`PendingFigures.add_judged` those that need the comparison (:fu
 waits for them).  Every figure is made interactive (:mod:`~dualmech.validation.report.interactive`, for the
 HTML page); those the Markdown report shows (:attr:`FigureSpec.static`: :data:`STATIC_SWEEP_FIGURES`, the heat
 maps, the balancing plot) are also drawn as PNG (:mod:`~dualmech.validation.report.plots`).  Rasterising is
-most of a report's cost, so the others are not drawn at all.
+most of a report's cost, so the others are not drawn at all.  A case without sweeps (a linkage's, planned by
+:mod:`dualmech.validation.linkages.report`) has its engine-overlay figure (kind ``"case"``,
+:mod:`~dualmech.validation.report.overlay`), drawn the same way.
 """
 
 from __future__ import annotations
