@@ -69,7 +69,8 @@ class Peak:
         """Where the peak is, for a table cell: ``at 55°`` (``at s1 = 0.05`` for a ``key``), ``constant``, or
         the round-off level."""
         if self.kind == ZERO:
-            return f"round-off {self.round_off:.1e} {self.unit}" if self.round_off > 0 else "exactly 0"
+            level = f"round-off {self.round_off:.1e} {self.unit}".rstrip()  # no unit: no trailing space
+            return level if self.round_off > 0 else "exactly 0"
         if self.kind == CONSTANT:
             return "constant"
         return f"at {self.key} = {self.theta_deg:g}" if self.key else f"at {self.theta_deg:g}°"

@@ -48,6 +48,10 @@ OMITTED = ("the stroke (no slider)", "dynamic balancing (the slider crank's forc
            "sweep figures and the relative difference per crank position (each case's figure shows every "
            "judge's worst ratio per row)")
 
+#: How the linkage gate (:mod:`~dualmech.validation.linkages.gate`) makes a relative difference, for the page.
+GATE = {"differences": "per column, relative to the case's largest value of the column's unit group, with no "
+                       "condition factor", "source": "validation/linkages/gate.py", "beside": ""}
+
 
 def input_label(run: LinkageRun) -> str:
     """The input the cases' rows are keyed on, for headers: ``theta1 [deg]``, ``s1`` (a slide, in the case's
@@ -69,7 +73,7 @@ def design_tables(run: LinkageRun) -> list[dict]:
         if table is None or isinstance(table, str):
             continue
         units = entry.data.get("units", "consistent")
-        summary = table_summary(table, table_spec(entry.kind, entry.case), units)
+        summary = replace(table_summary(table, table_spec(entry.kind, entry.case), units), case=entry.id)
         names = tuple(p.name for p in summary.peaks)
         group = groups.setdefault((entry.kind, names), {"kind": entry.kind, "columns": list(names),
                                                          "rows": [], "stroke": False, "near": False})
@@ -89,6 +93,7 @@ def linkage_context(run: LinkageRun, matrix: Matrix, stored: dict) -> dict:
         row.update(mode=kinds[row["case"]], run=bool(run.tables.get(row["case"])))
     label = input_label(run)
     context.update(mode_label="kind", key_label=label, input_name=f"input ({label})", omitted=list(OMITTED),
+                   gate=GATE,
                    design=design_tables(run),
                    tolerances=tolerance_rows({e: judge_tolerances(e) for e in run.matrix.judges}))
     return context

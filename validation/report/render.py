@@ -40,6 +40,11 @@ from dualmech.validation.rundir import locked, record_files, remove_stale, write
 #: The report's Jinja2 templates.
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
+#: How the slider crank's gate (:mod:`dualmech.validation.compare`) makes a relative difference, for the page.
+GATE = {"differences": "normwise per unit group and, for reactions in drive-torque mode, weighted by the "
+                       "transmission |t|", "source": "validation/compare.py",
+        "beside": "Rows beside them are compared with a tolerance scaled by 1/|t|."}
+
 
 @dataclass(frozen=True)
 class ReportFiles:
@@ -242,6 +247,7 @@ def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison) -
         "design": [design],
         "sections": [(s.name, s.label) for s in matrix.sweeps],
         "differences": True,
+        "gate": GATE,
     }
 
 
