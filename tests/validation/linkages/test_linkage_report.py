@@ -53,7 +53,8 @@ def _table(out: Path, case: str, engine: str) -> dict[str, np.ndarray]:
 
 
 def _escaped(text: str) -> str:
-    """``text`` as the report's Markdown writes it (the markup characters it uses here escaped)."""
+    """``text`` as the report's Markdown writes it (HTML and the markup characters escaped)."""
+    text = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
     return re.sub(r"([\\`*_{}\[\]()#+!|~])", r"\\\1", text)
 
 
@@ -206,3 +207,25 @@ def test_the_overlay_figure_is_every_engines_output_and_ratio(tmp_path) -> None:
         assert_allclose(decoded(traces[engine, "y"]["y"]), table["theta4_deg"], rtol=FLOAT32, atol=0)
     assert_allclose(decoded(traces["pinocchio", "y2"]["y"]), np.clip(ratio, 1e-17, None), rtol=FLOAT32,
                     atol=0)
+
+
+def test_a_failing_check_is_listed_as_summary_json_has_it(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Deliberate fault: Pinocchio's RCCC output angle 1e-6 deg off.  The verdict line, the summary cell
+    (✗ and the failing quantity) and the failure list are the failing checks of ``summary.json``."""
+    def shifted(table):
+        return replace(table, columns={**table.columns, "theta4_deg": table.columns["theta4_deg"] + 1e-6})
+
+    fault_engine(monkeypatch, "pinocchio", shifted, ("rccc",))
+    out = tmp_path / "run"
+    result = CliRunner().invoke(main, ["validate", "rccc", "-o", str(out), "--engines", "dualmech,pinocchio",
+                                       "--jobs", "1"])
+    assert result.exit_code == 1, result.output
+    summary = json.loads((out / "summary.json").read_text())
+    failed = [c for c in summary["checks"] if not c["passed"]]
+    assert [c["quantity"] for c in failed] == ["theta4_deg"]
+    markdown = (out / "report.md").read_text()
+    n = len(summary["checks"])
+    assert f"**FAIL**: {n - 1} of {n} checks passed; 1 of 1 cases run;" in markdown
+    assert _row(markdown, "Summary", "rccc-example") == ["rccc-example", "rccc", "0", "✗ theta4\\_deg"]
+    listed = markdown.split("## Failures\n", 1)[1].split("\n## ", 1)[0]
+    assert f"- rccc-example / pinocchio: theta4\\_deg: {_escaped(failed[0]['detail'])}" in listed
