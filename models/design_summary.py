@@ -50,7 +50,9 @@ class Peak:
 
     ``kind`` is :data:`PEAK`, :data:`CONSTANT` (``theta_deg`` NaN: every ok row has it) or :data:`ZERO`
     (``value`` 0, ``theta_deg`` NaN, ``round_off`` the largest magnitude the solver left); ``scale`` is the
-    case's scale of the unit group it was judged against (module docstring).
+    case's scale of the unit group it was judged against (module docstring).  ``theta_deg`` is the row's
+    input value: the crank angle in degrees, or where ``key`` names it (a loop table driven by a slide,
+    ``"s1"``), that coordinate in the case's units.
     """
 
     name: str
@@ -60,13 +62,18 @@ class Peak:
     kind: str = PEAK
     round_off: float = 0.0
     scale: float = float("nan")
+    key: str = ""
 
     @property
     def where(self) -> str:
-        """Where the peak is, for a table cell: ``at 55°``, ``constant``, or the round-off level."""
+        """Where the peak is, for a table cell: ``at 55°`` (``at s1 = 0.05`` for a ``key``), ``constant``, or
+        the round-off level."""
         if self.kind == ZERO:
-            return f"round-off {self.round_off:.1e} {self.unit}" if self.round_off > 0 else "exactly 0"
-        return "constant" if self.kind == CONSTANT else f"at {self.theta_deg:g}°"
+            level = f"round-off {self.round_off:.1e} {self.unit}".rstrip()  # no unit: no trailing space
+            return level if self.round_off > 0 else "exactly 0"
+        if self.kind == CONSTANT:
+            return "constant"
+        return f"at {self.key} = {self.theta_deg:g}" if self.key else f"at {self.theta_deg:g}°"
 
     def __str__(self) -> str:
         where = {ZERO: f"({self.where})", CONSTANT: "(constant)"}.get(
@@ -77,7 +84,9 @@ class Peak:
 
 @dataclass(frozen=True)
 class DesignSummary:
-    """The engineering summary of one solved case (module docstring)."""
+    """The engineering summary of one solved case (module docstring); a mechanism without a slider
+    (:func:`dualmech.models.linkages.table_summary`) has no stroke (NaN) and no near-dead-centre warning
+    (empty)."""
 
     case: str
     engine: str
@@ -107,13 +116,13 @@ def _angles(values: tuple[float, ...], limit: int = 8) -> str:
     return shown + (f", ... ({len(values)} positions)" if len(values) > limit else "")
 
 
-def _peak(name: str, magnitude: np.ndarray, theta: np.ndarray, unit: str) -> Peak:
-    """The largest finite ``magnitude`` and its angle; NaN for both when there is none (no ok row)."""
+def _peak(name: str, magnitude: np.ndarray, theta: np.ndarray, unit: str, key: str = "") -> Peak:
+    """The largest finite ``magnitude`` and its input value; NaN for both when there is none (no ok row)."""
     finite = np.isfinite(magnitude)
     if not finite.any():
-        return Peak(name, float("nan"), float("nan"), unit)
+        return Peak(name, float("nan"), float("nan"), unit, key=key)
     i = int(np.flatnonzero(finite)[np.argmax(magnitude[finite])])
-    return Peak(name, float(magnitude[i]), float(theta[i]), unit)
+    return Peak(name, float(magnitude[i]), float(theta[i]), unit, key=key)
 
 
 def _judged(peak: Peak, magnitude: np.ndarray, scale: float) -> Peak:
@@ -130,6 +139,24 @@ def _judged(peak: Peak, magnitude: np.ndarray, scale: float) -> Peak:
     return replace(peak, scale=scale)
 
 
+def peaks_of(loads: list[tuple[str, np.ndarray, str, str]], theta: np.ndarray, key: str = ""
+           ) -> tuple[Peak, ...]:
+    """The :class:`Peak` of every load ``(name, magnitude per row (NaN off the ok rows), unit, unit group
+    "force" or "moment")``, judged against its group's largest peak (module docstring); ``theta`` the rows'
+    input values, named by ``key`` if not the crank angle."""
+    found = [(_peak(name, magnitude, theta, unit, key), magnitude, group)
+             for name, magnitude, unit, group in loads]
+    scales = {g: max((p.value for p, _, pg in found if pg == g and np.isfinite(p.value)), default=0.0)
+              for g in ("force", "moment")}
+    return tuple(_judged(p, magnitude, scales[g]) for p, magnitude, g in found)
+
+
+def status_counts(status: np.ndarray) -> dict[str, int]:
+    """How many rows have each status word."""
+    words, counts = np.unique(np.asarray(status, dtype=str), return_counts=True)
+    return {str(w): int(n) for w, n in zip(words, counts)}
+
+
 def design_summary(table: ResultTable, units: str = "consistent") -> DesignSummary:
     """The :class:`DesignSummary` of ``table`` in the unit system ``units``."""
     ok = is_status(table.status, Status.OK)
@@ -138,32 +165,26 @@ def design_summary(table: ResultTable, units: str = "consistent") -> DesignSumma
     def on_ok(column: str) -> np.ndarray:
         return np.where(ok, table[column], np.nan)
 
-    found = []  # (peak, its magnitudes over the rows, its unit group)
+    loads = []  # (name, its magnitudes over the rows, unit, unit group)
     for joint, forces, moments in JOINTS:
         for kind, cols in (("force", forces), ("moment", moments)):
             if cols:
                 magnitude = np.linalg.norm(np.stack([on_ok(c) for c in cols]), axis=0)
-                found.append((_peak(f"{joint} |{kind}|", magnitude, theta, column_unit(cols[0], units)),
-                              magnitude, kind))
+                loads.append((f"{joint} |{kind}|", magnitude, column_unit(cols[0], units), kind))
     for column, group in (("drive_torque", "moment"), ("slider_load", "force")):
-        magnitude = np.abs(on_ok(column))
-        found.append((_peak(f"|{column}|", magnitude, theta, column_unit(column, units)), magnitude, group))
-    scales = {g: max((p.value for p, _, pg in found if pg == g and np.isfinite(p.value)), default=0.0)
-              for g in ("force", "moment")}
-    peaks = [_judged(p, magnitude, scales[g]) for p, magnitude, g in found]
+        loads.append((f"|{column}|", np.abs(on_ok(column)), column_unit(column, units), group))
     s4 = table["S4"][is_status(table.status, Status.OK, Status.DEAD_CENTRE, Status.ASSEMBLY_LIMIT)]
     s4 = s4[np.isfinite(s4)]
     t = np.abs(table["transmission"])
     near = np.isfinite(t) & (t < NEAR_DEAD_CENTRE_TRANSMISSION) & ok
-    words, counts = np.unique(np.asarray(table.status, dtype=str), return_counts=True)
     return DesignSummary(
         case=table.case, engine=table.engine,
         stroke=float(s4.max() - s4.min()) if s4.size else float("nan"),
         length_unit=column_unit("S4", units),
-        peaks=tuple(peaks),  # every name of PEAK_NAMES, in order
+        peaks=peaks_of(loads, theta),  # every name of PEAK_NAMES, in order
         dead_centres=tuple(float(a) for a in theta[is_status(table.status, Status.DEAD_CENTRE)]),
         near_dead_centres=tuple(float(a) for a in theta[near]),
-        statuses={str(w): int(n) for w, n in zip(words, counts)},
+        statuses=status_counts(table.status),
     )
 
 

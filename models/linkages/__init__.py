@@ -13,10 +13,13 @@ from typing import Any
 
 import numpy as np
 
+from dualmech.core.status import Status, is_status
+from dualmech.models.design_summary import DesignSummary, peaks_of, status_counts
 from dualmech.models.inputs import CaseError, show
 from dualmech.models.kinds import KIND_HOMES, LINKAGE_KINDS, declared_kind, resolve
 from dualmech.models.linkages.table import LinkageTable, TableSpec
 from dualmech.models.toml_input import read_toml
+from dualmech.models.units import UNIT_SYSTEMS
 
 #: The bundled RSSR and RCCC cases (``<stem>.toml``).
 CASES = Path(__file__).resolve().parent / "cases"
@@ -109,6 +112,27 @@ def table_spec(kind: str, case: Any) -> TableSpec:
     ``kind``): the RSSR's and RCCC's are fixed, a loop table's follows its joints."""
     spec = resolve(KIND_HOMES[kind].spec)
     return spec if isinstance(spec, TableSpec) else spec(case)
+
+
+def table_summary(table: LinkageTable, spec: TableSpec, units: str = "consistent") -> DesignSummary:
+    """The slider crank's :class:`~dualmech.models.design_summary.DesignSummary` of a linkage's or loop
+    table's ``table`` by its ``spec``: the peak of every load of
+    :attr:`~dualmech.models.linkages.table.TableSpec.loads` over the ``ok`` rows, at the input value (the
+    spec's key) where it occurs, and the ``dead_centre`` rows' input values; no stroke (NaN), no
+    near-dead-centre warning.  Units of the label ``units`` (none for a label that is not a
+    :data:`~dualmech.models.units.UNIT_SYSTEMS` key)."""
+    ok = is_status(table.status, Status.OK)
+    system = UNIT_SYSTEMS.get(units, UNIT_SYSTEMS["consistent"])
+    loads = [(name, np.linalg.norm(np.stack([np.where(ok, table[c], np.nan) for c in cols]), axis=0),
+              system.of(group), group) for name, cols, group in spec.loads]
+    key = table[spec.key]
+    name, unit = spec.key_label
+    return DesignSummary(
+        case=table.case, engine=table.engine, stroke=float("nan"), length_unit=system.of("length"),
+        peaks=peaks_of(loads, key, "" if unit == "deg" else name),
+        dead_centres=tuple(float(a) for a in key[is_status(table.status, Status.DEAD_CENTRE)]),
+        near_dead_centres=(), statuses=status_counts(table.status),
+    )
 
 
 def summary(table: LinkageTable, case: Any = None) -> str:

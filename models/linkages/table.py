@@ -57,6 +57,24 @@ class TableSpec(NamedTuple):
         return tuple(c for c in self.reactions
                      if "_m" in c or c.endswith("torque") or c.startswith(("effort_theta", "effort_eta")))
 
+    @property
+    def loads(self) -> tuple[tuple[str, tuple[str, ...], str], ...]:
+        """The loads the table gives, as ``(name, columns, unit group)``: each joint's force and moment
+        (``<joint>_f{x,y,z}``, ``<joint>_m{x,y,z}``: ``"j1 |f|"``, ``"joint1 |m|"``) in column order, then
+        every scalar effort (``"|drive_torque|"``, ``"|effort_theta4|"``); not the ``dynamics_residual``."""
+        vectors: dict[tuple[str, str], list[str]] = {}
+        scalars = []
+        for column in (*self.forces, *self.moments):
+            joint, _, component = column.rpartition("_")
+            if joint and len(component) == 2 and component[0] in "fm" and component[1] in "xyz":
+                vectors.setdefault((joint, component[0]), []).append(column)
+            else:
+                scalars.append(column)
+        joints = sorted(vectors, key=lambda jk: self.columns.index(vectors[jk][0]))
+        return (*((f"{j} |{k}|", tuple(vectors[j, k]), "force" if k == "f" else "moment") for j, k in joints),
+                *((f"|{c}|", (c,), "force" if c in self.forces else "moment")
+                  for c in sorted(scalars, key=self.columns.index)))
+
     def unit_group(self, column: str) -> str:
         """The unit group of a compared column (its differences share the group's scale, as the slider
         crank's ``UNIT_GROUP``): ``force`` (``*_f*``, a loop table's ``effort_s*``), ``moment`` (``*_m*``,

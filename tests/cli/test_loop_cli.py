@@ -88,15 +88,16 @@ def test_validate_a_loop_table_passes(tmp_path: Path) -> None:
     summary = json.loads((run / "summary.json").read_text())
     assert summary["verdict"] == "PASS"
     assert summary["cases"][0]["engines"] == ["dualmech", "pinocchio", "mujoco", "mujoco-sim"]
-    rows = {r["engine"]: r for r in summary["engine_rows"]}
-    assert all(rows[e]["applies"] and rows[e]["passed"] for e in ("pinocchio", "mujoco", "mujoco-sim"))
-    assert rows["mujoco"]["input"] == "theta1" and rows["mujoco"]["input_unit"] == "deg"
+    assert summary["cases"][0]["key"] == "theta1_deg"
+    worst = summary["worst"]
+    assert set(worst) == {"pinocchio", "mujoco", "mujoco-sim"} and all(w["passed"] for w in worst.values())
+    assert worst["mujoco"]["input"] == "theta1" and worst["mujoco"]["input_unit"] == "deg"
     # the key is the drive in degrees (rad and back: within 1e-12 deg of the file's 10 deg grid)
-    assert np.abs(rows["mujoco"]["at_deg"] - np.arange(0.0, 360.0, 10.0)).min() < 1e-12
+    assert np.abs(worst["mujoco"]["at"] - np.arange(0.0, 360.0, 10.0)).min() < 1e-12
     assert {p.name for p in (run / "tables" / "my-rscr").iterdir()} == {"dualmech.csv", "pinocchio.csv",
                                                                        "mujoco.csv", "mujoco-sim.csv"}
     report = (run / "report.md").read_text()
-    assert "my-rscr: theta4" in report and "theta1 = " in report
+    assert "my-rscr: theta4 from every engine" in report and "the input \\(theta1 \\[deg\\]\\)" in report
 
 
 @pytest.mark.parametrize("engine", ["mujoco", "mujoco-sim"])

@@ -84,3 +84,45 @@ def test_round_off_is_relative_to_the_case_not_a_list_of_columns():
     s = design_summary(solve_case(case), case.units)
     j3 = next(p for p in s.peaks if p.name.startswith("joint 3") and "moment" in p.name)
     assert j3.kind == "peak" and j3.value > 0
+
+
+def test_a_table_summary_reads_every_joint_of_its_spec():
+    """:func:`table_summary` of a hand-made table keyed on a slide ``s1`` (a loop table driven by a slide):
+    per joint the largest |f| and |m| over the ``ok`` rows at the slide's value, a moment at 1e-12 of the
+    case's moments shown as 0 with its round-off, a constant effort as constant, the dead-centre rows by their
+    key, no stroke; units of the label (none for a label not in the unit systems)."""
+    from dualmech.models.linkages import table_summary
+    from dualmech.models.linkages.table import LinkageTable, TableSpec
+
+    rng = np.random.default_rng(7)
+    n = 9
+    s1 = np.linspace(0.0, 0.08, n)
+    force = rng.normal(size=(n, 3))
+    moment = rng.normal(size=(n, 3))
+    columns = {"s1": s1, "theta2": rng.normal(size=n),
+               **{f"joint1_f{a}": force[:, i] for i, a in enumerate("xyz")},
+               **{f"joint1_m{a}": moment[:, i] for i, a in enumerate("xyz")},
+               **{f"joint2_f{a}": 2 * force[:, i] for i, a in enumerate("xyz")},
+               **{f"joint2_m{a}": 1e-12 * moment[:, i] for i, a in enumerate("xyz")},
+               "effort_s1": np.full(n, -3.0), "dynamics_residual": np.zeros(n)}
+    reactions = tuple(c for c in columns if c.startswith(("joint", "effort"))) + ("dynamics_residual",)
+    spec = TableSpec(tuple(columns), ("theta2",), (), reactions, key="s1")
+    status = np.array(["ok"] * n, dtype=object)
+    status[[2, 6]] = "dead_centre"
+    table = LinkageTable("dualmech", "slide", columns, status)
+    names = ["joint1 |f|", "joint1 |m|", "joint2 |f|", "joint2 |m|", "|effort_s1|"]
+    assert [name for name, _, _ in spec.loads] == names
+    s = table_summary(table, spec, "m-N-s")
+    ok = status == "ok"
+    peaks = {p.name: p for p in s.peaks}
+    for name, vector in (("joint1 |f|", force), ("joint1 |m|", moment), ("joint2 |f|", 2 * force)):
+        magnitude = np.where(ok, np.sqrt((vector ** 2).sum(axis=1)), -1.0)
+        i = int(np.argmax(magnitude))
+        assert_allclose(peaks[name].value, magnitude[i], rtol=1e-15, atol=0)
+        assert peaks[name].theta_deg == s1[i] and peaks[name].where == f"at s1 = {s1[i]:g}"
+    assert peaks["joint1 |f|"].unit == "N" and peaks["joint1 |m|"].unit == "N·m"
+    zero = peaks["joint2 |m|"]
+    assert zero.kind == "zero" and zero.value == 0.0 and zero.where.startswith("round-off")
+    assert peaks["|effort_s1|"].where == "constant" and peaks["|effort_s1|"].value == 3.0
+    assert s.dead_centres == (s1[2], s1[6]) and np.isnan(s.stroke) and s.near_dead_centres == ()
+    assert {p.unit for p in table_summary(table, spec, "SI").peaks} == {""}

@@ -16,6 +16,7 @@ import json
 import re
 import subprocess
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pytest
@@ -99,8 +100,10 @@ def _text_failures(page: dict) -> list[str]:
     return failed
 
 
-def check_report_page(report: Path, tmp_path: Path) -> None:
-    """Lay out and screenshot ``report`` in headless Chromium; one AssertionError names every failed check."""
+def check_report_page(report: Path, tmp_path: Path,
+                      text_failures: Callable[[dict], list[str]] = _text_failures) -> None:
+    """Lay out and screenshot ``report`` in headless Chromium; one AssertionError names every failed check
+    (those of its figures and summary table, then ``text_failures`` of the laid-out page)."""
     import matplotlib.image
 
     page = _laid_out(report, tmp_path)
@@ -124,7 +127,7 @@ def check_report_page(report: Path, tmp_path: Path) -> None:
     table = region(page["summary"]) if page["summary"] else np.zeros((0, 0, 3))
     if not np.any(np.all(np.abs(table - PASS_CELL) <= PASS_CELL_MATCH, axis=-1)):
         failed.append("summary table not drawn with its passing cells")
-    failed += _text_failures(page)
+    failed += text_failures(page)
     assert not failed, "\n".join(failed)
 
 
@@ -169,3 +172,31 @@ def test_the_thesis_findings_forced_into_the_report_fail(tmp_path, monkeypatch):
 def test_a_design_without_a_unit_label_fails(tmp_path):
     with pytest.raises(AssertionError, match="unit labels"):
         check_report_text(validate_design(tmp_path, SI_DESIGN.replace('units = "m-N-s"\n', "")), tmp_path)
+
+
+def _linkage_text_failures(page: dict) -> list[str]:
+    """The text checks of a linkage's page: the peak-load table with its joints in N and N·m, no stroke or
+    balancing section, the sections left out named."""
+    text = page["text"]
+    failed = []
+    if "Peak joint loads" not in text or not re.search(r"\d N\s+at \d", text) or "j4 |m|" not in text:
+        failed.append("peak joint loads: the table of every joint, in N and N·m, is missing")
+    if "\nStroke\n" in text or "Dynamic balancing\n" in text:
+        failed.append("a slider crank's section (stroke, balancing) on a linkage's page")
+    if "Not in this report" not in text:
+        failed.append("the sections left out are not named")
+    return failed
+
+
+def test_a_linkage_report_is_the_same_page_its_figures_drawn(tmp_path):
+    """Issue 32: a linkage run's report is the slider crank's page (the RCCC, judged by Pinocchio): every
+    figure drawn interactively (the heat map and the case's engine overlay), the summary table with its
+    passing cells, the linkage's own peak-load table."""
+    out = tmp_path / "run"
+    result = CliRunner().invoke(main, ["validate", "rccc", "-o", str(out), "--jobs", "1", "--engines",
+                                       "dualmech,pinocchio"])
+    assert result.exit_code == 0, result.output
+    check_report_page(out / "report.html", tmp_path, _linkage_text_failures)
+    page = _laid_out(out / "report.html", tmp_path)
+    assert [i["alt"] for i in page["images"]] == ["rccc-example: theta4_deg from every engine",
+                                                  "pinocchio: agreement per case and quantity"]

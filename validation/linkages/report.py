@@ -1,195 +1,174 @@
-"""The report of a linkage run: ``summary.json``, ``report.md``, ``report.html`` (self-contained),
-``figures/<case>.png`` and every engine's table (``tables/<case>/<engine>.csv``) in the run folder.
+"""The report of a linkage run (RSSR, RCCC, loop tables): the slider crank's report, by the same templates
+and section code (:mod:`dualmech.validation.report.render`, :mod:`dualmech.validation.report.sections`), with
+each kind's own sections, and every engine's table (``tables/<case>/<engine>.csv``) in the run folder.
 
-Per judge the slider crank report's heat map of its ratio to tolerance per case and column
-(:func:`judge_heatmaps`); per case one figure: the output angle against the input angle from every engine
-(the reference as a line, each judge as markers), and below it each judge's worst ratio of relative
-difference to tolerance per row (log scale; at most 1 passes).  The templates are
-``validation/templates/linkages.*.j2``; the folder rules (a dualmech folder only, one writer at a time, a
-manifest of what was written) are those of :mod:`dualmech.validation.rundir`.
+What differs from the slider crank's is data, never a template of its own: the summary's second column is the
+case's kind; the peak joint loads are those of every joint of the case's
+:class:`~dualmech.models.linkages.table.TableSpec` (:func:`~dualmech.models.linkages.table_summary`),
+one table per kind; dead centres are listed by the spec's key (the input value); the tolerances are the
+linkage gate's (:func:`~dualmech.validation.linkages.gate.judge_tolerances`); each case has the engine-overlay
+figure (:mod:`~dualmech.validation.report.overlay`: its output from every engine, each judge's worst ratio per
+row) where the slider crank has its sweeps.  The slider crank's stroke, balancing and per-position difference
+sections have no meaning here: the page says so and leaves them out (``omitted``).  The folder rules (a
+dualmech folder only, one writer at a time, a manifest of what was written) are those of
+:mod:`dualmech.validation.rundir`.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from dualmech.models.linkages import table_spec
+from dualmech.models.linkages import table_spec, table_summary
 from dualmech.validation.compare import ENGINE, STATUS
+from dualmech.validation.durable import json_text
+from dualmech.validation.linkages.gate import judge_tolerances
 from dualmech.validation.linkages.matrix import LinkageEntry
-from dualmech.validation.linkages.run import LinkageRun, write_tables
-from dualmech.validation.provenance import KEY_LIBRARIES, versions
-from dualmech.validation.report.canvas import drawing, fig_to_png
-from dualmech.validation.report.plots import (
-    HEATMAP_CAPTION,
-    JUDGE_MARKERS,
-    LOG_FLOOR,
-    Figure,
-    heatmap_arrays,
-    heatmap_figure,
+from dualmech.validation.linkages.run import LinkageRun, as_run_matrix, write_tables
+from dualmech.validation.matrix import Matrix
+from dualmech.validation.progress import ProgressCallback
+from dualmech.validation.report.figures import FigureSpec, PendingFigures, heatmap_spec
+from dualmech.validation.report.render import (
+    ReportFiles,
+    comparison_summary,
+    compiled_templates,
+    publish,
+    run_context,
 )
-from dualmech.validation.report.render import environment
-from dualmech.validation.rundir import locked, record_files, write_file, write_json
+from dualmech.validation.report.sections import tolerance_rows
+from dualmech.validation.run.runner import load_run
+from dualmech.validation.rundir import locked, record_files
 
-#: The report's Jinja2 templates (beside the slider crank's).
-TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
-#: Format tag of a linkage run's ``summary.json`` (a dualmech folder marker, not a slider-crank baseline).
-SUMMARY_FORMAT = "dualmech-summary/linkages-1"
+#: The slider crank's sections a linkage report leaves out, and why (the page lists them).
+OMITTED = ("the stroke (no slider)", "dynamic balancing (the slider crank's force balancing)",
+           "sweep figures and the relative difference per crank position (each case's figure shows every "
+           "judge's worst ratio per row)")
 
-
-@dataclass(frozen=True)
-class LinkageReport:
-    """What :func:`write_linkage_report` wrote."""
-
-    summary: Path
-    markdown: Path
-    html: Path
-    figures: tuple[Path, ...]
-    tables: tuple[Path, ...]
-    seconds: float
-    verdict: str
+#: How the linkage gate (:mod:`~dualmech.validation.linkages.gate`) makes a relative difference, for the page.
+GATE = {"differences": "per column, relative to the case's largest value of the column's unit group, with no "
+                       "condition factor", "source": "validation/linkages/gate.py", "beside": ""}
 
 
-def engine_rows(run: LinkageRun) -> list[dict]:
-    """One row per case and engine of the matrix: its verdict, checks, worst ratio and where, seconds.
-    ``at_deg`` is the input value at the worst row: the case's key
-    (:attr:`~dualmech.models.linkages.table.TableSpec.key`), named by ``input`` in ``input_unit`` (``deg``,
-    or ``""`` for a loop table driven by a slide, in its length unit)."""
-    rows = []
+def input_label(run: LinkageRun) -> str:
+    """The input the cases' rows are keyed on, for headers: ``theta1 [deg]``, ``s1`` (a slide, in the case's
+    length unit), or ``input value`` when the cases differ."""
+    labels = {table_spec(e.kind, e.case).key_label for e in run.matrix.cases}
+    if len(labels) != 1:
+        return "input value"
+    ((name, unit),) = labels
+    return f"{name} [{unit}]" if unit else name
+
+
+def design_tables(run: LinkageRun) -> list[dict]:
+    """The peak-load tables (the templates' ``design``): the reference's
+    :func:`~dualmech.models.linkages.table_summary` of every case it solved, one table per kind and
+    set of joints, titled by the kind and its cases; no stroke or near-dead-centre column."""
+    groups: dict[tuple, dict] = {}
     for entry in run.matrix.cases:
-        solved = run.tables[entry.id]
-        name, unit = table_spec(entry.kind, entry.case).key_label
-        for engine in run.matrix.engines:
-            checks = run.comparison.for_engine(entry.id, engine)
-            worst = max(checks, key=lambda c: (not c.passed, c.ratio), default=None)
-            table = solved.get(engine)
-            rows.append({
-                "case": entry.id, "kind": entry.kind, "engine": engine, "applies": engine in solved,
-                "reference": engine == run.matrix.reference, "rows": None if table is None or isinstance(
-                    table, str) else len(table),
-                "passed": all(c.passed for c in checks) if checks else None, "n_checks": len(checks),
-                "n_failed": sum(not c.passed for c in checks),
-                "ratio": None if worst is None else worst.ratio,
-                "quantity": None if worst is None else worst.quantity,
-                "at_deg": None if worst is None else worst.worst_theta_deg, "input": name, "input_unit": unit,
-                "seconds": run.seconds[entry.id].get(engine)})
-    return rows
+        table = run.tables[entry.id].get(run.matrix.reference)
+        if table is None or isinstance(table, str):
+            continue
+        units = entry.data.get("units", "consistent")
+        summary = replace(table_summary(table, table_spec(entry.kind, entry.case), units), case=entry.id)
+        names = tuple(p.name for p in summary.peaks)
+        group = groups.setdefault((entry.kind, names), {"kind": entry.kind, "columns": list(names),
+                                                         "rows": [], "stroke": False, "near": False})
+        group["rows"].append(summary)
+    for g in groups.values():
+        g["title"] = f"{g.pop('kind')}: {', '.join(d.case for d in g['rows'])}"
+    return list(groups.values())
 
 
-def linkage_summary(run: LinkageRun, seconds: float) -> dict:
-    """The JSON summary of a linkage run (``summary.json``): verdict, worst ratio per judge, every check."""
-    comparison = run.comparison
-    return {
-        "format": SUMMARY_FORMAT,
-        "matrix": run.matrix.name,
-        "description": run.matrix.description,
-        "reference": run.matrix.reference,
-        "engines": list(run.matrix.engines),
-        "verdict": str(run.verdict),
-        "passed": comparison.passed,
-        "n_checks": len(comparison.checks),
-        "n_failed": len(comparison.failures()),
-        "seconds": seconds,
-        "versions": versions(KEY_LIBRARIES),
-        "cases": [{"id": e.id, "kind": e.kind, "source": e.source, "engines": list(run.matrix.engines_of(e))}
-                  for e in run.matrix.cases],
-        "worst": {judge: {"case": c.case, "quantity": c.quantity, "ratio": c.ratio, "max_rel": c.max_rel,
-                          "tolerance": c.tolerance.name, "passed": c.passed}
-                  for judge, c in run.worst().items()},
-        "engine_rows": engine_rows(run),
-        "errors": comparison.errors,
-        "checks": [c.to_dict() for c in comparison.checks],
-    }
+def linkage_context(run: LinkageRun, matrix: Matrix, stored: dict) -> dict:
+    """The template variables of a linkage run (module docstring); ``matrix`` the runner's
+    (:func:`~dualmech.validation.linkages.run.as_run_matrix`), ``stored`` its ``run.json``."""
+    keys = {e.id: table_spec(e.kind, e.case).key for e in run.matrix.cases}
+    context = run_context(matrix, stored, run.tables, run.comparison, keys)
+    kinds = {e.id: e.kind for e in run.matrix.cases}
+    for row in context["summary"]:
+        row.update(mode=kinds[row["case"]], run=bool(run.tables.get(row["case"])))
+    label = input_label(run)
+    context.update(mode_label="kind", key_label=label, input_name=f"input ({label})", omitted=list(OMITTED),
+                   gate=GATE,
+                   design=design_tables(run),
+                   tolerances=tolerance_rows({e: judge_tolerances(e) for e in run.matrix.judges}))
+    return context
 
 
-def case_figure(run: LinkageRun, entry: LinkageEntry) -> Figure:
-    """The output (:attr:`~dualmech.models.linkages.table.TableSpec.shown`: the output angle, or a loop
-    table's last free coordinate) from every engine against the input, and each judge's worst ratio to
-    tolerance per row."""
-    import matplotlib
+def linkage_summary(run: LinkageRun, matrix: Matrix, stored: dict) -> dict:
+    """``summary.json`` of a linkage run: the slider crank's (:func:`~dualmech.validation.report.render.
+    comparison_summary`: verdict, every check, errors, dead centres, the run), each case's kind, source, key
+    and engines, and per judge its worst check (the input value of its worst row as ``at``)."""
+    keys = {e.id: table_spec(e.kind, e.case).key_label for e in run.matrix.cases}
+    cases = [{"id": e.id, "kind": e.kind, "source": e.source, "key": table_spec(e.kind, e.case).key,
+              "engines": list(run.matrix.engines_of(e))} for e in run.matrix.cases]
+    worst = {judge: {"case": c.case, "quantity": c.quantity, "ratio": c.ratio, "max_rel": c.max_rel,
+                     "tolerance": c.tolerance.name, "passed": c.passed, "input": keys[c.case][0],
+                     "input_unit": keys[c.case][1], "at": c.worst_theta_deg}
+             for judge, c in run.worst().items()}
+    return comparison_summary(matrix, run.comparison, stored) | {"cases": cases, "worst": worst}
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    spec, case_id = table_spec(entry.kind, entry.case), entry.id
+def case_spec(run: LinkageRun, entry: LinkageEntry) -> FigureSpec:
+    """The plan of one case's engine-overlay figure (:mod:`~dualmech.validation.report.overlay`): its output
+    (:attr:`~dualmech.models.linkages.table.TableSpec.shown`: the output angle, or a loop table's last free
+    coordinate) from every engine against the input, and each judge's worst ratio to tolerance per row."""
+    spec, case_id, reference = table_spec(entry.kind, entry.case), entry.id, run.matrix.reference
     column, key = spec.shown, spec.key
     name, unit = spec.key_label
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7.0, 5.6), sharex=True)
-    colors = [plt.get_cmap("tab10")(i) for i in range(10)]
-    judges = [e for e in run.tables[case_id] if e != run.matrix.reference]
-    reference = run.tables[case_id].get(run.matrix.reference)
-    if reference is not None and not isinstance(reference, str):
-        top.plot(reference[key], reference[column], "-", color="black", lw=1.3,
-                 label=f"{run.matrix.reference} (reference)")
-    for j, engine in enumerate(judges):
-        table, style = run.tables[case_id][engine], dict(color=colors[j % 10], ms=4, ls="none", mfc="none")
-        if not isinstance(table, str):
-            top.plot(table[key], table[column], JUDGE_MARKERS[j % len(JUDGE_MARKERS)], label=engine,
-                     **style)
-        if engine in run.ratios[case_id]:
-            theta, kin, reac = run.ratios[case_id][engine]
-            worst = np.fmax(kin, reac)
-            bottom.semilogy(theta, np.clip(worst, LOG_FLOOR, None), JUDGE_MARKERS[j % len(JUDGE_MARKERS)],
-                            label=engine, **style)
-    bottom.axhline(1.0, color="#c62828", ls="--", lw=1.0, label="tolerance")
+    curves = []
+    for engine in sorted(run.tables[case_id], key=lambda e: e != reference):  # the reference first
+        table = run.tables[case_id][engine]
+        x, y = (None, None) if isinstance(table, str) else (table[key], table[column])
+        rows = run.ratios[case_id].get(engine)
+        ratio = (None, None) if rows is None else (rows[0], np.fmax(rows[1], rows[2]))
+        curves.append((engine, x, y, *ratio))
     radians = spec.period(column) is not None and not column.endswith("_deg")
-    top.set_ylabel(f"{column} (rad)" if radians else column, fontsize=8)
-    top.set_title(f"{case_id}: {column} from every engine", fontsize=9)
-    bottom.set_ylabel("worst |judge - ref| / (scale x tol)", fontsize=8)
-    bottom.set_xlabel(f"{name} ({unit})" if unit else name, fontsize=8)
-    for ax in (top, bottom):
-        ax.tick_params(labelsize=7)
-        ax.legend(fontsize=7, loc="best")
-    fig.tight_layout()
-    caption = (f"{column} against the input {name}, and per row "
-               "each judge's worst ratio of relative difference to its tolerance (<= 1 passes)")
-    png = fig_to_png(fig)
-    return Figure(f"linkage-{case_id}", "linkage", case_id, f"{case_id}: {column}", caption, png)
+    title = f"{case_id}: {column} from every engine"
+    caption = (f"{column} against the input {name}, and per row each judge's worst ratio of relative "
+               "difference to its tolerance (<= 1 passes)")
+    axes = (f"{name} ({unit})" if unit else name, f"{column} (rad)" if radians else column)
+    job = (title, *axes, tuple(curves))
+    return FigureSpec(f"linkage-{case_id}", "case", case_id, title, caption, ("case", job), static=True)
 
 
-def judge_heatmaps(run: LinkageRun) -> list[Figure]:
-    """Per judge, the heat map of the slider crank's report (:func:`~dualmech.validation.report.plots.
-    heatmap_figure`): its ratio to tolerance per case and compared column (the columns in the order the
-    cases' checks name them: every kind's, a matrix of several kinds has their union), a failed check
-    marked, a failed status or engine its case's whole row."""
-    figures = []
+def figure_specs(run: LinkageRun) -> list[FigureSpec]:
+    """Every figure of a linkage report: per judge the slider crank's heat map (the columns in the order the
+    cases' checks name them: every kind's, a matrix of several kinds has their union), then each case's
+    engine-overlay figure."""
+    specs = []
     for e in run.matrix.judges:
         ids = [entry.id for entry in run.matrix.cases if run.comparison.for_engine(entry.id, e)]
-        if not ids:
-            continue
         qs = list(dict.fromkeys(c.quantity for cid in ids for c in run.comparison.for_engine(cid, e)
                                 if c.quantity not in (STATUS, ENGINE)))
-        arrays = heatmap_arrays(run.comparison, e, ids, qs)
-        with drawing():
-            png = heatmap_figure(e, ids, qs, *arrays)
-        figures.append(Figure(f"heatmap-{e}", "heatmap", e, f"{e}: agreement per case and quantity",
-                              HEATMAP_CAPTION, png))
-    return figures
+        if ids:
+            specs.append(heatmap_spec(run.comparison, e, ids, qs))
+    return specs + [case_spec(run, entry) for entry in run.matrix.cases]
 
 
-def write_linkage_report(run: LinkageRun, outdir: Path, seconds: float) -> LinkageReport:
-    """Write the run folder's tables, figures, ``summary.json``, ``report.md`` and ``report.html``."""
+def write_linkage_report(run: LinkageRun, rundir: Path, outdir: Path, *, jobs: int = 1,
+                         progress: ProgressCallback | None = None) -> ReportFiles:
+    """Write the report of the linkage run stored in ``rundir`` (its ``run.json``) into ``outdir``: every
+    engine's table, the figures (drawn in ``jobs`` processes; ``progress(done, total, key)`` after each),
+    ``summary.json``, ``report.md`` and ``report.html``
+    (:func:`~dualmech.validation.report.render.publish`)."""
     start = time.perf_counter()
+    matrix, stored = as_run_matrix(run.matrix), load_run(rundir)[1]
     with locked(outdir) as outdir:
-        tables = write_tables(run, outdir)
-        figures = [*judge_heatmaps(run), *(case_figure(run, e) for e in run.matrix.cases)]
-        paths = [write_file(outdir, f"figures/{f.key}.png", f.png, record=False) for f in figures]
-        summary = linkage_summary(run, seconds)
-        context = {"s": summary, "figures": figures, "failures": run.comparison.failures()[:200],
-                   "checks": run.comparison.checks, "report_seconds": time.perf_counter() - start,
-                   "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
-        files = LinkageReport(outdir / "summary.json", outdir / "report.md", outdir / "report.html",
-                              tuple(paths), tuple(tables), 0.0, str(run.verdict))
-        write_json(outdir, files.summary.name, summary, pretty=True, record=False)
-        for template, target, markdown in (("linkages.md.j2", files.markdown, True),
-                                           ("linkages.html.j2", files.html, False)):
-            write_file(outdir, target.name, environment(TEMPLATES, markdown).get_template(template).render(
-                **context), record=False)
-        record_files(outdir, [files.summary, files.markdown, files.html, *paths, *tables])
+        record_files(outdir, write_tables(run, outdir))
+        pending = PendingFigures(jobs)
+        try:
+            pending.add(figure_specs(run))
+            figures = pending.collect(progress)
+        finally:
+            pending.cancel()
+        summary = json_text(linkage_summary(run, matrix, stored), pretty=True)
+        files = publish(outdir, linkage_context(run, matrix, stored), summary, compiled_templates(), figures,
+                        start, str(run.verdict))
     return replace(files, seconds=time.perf_counter() - start)
 
 

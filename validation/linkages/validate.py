@@ -15,14 +15,10 @@ from typing import Any
 from dualmech.validation.compare import Comparison, Verdict
 from dualmech.validation.compare.junit import write_junit
 from dualmech.validation.linkages.matrix import LinkageMatrix
-from dualmech.validation.linkages.report import (
-    LinkageReport,
-    console_table,
-    verdict_lines,
-    write_linkage_report,
-)
+from dualmech.validation.linkages.report import console_table, verdict_lines, write_linkage_report
 from dualmech.validation.linkages.run import LinkageRun, as_run_matrix, run_linkages, stored_linkage_matrix
 from dualmech.validation.progress import ProgressCallback
+from dualmech.validation.report.render import ReportFiles
 from dualmech.validation.run.runner import load_run, run_versions
 
 
@@ -56,10 +52,12 @@ class LinkageValidation:
     tables = results
 
     def write_report(self, report_dir: str | Path | None = None, jobs: int = 1, *,
-                     progress: ProgressCallback | None = None, findings: Any = None) -> LinkageReport:
-        """Write the linkage report into ``report_dir`` (default the run folder); ``jobs``, ``progress``
-        and ``findings`` are the slider crank's (its figures are few and drawn here)."""
-        return write_linkage_report(self.run, Path(report_dir or self.outdir), self.seconds)
+                     progress: ProgressCallback | None = None, findings: Any = None) -> ReportFiles:
+        """Write the report into ``report_dir`` (default the run folder): the slider crank's
+        (:mod:`.report`), its figures drawn in ``jobs`` processes, ``progress(done, total, key)`` after each;
+        ``findings`` (the thesis's) has no meaning here."""
+        return write_linkage_report(self.run, self.outdir, Path(report_dir or self.outdir), jobs=jobs,
+                                    progress=progress)
 
     def baseline(self) -> dict:
         """This run's baseline summary (:meth:`~dualmech.validation.linkages.run.LinkageRun.baseline`)."""
@@ -88,7 +86,7 @@ def validate_linkage_matrix(matrix: LinkageMatrix, outdir: Path, *, jobs: int = 
     return LinkageValidation(matrix, Path(outdir), run, time.perf_counter() - start)
 
 
-def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None) -> LinkageReport | None:
+def report_linkage_run(rundir: str | Path, outdir: str | Path | None = None) -> ReportFiles | None:
     """``dualmech report`` of a stored linkage run: its results compared again and its report written (to
     ``outdir``, default the run folder); ``None`` for a run of slider-crank cases (for the slider crank's
     report).  A result missing from the folder is run now (as ``--resume`` would)."""

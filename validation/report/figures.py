@@ -6,7 +6,9 @@ first, and :meth:`PendingFigures.add_judged` those that need the comparison (:fu
 waits for them).  Every figure is made interactive (:mod:`~dualmech.validation.report.interactive`, for the
 HTML page); those the Markdown report shows (:attr:`FigureSpec.static`: :data:`STATIC_SWEEP_FIGURES`, the heat
 maps, the balancing plot) are also drawn as PNG (:mod:`~dualmech.validation.report.plots`).  Rasterising is
-most of a report's cost, so the others are not drawn at all.
+most of a report's cost, so the others are not drawn at all.  A case without sweeps (a linkage's, planned by
+:mod:`dualmech.validation.linkages.report`) has its engine-overlay figure (kind ``"case"``,
+:mod:`~dualmech.validation.report.overlay`), drawn the same way.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from dualmech.validation.matrix import Matrix
 from dualmech.validation.progress import ProgressCallback
 from dualmech.validation.report import interactive
 from dualmech.validation.report.canvas import drawing
+from dualmech.validation.report.overlay import overlay_figure, overlay_plot
 from dualmech.validation.report.plots import (
     HEATMAP_CAPTION,
     Figure,
@@ -62,7 +65,7 @@ class FigureSpec(NamedTuple):
     """One planned figure."""
 
     key: str  # file stem under figures/ (and the HTML element's id)
-    section: str  # "sweep", "difference", "heatmap" or "balancing"
+    section: str  # "sweep", "difference", "heatmap", "balancing" or "case"
     group: str  # the sweep's name, or the judge's
     title: str
     caption: str
@@ -137,25 +140,28 @@ def _difference_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec
 
 
 def _heatmap_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec]:
-    """Per judge: the ratio to tolerance per case and quantity (with the worst relative difference and the
-    tolerance, for the interactive figure's hover), and its failures."""
+    """Per judge: the heat map of its ratio to tolerance per case and quantity of the matrix."""
     specs: list[FigureSpec] = []
     for e in matrix.judges:
         ids = [mc.id for mc in matrix.cases if comparison.for_engine(mc.id, e)]
-        if not ids:
-            continue
-        qs = list(matrix.quantities) + [STROKE]
-        ratios, failed, max_rel, tolerance = heatmap_arrays(comparison, e, ids, qs)
-        specs.append(FigureSpec(
-            _file_key(f"heatmap-{e}"),
-            "heatmap",
-            e,
-            f"{e}: agreement per case and quantity",
-            HEATMAP_CAPTION,
-            ("heatmap", (e, ids, qs, ratios, failed, max_rel, tolerance)),
-            static=True,
-        ))
+        if ids:
+            specs.append(heatmap_spec(comparison, e, ids, list(matrix.quantities) + [STROKE]))
     return specs
+
+
+def heatmap_spec(comparison: Comparison, engine: str, cases: list[str], quantities: list[str]) -> FigureSpec:
+    """The heat map of judge ``engine``: its ratio to tolerance per case and quantity (with the worst relative
+    difference and the tolerance, for the interactive figure's hover), and its failures."""
+    ratios, failed, max_rel, tolerance = heatmap_arrays(comparison, engine, cases, quantities)
+    return FigureSpec(
+        _file_key(f"heatmap-{engine}"),
+        "heatmap",
+        engine,
+        f"{engine}: agreement per case and quantity",
+        HEATMAP_CAPTION,
+        ("heatmap", (engine, cases, quantities, ratios, failed, max_rel, tolerance)),
+        static=True,
+    )
 
 
 def _file_key(text: str) -> str:
@@ -169,9 +175,10 @@ _FIGURE_FUNCTIONS = {
     "difference": (None, interactive.difference_plot),
     "heatmap": (heatmap_figure, interactive.heatmap_plot),
     "balancing": (shaking_force_figure, interactive.shaking_force_plot),
+    "case": (overlay_figure, overlay_plot),
 }
 #: Kinds of figure from the slowest to make to the fastest.
-_RENDER_ORDER = ("balancing", "heatmap", "difference", "sweep")
+_RENDER_ORDER = ("balancing", "heatmap", "case", "difference", "sweep")
 
 
 def _render(job: tuple[str, tuple], static: bool = False) -> tuple[bytes | None, str]:

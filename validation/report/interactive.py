@@ -17,7 +17,8 @@ legend entry toggles one (case, engine) series in every panel of its figure.
   on its edge whose hover gives the value (a double click shows every value);
 * :func:`difference_plot`: per judge, the relative difference against the crank angle, log scale;
 * :func:`heatmap_plot`: per judge, the ratio to tolerance per case and quantity (:data:`.plots.RATIO_SCALE`);
-* :func:`shaking_force_plot`: the balancing section's polar plot of the shaking force.
+* :func:`shaking_force_plot`: the balancing section's polar plot of the shaking force;
+* a case's engine overlay (a linkage's): :func:`.overlay.overlay_plot`, beside its static twin.
 """
 
 from __future__ import annotations

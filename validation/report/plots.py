@@ -59,8 +59,8 @@ class Figure:
     """One made figure: interactive, and drawn as PNG if the Markdown report shows it."""
 
     key: str  # file stem under figures/ (and the HTML element's id)
-    section: str  # "sweep", "difference", "heatmap" or "balancing"
-    group: str  # the sweep's name, or the judge's
+    section: str  # "sweep", "difference", "heatmap", "balancing" or "case"
+    group: str  # the sweep's name, the judge's, or the case's
     title: str
     caption: str
     png: bytes | None  # None: interactive only

@@ -40,6 +40,11 @@ from dualmech.validation.rundir import locked, record_files, remove_stale, write
 #: The report's Jinja2 templates.
 TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
+#: How the slider crank's gate (:mod:`dualmech.validation.compare`) makes a relative difference, for the page.
+GATE = {"differences": "normwise per unit group and, for reactions in drive-torque mode, weighted by the "
+                       "transmission |t|", "source": "validation/compare.py",
+        "beside": "Rows beside them are compared with a tolerance scaled by 1/|t|."}
+
 
 @dataclass(frozen=True)
 class ReportFiles:
@@ -166,15 +171,32 @@ def write_report(
             figures = _section("figures", pending.collect, progress)
         finally:
             pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
-        paths = _write_figures(outdir, figures)
-        context.update(figures=figures, errata=copy_errata(outdir) if context["findings"] else None,
-                       plotly_js=plotly_js(), report_seconds=time.perf_counter() - start)
-        files = ReportFiles(outdir / "report.html", outdir / "report.md", outdir / "summary.json",
-                            tuple(paths), 0.0, str(comparison.verdict))
-        for target, text in ((files.html, templates[0].render(**context)),
-                             (files.markdown, templates[1].render(**context)), (files.summary, summary)):
-            write_file(outdir, target.name, text)
+        context["errata"] = copy_errata(outdir) if context["findings"] else None
+        files = publish(outdir, context, summary, templates, figures, start, str(comparison.verdict))
     return replace(files, seconds=time.perf_counter() - start)
+
+
+def publish(outdir: Path, context: dict, summary: str, templates: tuple[Any, Any], figures: list[Figure],
+            start: float, verdict: str) -> ReportFiles:
+    """Write a report into ``outdir`` (held by :func:`~dualmech.validation.rundir.locked`): the figures'
+    PNGs, ``report.html`` and ``report.md`` from the compiled ``templates`` (:func:`compiled_templates`)
+    filled with ``context`` and the ``figures``, and the ``summary`` (``summary.json``'s text); the slider
+    crank's report and every other kind's (:mod:`dualmech.validation.linkages.report`) alike.  ``start``:
+    the report's :func:`time.perf_counter` at its start."""
+    paths = _write_figures(outdir, figures)
+    context.update(figures=figures, plotly_js=plotly_js(), report_seconds=time.perf_counter() - start)
+    files = ReportFiles(outdir / "report.html", outdir / "report.md", outdir / "summary.json",
+                        tuple(paths), 0.0, verdict)
+    for target, text in ((files.html, templates[0].render(**context)),
+                         (files.markdown, templates[1].render(**context)), (files.summary, summary)):
+        write_file(outdir, target.name, text)
+    return files
+
+
+def compiled_templates() -> tuple[Any, Any]:
+    """The report's HTML and Markdown templates (``validation/templates/report.{html,md}.j2``), compiled."""
+    return (environment(TEMPLATES, markdown=False).get_template("report.html.j2"),
+            environment(TEMPLATES, markdown=True).get_template("report.md.j2"))
 
 
 def _while_drawn(matrix: Matrix, run: dict, results: dict, comparison: Comparison, pending: PendingFigures,
@@ -190,9 +212,7 @@ def _while_drawn(matrix: Matrix, run: dict, results: dict, comparison: Compariso
     context.update(findings=_section("findings", findings) if matrix.of_thesis else None,
                    balancing=balance.rows)
     summary = json_text(comparison_summary(matrix, comparison, run), pretty=True)
-    html = environment(TEMPLATES, markdown=False).get_template("report.html.j2")
-    markdown = environment(TEMPLATES, markdown=True).get_template("report.md.j2")
-    return context, summary, (html, markdown)
+    return context, summary, compiled_templates()
 
 
 def _compared(matrix: Matrix, results: dict, comparison: Comparison | Callable[[], Comparison] | None
@@ -215,8 +235,29 @@ def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
 
 
 def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison) -> dict:
-    """The template variables that summarise the run (everything but the figures and the model-package
-    sections)."""
+    """The template variables that summarise a slider crank's run (everything but the figures and the
+    model-package sections)."""
+    columns = [name for _, forces, moments in JOINTS
+               for name in (f"{forces[0][:2]} |f|", *([f"{moments[0][:2]} |m|"] if moments else []))]
+    design = {"title": None, "columns": [*columns, "|drive_torque|", "|slider_load|"],
+              "rows": design_rows(matrix, results), "stroke": True, "near": True}
+    return run_context(matrix, run, results, comparison) | {
+        "strokes": stroke_rows(matrix, comparison),
+        "tolerances": tolerance_rows(matrix.tolerances),
+        "design": [design],
+        "sections": [(s.name, s.label) for s in matrix.sweeps],
+        "differences": True,
+        "gate": GATE,
+    }
+
+
+def run_context(matrix: Matrix, run: dict, results: dict, comparison: Comparison,
+                keys: dict[str, str] | None = None) -> dict:
+    """The template variables of any kind's run: verdict, summary, failures, dead centres (at the input
+    values of the columns ``keys`` names per case, the crank angle by default), every check, the run's
+    ``run.json``; a kind's sections are added by its report (:func:`_context`, the linkages'
+    :func:`~dualmech.validation.linkages.report.linkage_context`), those it has not stay empty (``None``):
+    the templates leave them out."""
     failures: list[Check] = comparison.failures()
     return {
         "matrix": matrix,
@@ -225,23 +266,20 @@ def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison) -
         "verdict": str(comparison.verdict),
         "n_missing": len(comparison.missing),
         "n_checks": len(comparison.checks),
+        "checks": comparison.checks,
         "failures": failures[:200],
         "n_failures": len(failures),
         "near_lock": [c for c in comparison.checks if c.near_joint_lock],
         "summary": summary_rows(matrix, comparison),
-        "strokes": stroke_rows(matrix, comparison),
-        "tolerances": tolerance_rows(matrix),
-        "dead_centres": dead_centre_rows(matrix, results),
+        "mode_label": "mode",
+        "input_name": "crank angle",
+        "omitted": [],
+        "dead_centres": dead_centre_rows(matrix, results, keys),
+        "key_label": "theta1 [deg]",
         "engine_versions": engine_versions(results),
-        "design": design_rows(matrix, results),
-        "design_columns": [
-            name
-            for _, forces, moments in JOINTS
-            for name in (f"{forces[0][:2]} |f|", *([f"{moments[0][:2]} |m|"] if moments else []))
-        ]
-        + ["|drive_torque|", "|slider_load|"],
         "near_dead_centre": NEAR_DEAD_CENTRE_TRANSMISSION,
-        "sections": [(s.name, s.label) for s in matrix.sweeps],
+        "strokes": None, "balancing": None, "findings": None, "tolerances": [], "design": [], "sections": [],
+        "differences": False,
         "n_done": len(results),
         "generated": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
     }

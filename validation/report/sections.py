@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from dualmech.core.status import Status, is_status
-from dualmech.core.table import REACTION_COLUMNS, ResultTable
+from dualmech.core.table import REACTION_COLUMNS, ColumnTable, ResultTable
 from dualmech.models.design_summary import DesignSummary, design_summary
 from dualmech.validation.compare import ENGINE, STATUS, STROKE, Comparison
-from dualmech.validation.matrix import Matrix
+from dualmech.validation.matrix import Matrix, ResolvedTolerance
 from dualmech.validation.report.derived import Balancing
 from dualmech.validation.report.figures import FigureSpec
 from dualmech.validation.rundir import write_file
@@ -94,10 +94,11 @@ def balancing_spec(balance: Balancing) -> FigureSpec | None:
     )
 
 
-def tolerance_rows(matrix: Matrix) -> list[dict]:
-    """Distinct tolerances of the matrix, with the judges and quantities they apply to."""
+def tolerance_rows(tolerances: dict[str, dict[str, ResolvedTolerance]]) -> list[dict]:
+    """Distinct tolerances of a run (judge -> quantity or group -> tolerance: a matrix's
+    :attr:`~dualmech.validation.matrix.Matrix.tolerances`), with the judges and quantities they apply to."""
     by_name: dict[tuple, dict] = {}
-    for e, qs in matrix.tolerances.items():
+    for e, qs in tolerances.items():
         for q, t in qs.items():
             row = by_name.setdefault(
                 (t.name, t.value, t.reason),
@@ -126,12 +127,12 @@ def _compact_quantities(qs: list[str]) -> str:
     return ", ".join(parts)
 
 
-def engine_versions(results: dict[str, dict[str, ResultTable | str]]) -> dict[str, dict[str, str]]:
+def engine_versions(results: dict[str, dict[str, ColumnTable | str]]) -> dict[str, dict[str, str]]:
     """Per engine, every meta entry whose key mentions a version (as the engines report them)."""
     out: dict[str, dict[str, str]] = {}
     for per in results.values():
         for e, t in per.items():
-            if isinstance(t, ResultTable):
+            if isinstance(t, ColumnTable):
                 for k, v in t.meta.items():
                     if "version" in k.lower():
                         out.setdefault(e, {})[k] = str(v)
@@ -158,16 +159,19 @@ def design_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]
     ]
 
 
-def dead_centre_rows(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> list[dict]:
-    """Per case with any flagged row: the crank angles each engine flags ``dead_centre``."""
+def dead_centre_rows(matrix: Matrix, results: dict[str, dict[str, ColumnTable | str]],
+                     keys: dict[str, str] | None = None) -> list[dict]:
+    """Per case with any flagged row: the input values (the crank angles, or the column ``keys[case id]``
+    names) each engine flags ``dead_centre``."""
     rows = []
     for mc in matrix.cases:
         per = results.get(mc.id, {})
+        key = (keys or {}).get(mc.id, "theta1_deg")
         flagged = {}
         for e in matrix.engines:
             t = per.get(e)
-            if isinstance(t, ResultTable):
-                flagged[e] = [float(x) for x in t["theta1_deg"][is_status(t.status, Status.DEAD_CENTRE)]]
+            if isinstance(t, ColumnTable):
+                flagged[e] = [float(x) for x in t[key][is_status(t.status, Status.DEAD_CENTRE)]]
         if any(flagged.values()):
             rows.append(
                 {

@@ -15,9 +15,9 @@ from dualmech.cli import main
 from dualmech.models.linkages import CASES
 from dualmech.validation.exit_codes import EXIT_BAD_INPUT, EXIT_FAIL, EXIT_PASS
 from dualmech.validation.linkages.matrix import MatrixError, is_linkage_source, load_linkage_matrix
-from dualmech.validation.linkages.report import judge_heatmaps
+from dualmech.validation.linkages.report import figure_specs
 from dualmech.validation.linkages.run import run_linkages
-from dualmech.validation.report.plots import heatmap_arrays
+from dualmech.validation.report.figures import PendingFigures
 from tests.validation.engine_faults import fault_engine
 
 pytest.importorskip("pinocchio")
@@ -86,8 +86,10 @@ def test_validate_rssr_passes_and_writes_its_report(tmp_path) -> None:
     assert summary["verdict"] == "PASS" and set(summary["worst"]) == {"pinocchio", "mujoco", "mujoco-sim"}
     assert (out / "figures" / "linkage-rssr-crank-rocker.png").stat().st_size > 10_000
     markdown = (out / "report.md").read_text()
-    assert "| rssr-crank-rocker | rssr | mujoco-sim | 180 | pass | 26 |" in markdown
-    assert (out / "report.html").read_text().count("data:image/png;base64,") == 4  # 3 heat maps, the case
+    assert "| case | kind | dead-centre rows | pinocchio | mujoco | mujoco-sim |" in markdown
+    assert "| rssr-crank-rocker | rssr | 0 | ✓ " in markdown and "## Stroke" not in markdown
+    html = (out / "report.html").read_text()  # the slider crank's page: every figure interactive
+    assert html.count('<div class="plot"') == 4 and '<img src="data:' not in html  # 3 heat maps, the case
     assert {p.name for p in (out / "figures").iterdir()} == {
         "linkage-rssr-crank-rocker.png", *(f"heatmap-{e}.png" for e in ("pinocchio", "mujoco", "mujoco-sim"))}
     assert {p.name for p in (out / "tables" / "rssr-crank-rocker").iterdir()} == {
@@ -110,26 +112,31 @@ def test_validate_fails_with_exit_code_1_on_a_faulty_judge(tmp_path, monkeypatch
 
 
 def test_a_judges_heat_map_marks_its_failed_check(tmp_path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The report's heat map of a judge (:func:`~dualmech.validation.linkages.report.judge_heatmaps`): the
-    ratio of every check per case and column, the columns of both kinds (their union; NaN where a case has
-    none), and the one failed check (the RCCC's ``theta4_deg``, shifted 1e-6 deg) marked, no other."""
+    """The report's heat map of a judge (the slider crank's, planned by
+    :func:`~dualmech.validation.linkages.report.figure_specs`): the ratio of every check per case and column,
+    the columns of both kinds (their union; NaN where a case has none), and the one failed check (the RCCC's
+    ``theta4_deg``, shifted 1e-6 deg) marked, no other."""
     def shifted(table):
         return replace(table, columns={**table.columns, "theta4_deg": table.columns["theta4_deg"] + 1e-6})
 
     fault_engine(monkeypatch, "pinocchio", shifted, ("rccc",))
     run = run_linkages(load_linkage_matrix("linkages").with_engines(("dualmech", "pinocchio")), jobs=1)
-    (heatmap,) = judge_heatmaps(run)
-    assert heatmap.key == "heatmap-pinocchio" and heatmap.png.startswith(b"\x89PNG")
-    ids = [e.id for e in run.matrix.cases]
-    qs = list(dict.fromkeys(c.quantity for c in run.comparison.checks
-                            if c.engine == "pinocchio" and c.quantity != "status"))
+    (heatmap,) = [spec for spec in figure_specs(run) if spec.section == "heatmap"]
+    engine, ids, qs, ratios, failed, _, _ = heatmap.job[1]
+    assert heatmap.key == "heatmap-pinocchio" and engine == "pinocchio" and heatmap.static
+    assert ids == [e.id for e in run.matrix.cases]
+    assert qs == list(dict.fromkeys(c.quantity for c in run.comparison.checks
+                                    if c.engine == "pinocchio" and c.quantity != "status"))
     assert {"phi4_deg", "theta4_deg"} <= set(qs)
-    ratios, failed, _, _ = heatmap_arrays(run.comparison, "pinocchio", ids, qs)
     assert [(ids[i], qs[j]) for i, j in zip(*failed.nonzero())] == [("rccc-example", "theta4_deg")]
     for c in run.comparison.checks:
         if c.engine == "pinocchio" and c.quantity != "status":
             assert ratios[ids.index(c.case), qs.index(c.quantity)] == c.ratio
     assert np.isnan(ratios[ids.index("rccc-example"), qs.index("phi4_deg")])
+    pending = PendingFigures(1)
+    pending.add([heatmap])
+    (drawn,) = pending.collect()
+    assert drawn.png.startswith(b"\x89PNG") and '"type":"heatmap"' in drawn.plot
 
 
 def test_a_linkage_run_is_a_ci_gate_junit_and_baseline(tmp_path) -> None:
