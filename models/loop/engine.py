@@ -21,7 +21,7 @@ from functools import cached_property
 import numpy as np
 
 from dualmech.core.closure import ClosureStatus
-from dualmech.core.continuation import continue_closure, search_assembly
+from dualmech.core.continuation import SEARCH_STARTS, continue_closure, search_assembly
 from dualmech.core.kernel.loop_engine import solve_loop
 from dualmech.core.loop import Chain, Loop, LoopState, evaluate
 from dualmech.core.loop_reactions import JointWrenches, solve_joint_wrenches
@@ -128,8 +128,9 @@ def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
             chosen = poses[nearest_to_zero(poses)]
             scalars = np.array([[chosen[name] for name in loop.unknowns]])
             return LoopState(scalars, found.rotations[[poses.index(chosen)]]), int(at)
-    raise ValueError(f"start: no assembled pose found at {min(n, SEARCH_POSITIONS)} drive positions; give "
-                     "the joints' start values")
+    raise ValueError(f"start: no assembled pose found at {min(n, SEARCH_POSITIONS)} drive positions "
+                     f"({SEARCH_STARTS} random poses each): the loop may not assemble there (check its "
+                     "lengths and the drive's range), or give the joints' start values")
 
 
 def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: int = 0, *,

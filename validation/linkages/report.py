@@ -138,16 +138,17 @@ def case_spec(run: LinkageRun, entry: LinkageEntry) -> FigureSpec:
 
 def figure_specs(run: LinkageRun) -> list[FigureSpec]:
     """Every figure of a linkage report: per judge the slider crank's heat map (the columns in the order the
-    cases' checks name them: every kind's, a matrix of several kinds has their union), then each case's
-    engine-overlay figure."""
+    cases' checks name them: every kind's, a matrix of several kinds has their union), then the engine-overlay
+    figure of each case that some engine solved."""
     specs = []
     for e in run.matrix.judges:
         ids = [entry.id for entry in run.matrix.cases if run.comparison.for_engine(entry.id, e)]
         qs = list(dict.fromkeys(c.quantity for cid in ids for c in run.comparison.for_engine(cid, e)
                                 if c.quantity not in (STATUS, ENGINE)))
-        if ids:
+        if ids and qs:  # a judge with no column compared (every case's reference failed) has no map
             specs.append(heatmap_spec(run.comparison, e, ids, qs))
-    return specs + [case_spec(run, entry) for entry in run.matrix.cases]
+    return specs + [case_spec(run, entry) for entry in run.matrix.cases
+                    if any(not isinstance(t, str) for t in run.tables[entry.id].values())]
 
 
 def write_linkage_report(run: LinkageRun, rundir: Path, outdir: Path, *, jobs: int = 1,

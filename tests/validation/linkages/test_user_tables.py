@@ -8,6 +8,7 @@ RSSP's simulated judge was held to 1e-3 rad/s² absolute on the constant-speed d
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -46,3 +47,22 @@ def test_a_zero_group_is_scaled_by_its_rates() -> None:
     peak_v, peak_l = np.max(np.abs(table["s4_dot"])), np.max(np.abs(table["s4"]))
     assert zero_group_scale("length_ddot", table, spec) == pytest.approx(peak_v**2 / peak_l, rel=1e-15)
     assert zero_group_scale("force", table, spec) == 1.0
+
+
+def test_a_table_that_assembles_nowhere_fails_in_one_line_and_draws_no_empty_figure(tmp_path: Path) -> None:
+    """The RSSP with a rod too short to reach: the in-house search says where it looked and what to check,
+    and the report draws no heat map or case figure of nothing (matplotlib warned of singular limits and an
+    empty legend on the user's terminal)."""
+    text = (TABLES / "rssp.toml").read_text().replace("a = 0.2\n", "a = 0.001\n", 1)
+    path = tmp_path / "short.toml"
+    path.write_text(text)
+    run = dualmech.validate(path, tmp_path / "run", engines="dualmech,mujoco")
+    assert str(run.verdict) == "FAIL"
+    failed = run.comparison.failures()[0]
+    assert failed.engine == "dualmech" and failed.detail.startswith(
+        "ValueError: start: no assembled pose found at 8 drive positions (64 random poses each): the loop "
+        "may not assemble there (check its lengths and the drive's range)")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run.write_report()
+    assert not list((tmp_path / "run" / "figures").glob("*.png"))
