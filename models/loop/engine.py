@@ -125,9 +125,9 @@ def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
         found = search_assembly(loop, values, seed, size=length_scale(mechanism))
         if found.scalars.shape[0]:
             poses = [wrapped(dict(zip(loop.unknowns, row))) for row in found.scalars]
-            chosen = poses[nearest_to_zero(poses)]
-            scalars = np.array([[chosen[name] for name in loop.unknowns]])
-            return LoopState(scalars, found.rotations[[poses.index(chosen)]]), int(at)
+            k = nearest_to_zero(poses)
+            scalars = np.array([[poses[k][name] for name in loop.unknowns]])
+            return LoopState(scalars, found.rotations[k:k + 1]), int(at)
     raise ValueError(f"start: no assembled pose found at {min(n, SEARCH_POSITIONS)} drive positions "
                      f"({SEARCH_STARTS} random poses each): the loop may not assemble there (check its "
                      "lengths and the drive's range), or give the joints' start values")
