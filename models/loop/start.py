@@ -32,21 +32,25 @@ ANGLES: tuple[str, ...] = ("theta", "eta")
 SAME_DISTANCE = 1e-9
 
 
+def _wrap(name: str, value: float) -> float:
+    """``value`` of coordinate ``name``: an angle wrapped to [-pi, pi], a slide as it is."""
+    return math.remainder(float(value), 2.0 * math.pi) if _is_angle(name) else float(value)
+
+
+def _is_angle(name: str) -> bool:
+    """Whether coordinate ``name`` (``theta3``, ``eta2``, ``s4``) is an angle."""
+    return name.rstrip("0123456789") in ANGLES
+
+
 def zero_distance(values: Mapping[str, float]) -> float:
     """``d`` of a pose (module docstring): the sum of its wrapped angle coordinates squared, rad²."""
-    total = 0.0
-    for name, value in values.items():
-        if name.rstrip("0123456789") in ANGLES:
-            wrapped = math.remainder(float(value), 2.0 * math.pi)
-            total += wrapped * wrapped
-    return total
+    return sum(_wrap(name, v) ** 2 for name, v in values.items() if _is_angle(name))
 
 
 def wrapped(values: Mapping[str, float]) -> dict[str, float]:
     """``values`` with every angle coordinate wrapped to [-pi, pi] (the same pose: a search's Newton steps
     may end a turn or more away, and the table then starts there)."""
-    return {name: (math.remainder(float(v), 2.0 * math.pi) if name.rstrip("0123456789") in ANGLES
-                   else float(v)) for name, v in values.items()}
+    return {name: _wrap(name, v) for name, v in values.items()}
 
 
 def slide_distance(values: Mapping[str, float]) -> float:
@@ -72,7 +76,7 @@ def nearest_to_zero(poses: Sequence[Mapping[str, float]]) -> int:
     tied = _least(list(range(len(poses))), distances)
     tied = _least(tied, [slide_distance(poses[i]) for i in tied])
     for name in sorted(poses[tied[0]], key=lambda n: (int(n.lstrip("abcdefghijklmnopqrstuvwxyz")), n)):
-        tied = _least(tied, [-wrapped({name: poses[i][name]})[name] for i in tied])
+        tied = _least(tied, [-_wrap(name, poses[i][name]) for i in tied])
     return tied[0]
 
 

@@ -295,7 +295,7 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge) -> LinkageT
     ``meta``: ``iterations`` per row (of the run that answered it) and ``restarts``, the rows a run
     started from.
     """
-    table, reach, columns_of, spec = _kind_of(case)[:4]
+    table, reach, columns_of, spec, _, _ = _kind_of(case)
     mechanism, theta1 = table(case), np.radians(case.motion.angles_deg)
     n = theta1.shape[0]
     cols = {c: np.full(n, np.nan) for c in spec.columns}
@@ -360,7 +360,7 @@ def simulate_case(case: RssrCase | RcccCase) -> LinkageTable:
     runs only on cases whose every row assembles: :func:`~dualmech.validation.engines.solves`).  ``meta``:
     the simulation's (time step, steps per degree, run-in, servo gains, the largest drive lag, ``L_ref``).
     """
-    table, _, columns_of, *_ = _kind_of(case)
+    table, _, columns_of, _, _, _ = _kind_of(case)
     mechanism = table(case)
     starts, _, _ = crude_start(case, mechanism, 0, mujoco_table)
     return columns_of(case, solve_sim_table(with_start(mechanism, starts)), ("dynamics_residual",))
