@@ -24,6 +24,7 @@ readable line.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import sys
@@ -31,7 +32,7 @@ import tempfile
 import time
 import traceback
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import click
 import numpy as np
@@ -98,7 +99,11 @@ def one_line_errors(func: Callable) -> Callable:
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
-            return func(*args, **kwargs)
+            with interrupts_where_python_ignores_them() as ignored:
+                result = func(*args, **kwargs)
+            if ignored:
+                raise ignored[0]
+            return result
         except (click.exceptions.ClickException, click.exceptions.Exit):
             raise
         except (KeyboardInterrupt, click.exceptions.Abort):
@@ -114,6 +119,32 @@ def one_line_errors(func: Callable) -> Callable:
             _internal(err, kwargs)
 
     return wrapper
+
+
+@contextlib.contextmanager
+def interrupts_where_python_ignores_them() -> Iterator[list[KeyboardInterrupt]]:
+    """Keep (in the list yielded) a Ctrl-C that lands where Python ignores exceptions, for the command to
+    end with it.
+
+    A ``KeyboardInterrupt`` raised in a ``__del__`` or a weakref callback (the garbage collector runs them
+    at any bytecode, e.g. while matplotlib draws) goes to :data:`sys.unraisablehook`, which prints
+    "Exception ignored in ..." and a traceback; the command then ran on and exited 0 (seen in ``report``
+    on CI).  Other unraisable exceptions go to the previous hook as before.
+    """
+    ignored: list[KeyboardInterrupt] = []
+    previous = sys.unraisablehook
+
+    def keep(unraisable) -> None:
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            ignored.append(unraisable.exc_value)
+        else:
+            previous(unraisable)
+
+    sys.unraisablehook = keep
+    try:
+        yield ignored
+    finally:
+        sys.unraisablehook = previous
 
 
 def on_interrupt(note: str) -> None:

@@ -177,3 +177,28 @@ def test_ctrl_c_while_a_command_ends_its_pools_is_one_line_and_130(monkeypatch):
     assert res.exit_code == EXIT_INTERRUPTED and res.output.count("dualmech: interrupted") == 1
     res = CliRunner().invoke(main, ["case-path", "no-such-preset"])  # the command's own one line first
     assert res.exit_code == EXIT_INTERRUPTED and "interrupted" not in res.output
+
+
+def test_ctrl_c_where_python_ignores_exceptions_still_ends_the_command_with_130():
+    """A Ctrl-C landing in a ``__del__`` or a weakref callback (the garbage collector runs them anywhere)
+    was "Exception ignored in ..." with a traceback, and the command ran on to exit 0 (``report`` on CI)."""
+    import click
+
+    from dualmech.cli.errors import one_line_errors
+
+    class Collected:
+        def __del__(self):
+            raise KeyboardInterrupt  # what the SIGINT handler raises if the signal arrives here
+
+    ran_on = []
+
+    @click.command()
+    @one_line_errors
+    def cmd():
+        Collected()
+        ran_on.append(True)
+
+    res = CliRunner().invoke(cmd, [])
+    assert res.exit_code == EXIT_INTERRUPTED, res.output
+    assert res.output == "dualmech: interrupted\n"
+    assert ran_on == [True]  # the command's step ends; the interrupt is told at its end
