@@ -48,6 +48,25 @@ def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     end_all_pools()
 
 
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """With pytest-xdist's workers (``-n``), load both compiled kernels here, in the controller, before
+    the workers start (xdist starts them in its own ``pytest_sessionstart``, run last): a cold numba cache
+    is then compiled once and every worker loads it, where each worker compiled both kernels itself at
+    the same time (two compiles of ~3 CPU-minutes each, per worker)."""
+    config = session.config
+    if not getattr(config.option, "numprocesses", None) or hasattr(config, "workerinput"):
+        return
+    from dualmech.cli.progress import show_kernel_compiles
+    from dualmech.models.slider_crank_kernel import load_kernel
+    from dualmech.verbs import solve
+
+    show_kernel_compiles()
+    with config.pluginmanager.getplugin("capturemanager").global_and_fixture_disabled():
+        load_kernel()
+        solve("rscr")  # a loop table: the generic loop kernel's entry points
+
+
 def pytest_collection_finish(session: pytest.Session) -> None:
     """Load the compiled kernel before the first test; a cold numba cache compiles it, with a notice and
     progress on stderr (:func:`dualmech.cli.progress.show_kernel_compiles`; pytest's capture is off
