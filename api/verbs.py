@@ -172,8 +172,9 @@ def open_run(source: str | Path | Case | None, outdir: str | Path | None,
     """The matrix of ``source`` (on ``engines`` if given) and its checked output folder.
 
     ``source``: a matrix file or bundled name (``None``: the thesis's study), a case file or a
-    case preset (a one-design matrix), of any kind: a linkage source (an RSSR, RCCC or loop-table case or
-    matrix, ``docs/matrix-format.md``, "Linkage matrices") gives the runner's matrix of its cases
+    case preset (a one-design matrix), of any kind: a linkage source (an RSSR, RCCC or loop-table case, a
+    linkage matrix or a matrix whose base is one, ``docs/matrix-format.md``, "Linkage matrices") gives
+    the runner's matrix of its cases
     (:func:`~dualmech.validation.linkages.run.as_run_matrix`).  ``outdir`` defaults to
     ``runs/<matrix name>``.  Raises a one-line ``ValueError`` on a bad source, engine or folder.
     """

@@ -84,8 +84,8 @@ def validate(matrix_file, outdir, jobs, resume, scheduler, junit_file, baseline_
 
     Exits 1 when any judge disagrees with the reference beyond tolerance, an engine
     fails, or (with --baseline) anything regressed.  The other linkages: `validate rssr`,
-    `validate rccc`, `validate linkages`, a loop table (`validate rscr`, `validate loops`), or a linkage
-    case or matrix file, with every option (their own report).
+    `validate rccc`, `validate linkages`, a loop table (`validate rscr`, `validate loops`), a linkage
+    case or matrix file, or a matrix whose base is a linkage case, with every option.
     """
     from dualmech.validation.compare import baseline as regression
     from dualmech.validation.report.console import one_design

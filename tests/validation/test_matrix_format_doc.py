@@ -32,7 +32,7 @@ def _printed_ids(command: str) -> list[str]:
 
 def test_the_examples_expand_to_the_cases_the_page_shows(tmp_path):
     files = _example_files(tmp_path)
-    assert sorted(files) == ["design.toml", "full.toml", "minimal.toml"]
+    assert sorted(files) == ["design.toml", "full.toml", "minimal.toml", "rscr-study.toml"]
     for name in ("minimal.toml", "full.toml"):
         matrix = load_matrix(files[name])
         assert [c.id for c in matrix.cases] == _printed_ids(name), name
@@ -42,3 +42,11 @@ def test_the_examples_expand_to_the_cases_the_page_shows(tmp_path):
     assert full.tolerance("mujoco-sim", "S4_ddot").value == 2e-3
     assert full.tolerance("pinocchio", "S4").name == "MATRIX_KINEMATICS"
     assert full.tolerance("mujoco", "stroke").value == 1e-4
+
+
+def test_the_linkage_base_example_expands_to_the_cases_the_page_shows(tmp_path):
+    from dualmech.validation.linkages.matrix import load_linkage_matrix
+
+    matrix = load_linkage_matrix(_example_files(tmp_path)["rscr-study.toml"])
+    assert [c.id for c in matrix.cases] == _printed_ids("rscr-study.toml")
+    assert matrix.engines == ("dualmech", "pinocchio") and {c.kind for c in matrix.cases} == {"loop"}

@@ -21,6 +21,14 @@ simulation only a case that gives the output torque and closes at every angle); 
 the slider crank's defaults per judge (:data:`~dualmech.validation.matrix.tolerances.DEFAULT_TOLERANCES`),
 not set here.  A linkage
 case given to ``dualmech validate`` instead of a matrix is the matrix of that case on every engine.
+
+The slider crank's own format, a ``base`` case with ``set`` and ``[[sweep]]`` tables of ``grid``,
+``cases``, ``fixed`` and ``include_base`` (:mod:`dualmech.validation.matrix`), also takes a linkage case
+as its base: its keys are the base case's (``"joint[2].a"``), and every point is one case of this matrix,
+named ``<base_label>-<key>=<value>_...`` (``base_label``: the base case's own name by default; a key by
+its ``[labels]`` symbol if it has one).  Its ``quantities``, ``[load_modes]``, ``[tolerances]`` and
+``expect`` are the slider crank's columns, loads and status rules, so a linkage base refuses them in one
+line.
 """
 
 from __future__ import annotations
@@ -37,7 +45,8 @@ from dualmech.models.linkages import bundled_names, is_linkage, linkage_case, re
 from dualmech.models.toml_input import read_toml
 from dualmech.validation.engines import ENGINES, solves
 from dualmech.validation.matrix import MatrixError, check_file_name
-from dualmech.validation.matrix.expand import ID_SAFE
+from dualmech.validation.matrix.data import MAX_MATRIX_CASES
+from dualmech.validation.matrix.expand import ID_SAFE, flatten, sweep_points
 from dualmech.validation.matrix.parse import bundled_matrices, matrix_path
 
 #: Keys of a linkage matrix file; ``linkages`` is the one that marks it as one.
@@ -48,6 +57,13 @@ SWEEP_KEYS: tuple[str, ...] = ("case", "key", "values")
 _STEP = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*)(?:\[([0-9]+)\])?$")
 #: Most cases a linkage matrix may list.
 MAX_LINKAGE_CASES = 100
+#: Keys of the slider crank's matrix format that a linkage base takes (module docstring).
+BASE_KEYS: tuple[str, ...] = ("name", "description", "base", "base_label", "engines", "reference", "set",
+                              "labels", "sweep")
+#: Keys of one ``[[sweep]]`` of that format that a linkage base takes.
+BASE_SWEEP_KEYS: tuple[str, ...] = ("name", "label", "grid", "cases", "fixed", "include_base")
+#: The one sweep of a based matrix that declares none: the base case alone.
+BASE_ALONE: tuple[dict, ...] = ({"cases": [{}], "include_base": False},)
 
 
 @dataclass(frozen=True)
@@ -107,8 +123,9 @@ def is_linkage_source(source: str | Path | None) -> bool:
         return True
     try:
         path = _matrix_file(source)
-        return path is not None and "linkages" in read_toml(path, MatrixError)
-    except (MatrixError, OSError):
+        data = read_toml(path, MatrixError) if path is not None else {}
+        return "linkages" in data or ("base" in data and is_linkage(_case_file(data["base"], path)))
+    except (MatrixError, OSError, TypeError):
         return False
 
 
@@ -127,7 +144,10 @@ def load_linkage_matrix(source: str | Path) -> LinkageMatrix:
     path = _matrix_file(source)
     if path is None:
         raise MatrixError(f"matrix: {show(str(source))} is neither a linkage case nor a linkage matrix")
-    return parse_linkage_matrix(read_toml(path, MatrixError), str(path), path)
+    data = read_toml(path, MatrixError)
+    if "base" in data:
+        return parse_based_linkage_matrix(data, str(path), path)
+    return parse_linkage_matrix(data, str(path), path)
 
 
 def parse_linkage_matrix(data: dict, source: str, matrix_file: Path | None = None) -> LinkageMatrix:
@@ -135,10 +155,7 @@ def parse_linkage_matrix(data: dict, source: str, matrix_file: Path | None = Non
     for key in data:
         if key not in KEYS:
             raise MatrixError(f"{key_text(key)}: unknown linkage matrix key (valid: {', '.join(KEYS)})")
-    name = check_file_name("name", data.get("name"))
-    description = data.get("description", "")
-    if not isinstance(description, str) or "\n" in description:
-        raise MatrixError(f"description: expected one line of text, got {show(description)}")
+    name, description = check_file_name("name", data.get("name")), _description(data)
     listed = data.get("linkages")
     if not isinstance(listed, list) or not listed or len(listed) > MAX_LINKAGE_CASES:
         raise MatrixError(f"linkages: expected a list of 1 to {MAX_LINKAGE_CASES} linkage cases (bundled "
@@ -157,6 +174,63 @@ def parse_linkage_matrix(data: dict, source: str, matrix_file: Path | None = Non
         raise MatrixError(f"linkages: two cases are named {twice!r}; every case needs its own name")
     engines, reference = _engines(data, "engines")
     return LinkageMatrix(name, description, source, engines, reference, cases)
+
+
+def parse_based_linkage_matrix(data: dict, source: str, matrix_file: Path | None = None) -> LinkageMatrix:
+    """A parsed matrix table of the slider crank's format whose ``base`` is a linkage case (module
+    docstring) as a :class:`LinkageMatrix`: the base case with ``set``, and one case per point of each
+    ``[[sweep]]`` (the base beside each unless ``include_base = false``; a case that several sweeps give is
+    run once); one-line errors."""
+    for key in data:
+        if key not in BASE_KEYS:
+            raise MatrixError(f"{key_text(key)}: not a key of a matrix whose base is a linkage case (valid: "
+                              f"{', '.join(BASE_KEYS)}; its columns, loads and tolerances are its kind's)")
+    name, description = check_file_name("name", data.get("name")), _description(data)
+    base = _case_data(data.get("base"), matrix_file, "base")
+    label = check_file_name("base_label", data.get("base_label", base.get("name", "base")))
+    common = flatten(data.get("set", {}), "set")
+    labels = {key: check_file_name(f"labels.{key_text(key)}", symbol)  # symbols become part of case ids
+              for key, symbol in flatten(data.get("labels", {}), "labels").items()}
+    sweeps = data.get("sweep", list(BASE_ALONE))
+    if not isinstance(sweeps, list) or not sweeps:
+        raise MatrixError("sweep: expected [[sweep]] tables, or none (the base case alone)")
+    cases: dict[str, LinkageEntry] = {}
+    for i, sweep in enumerate(sweeps):
+        for values in _points(sweep, f"sweep[{i}]", MAX_LINKAGE_CASES - len(cases)):
+            text = "_".join(f"{labels.get(k, k)}={v}" for k, v in values.items())
+            entry = _with_values(base, {**common, **values}, f"{label}-{text}" if text else label,
+                                 str(data["base"]), f"sweep[{i}]", f"sweep[{i}]")
+            if cases.setdefault(entry.id, entry).data != entry.data:
+                raise MatrixError(f"sweep[{i}]: two different cases are named {entry.id!r}")
+    if len(cases) > MAX_LINKAGE_CASES:
+        raise MatrixError(f"sweep: {len(cases)} cases; a linkage matrix runs at most {MAX_LINKAGE_CASES}")
+    engines, reference = _engines(data, "engines")
+    return LinkageMatrix(name, description, source, engines, reference, tuple(cases.values()))
+
+
+def _points(sweep: Any, where: str, room: int) -> list[dict[str, Any]]:
+    """The key values of each case of one ``[[sweep]]`` of a based matrix, the base's (``{}``) first
+    unless ``include_base = false``; more than ``room`` cases are refused before any is built."""
+    if not isinstance(sweep, dict):
+        raise MatrixError(f"{where}: expected a table, got {show(sweep)}")
+    check_keys(where, sweep, BASE_SWEEP_KEYS, MatrixError)
+    check_file_name(f"{where}.name", sweep.get("name", "sweep"))
+    include_base = sweep.get("include_base", True)
+    if not isinstance(include_base, bool):
+        raise MatrixError(f"{where}.include_base: expected true or false, got {show(include_base)}")
+    points, _ = sweep_points(sweep, where, MAX_MATRIX_CASES)
+    if len(points) + include_base > room:
+        raise MatrixError(f"{where}: more than {MAX_LINKAGE_CASES} cases in the matrix (this sweep "
+                          f"{len(points)}); a linkage matrix runs at most {MAX_LINKAGE_CASES}")
+    return [{}] * include_base + points
+
+
+def _description(data: dict) -> str:
+    """The matrix's ``description``: one line of text (default ``""``)."""
+    description = data.get("description", "")
+    if not isinstance(description, str) or "\n" in description:
+        raise MatrixError(f"description: expected one line of text, got {show(description)}")
+    return description
 
 
 def _entry(source: Any, matrix_file: Path | None, where: str) -> LinkageEntry:
@@ -184,17 +258,25 @@ def _sweep(k: int, sweep: Any, matrix_file: Path | None) -> list[LinkageEntry]:
     if not isinstance(values, list) or not values or len(values) > MAX_LINKAGE_CASES:
         raise MatrixError(f"{where}.values: expected a list of 1 to {MAX_LINKAGE_CASES} values, got "
                           f"{show(values)}")
-    entries = []
-    for value in values:
-        data = copy.deepcopy(base)
-        parent, leaf = _swept(data, key, f"{where}.key")
+    return [_with_values(base, {key: value}, f"{base.get('name', 'case')}-{key}={value}", str(sweep["case"]),
+                         where, f"{where}.key") for value in values]
+
+
+def _with_values(base: dict, values: dict[str, Any], name: str, source: str, where: str,
+                 keys_where: str) -> LinkageEntry:
+    """The entry of case table ``base`` with each key of ``values`` set (:func:`_swept`; a key the case
+    does not have is one line naming ``keys_where``) and named ``name``; a value its kind's reader refuses
+    is one line naming ``where``, the key and the value."""
+    data = copy.deepcopy(base)
+    for key, value in values.items():
+        parent, leaf = _swept(data, key, keys_where)
         parent[leaf] = value
-        data["name"] = f"{base.get('name', 'case')}-{key}={value}"
-        try:
-            entries.append(_checked(data, str(sweep["case"]), where))
-        except CaseError as err:
-            raise MatrixError(f"{where}: {key} = {show(value)}: {err}") from None
-    return entries
+    data["name"] = name
+    try:
+        return _checked(data, source, where)
+    except CaseError as err:
+        given = ", ".join(f"{k} = {show(v)}" for k, v in values.items())
+        raise MatrixError(f"{where}: {given}: {err}") from None
 
 
 def _swept(data: dict, key: Any, where: str) -> tuple[dict, str]:
@@ -223,13 +305,19 @@ def _swept(data: dict, key: Any, where: str) -> tuple[dict, str]:
     raise MatrixError(f"{where}: {show(key)}: a key ends at a value, not at a row")
 
 
+def _case_file(source: str, matrix_file: Path | None) -> str:
+    """Where case ``source`` of a matrix is read: a file relative to the matrix file if there is one, else
+    ``source`` itself (a file, or a bundled stem)."""
+    candidate = matrix_file.parent / source if matrix_file is not None else None
+    return str(candidate) if candidate is not None and candidate.is_file() else source
+
+
 def _case_data(source: Any, matrix_file: Path | None, where: str) -> dict:
     """The parsed case table of ``source``: a file relative to the matrix file (tried first), a file, or a
     bundled stem; a one-line MatrixError for anything that is not a linkage case."""
     if not isinstance(source, str):
         raise MatrixError(f"{where}: expected a bundled linkage case or a case file, got {show(source)}")
-    candidate = matrix_file.parent / source if matrix_file is not None else None
-    target = str(candidate) if candidate is not None and candidate.is_file() else source
+    target = _case_file(source, matrix_file)
     if not is_linkage(target):
         raise MatrixError(f"{where}: {show(source)} is not a linkage case (a bundled name: "
                           f"{', '.join(bundled_names())}, or a file whose [mechanism] kind is one of "

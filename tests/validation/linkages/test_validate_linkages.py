@@ -61,10 +61,16 @@ def test_which_sources_are_linkage_runs(tmp_path) -> None:
 def test_bad_linkage_matrices_are_refused_in_one_line(tmp_path, text: str, words: str) -> None:
     path = tmp_path / "m.toml"
     path.write_text(text)
+    _refused_in_one_line(path, words)
+
+
+def _refused_in_one_line(path, words: str) -> None:
+    """Matrix file ``path`` is refused with one line holding ``words``, by the reader and by ``validate``
+    (exit code 2)."""
     with pytest.raises(MatrixError) as err:
         load_linkage_matrix(path)
     assert words in str(err.value) and "\n" not in str(err.value), str(err.value)
-    result = CliRunner().invoke(main, ["validate", str(path), "-o", str(tmp_path / "run")])
+    result = CliRunner().invoke(main, ["validate", str(path), "-o", str(path.parent / "run")])
     assert result.exit_code == EXIT_BAD_INPUT and result.output.count("\n") == 1, result.output
 
 
@@ -221,3 +227,108 @@ def test_report_of_a_linkage_run_compares_its_stored_results(tmp_path) -> None:
     path.write_text(json.dumps(stored))
     faulty = CliRunner().invoke(main, ["report", str(out)])
     assert faulty.exit_code == EXIT_FAIL and faulty.output.startswith("FAIL: report"), faulty.output
+
+
+#: A matrix of the slider crank's format on a loop table: the base, ``set``, a grid and a list of cases.
+BASED = '''
+name = "rscr-study"
+base = "rscr"
+base_label = "nominal"
+engines = ["dualmech", "pinocchio"]
+set = { "drive.positions" = { start = 0.0, stop = 1.0, step = 0.5 } }
+[labels]
+"joint[2].a" = "a2"
+[[sweep]]
+name = "coupler"
+grid = { "joint[2].a" = [0.10, 0.14], "drive.speed" = [1.0, 2.0] }
+[[sweep]]
+name = "one"
+include_base = false
+fixed = { "drive.speed" = 3.0 }
+cases = [ { "joint[2].a" = 0.12 } ]
+'''
+
+
+def _set(table: dict, values: dict) -> dict:
+    """``table`` (a parsed case file) with each dotted key (``joint[2].a``) of ``values`` set: the oracle of
+    the based matrix's cases, written apart from it."""
+    import copy
+    import re
+
+    out = copy.deepcopy(table)
+    for key, value in values.items():
+        *path, leaf = key.split(".")
+        node = out
+        for step in path:
+            name, row = re.fullmatch(r"(\w+)(?:\[(\d+)\])?", step).groups()
+            node = node[name] if row is None else node[name][int(row) - 1]
+        node[leaf] = value
+    return out
+
+
+def test_a_matrix_of_the_slider_cranks_format_takes_a_linkage_base(tmp_path) -> None:
+    """``base`` a loop table: the base with ``set`` first, one case per grid point and listed case (the base
+    once, though both sweeps could give it: the second leaves it out), ids from ``base_label`` and the
+    ``[labels]`` symbols, and each case the base file with exactly its keys set."""
+    import tomllib
+
+    from dualmech.models.linkages import read_linkage
+
+    path = tmp_path / "m.toml"
+    path.write_text(BASED)
+    assert is_linkage_source(path) and is_linkage_source(str(path))
+    matrix = load_linkage_matrix(path)
+    assert [c.id for c in matrix.cases] == [
+        "nominal", "nominal-a2=0.1_drive.speed=1.0", "nominal-a2=0.1_drive.speed=2.0",
+        "nominal-a2=0.14_drive.speed=1.0", "nominal-a2=0.14_drive.speed=2.0",
+        "nominal-drive.speed=3.0_a2=0.12"]
+    assert matrix.engines == ("dualmech", "pinocchio") and matrix.name == "rscr-study"
+    base = read_linkage("rscr")
+    common = tomllib.loads(BASED)["set"]
+    points = [{}, *({"joint[2].a": a, "drive.speed": w} for a in (0.10, 0.14) for w in (1.0, 2.0)),
+              {"drive.speed": 3.0, "joint[2].a": 0.12}]
+    for case, point in zip(matrix.cases, points):
+        expected = _set(base, {"drive.positions": common["drive.positions"], **point})
+        assert {k: v for k, v in case.data.items() if k != "name"} == \
+            {k: v for k, v in expected.items() if k != "name"}, case.id
+        assert case.kind == "loop" and case.source == "rscr"
+
+
+@pytest.mark.parametrize("extra, words", [
+    ('quantities = ["S4"]\n', "quantities: not a key of a matrix whose base is a linkage case (valid: name,"),
+    ('[load_modes]\ntorque = { "loads.drive_torque" = 1.0 }\n', "load_modes: not a key of a matrix whose"),
+    ('[tolerances]\nkinematics = 1e-9\n', "tolerances: not a key of a matrix whose base is a linkage case"),
+    ('[[sweep]]\nexpect = "no_assembly"\ngrid = { "joint[2].a" = [9.0] }\n',
+     "sweep[0].expect: unknown key (valid: cases, fixed, grid, include_base, label, name)"),
+    ('[[sweep]]\ngrid = { "joint[9].a" = [0.1] }\n', "sweep[0]: 'joint[9].a': joint has rows 1..4, got 9"),
+    ('[[sweep]]\ngrid = { "joint[2].a" = ["long"] }\n',
+     "sweep[0]: joint[2].a = 'long': joint[2].a: expected a finite number"),
+    ('[[sweep]]\ngrid = { "joint[2].a" = [0.1], "drive.speed" = [1.0] }\ncases = [{}]\n',
+     "sweep[0]: give exactly one of grid (a Cartesian product) or cases (a list)"),
+    ('[[sweep]]\ngrid = { "joint[2].a" = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0], '
+     '"drive.speed" = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0] }\n',
+     "sweep[0]: more than 100 cases in the matrix (this sweep 100); a linkage matrix runs at most 100"),
+    ('[labels]\n"joint[2].a" = "../a"\n', "labels.'joint[2].a': '../a'"),
+])
+def test_bad_based_linkage_matrices_are_refused_in_one_line(tmp_path, extra: str, words: str) -> None:
+    path = tmp_path / "m.toml"
+    path.write_text(f'name = "m"\nbase = "rscr"\n{extra}')
+    _refused_in_one_line(path, words)
+
+
+def test_validate_runs_a_matrix_whose_base_is_a_linkage_case(tmp_path) -> None:
+    """Refused before ("base: case: 'rssr' is neither a file nor a bundled preset"): the slider crank's
+    format on an RSSR file beside the matrix, run, compared and reported."""
+    (tmp_path / "mine.toml").write_text((CASES / "rssr.toml").read_text())
+    path = tmp_path / "m.toml"
+    path.write_text('name = "mine-study"\nbase = "mine.toml"\nengines = ["dualmech", "pinocchio"]\n'
+                    'set = { "motion.angles_deg" = { start = 0.0, stop = 360.0, step = 30.0 } }\n'
+                    '[[sweep]]\ngrid = { "geometry.input_crank" = [0.09] }\n')
+    out = tmp_path / "run"
+    result = CliRunner().invoke(main, ["validate", str(path), "-o", str(out)])
+    assert result.exit_code == EXIT_PASS, result.output
+    assert "mine-study: 2 linkage cases, engines dualmech, pinocchio" in result.output
+    assert {p.name for p in (out / "tables").iterdir()} == {
+        "rssr-crank-rocker", "rssr-crank-rocker-geometry.input_crank=0.09"}
+    rows = (out / "tables" / "rssr-crank-rocker-geometry.input_crank=0.09" / "dualmech.csv").read_text()
+    assert len(rows.strip().splitlines()) == 1 + 12  # the header, 0 to 330 deg by 30
