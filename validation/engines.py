@@ -48,6 +48,8 @@ SIM_REFUSALS: dict[str, str] = {
             "loads.output_torque and its loop close at all of them",
     "loop": "; the simulation cuts the loop inside the ground, whose half hangs from the last joint: drive "
             "another joint",
+    "loop-closes": "; its drive is servo-driven through every position of the table: its loop must close "
+                   "(ok) at all of them",
 }
 
 #: Engines run in a thread of the running process beside a pool's workers (under their registered function
@@ -88,16 +90,18 @@ def solves(engine: str, kind: str, case: Any) -> bool:
     torque (an RCCC case always does: its drive torque is always solved; an RSSR case in output-torque mode)
     and its loop closes (``ok``) at every one of those angles: a trajectory cannot pass where it does not
     (the in-house status words decide that, as they decide which rows every judge is compared on).  A loop
-    table's simulation plans its rows from its own rigid closure; it needs the drive at a joint other than
-    the last (:mod:`~dualmech.validation.judges.mujoco_loop.sim_mjcf`).  The slider crank's simulation
-    decides for itself (its table marks what it cannot follow)."""
+    table's simulation needs the drive at a joint other than the last
+    (:mod:`~dualmech.validation.judges.mujoco_loop.sim_mjcf`) and, as the RSSR's, its loop closed (``ok``)
+    at every drive position: started at the edge of a gap, its servo took 20 deg of drive to settle (a
+    user's RRCRC assembling from 125 deg).  The slider crank's simulation decides for itself (its table
+    marks what it cannot follow)."""
     if kind not in ENGINES.get(engine, {}):
         return False
     if engine != "mujoco-sim" or kind == SLIDER_CRANK:
         return True
-    if kind == "loop":
-        return case.drive.joint != len(case.joints) - 1
-    given = kind == "rccc" or getattr(case, "mode", "") == "output"
+    if kind == "loop" and case.drive.joint == len(case.joints) - 1:
+        return False
+    given = kind in ("rccc", "loop") or getattr(case, "mode", "") == "output"
     return given and bool(is_status(run_engine("dualmech", case).status, Status.OK).all())
 
 
@@ -140,10 +144,17 @@ def solve_checked(engine: str, case: Any) -> ColumnTable:
     kind = kind_of(case)
     if not solves(engine, kind, case):
         valid = [e for e in ENGINES if solves(e, kind, case)]
-        why = SIM_REFUSALS.get(kind, SIM_REFUSALS["rssr"]) if kind in ENGINES[engine] else ""
+        why = SIM_REFUSALS[_sim_refusal(kind, case)] if kind in ENGINES[engine] else ""
         raise CaseError(f"engine: {show(engine)} does not solve this {kind.upper()} case (valid: "
                         f"{', '.join(valid)}{why})")
     return run_engine(engine, case)
+
+
+def _sim_refusal(kind: str, case: Any) -> str:
+    """The key of :data:`SIM_REFUSALS` saying why the simulation does not solve ``case`` (:func:`solves`)."""
+    if kind != "loop":
+        return "rssr"
+    return "loop" if case.drive.joint == len(case.joints) - 1 else "loop-closes"
 
 
 def solve_linkage(source: str | Path | dict, engine: str = "dualmech") -> ColumnTable:

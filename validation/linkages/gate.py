@@ -5,8 +5,9 @@ The rules of the slider crank's gate (:mod:`dualmech.validation.compare`), on a 
 
 * ``engine`` -- the judge ran (else a failing check with the first line of its error);
 * ``status`` -- the judge's word equals the reference's at every row, and the judge neither says an
-  engine failure (``not_converged``, ``branch_jump``, ``not_finite``) nor gives a non-finite value
-  where its word says the value is given.  No band: every linkage engine sets its words with the same
+  engine failure (``not_converged``, ``not_finite``) nor gives a non-finite value where its word says the
+  value is given.  ``branch_jump`` is a verdict here (:data:`LINKAGE_VERDICTS`), not a failure.  No
+  band: every linkage engine sets its words with the same
   :func:`~dualmech.models.linkages.rssr.status_words` from its own transmissions (measured: equal at
   every row of the bundled and random cases).  The reference gets its own ``status`` check (no engine
   failure, assembled somewhere);
@@ -40,6 +41,14 @@ from dualmech.validation import tolerances as tolerance_table
 from dualmech.validation.compare import ENGINE, STATUS, VERDICTS, Check, first_line
 from dualmech.validation.matrix import ResolvedTolerance
 from dualmech.validation.matrix.tolerances import DEFAULT_TOLERANCES
+
+#: The words of a row an engine answered: the slider crank's :data:`VERDICTS`, and ``branch_jump``, where a
+#: loop table's followed branch has ended and the loop closes only on another assembly (a user's RRCRC
+#: followed from 125 deg: its branch ends between 228 and 229 deg, and every engine, each by its own
+#: continuation, says ``branch_jump`` from 229 deg, its other assembly closing there until 237 deg).  The
+#: judges' words must still equal the reference's at every row, so a reference that jumps where its branch
+#: goes on fails its status check against every judge that goes on.
+LINKAGE_VERDICTS: frozenset[str] = VERDICTS | {Status.BRANCH_JUMP}
 
 #: The tolerance of status and engine checks: exact.
 EXACT = ResolvedTolerance("exact", 0.0, "statuses must agree row by row, and the engine must run")
@@ -146,7 +155,7 @@ def _given_under(column: str, spec: TableSpec) -> frozenset[str]:
 def _failures(table: LinkageTable, spec: TableSpec, columns: tuple[str, ...]
               ) -> tuple[np.ndarray, np.ndarray]:
     """Rows where ``table``'s engine failed: by its own word, and by a non-finite value its word gives."""
-    failed = ~is_status(table.status, *VERDICTS)
+    failed = ~is_status(table.status, *LINKAGE_VERDICTS)
     non_finite = np.zeros(len(table), dtype=bool)
     for c in columns:
         non_finite |= is_status(table.status, *_given_under(c, spec)) & ~np.isfinite(table[c])

@@ -9,6 +9,7 @@ RSSP's simulated judge was held to 1e-3 rad/s² absolute on the constant-speed d
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -66,3 +67,46 @@ def test_a_table_that_assembles_nowhere_fails_in_one_line_and_draws_no_empty_fig
         warnings.simplefilter("error")
         run.write_report()
     assert not list((tmp_path / "run" / "figures").glob("*.png"))
+
+
+#: The RRCRC's words at 0, 10, ..., 350 deg, by each rigid engine's own continuation: its loop assembles from
+#: ~125 deg; the branch the engines follow from there ends between 228 and 229 deg (a run at 1-deg steps:
+#: ``ok`` to 228, ``branch_jump`` from 229), and from then to 237 deg the loop closes only on its other
+#: assembly (a run started at 215 deg follows that one, ``ok`` to 235 deg).
+RRCRC_WORDS = ["no_assembly"] * 13 + ["ok"] * 10 + ["branch_jump"] + ["no_assembly"] * 12
+
+
+def test_a_drive_past_the_end_of_its_branch_passes_with_every_engine_saying_so(tmp_path: Path) -> None:
+    """Before, the run failed twice: the reference's ``branch_jump`` at 230 deg was taken for an engine
+    failure ("the reference says branch_jump"), and the simulated judge, started at the edge of the gap,
+    said ``not_converged`` at 130 deg (its servo settled 20 deg later).  Now ``branch_jump`` is a verdict
+    every judge must share, and the simulation, as the RSSR's, needs the loop closed at every position."""
+    run = dualmech.validate(TABLES / "rrcrc.toml", tmp_path / "run")
+    assert str(run.verdict) == "PASS", [c for c in run.comparison.failures()]
+    tables = run.results["rrcrc"]
+    assert set(tables) == {"dualmech", "pinocchio", "mujoco"}  # the simulation: not applicable
+    for engine, table in tables.items():
+        assert list(table.status) == RRCRC_WORDS, engine
+    with pytest.raises(ValueError, match=r"its drive is servo-driven through every position of the table: "
+                                         r"its loop must close \(ok\) at all of them\)$"):
+        dualmech.solve(TABLES / "rrcrc.toml", engine="mujoco-sim")
+
+
+def test_a_reference_that_jumps_where_its_branch_goes_on_fails(tmp_path: Path, monkeypatch) -> None:
+    """Deliberate fault: the in-house engine says ``branch_jump`` at 150 deg, where every judge's branch goes
+    on: the reference's word differs from every judge's there."""
+    from tests.validation.engine_faults import fault_engine
+
+    def jumped(table):
+        status = np.asarray(table.status, dtype=object).copy()
+        status[15] = "branch_jump"
+        row = np.arange(len(status)) == 15
+        columns = {c: v if c == "theta1_deg" else np.where(row, np.nan, v) for c, v in table.columns.items()}
+        return replace(table, columns=columns, status=status)
+
+    fault_engine(monkeypatch, "dualmech", jumped, ("loop",))
+    run = dualmech.validate(TABLES / "rrcrc.toml", tmp_path / "run", engines="dualmech,pinocchio,mujoco",
+                            jobs=1)
+    assert str(run.verdict) == "FAIL"
+    failed = {(c.engine, c.quantity) for c in run.comparison.failures()}
+    assert {("pinocchio", "status"), ("mujoco", "status")} <= failed, failed
