@@ -6,7 +6,8 @@ The rules of the slider crank's gate (:mod:`dualmech.validation.compare`), on a 
 * ``engine`` -- the judge ran (else a failing check with the first line of its error);
 * ``status`` -- the judge's word equals the reference's at every row, and the judge neither says an
   engine failure (``not_converged``, ``not_finite``) nor gives a non-finite value where its word says the
-  value is given.  ``branch_jump`` is a verdict here (:data:`LINKAGE_VERDICTS`), not a failure.  No
+  value is given.  ``branch_jump`` is a verdict here (:data:`LINKAGE_VERDICTS`), not a failure, and
+  the same as ``no_assembly`` (:data:`BRANCH_GONE`).  No
   band: every linkage engine sets its words with the same
   :func:`~dualmech.models.linkages.rssr.status_words` from its own transmissions (measured: equal at
   every row of the bundled and random cases).  The reference gets its own ``status`` check (no engine
@@ -49,6 +50,12 @@ from dualmech.validation.matrix.tolerances import DEFAULT_TOLERANCES
 #: judges' words must still equal the reference's at every row, so a reference that jumps where its branch
 #: goes on fails its status check against every judge that goes on.
 LINKAGE_VERDICTS: frozenset[str] = VERDICTS | {Status.BRANCH_JUMP}
+#: Two words the status check takes as one: past the end of a loop table's followed branch, an engine that
+#: closes the loop on another assembly says ``branch_jump``, one whose steps find no pose near its branch
+#: says ``no_assembly``; both say that the followed branch is not there, and neither gives a value (a random
+#: RRRSR, seed 5894: the in-house engine's ``branch_jump`` and the MuJoCo judge's ``no_assembly`` on the row
+#: past the fold).
+BRANCH_GONE: frozenset[str] = frozenset({Status.BRANCH_JUMP, Status.NO_ASSEMBLY})
 
 #: The tolerance of status and engine checks: exact.
 EXACT = ResolvedTolerance("exact", 0.0, "statuses must agree row by row, and the engine must run")
@@ -207,7 +214,8 @@ def status_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spe
     usable = ~np.logical_or(*_failures(reference, spec, columns))
     failed, non_finite = (rows & usable for rows in _failures(judge, spec, columns))
     rs, js = np.asarray(reference.status, dtype=str), np.asarray(judge.status, dtype=str)
-    mismatch = usable & ~failed & (rs != js)
+    gone = is_status(rs, *BRANCH_GONE) & is_status(js, *BRANCH_GONE)
+    mismatch = usable & ~failed & (rs != js) & ~gone
     notes = _failure_notes("the judge", judge, spec, failed, non_finite)
     for r_word, j_word in sorted(set(zip(rs[mismatch], js[mismatch]))):
         rows = mismatch & (rs == r_word) & (js == j_word)

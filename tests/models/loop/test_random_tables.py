@@ -27,7 +27,8 @@ from tests.tolerances import BALANCE, LOOP_CLOSURE
 
 #: Single loops of one degree of freedom, joint 1 driven by its angle (by its slide: P; a C by its angle with
 #: its slide by the axial law, so of mobility 2).
-TOPOLOGIES = ("RSSR", "RCCC", "RSCR", "RSSP", "RRSRR", "RSUR", "PSSR", "CSSP")
+TOPOLOGIES = ("RSSR", "RCCC", "RSCR", "RSSP", "RRSRR", "RSUR", "PSSR", "CSSP",
+              "RRSC", "RSPC", "RSUP", "RRCRC", "RRRSR")
 #: Random starts of the search for a table's first assembly (the engine's search has 64): the property holds
 #: on any assembly, and 16 find one as often (measured: 10 of 24 random tables with 16 starts or 64) in less
 #: time; most of it goes to the tables that have none.

@@ -172,6 +172,20 @@ def test_random_tables_agree_with_the_in_house_engine(seed: int, topology: str) 
     _assert_agree(solve_loop(mechanism), analyze_loop(mechanism))
 
 
+def test_a_closure_creeping_to_a_non_zero_minimum_is_no_assembly() -> None:
+    """A random RRSC (seed 6, no start values) that assembles from -145 deg: at -159.1 deg the judge's damped
+    steps crept for all 400 iterations towards a residual of 5.6e-2 of the table's length (2e-4 of it less
+    than 100 iterations before), and it said ``not_converged`` where the in-house engine says
+    ``no_assembly`` (:data:`~dualmech.validation.judges.pinocchio_loop.closure.CREEP`)."""
+    from dualmech.validation.judges.pinocchio_loop.closure import MAX_ITER
+
+    mechanism = random_table(6, "RRSC")
+    theirs, ours = solve_loop(mechanism), analyze_loop(mechanism)
+    assert list(theirs.status) == list(ours.status)
+    crept = np.asarray(theirs.iterations) == MAX_ITER
+    assert crept.sum() == 1 and theirs.status[int(np.argmax(crept))] == "no_assembly"
+
+
 def test_a_general_7r_is_followed_through_its_sharp_turns() -> None:
     """The bundled general 7R (eight assemblies at its first position, ``models/loop/cases/7r.toml``): both
     engines follow the start's assembly through its sharp turns, ``ok`` at every position, the columns within

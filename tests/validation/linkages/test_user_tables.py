@@ -110,3 +110,23 @@ def test_a_reference_that_jumps_where_its_branch_goes_on_fails(tmp_path: Path, m
     assert str(run.verdict) == "FAIL"
     failed = {(c.engine, c.quantity) for c in run.comparison.failures()}
     assert {("pinocchio", "status"), ("mujoco", "status")} <= failed, failed
+
+
+@pytest.mark.parametrize("row, verdict", [(23, "PASS"), (22, "FAIL")])
+def test_no_assembly_past_the_end_of_the_branch_is_the_same_verdict(tmp_path: Path, monkeypatch, row: int,
+                                                                     verdict: str) -> None:
+    """The MuJoCo judge saying ``no_assembly`` where every engine says ``branch_jump`` (230 deg, row 23: its
+    steps found no pose near its branch, which has ended) agrees
+    (:data:`~dualmech.validation.linkages.gate.BRANCH_GONE`); at an ``ok`` row (220 deg) it fails."""
+    from tests.validation.engine_faults import fault_engine
+
+    def unassembled(table):
+        status = np.asarray(table.status, dtype=object).copy()
+        status[row] = "no_assembly"
+        at = np.arange(len(status)) == row
+        columns = {c: v if c == "theta1_deg" else np.where(at, np.nan, v) for c, v in table.columns.items()}
+        return replace(table, columns=columns, status=status)
+
+    fault_engine(monkeypatch, "mujoco", unassembled, ("loop",))
+    run = dualmech.validate(TABLES / "rrcrc.toml", tmp_path / "run", engines="dualmech,mujoco", jobs=1)
+    assert str(run.verdict) == verdict, [c for c in run.comparison.failures()]

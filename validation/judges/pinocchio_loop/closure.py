@@ -15,8 +15,9 @@ predictor along the drive). The branch is the sign of the determinant of the squ
 rows and the gauge rows over the free coordinates): it changes only through a singular pose, so a pose with
 another sign than the start's is ``branch_jump`` and not continued from. Statuses
 (:mod:`dualmech.core.status`'s words): ``no_assembly`` where the steps stall at a non-zero residual (the
-gradient vanishes, or a Gauss-Newton step barely lowers it: :data:`STALL`), ``not_converged`` where the
-iterations run out or the steps reach a root the cut joint cannot take (an R or C cut's axes opposite,
+gradient vanishes, a Gauss-Newton step barely lowers it: :data:`STALL`, or the iterations run out with
+the damped steps creeping: :data:`CREEP`), ``not_converged`` where the iterations run out otherwise or the
+steps reach a root the cut joint cannot take (an R or C cut's axes opposite,
 :func:`aligned`), else ``ok``.
 """
 
@@ -44,6 +45,11 @@ STATIONARY = 1e-9
 #: the steps creep (a random RRSRR: 256 steps to meet STATIONARY); a residual that
 #: goes to zero drops by a fixed fraction per step at least, and STALL_FLOOR keeps rounding out of it.
 STALL, STALL_FLOOR = 1e-6, 1e-8
+#: Also ``no_assembly``, when the iterations run out: a residual above STALL_FLOOR that fell by less than
+#: CREEP of itself over the last CREEP_ITER iterations, the damped steps creeping to a non-zero minimum (a
+#: random RRSC beyond its assembly limit: 5.6e-2 of the table's length after 400 iterations, 2e-4 of it less
+#: than 100 iterations before); a residual that goes to zero falls by orders of magnitude in as many.
+CREEP, CREEP_ITER = 1e-2, 100
 #: Positions tried, evenly spread, random poses tried at each, and iterations per try, when searching for a
 #: start (a random pose that closes does so in a few dozen iterations; the others are dropped early).
 SEARCH_POSITIONS, SEARCH_TRIES, SEARCH_ITER = 8, 64, 50
@@ -176,9 +182,10 @@ def close_at(lm: LoopModel, q: np.ndarray, values: np.ndarray,
     word, the scaled residual and the iterations, at most ``max_iter`` (module docstring)."""
     q, scale, free, mu = _set(lm, q, values), _scale(lm), list(lm.free), 1e-12
     r, jac, _ = cut_rows(lm, q)
-    r = r * scale
+    r, norms = r * scale, []
     for it in range(max_iter):
         norm = float(np.linalg.norm(r))
+        norms.append(norm)
         ju = jac[:, free] * scale[:, None]
         if norm <= CLOSURE_TOL:
             q, norm = _polish(lm, q, norm, ju, r)
@@ -200,7 +207,9 @@ def close_at(lm: LoopModel, q: np.ndarray, values: np.ndarray,
                 q, r, jac, mu = trial, r_trial * scale, jac_trial, max(mu / 10.0, 1e-15)
                 break
             mu *= 10.0
-    return q, Status.NOT_CONVERGED.value, float(np.linalg.norm(r)), max_iter
+    norm = float(np.linalg.norm(r))
+    crept = len(norms) >= CREEP_ITER and norm > STALL_FLOOR and norms[-CREEP_ITER] - norm < CREEP * norm
+    return q, (Status.NO_ASSEMBLY if crept else Status.NOT_CONVERGED).value, norm, max_iter
 
 
 def branch(lm: LoopModel, q: np.ndarray) -> float:
