@@ -38,5 +38,6 @@ def no_assembly_message(ranges: list[tuple[float, float]]) -> list[str]:
 
 
 def format_angle_ranges(ranges: list[tuple[float, float]]) -> str:
-    """``"a..b, c..d"``: crank-angle ranges (degrees) as every message about them writes them."""
-    return ", ".join(f"{a:g}..{b:g}" for a, b in ranges)
+    """``"a..b, c..d"``: crank-angle ranges (degrees) as every message about them writes them; a range of one
+    value is that value (``"230"``, not ``"230..230"``)."""
+    return ", ".join(f"{a:g}" if a == b else f"{a:g}..{b:g}" for a, b in ranges)

@@ -97,6 +97,13 @@ class DesignSummary:
     near_dead_centres: tuple[float, ...]
     statuses: dict[str, int]
 
+    @property
+    def unsolved(self) -> str:
+        """The positions the engine gave no ``ok`` or ``dead_centre`` answer at, by word
+        (``"no_assembly 25, branch_jump 1"``), or ``"none"``: what the peaks were not taken over."""
+        others = [f"{w} {n}" for w, n in self.statuses.items() if w not in (Status.OK, Status.DEAD_CENTRE)]
+        return ", ".join(others) or "none"
+
     def lines(self) -> list[str]:
         """The summary as text, one fact per line, with units."""
         out = [f"case {self.case} ({self.engine}): "

@@ -137,11 +137,13 @@ def table_summary(table: LinkageTable, spec: TableSpec, units: str = "consistent
 
 def summary(table: LinkageTable, case: Any = None) -> str:
     """A short text about a linkage table (of ``case``, unused: the table names it): engine, case, rows,
-    status counts, worst closure residual, the engine's messages (e.g. the ``no_assembly`` ranges)."""
+    status counts, worst closure residual (not over the ``no_assembly`` rows, whose residual is the least
+    error of a loop that does not close, as the slider crank's), the engine's messages (e.g. the
+    ``no_assembly`` ranges)."""
     words, counts = np.unique(np.asarray(table.status, dtype=str), return_counts=True)
     lines = [f"{table.engine}: {table.case}, {len(table)} positions: "
              + ", ".join(f"{c} {w}" for w, c in zip(words, counts))]
-    residual = table.columns["residual"]
+    residual = table.columns["residual"][~is_status(table.status, Status.NO_ASSEMBLY)]
     if np.isfinite(residual).any():
         lines.append(f"worst closure residual: {np.nanmax(residual):.3g}")
     return "\n".join(lines + list(table.meta.get("messages", [])))

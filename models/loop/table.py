@@ -44,15 +44,25 @@ def analysis_table(an: LoopAnalysis) -> LinkageTable:
     return table
 
 
+#: What :func:`gap_messages` says of the rows of each word, after ``"<word>: "``.
+GAP_WORDS: tuple[tuple[Status, str], ...] = (
+    (Status.NO_ASSEMBLY, "the loop does not close"),
+    (Status.BRANCH_JUMP, "the branch followed from the start has ended: the loop closes only on another "
+                         "assembly"),
+)
+
+
 def gap_messages(table: LinkageTable, spec: TableSpec) -> list[str]:
-    """The message naming the drive positions (``"a..b"`` runs of the table's key) where the loop does not
-    close (``no_assembly``), or none."""
-    ranges = no_assembly_ranges(table.columns[spec.key], is_status(table.status, Status.NO_ASSEMBLY))
-    if not ranges:
-        return []
+    """A message per word of :data:`GAP_WORDS` naming the drive positions (``"a..b"`` runs of the table's
+    key) of its rows, or none."""
     name, unit = spec.key_label
-    return [f"no_assembly: the loop does not close at {name} = {format_angle_ranges(ranges)}"
-            + (f" {unit}" if unit else " (the case's length unit)")]
+    out = []
+    for word, says in GAP_WORDS:
+        ranges = no_assembly_ranges(table.columns[spec.key], is_status(table.status, word))
+        if ranges:
+            out.append(f"{word.value}: {says} at {name} = {format_angle_ranges(ranges)}"
+                       + (f" {unit}" if unit else " (the case's length unit)"))
+    return out
 
 
 def solve_loop_table(mechanism: LoopMechanism) -> LinkageTable:

@@ -126,3 +126,17 @@ def test_a_table_summary_reads_every_joint_of_its_spec():
     assert peaks["|effort_s1|"].where == "constant" and peaks["|effort_s1|"].value == 3.0
     assert s.dead_centres == (s1[2], s1[6]) and np.isnan(s.stroke) and s.near_dead_centres == ()
     assert {p.unit for p in table_summary(table, spec, "SI").peaks} == {""}
+
+
+def test_the_positions_without_an_answer_are_named_by_word():
+    """A slider crank whose slider line is 45 in off the crank axis (a1 = 12, a2 = 50 in): the rod reaches
+    it only where the crank points towards it, so most rows are ``no_assembly``; the summary counts them by
+    word (what the report shows beside the peaks, which are taken over the rest)."""
+    table = solve_case(load_case("thesis/ideal").with_values({"geometry.slider_offset": 45.0}))
+    summary = design_summary(table)
+    words = np.asarray(table.status, dtype=str)
+    missing = int((words == "no_assembly").sum())
+    assert 0 < missing < len(words) and set(words) <= {"ok", "dead_centre", "no_assembly", "assembly_limit"}
+    others = [f"{w} {int((words == w).sum())}" for w in sorted(set(words) - {"ok", "dead_centre"})]
+    assert summary.unsolved == ", ".join(others)
+    assert design_summary(solve_case(load_case("thesis/ideal"))).unsolved == "none"

@@ -17,21 +17,26 @@ def _runs(key: np.ndarray, mask: np.ndarray) -> list[str]:
         if flag and start is None:
             start = i
         elif not flag and start is not None:
-            runs.append(f"{key[start]:g}..{key[i - 1]:g}")
+            runs.append(f"{key[start]:g}" if start == i - 1 else f"{key[start]:g}..{key[i - 1]:g}")
             start = None
     return runs
 
 
 def test_a_gap_is_named_by_its_drive_angles() -> None:
-    """The bundled 7R over a full turn has a gap near 250 deg (docs/conventions.md, "Loop tables"): the
-    message names exactly the runs of ``no_assembly`` rows (a loop table gave no message before)."""
+    """The bundled 7R over a full turn has a gap near 250 deg (docs/conventions.md, "Loop tables") and past it
+    closes only on other assemblies: the messages name exactly the runs of ``no_assembly`` rows and of
+    ``branch_jump`` rows (a loop table gave no message before)."""
     data = copy.deepcopy(read_linkage("7r"))
     data["drive"]["positions"]["stop"] = 360.0
     table = solve_loop_table(linkage_case(data))
-    gap = np.asarray(table.status, dtype=str) == "no_assembly"
-    assert gap.any()
-    runs = ", ".join(_runs(table.columns["theta1_deg"], gap))
-    assert table.meta["messages"] == [f"no_assembly: the loop does not close at theta1 = {runs} deg"]
+    words = np.asarray(table.status, dtype=str)
+    gap, ended = words == "no_assembly", words == "branch_jump"
+    assert gap.any() and ended.any()  # past the gap, the loop closes only on other assemblies
+    runs, jumps = (", ".join(_runs(table.columns["theta1_deg"], rows)) for rows in (gap, ended))
+    assert table.meta["messages"] == [
+        f"no_assembly: the loop does not close at theta1 = {runs} deg",
+        "branch_jump: the branch followed from the start has ended: the loop closes only on another "
+        f"assembly at theta1 = {jumps} deg"]
 
 
 def test_a_loop_that_closes_everywhere_has_no_message() -> None:

@@ -92,7 +92,15 @@ def _expected_peaks(table: dict[str, np.ndarray], key: str, unit: dict[str, str]
     return [_escaped(c) for c in cells]
 
 
-def _row(markdown: str, section: str, case: str) -> list[str]:
+def others(status: np.ndarray) -> str:
+    """The peak table's "other positions" cell of a table's ``status`` column: its words other than ``ok`` and
+    ``dead_centre``, each with its count, in alphabetical order, or ``none``."""
+    words, counts = np.unique(status, return_counts=True)
+    return _escaped(", ".join(f"{w} {n}" for w, n in zip(words, counts) if w not in ("ok", "dead_centre"))
+                    or "none")
+
+
+def row(markdown: str, section: str, case: str) -> list[str]:
     """The cells of ``case``'s row in the first table of ``section``."""
     text = markdown.split(f"## {section}\n", 1)[1].split("\n## ", 1)[0]
     line = next(line for line in text.splitlines() if line.startswith(f"| {_escaped(case)} |"))
@@ -115,13 +123,13 @@ def test_the_peak_loads_are_the_tables_own(tmp_path, source: str, case: str, uni
     expected = _expected_peaks(table, key, units)
     if source == "rscr":
         assert "0 round-off" in " ".join(expected)
-    assert _row(markdown, "Peak joint loads", case) == [case, *expected, "0"]
+    assert row(markdown, "Peak joint loads", case) == [case, *expected, "0", others(table["status"])]
     summary = json.loads((out / "summary.json").read_text())
     checks = [c for c in summary["checks"] if c["engine"] == "pinocchio"]
     assert all(c["passed"] for c in checks)
     ratio, quantity = max((c["max_rel"] / c["tolerance"]["value"], c["quantity"]) for c in checks
                           if c["tolerance"]["value"] > 0)  # the status check: exact, and passed
-    assert _row(markdown, "Summary", case) == [case, kind, "0", f"✓ {ratio:.2g} ({_escaped(quantity)})"]
+    assert row(markdown, "Summary", case) == [case, kind, "0", f"✓ {ratio:.2g} ({_escaped(quantity)})"]
 
 
 def test_dead_centres_tolerances_and_environment_are_the_runs(tmp_path,
@@ -149,11 +157,12 @@ def test_dead_centres_tolerances_and_environment_are_the_runs(tmp_path,
         table = _table(out, case, engine)
         listed.append(", ".join(f"{a:g}" for a in table["theta1_deg"][table["status"] == "dead_centre"]))
     assert listed[0] == "40, 220"
-    assert _row(markdown, "Dead centres", case) == [case, *listed]
-    assert _row(markdown, "Summary", case)[2] == "2"
+    assert row(markdown, "Dead centres", case) == [case, *listed]
+    assert row(markdown, "Summary", case)[2] == "2"
     reference = _table(out, case, "dualmech")
-    assert _row(markdown, "Peak joint loads", case) == [
-        case, *_expected_peaks(reference, "theta1_deg", {"force": "N", "moment": "N·m"}), "2"]
+    assert row(markdown, "Peak joint loads", case) == [
+        case, *_expected_peaks(reference, "theta1_deg", {"force": "N", "moment": "N·m"}), "2",
+        others(reference["status"])]
     summary = json.loads((out / "summary.json").read_text())
     held = {(c["tolerance"]["name"], c["tolerance"]["value"]) for c in summary["checks"]
             if c["engine"] == "pinocchio" and c["tolerance"]["value"] > 0}
@@ -226,6 +235,6 @@ def test_a_failing_check_is_listed_as_summary_json_has_it(tmp_path, monkeypatch:
     markdown = (out / "report.md").read_text()
     n = len(summary["checks"])
     assert f"**FAIL**: {n - 1} of {n} checks passed; 1 of 1 cases run;" in markdown
-    assert _row(markdown, "Summary", "rccc-example") == ["rccc-example", "rccc", "0", "✗ theta4\\_deg"]
+    assert row(markdown, "Summary", "rccc-example") == ["rccc-example", "rccc", "0", "✗ theta4\\_deg"]
     listed = markdown.split("## Failures\n", 1)[1].split("\n## ", 1)[0]
     assert f"- rccc-example / pinocchio: theta4\\_deg: {_escaped(failed[0]['detail'])}" in listed

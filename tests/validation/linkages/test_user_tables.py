@@ -19,6 +19,7 @@ import dualmech
 from dualmech.models.linkages import linkage_case, read_linkage, table_spec
 from dualmech.models.loop.table import solve_loop_table
 from dualmech.validation.linkages.gate import unit_scales, zero_group_scale
+from tests.validation.linkages.test_linkage_report import others, row
 
 TABLES = Path(__file__).parent / "tables"
 
@@ -87,6 +88,18 @@ def test_a_drive_past_the_end_of_its_branch_passes_with_every_engine_saying_so(t
     assert set(tables) == {"dualmech", "pinocchio", "mujoco"}  # the simulation: not applicable
     for engine, table in tables.items():
         assert list(table.status) == RRCRC_WORDS, engine
+    from dualmech.models.linkages import summary
+
+    assert tables["dualmech"].meta["messages"] == [
+        "no_assembly: the loop does not close at theta1 = 0..120, 240..350 deg",
+        "branch_jump: the branch followed from the start has ended: the loop closes only on another assembly "
+        "at theta1 = 230 deg"]
+    closed = [line for line in summary(tables["dualmech"]).splitlines() if line.startswith("worst closure")]
+    assert closed and float(closed[0].split(": ")[1]) < 1e-12  # was 0.154: a no_assembly row's least error
+    run.write_report()  # the positions without an answer are named beside the peaks, not left out in silence
+    markdown = (tmp_path / "run" / "report.md").read_text()
+    assert row(markdown, "Peak joint loads", "rrcrc")[-1] == others(np.array(RRCRC_WORDS)) \
+        == "branch\\_jump 1, no\\_assembly 25"
     with pytest.raises(ValueError, match=r"its drive is servo-driven through every position of the table: "
                                          r"its loop must close \(ok\) at all of them\)$"):
         dualmech.solve(TABLES / "rrcrc.toml", engine="mujoco-sim")
