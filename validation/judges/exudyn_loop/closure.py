@@ -13,7 +13,8 @@ through its centre (the rotation rows' :math:`J_{\\log}` is taken as the identit
 steps are minimum-norm, so an idle spin (a link between two S joints) is not turned.
 
 The start: the joints' ``start`` values at the first drive position when any joint gives them (S: a
-rotation vector in the joint frame's axes), else of :data:`SEARCH_TRIES` random poses closed at each of up
+rotation vector in the joint frame's axes; the last joint's held while the others are fitted first, so
+that its start picks the branch), else of :data:`SEARCH_TRIES` random poses closed at each of up
 to :data:`SEARCH_POSITIONS` evenly spread positions, at the first where any closes, the one nearest the zero
 pose (:func:`~dualmech.models.loop.start.nearest_to_zero`, the rule every engine shares).  From it the loop
 is closed position by position, forward then backward (each from the previous closed pose, through
@@ -76,12 +77,16 @@ def residual(mechanism: LoopMechanism, pose: Pose) -> tuple[np.ndarray, list, li
         joint_frames, link_frames
 
 
-def _columns(mechanism: LoopMechanism, pose: Pose, joint_frames: list, end: np.ndarray) -> list:
-    """``[(key, column (6,))]`` of every free variable: ``(k, name)`` or ``(k, axis)`` of an S joint."""
+def _columns(mechanism: LoopMechanism, pose: Pose, joint_frames: list, end: np.ndarray,
+             held: tuple[int, ...] = ()) -> list:
+    """``[(key, column (6,))]`` of every free variable: ``(k, name)`` or ``(k, axis)`` of an S joint (none of
+    the joints ``held``)."""
     length, p = table_length(mechanism), end[:3, 3]
     prescribed = set(mechanism.prescribed)
     out = []
     for k, joint in enumerate(mechanism.joints):
+        if k in held:
+            continue
         g = joint_frames[k]
         c, z = g[:3, 3], g[:3, 2]
         if joint.type == "S":
@@ -112,16 +117,16 @@ def _moved(pose: Pose, keys: list, step: np.ndarray, joint_frames: list) -> Pose
     return Pose(values, rotations)
 
 
-def close_at(mechanism: LoopMechanism, pose: Pose, position: float,
-             max_iter: int = MAX_ITER) -> tuple[Pose, str, float]:
-    """Levenberg-Marquardt from ``pose`` with the prescribed coordinates at ``position``: the pose, its
-    status word and its scaled residual (module docstring)."""
+def close_at(mechanism: LoopMechanism, pose: Pose, position: float, max_iter: int = MAX_ITER,
+             held: tuple[int, ...] = ()) -> tuple[Pose, str, float]:
+    """Levenberg-Marquardt from ``pose`` with the prescribed coordinates at ``position`` (and the joints
+    ``held`` as they are): the pose, its status word and its scaled residual (module docstring)."""
     pose = Pose({**pose.values, **prescribed_values(mechanism, position)}, pose.rotations)
     r, joint_frames, link_frames = residual(mechanism, pose)
     mu = 1e-12
     for _ in range(max_iter):
         norm = float(np.linalg.norm(r))
-        columns = _columns(mechanism, pose, joint_frames, link_frames[-1])
+        columns = _columns(mechanism, pose, joint_frames, link_frames[-1], held)
         keys, jac = [key for key, _ in columns], np.array([col for _, col in columns]).T
         if norm <= CLOSURE_TOL:
             trial = _moved(pose, keys, -np.linalg.lstsq(jac, r, rcond=None)[0], joint_frames)
@@ -177,13 +182,17 @@ def search_start(mechanism: LoopMechanism, seed: int = 0) -> tuple[Pose, int]:
     """
     positions = mechanism.drive.positions
     if any(j.start for j in mechanism.joints):
-        return close_at(mechanism, start_guess(mechanism), positions[0])[0], 0
+        guess = start_guess(mechanism)
+        last = len(mechanism.joints) - 1
+        if mechanism.joints[last].start:  # the last joint's start picks the branch: the others fitted first
+            guess = close_at(mechanism, guess, positions[0], held=(last,))[0]
+        return close_at(mechanism, guess, positions[0])[0], 0
     rng = np.random.default_rng(seed)
     n = positions.size
     for at in np.unique(np.linspace(0, n - 1, min(n, SEARCH_POSITIONS)).round().astype(int)):
-        closed = [pose for pose, status, _ in (close_at(mechanism, _random_pose(mechanism, rng), positions[at],
-                                                        SEARCH_ITER) for _ in range(SEARCH_TRIES))
-                  if status == Status.OK.value]
+        tries = (close_at(mechanism, _random_pose(mechanism, rng), positions[at], SEARCH_ITER)
+                 for _ in range(SEARCH_TRIES))
+        closed = [pose for pose, status, _ in tries if status == Status.OK.value]
         if closed:
             pose = closed[nearest_to_zero([pose.named() for pose in closed])]
             values = {key: float(np.remainder(v + np.pi, 2 * np.pi) - np.pi) if key[1] != "s" else v

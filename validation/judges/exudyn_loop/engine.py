@@ -13,14 +13,17 @@ residual of :data:`NEWTON_TOL`.  Exudyn's default, index-3 generalized-alpha, ne
 **Rows from a run.**  The trapezoidal rule's accelerations, and with them the multipliers, carry a
 component that alternates from step to step (:math:`a_{j+1} = 2(v_{j+1} - v_j)/h - a_j` keeps any error
 of the start's accelerations with factor -1), so each quantity ``X`` of a row is read at its knot's step
-``j`` and its two neighbours, :math:`\\bar X = (X_{j-1} + 2X_j + X_{j+1})/4`, which cancels it and leaves an
-error :math:`c\\,h^2 + O(h^4)`.  Two runs, ``h`` and ``h/2`` (:data:`STEPS_PER_ROW` steps between rows and
-twice that), then give the Richardson extrapolation and its error estimate
+``j`` and its two neighbours, :math:`\\bar X = (X_{j-1} + 2X_j + X_{j+1})/4` (:data:`WEIGHTS`), which cancels
+it and leaves a smooth error :math:`c_2 h^2 + c_4 h^4 + \\dots` (the rule is symmetric).
 
-.. math:: X = \\frac{4\\bar X_{h/2} - \\bar X_h}{3}, \\qquad E = \\frac{|\\bar X_{h/2} - \\bar X_h|}{3}
+**Richardson.**  Three runs, with steps ``h``, ``h/2``, ``h/4`` (:data:`LEVELS`; ``h``: the fastest joint
+coordinate travels :data:`STEP_TRAVEL` per step, :func:`steps_per_row`), give two extrapolations and the
+error estimate of the finer one (its error is :math:`c_4 h^4/256`, the coarser's sixteen times that):
 
-(``E`` estimates the error of :math:`\\bar X_{h/2}`; that of ``X`` is of higher order).  A prescribed
-coordinate is its law's value, rate and acceleration.
+.. math:: X_1 = \\frac{4\\bar X_{h/2} - \\bar X_h}{3}, \\quad X = \\frac{4\\bar X_{h/4} - \\bar X_{h/2}}{3},
+          \\quad E = \\frac{|X - X_1|}{15}.
+
+A prescribed coordinate is its law's value, rate and acceleration.
 """
 
 from __future__ import annotations
@@ -34,12 +37,21 @@ import numpy as np
 from dualmech.core.status import Status
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.validation.judges.exudyn_loop.closure import close_at, continuation
+from dualmech.validation.judges.exudyn_loop.frames import table_length
 from dualmech.validation.judges.exudyn_loop.law import axial, drive_law, row_time
 from dualmech.validation.judges.exudyn_loop.model import build_system
 from dualmech.validation.judges.exudyn_loop.readout import read_row
 
-#: Steps between two rows of the coarse run (the fine run takes twice as many).
-STEPS_PER_ROW = 32
+#: The drive's travel per step of the coarse run, rad (a slide drive: times the table's length); the fine
+#: run takes steps of half of it.
+STEP_TRAVEL = math.radians(10.0) / 64
+#: The runs' steps, in coarse steps: ``h``, ``h/2``, ``h/4``.
+LEVELS = (1, 2, 4)
+#: The coarse run's least steps between rows when the drive accelerates: the law's rate returns to the
+#: table's at every row, so it wiggles on the rows' time scale (:mod:`.law`), not the motion's.
+MIN_STEPS_ACCEL = 64
+#: Weights of the steps around a row's knot (binomial: they cancel a step-to-step alternation).
+WEIGHTS = np.array([1.0, 2.0, 1.0]) / 4.0
 #: Newton's relative residual tolerance in every step.
 NEWTON_TOL = 1e-12
 
@@ -85,9 +97,20 @@ def settings(steps: int, end_time: float) -> exu.SimulationSettings:
     return ss
 
 
+def _is_angle(name: str) -> bool:
+    return name.startswith(("theta", "eta")) and not name.endswith(("_dot", "_ddot"))
+
+
 def _average(samples: list[dict]) -> dict[str, float]:
-    before, at, after = samples
-    return {key: (before[key] + 2.0 * at[key] + after[key]) / 4.0 for key in at}
+    """The samples of one row weighted by :data:`WEIGHTS` (module docstring); angles taken within half a
+    turn of the middle sample's (``atan2`` wraps at pi)."""
+    middle = samples[len(samples) // 2]
+    out = {}
+    for key, centre in middle.items():
+        values = [centre + math.remainder(s[key] - centre, 2 * math.pi) if _is_angle(key) else s[key]
+                  for s in samples]
+        out[key] = float(sum(w * v for w, v in zip(WEIGHTS, values)))
+    return out
 
 
 def integrate(mechanism: LoopMechanism, pose, rows: np.ndarray, per_row: int,  # noqa: ANN001
@@ -100,8 +123,10 @@ def integrate(mechanism: LoopMechanism, pose, rows: np.ndarray, per_row: int,  #
     loop = build_system(mechanism, pose, law)
     h = row / per_row
     knots = [int(round(t / h)) for t in law.knots]
-    wanted = {j + offset: (m, offset + 1) for m, j in enumerate(knots) for offset in (-1, 0, 1)}
-    samples: list[list] = [[None, None, None] for _ in knots]
+    half = len(WEIGHTS) // 2
+    wanted = {j + offset: (m, offset + half) for m, j in enumerate(knots)
+              for offset in range(-half, half + 1)}
+    samples: list[list] = [[None] * len(WEIGHTS) for _ in knots]
 
     def pre_step(mbs: exu.MainSystem, t: float) -> bool:
         j = int(round(mbs.systemData.GetTime() / h)) - 1  # the step's end time; the state is its start's
@@ -111,7 +136,7 @@ def integrate(mechanism: LoopMechanism, pose, rows: np.ndarray, per_row: int,  #
         return True
 
     loop.mbs.SetPreStepUserFunction(pre_step)
-    steps = knots[-1] + 2
+    steps = knots[-1] + half + 1
     try:
         loop.mbs.SolveDynamic(settings(steps, steps * h))
     except RuntimeError:
@@ -136,11 +161,40 @@ def _segments(ok: np.ndarray) -> list[np.ndarray]:
     return [np.arange(a, b) for a, b in zip(edges[::2], edges[1::2])]
 
 
-def solve_loop(mechanism: LoopMechanism, per_row: int = STEPS_PER_ROW) -> ExudynLoopTable:
-    """Every drive position of ``mechanism`` judged by Exudyn (module docstring)."""
+def swing(mechanism: LoopMechanism, poses: list) -> float:
+    """The largest travel of any coordinate per unit drive travel between two consecutive closed rows
+    (angles in rad, slides over the table's length; at least 1): a loop whose pose swings faster than its
+    drive (the ``7r``: ~10 degrees per degree near 120) needs steps as much shorter."""
+    x, length = mechanism.drive.positions, table_length(mechanism)
+    scale = length if mechanism.drive.coordinate == "s" else 1.0
+    out = 1.0
+    for i in range(len(poses) - 1):
+        a, b = poses[i], poses[i + 1]
+        if a is None or b is None or x[i + 1] == x[i]:
+            continue
+        moves = [abs(math.remainder(b.values[key] - v, 2 * math.pi)) if key[1] != "s" else
+                 abs(b.values[key] - v) / length for key, v in a.values.items()]
+        out = max(out, max(moves) * scale / abs(x[i + 1] - x[i]))
+    return out
+
+
+def steps_per_row(mechanism: LoopMechanism, poses: list, travel: float | None = None) -> int:
+    """The coarse run's steps between two rows: the median row spacing times :func:`swing` over ``travel``
+    (:data:`STEP_TRAVEL`), at least :data:`MIN_STEPS_ACCEL` when the drive accelerates (module docstring)."""
+    positions = mechanism.drive.positions
+    spacing = float(np.median(np.abs(np.diff(positions)))) if positions.size > 1 else 0.0
+    scale = table_length(mechanism) if mechanism.drive.coordinate == "s" else 1.0
+    steps = math.ceil(spacing * swing(mechanism, poses) / ((travel or STEP_TRAVEL) * scale) - 1e-9)
+    return max(1, steps, MIN_STEPS_ACCEL if mechanism.drive.accel else 1)
+
+
+def solve_loop(mechanism: LoopMechanism, travel: float | None = None) -> ExudynLoopTable:
+    """Every drive position of ``mechanism`` judged by Exudyn (module docstring); ``travel``: the drive's
+    travel per coarse step."""
     poses, status, residual = continuation(mechanism)
     positions = mechanism.drive.positions
     n = positions.size
+    per_row = steps_per_row(mechanism, poses, travel)
     row = row_time(positions, mechanism.drive.speed, mechanism.drive.accel)
     rows_out: list[tuple[dict, dict] | None] = [None] * n
     for segment in _segments(status == Status.OK.value):
@@ -149,13 +203,12 @@ def solve_loop(mechanism: LoopMechanism, per_row: int = STEPS_PER_ROW) -> Exudyn
         if word != Status.OK.value:
             status[segment] = Status.NOT_CONVERGED.value
             continue
-        coarse = integrate(mechanism, pose, positions[segment], per_row, row)
-        fine = integrate(mechanism, pose, positions[segment], 2 * per_row, row)
-        for i, a, b in zip(segment, coarse, fine):
-            if a is None or b is None:
+        runs = [integrate(mechanism, pose, positions[segment], level * per_row, row) for level in LEVELS]
+        for i, *answers in zip(segment, *runs):
+            if any(a is None for a in answers):
                 status[i] = Status.NOT_CONVERGED.value
                 continue
-            rows_out[i] = _richardson(a, b)
+            rows_out[i] = _richardson(*answers)
     names = list(next((r[0] for r in rows_out if r is not None), {}))
     columns = {name: np.full(n, np.nan) for name in names}
     errors = {name: np.full(n, np.nan) for name in names}
@@ -171,16 +224,18 @@ def solve_loop(mechanism: LoopMechanism, per_row: int = STEPS_PER_ROW) -> Exudyn
     return ExudynLoopTable(mechanism, columns, errors, status, residual)
 
 
-def _richardson(coarse: dict[str, float], fine: dict[str, float]) -> tuple[dict, dict]:
-    """The extrapolated row and each column's error estimate (module docstring); angles of the two runs
-    taken within half a turn of each other."""
+def _richardson(coarse: dict[str, float], middle: dict[str, float],
+                fine: dict[str, float]) -> tuple[dict, dict]:
+    """The row extrapolated from the two finer runs and each column's error estimate from the coarser pair
+    (module docstring); angles of the runs taken within half a turn of the finest's."""
     value, error = {}, {}
-    for name, b in fine.items():
-        a = coarse[name]
-        if name.startswith(("theta", "eta")) and not name.endswith(("_dot", "_ddot")):
-            a = b + math.remainder(a - b, 2.0 * math.pi)
-        value[name], error[name] = (4.0 * b - a) / 3.0, abs(b - a) / 3.0
+    for name, c in fine.items():
+        a, b = coarse[name], middle[name]
+        if _is_angle(name):
+            a, b = c + math.remainder(a - c, 2.0 * math.pi), c + math.remainder(b - c, 2.0 * math.pi)
+        first, second = (4.0 * b - a) / 3.0, (4.0 * c - b) / 3.0
+        value[name], error[name] = second, abs(second - first) / 15.0
     return value, error
 
 
-__all__ = ["ExudynLoopTable", "integrate", "settings", "solve_loop"]
+__all__ = ["ExudynLoopTable", "integrate", "settings", "solve_loop", "steps_per_row", "swing"]

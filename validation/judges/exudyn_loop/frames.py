@@ -2,7 +2,8 @@
 joint's coordinates, rates and accelerations read back from the two frames it relates.
 
 Homogeneous transforms ``T`` (4 x 4).  Row ``k`` (0-based) of the table is
-:math:`Z(\\theta_k + \\varepsilon s_k)\\,Y(\\eta_k)\\,X(\\alpha_k + \\varepsilon a_k)`, frame ``{0}`` the world.
+:math:`Z(\\theta_k + \\varepsilon s_k)\\,Y(\\eta_k)\\,X(\\alpha_k + \\varepsilon a_k)`, frame ``{0}`` the
+world.
 Joint ``k`` relates its **joint frame** :math:`G_k = \\{k\\}\\,C_k` on link ``k-1`` (``C_k`` the constant part
 of its motion placed before its variables: ``Tz(s)`` for R and U, ``Rz(theta)`` for P) to the **link frame**
 :math:`F_k = G_k\\,M_k(q_k)` of link ``k`` (``M_k``: ``Rz(theta)`` R, ``Tz(s)`` P, ``Rz(theta) Tz(s)`` C,
@@ -119,7 +120,8 @@ def relative_rates(kind: str, relative: np.ndarray, omega: np.ndarray, omega_dot
                    velocity: np.ndarray, accel: np.ndarray) -> dict[str, tuple[float, float]]:
     """Each coordinate's rate and acceleration from the relative motion in joint-frame axes:
     :math:`\\omega = R_G^T(\\omega_F - \\omega_G)`, its derivative
-    :math:`\\dot\\omega = R_G^T(\\dot\\omega_F - \\dot\\omega_G - \\omega_G\\times(\\omega_F - \\omega_G))`, and
+    :math:`\\dot\\omega = R_G^T(\\dot\\omega_F - \\dot\\omega_G
+    - \\omega_G\\times(\\omega_F - \\omega_G))`, and
     the same of the origins' relative position (``velocity``, ``accel``).  A U joint's
     :math:`\\omega = \\dot\\theta e_z + \\dot\\eta(-\\sin\\theta, \\cos\\theta, 0)`, so
     :math:`\\dot\\eta = -\\omega_x\\sin\\theta + \\omega_y\\cos\\theta` and

@@ -15,27 +15,33 @@ the first row; after the last row the law goes on as :math:`x_{last} + w\\tau + 
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 #: Rows apart of the run-in from rest to the first row (in times between rows).
-RUN_IN = 2
+RUN_IN = 8
+#: The law's derivatives matched at every knot (``SMOOTHNESS = 5``: a ``C^5`` law of degree 11).
+SMOOTHNESS = 5
 
 
-def _septic(duration: float, start: tuple[float, ...], end: tuple[float, ...]) -> np.ndarray:
-    """Coefficients ``c_0 .. c_7`` (of :math:`\\tau^j`) with the value and first three derivatives
-    ``start`` at :math:`\\tau = 0` and ``end`` at :math:`\\tau = T`."""
+def _hermite(duration: float, start: tuple[float, ...], end: tuple[float, ...]) -> np.ndarray:
+    """Coefficients ``c_j`` of :math:`u^j`, :math:`u = \\tau/T`, of the polynomial of degree
+    ``2 len(start) - 1`` with the value and derivatives ``start`` at :math:`\\tau = 0` and ``end`` at
+    :math:`\\tau = T` (derivatives in time: the ``d``-th is scaled by :math:`T^d`)."""
+    order = len(start)
+    degree = 2 * order
     rows, rhs = [], []
-    for tau, values in ((0.0, start), (duration, end)):
+    for u, values in ((0.0, start), (1.0, end)):
         for d, value in enumerate(values):
-            rows.append([math.perm(j, d) * tau ** (j - d) if j >= d else 0.0 for j in range(8)])
-            rhs.append(value)
+            rows.append([math.perm(j, d) * u ** (j - d) if j >= d else 0.0 for j in range(degree)])
+            rhs.append(value * duration**d)
     return np.linalg.solve(np.array(rows), np.array(rhs))
 
 
-@dataclass(frozen=True)
+@dataclass
 class Law:
     """The drive law of a run (module docstring).
 
@@ -53,23 +59,35 @@ class Law:
     knots: np.ndarray
     pieces: np.ndarray
     tail: tuple[float, float, float]
+    span: float
+    _last: tuple[float, tuple[float, float, float]] | None = None
+
+    def __post_init__(self) -> None:
+        self._bounds = [float(t) for t in self.knots]
+        self._coefficients = [[float(c) for c in row] for row in self.pieces]
 
     def at(self, t: float) -> tuple[float, float, float]:
-        """Value, rate and acceleration of the law at time ``t``."""
-        if t >= self.knots[-1]:
+        """Value, rate and acceleration of the law at time ``t`` (the last time's answer is kept: Exudyn
+        asks for the same time many times within a step)."""
+        if self._last is not None and self._last[0] == t:
+            return self._last[1]
+        bounds = self._bounds
+        if t >= bounds[-1]:
             x, w, wd = self.tail
-            tau = t - self.knots[-1]
-            return x + w * tau + 0.5 * wd * tau * tau, w + wd * tau, wd
-        k = int(np.searchsorted(self.knots, t, side="right"))
-        tau = t - (self.knots[k - 1] if k else 0.0)
-        c = self.pieces[k]
-        value = ((((((c[7] * tau + c[6]) * tau + c[5]) * tau + c[4]) * tau + c[3]) * tau + c[2]) * tau
-                 + c[1]) * tau + c[0]
-        rate = (((((7 * c[7] * tau + 6 * c[6]) * tau + 5 * c[5]) * tau + 4 * c[4]) * tau + 3 * c[3]) * tau
-                + 2 * c[2]) * tau + c[1]
-        accel = ((((42 * c[7] * tau + 30 * c[6]) * tau + 20 * c[5]) * tau + 12 * c[4]) * tau + 6 * c[3]) * tau \
-            + 2 * c[2]
-        return float(value), float(rate), float(accel)
+            tau = t - bounds[-1]
+            out = (x + w * tau + 0.5 * wd * tau * tau, w + wd * tau, wd)
+        else:
+            k = bisect.bisect_right(bounds, t)
+            duration = bounds[0] if k == 0 else self.span
+            u = (t - (bounds[k - 1] if k else 0.0)) / duration
+            value = rate = accel = 0.0
+            for c in reversed(self._coefficients[k]):  # Horner for the value and both derivatives in u
+                accel = accel * u + 2.0 * rate
+                rate = rate * u + value
+                value = value * u + c
+            out = (value, rate / duration, accel / duration**2)
+        self._last = (t, out)
+        return out
 
 
 def row_time(positions: np.ndarray, speed: float, accel: float) -> float:
@@ -86,10 +104,11 @@ def drive_law(positions: np.ndarray, speed: float, accel: float, row: float) -> 
     m = positions.size
     t0 = RUN_IN * row
     knots = t0 + row * np.arange(m)
-    at_row = (speed, accel, 0.0)
-    pieces = [_septic(t0, (positions[0] - speed * t0 / 2, 0.0, 0.0, 0.0), (positions[0], *at_row))]
-    pieces += [_septic(row, (positions[k - 1], *at_row), (positions[k], *at_row)) for k in range(1, m)]
-    return Law(knots, np.array(pieces), (float(positions[-1]), speed, accel))
+    at_row = (speed, accel) + (0.0,) * (SMOOTHNESS - 2)
+    rest = (positions[0] - speed * t0 / 2,) + (0.0,) * SMOOTHNESS
+    pieces = [_hermite(t0, rest, (positions[0], *at_row))]
+    pieces += [_hermite(row, (positions[k - 1], *at_row), (positions[k], *at_row)) for k in range(1, m)]
+    return Law(knots, np.array(pieces), (float(positions[-1]), speed, accel), row)
 
 
 def axial(law_value: tuple[float, float, float], shift: float, amplitude: float,

@@ -180,7 +180,8 @@ def build_system(mechanism: LoopMechanism, pose: Pose, law: Law) -> ExudynLoop:
         e0, e1 = _exudyn_frames(joint.type, j0, j1)
         m0 = mbs.AddMarker(MarkerBodyRigid(bodyNumber=owners[k], localHT=_ht(e0)))
         m1 = mbs.AddMarker(MarkerBodyRigid(bodyNumber=owners[k + 1], localHT=_ht(e1)))
-        joints.append(mbs.AddObject(ObjectJointGeneric(markerNumbers=[m0, m1], constrainedAxes=AXES[joint.type])))
+        joints.append(mbs.AddObject(ObjectJointGeneric(markerNumbers=[m0, m1],
+                                                       constrainedAxes=AXES[joint.type])))
         joint_frames.append(j0)
         link_markers.append(j1)
     _add_loads(mechanism, mbs, owners, joint_frames)

@@ -3,7 +3,8 @@
 **Kinematics.**  Each body's node gives its link frame's pose, velocity, angular velocity and their
 derivatives (world axes).  Joint ``k``'s coordinates are read from :math:`G_k^{-1} F_k` and their rates from
 the relative motion in :math:`G_k`'s axes (:func:`~.frames.relative_rates`; a point's velocity
-:math:`v + \\omega\\times r` and acceleration :math:`a + \\dot\\omega\\times r + \\omega\\times(\\omega\\times r)`).
+:math:`v + \\omega\\times r` and acceleration
+:math:`a + \\dot\\omega\\times r + \\omega\\times(\\omega\\times r)`).
 
 **Reactions.**  Exudyn's equations of motion are :math:`M\\ddot q + C_q^T\\lambda = f`, so a constraint's
 generalized force on the bodies is :math:`-C_q^T\\lambda`.  On the side of marker ``m1`` (link ``k``; the
@@ -44,6 +45,11 @@ ROTATION_ROWS: dict[str, tuple[tuple[int, int, int], ...]] = {
     "U": ((3, 1, 2),), "S": ()}
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:math:`a\\times b` of two 3-vectors (``numpy.cross`` costs ten times more on so few numbers)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def body_states(loop: ExudynLoop) -> list[tuple[np.ndarray, ...]]:
     """``(frame (4, 4), velocity, angular velocity, acceleration, angular acceleration)`` of every link's
     node in the current configuration (world axes)."""
@@ -60,7 +66,7 @@ def _at(state: tuple[np.ndarray, ...], point: np.ndarray) -> tuple[np.ndarray, n
     """Velocity and acceleration of a body's ``point`` (world)."""
     frame, v, w, a, wd = state
     r = point - frame[:3, 3]
-    return v + np.cross(w, r), a + np.cross(wd, r) + np.cross(w, np.cross(w, r))
+    return v + cross(w, r), a + cross(wd, r) + cross(w, cross(w, r))
 
 
 def _sides(loop: ExudynLoop, states: list, k: int) -> tuple[tuple, tuple]:
@@ -84,14 +90,14 @@ def kinematics(loop: ExudynLoop, states: list) -> dict[str, float]:
         relative = np.linalg.solve(g, f)
         rg = g[:3, :3]
         w_rel = rg.T @ (after[2] - before[2])
-        wd_rel = rg.T @ (after[4] - before[4] - np.cross(before[2], after[2] - before[2]))
+        wd_rel = rg.T @ (after[4] - before[4] - cross(before[2], after[2] - before[2]))
         r = f[:3, 3] - g[:3, 3]
         vg, ag = _at(before, g[:3, 3])
         vf, af = _at(after, f[:3, 3])
         rd, rdd = vf - vg, af - ag
         w = before[2]
-        d_dot = rg.T @ (rd - np.cross(w, r))
-        d_ddot = rg.T @ (rdd - np.cross(before[4], r) - 2 * np.cross(w, rd) + np.cross(w, np.cross(w, r)))
+        d_dot = rg.T @ (rd - cross(w, r))
+        d_ddot = rg.T @ (rdd - cross(before[4], r) - 2 * cross(w, rd) + cross(w, cross(w, r)))
         values = relative_coordinates(joint.type, relative)
         rates = relative_rates(joint.type, relative, w_rel, wd_rel, d_dot, d_ddot)
         for name in COORDINATES[joint.type]:
@@ -116,21 +122,21 @@ def reactions(loop: ExudynLoop, states: list) -> dict[str, float]:
             j0, j1 = j0 @ U_J0, j1 @ U_J1
         held = [i for i in range(3) if (joint.type, i) not in (("P", 2), ("C", 2))]
         force = -lam[:3] if len(held) == 3 else -sum(lam[i] * j0[:, i] for i in held)
-        moment = -sum((lam[i] * np.cross(j1[:, b], j0[:, a]) for i, a, b in ROTATION_ROWS[joint.type]),
+        moment = -sum((lam[i] * cross(j1[:, b], j0[:, a]) for i, a, b in ROTATION_ROWS[joint.type]),
                       np.zeros(3))
         axis = g[:3, 2]
-        if k == 0:
-            for name, effort in drive.items():
-                force, moment = (force + effort * axis, moment) if name == "s" else (force, moment + effort * axis)
-        for name in COORDINATES[joint.type]:
-            value = given.get((k, name))
-            if value is not None:
-                force, moment = (force + value * axis, moment) if name == "s" else (force, moment + value * axis)
+        efforts = dict(drive) if k == 0 else {}
+        efforts.update({name: given[(k, name)] for name in COORDINATES[joint.type] if (k, name) in given})
+        for name, effort in efforts.items():
+            if name == "s":
+                force = force + effort * axis
+            else:
+                moment = moment + effort * axis
         point = joint_point(joint.type, joint.s, g)
-        moment = moment + np.cross(f[:3, 3] - point, force)
+        moment = moment + cross(f[:3, 3] - point, force)
         for kind, vector in (("f", force), ("m", moment)):
             out.update({f"joint{k + 1}_{kind}{axis_name}": float(x) for axis_name, x in zip("xyz", vector)})
-    names = {f"{load.coordinate}{load.joint + 1}": load.value for load in mech.loads if load.value is not None}
+    names = {f"{c}{k + 1}": value for (k, c), value in given.items()}
     names.update({f"{name}1": value for name, value in drive.items()})
     out.update({f"effort_{e}": float(names[e]) for e in effort_names(mech)})
     return out
