@@ -254,3 +254,22 @@ SIM_JOINT_LOCK_CAP = Tolerance(30.0, "bounds what the law may excuse (3 % of the
                                      "does one slow pass 0.6 deg from the lock (1.1x the widened tolerance)")
 #: The rigid judges' widening near a joint lock: none (they close the loop exactly; cap 1).
 RIGID_JOINT_LOCK_CAP = Tolerance(1.0, "rigid judges close the loop to round-off: no widening")
+
+# ------------------------------------------------------------------------------- the Exudyn loop judge
+# Exudyn against the in-house engine on a loop table (validation/judges/exudyn_loop/), each column over the
+# peak of its unit group (TableSpec.unit_group) on the rows both call ok.  The judge integrates the loop
+# (trapezoidal rule, index-2 constraints) instead of solving it at each pose, so its error is its own
+# discretization error, which it estimates by Richardson's rule from three step sizes (h, h/2, h/4:
+# E = |X(h/2, h/4) - X(h, h/2)| / 15, engine.py); the bars below are that estimate's largest value on the
+# bundled loop presets (rscr, rsrc, 7r, the RSSR and RCCC as tables) with a margin of ~3, and the tests
+# check both the estimate and the measured difference against them.
+#: Exudyn vs in-house: every joint coordinate, rate and acceleration column (angle, length and their rates).
+EXUDYN_KINEMATICS = Tolerance(2e-8, "Richardson estimate E <= 8.0e-9 of the group peak on the five presets "
+                                    "(accelerations; coordinates <= 7e-12, rates <= 1.4e-9); measured "
+                                    "<= 6.6e-9 (the RCCC's angle accelerations); E tracks the measured "
+                                    "difference within a factor ~3")
+#: Exudyn vs in-house: every effort and joint wrench column (forces, moments).
+EXUDYN_REACTIONS = Tolerance(2e-8, "Richardson estimate E <= 4.7e-9 of the group peak on the five presets "
+                                   "(the 7r's wrenches); measured <= 4.7e-9: the multipliers of the "
+                                   "trapezoidal rule, averaged over three steps, extrapolated like the "
+                                   "accelerations they balance")

@@ -39,7 +39,7 @@ from dualmech.models.loop.description import LoopMechanism
 from dualmech.validation.judges.exudyn_loop.closure import close_at, continuation
 from dualmech.validation.judges.exudyn_loop.frames import table_length
 from dualmech.validation.judges.exudyn_loop.law import axial, drive_law, row_time
-from dualmech.validation.judges.exudyn_loop.model import build_system
+from dualmech.validation.judges.exudyn_loop.model import build_system, check_table
 from dualmech.validation.judges.exudyn_loop.readout import read_row
 
 #: The drive's travel per step of the coarse run, rad (a slide drive: times the table's length); the fine
@@ -191,6 +191,7 @@ def steps_per_row(mechanism: LoopMechanism, poses: list, travel: float | None = 
 def solve_loop(mechanism: LoopMechanism, travel: float | None = None) -> ExudynLoopTable:
     """Every drive position of ``mechanism`` judged by Exudyn (module docstring); ``travel``: the drive's
     travel per coarse step."""
+    check_table(mechanism)
     poses, status, residual = continuation(mechanism)
     positions = mechanism.drive.positions
     n = positions.size

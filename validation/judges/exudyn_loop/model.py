@@ -106,7 +106,14 @@ def reference_inertia(mass: float, com: np.ndarray, inertia: np.ndarray) -> list
     return [i[0, 0], i[1, 1], i[2, 2], i[1, 2], i[0, 2], i[0, 1]]
 
 
-def _check(mechanism: LoopMechanism) -> None:
+def check_table(mechanism: LoopMechanism) -> None:
+    """Refuse, in one line, a table the judge does not model: a drive at another joint than joint 1, a
+    given drive effort (module docstring).
+
+    Raises
+    ------
+    ValueError
+    """
     d = mechanism.drive
     if d.joint != 0:
         raise ValueError(f"drive.joint: the Exudyn judge drives joint 1 only (its node angles are joint 1's "
@@ -149,7 +156,7 @@ def build_system(mechanism: LoopMechanism, pose: Pose, law: Law) -> ExudynLoop:
     ValueError
         If the drive is not joint 1, or its effort is given (one line each).
     """
-    _check(mechanism)
+    check_table(mechanism)
     container = exu.SystemContainer()
     mbs = container.AddSystem()
     ground = mbs.AddObject(ObjectGround())

@@ -39,6 +39,9 @@ from dualmech.validation.judges.exudyn_loop.frames import (
 from dualmech.validation.judges.exudyn_loop.model import U_J0, U_J1, ExudynLoop
 
 OUT = exu.OutputVariableType
+#: The bodies' constraint forces are ``CONSTRAINT_SIGN`` times :math:`C_q^T\\lambda` (Exudyn's equations of
+#: motion :math:`M\\ddot q + C_q^T\\lambda = f`: -1).
+CONSTRAINT_SIGN = -1.0
 #: Rotation rows of each type's generic joint: multiplier index, axis of J0, axis of J1 (``t_a0 . t_b1``).
 ROTATION_ROWS: dict[str, tuple[tuple[int, int, int], ...]] = {
     "R": ((3, 2, 0), (4, 2, 1)), "C": ((3, 2, 0), (4, 2, 1)), "P": ((3, 2, 1), (4, 2, 0), (5, 0, 1)),
@@ -111,7 +114,8 @@ def reactions(loop: ExudynLoop, states: list) -> dict[str, float]:
     from the current multipliers."""
     mbs, mech = loop.mbs, loop.mechanism
     ae = np.asarray(mbs.systemData.GetAECoordinates(), float)
-    drive = {name: -float(ae[mbs.systemData.GetObjectLTGAE(obj)[0]]) for name, obj in loop.drives}
+    sign = CONSTRAINT_SIGN
+    drive = {name: sign * float(ae[mbs.systemData.GetObjectLTGAE(obj)[0]]) for name, obj in loop.drives}
     given = {(load.joint, load.coordinate): load.value for load in mech.loads if load.value is not None}
     out = {}
     for k, joint in enumerate(mech.joints):
@@ -121,9 +125,9 @@ def reactions(loop: ExudynLoop, states: list) -> dict[str, float]:
         if joint.type == "U":  # Exudyn's J0, J1 axes (model.U_J0, U_J1)
             j0, j1 = j0 @ U_J0, j1 @ U_J1
         held = [i for i in range(3) if (joint.type, i) not in (("P", 2), ("C", 2))]
-        force = -lam[:3] if len(held) == 3 else -sum(lam[i] * j0[:, i] for i in held)
-        moment = -sum((lam[i] * cross(j1[:, b], j0[:, a]) for i, a, b in ROTATION_ROWS[joint.type]),
-                      np.zeros(3))
+        force = sign * (lam[:3] if len(held) == 3 else sum(lam[i] * j0[:, i] for i in held))
+        moment = sign * sum((lam[i] * cross(j1[:, b], j0[:, a]) for i, a, b in ROTATION_ROWS[joint.type]),
+                            np.zeros(3))
         axis = g[:3, 2]
         efforts = dict(drive) if k == 0 else {}
         efforts.update({name: given[(k, name)] for name in COORDINATES[joint.type] if (k, name) in given})

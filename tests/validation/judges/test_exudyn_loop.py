@@ -1,0 +1,175 @@
+"""The Exudyn judge generated from a loop table against the in-house engine on the same table.
+
+Both engines get the same table (the bundled ``rscr``, ``rsrc`` and ``7r``, the RSSR and RCCC as tables with
+the ``start`` values a user writes: the Pinocchio judge's presets) and each closes the loop on its own.  Each
+column is compared over the peak of its unit group (``TableSpec.unit_group``; a group zero at every row on
+its rates' scale, as the gate's ``zero_group_scale``) on the rows both call ``ok``: kinematics within
+``EXUDYN_KINEMATICS``, efforts and wrenches within ``EXUDYN_REACTIONS`` (2e-8 each: the judge's own
+Richardson estimate is at most 8e-9 on these tables, the measured difference at most 6.6e-9).  The bars are
+its own error, so its estimate is held to them too.  Faults in the reaction conversion (a multiplier's sign,
+the frame pairing of a revolute joint's rows, a moment taken about the wrong point) fail the comparison.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+exudyn = pytest.importorskip("exudyn")
+
+from dualmech.models.linkages import linkage_case, read_linkage  # noqa: E402
+from dualmech.models.linkages.table import LinkageTable  # noqa: E402
+from dualmech.models.loop.columns import loop_spec  # noqa: E402
+from dualmech.models.loop.description import LoopMechanism  # noqa: E402
+from dualmech.models.loop.table import solve_loop_table  # noqa: E402
+from dualmech.validation.judges.exudyn_loop import readout  # noqa: E402
+from dualmech.validation.judges.exudyn_loop.table import solve_table  # noqa: E402
+from dualmech.validation.linkages.gate import zero_group_scale  # noqa: E402
+from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS  # noqa: E402
+from tests.validation.judges.test_pinocchio_loop import IN_HOUSE, _preset  # noqa: E402
+
+PACKAGE = "dualmech.validation.judges.exudyn_loop"
+JUDGE = Path(__file__).parents[3] / "validation" / "judges" / "exudyn_loop"
+#: Unit groups of the reactions; every other group is kinematics.
+REACTION_GROUPS = ("force", "moment")
+
+
+def _table(name: str, rows: int | None = None) -> LoopMechanism:
+    """A bundled loop table or the Pinocchio judge's RSSR / RCCC preset, its first ``rows`` positions."""
+    mechanism = _preset(name) if name in ("rssr", "rccc") else linkage_case(read_linkage(name))
+    if rows is None:
+        return mechanism
+    drive = dataclasses.replace(mechanism.drive, positions=mechanism.drive.positions[:rows])
+    return dataclasses.replace(mechanism, drive=drive)
+
+
+def worst_by_group(mine: LinkageTable, reference: LinkageTable, mechanism: LoopMechanism,
+                   values: dict[str, np.ndarray] | None = None) -> dict[str, float]:
+    """The largest ``|mine - reference|`` of each unit group over the group's peak (module docstring) on
+    the rows both call ``ok``; ``values``: other columns in place of the differences (the judge's error
+    estimates)."""
+    spec = loop_spec(mechanism)
+    ok = (np.asarray(mine.status) == "ok") & (np.asarray(reference.status) == "ok")
+    assert ok.any()
+    groups: dict[str, list[str]] = {}
+    for column in spec.kinematics + spec.forces + spec.moments:
+        if column != spec.key:
+            groups.setdefault(spec.unit_group(column), []).append(column)
+    out = {}
+    for group, columns in groups.items():
+        peak = max(float(np.abs(reference[c][ok]).max()) for c in columns)
+        scale = peak if peak > 0.0 else zero_group_scale(group, reference, spec)
+        worst = 0.0
+        for c in columns:
+            if values is not None:
+                diff = values[c][ok]
+            else:
+                diff = mine[c][ok] - reference[c][ok]
+                if group == "angle":
+                    diff = np.remainder(diff + np.pi, 2.0 * np.pi) - np.pi
+            worst = max(worst, float(np.abs(diff).max()))
+        out[group] = worst / scale
+    return out
+
+
+def _bar(group: str) -> float:
+    return (EXUDYN_REACTIONS if group in REACTION_GROUPS else EXUDYN_KINEMATICS).value
+
+
+@pytest.mark.parametrize("name", ["rscr", "rsrc", "7r", "rssr", "rccc"])
+def test_presets_agree_with_the_in_house_engine(name: str) -> None:
+    """Same status words, every column within the bars, and the judge's own error estimate too."""
+    mechanism = _table(name)
+    mine, reference = solve_table(mechanism), solve_loop_table(mechanism)
+    np.testing.assert_array_equal(np.asarray(mine.status, str), np.asarray(reference.status, str))
+    for group, worst in worst_by_group(mine, reference, mechanism).items():
+        assert worst <= _bar(group), (group, worst)
+    estimate = mine.meta["richardson"]
+    for group, worst in worst_by_group(mine, reference, mechanism, estimate).items():
+        assert worst <= _bar(group), ("estimate", group, worst)
+
+
+def _faulty_worst(monkeypatch: pytest.MonkeyPatch, name: str, **faults: object) -> dict[str, float]:
+    """The worst relative differences of a short table solved with ``faults`` patched into the readout."""
+    mechanism = _table(name, rows=4)
+    for attribute, value in faults.items():
+        monkeypatch.setattr(readout, attribute, value)
+    return worst_by_group(solve_table(mechanism), solve_loop_table(mechanism), mechanism)
+
+
+def test_a_flipped_multiplier_sign_is_caught(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Reading Exudyn's multipliers as the bodies' constraint forces (``+C_q^T lambda``: the static
+    solver's sign) turns every reaction around: far beyond the bar."""
+    worst = _faulty_worst(monkeypatch, "rscr", CONSTRAINT_SIGN=-readout.CONSTRAINT_SIGN)
+    assert min(worst["force"], worst["moment"]) > 1e3 * EXUDYN_REACTIONS.value, worst
+
+
+def test_a_revolute_row_paired_with_the_wrong_axis_is_caught(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A revolute joint's two rotation rows read as ``z0.y1``, ``z0.x1`` (the order of Exudyn's
+    documentation for three locked rotations, wrong for two): its moments far beyond the bar."""
+    rows = {**readout.ROTATION_ROWS, "R": ((3, 2, 1), (4, 2, 0))}
+    worst = _faulty_worst(monkeypatch, "rscr", ROTATION_ROWS=rows)
+    assert worst["moment"] > 1e3 * EXUDYN_REACTIONS.value, worst
+    assert worst["force"] <= EXUDYN_REACTIONS.value, worst
+
+
+def test_a_moment_about_the_wrong_point_is_caught(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The RSCR's output joint is offset along its axis (``s = 0.02``): its moment about the link frame's
+    origin instead of the joint's point is far beyond the bar."""
+    worst = _faulty_worst(monkeypatch, "rscr", joint_point=lambda kind, s, frame: frame[:3, 3])
+    assert worst["moment"] > 1e3 * EXUDYN_REACTIONS.value, worst
+
+
+def test_the_judge_searches_the_same_start_as_the_in_house_engine() -> None:
+    """Without start values both engines search their own assembly and take the one nearest the zero pose
+    (``models/loop/start.py``): the same branch, within the bars."""
+    mechanism = _table("rsrc", rows=6)
+    mechanism = dataclasses.replace(mechanism, joints=tuple(dataclasses.replace(j, start=())
+                                                            for j in mechanism.joints))
+    worst = worst_by_group(solve_table(mechanism), solve_loop_table(mechanism), mechanism)
+    for group, value in worst.items():
+        assert value <= _bar(group), (group, value)
+
+
+def test_nothing_is_written_to_the_working_directory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Exudyn writes a ``solution/`` folder by default; the judge turns every output file off."""
+    monkeypatch.chdir(tmp_path)
+    solve_table(_table("rscr", rows=2))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_drive_at_another_joint_is_refused() -> None:
+    mechanism = _table("rscr", rows=2)
+    drive = dataclasses.replace(mechanism.drive, joint=3)
+    loads = (dataclasses.replace(mechanism.loads[0], joint=0), mechanism.loads[1])
+    with pytest.raises(ValueError, match=r"^drive.joint: the Exudyn judge drives joint 1 only"):
+        solve_table(dataclasses.replace(mechanism, drive=drive, loads=loads))
+
+
+def _imported_modules(path: Path) -> set[str]:
+    """Every module a source file imports by name (``ast``)."""
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            names.add(node.module)
+        elif isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+    return names
+
+
+def test_the_judge_never_imports_the_in_house_engine() -> None:
+    """Neither its own imports (read with :mod:`ast`) nor anything they load reach the in-house engine
+    (the modules of ``IN_HOUSE``, the Pinocchio judge's list)."""
+    for path in JUDGE.glob("*.py"):
+        assert not {n for n in _imported_modules(path) if n.startswith(IN_HOUSE)}, path.name
+    code = (f"import sys, {PACKAGE}.table; "
+            "print(' '.join(m for m in sys.modules if m.startswith('dualmech')))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert PACKAGE + ".engine" in loaded.split()
+    assert not set(loaded.split()) & set(IN_HOUSE), loaded
