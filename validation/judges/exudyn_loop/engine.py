@@ -35,16 +35,20 @@ import exudyn as exu
 import numpy as np
 
 from dualmech.core.status import Status
+from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
 from dualmech.models.loop.description import LoopMechanism
-from dualmech.validation.judges.exudyn_loop.closure import close_at, continuation
+from dualmech.validation.judges.exudyn_loop.closure import Pose, close_at, continuation
 from dualmech.validation.judges.exudyn_loop.frames import table_length
-from dualmech.validation.judges.exudyn_loop.law import axial, drive_law, row_time
+from dualmech.validation.judges.exudyn_loop.given import combine, solved_load, variants
+from dualmech.validation.judges.exudyn_loop.law import RUN_IN, axial, drive_law, row_time
 from dualmech.validation.judges.exudyn_loop.model import build_system, check_table
 from dualmech.validation.judges.exudyn_loop.readout import read_row
 
 #: The drive's travel per step of the coarse run, rad (a slide drive: times the table's length); the fine
 #: run takes steps of half of it.
 STEP_TRAVEL = math.radians(10.0) / 64
+#: The drive's travel in the run-in from rest to the first row, rad (a slide drive: times the table's length).
+RUN_IN_TRAVEL = math.radians(90.0)
 #: The runs' steps, in coarse steps: ``h``, ``h/2``, ``h/4``.
 LEVELS = (1, 2, 4)
 #: The coarse run's least steps between rows when the drive accelerates: the law's rate returns to the
@@ -52,8 +56,8 @@ LEVELS = (1, 2, 4)
 MIN_STEPS_ACCEL = 64
 #: Weights of the steps around a row's knot (binomial: they cancel a step-to-step alternation).
 WEIGHTS = np.array([1.0, 2.0, 1.0]) / 4.0
-#: Newton's relative residual tolerance in every step.
-NEWTON_TOL = 1e-12
+#: Newton's relative residual tolerance in every step, and the one of a run that stalls above it.
+NEWTON_TOL, NEWTON_RETRY = 1e-12, 1e-10
 
 
 @dataclass(frozen=True)
@@ -80,7 +84,7 @@ class ExudynLoopTable:
     residual: np.ndarray
 
 
-def settings(steps: int, end_time: float) -> exu.SimulationSettings:
+def settings(steps: int, end_time: float, tolerance: float = 0.0) -> exu.SimulationSettings:
     """Exudyn's settings of one run (module docstring): nothing written to files."""
     ss = exu.SimulationSettings()
     ss.solution.file.write = False
@@ -92,7 +96,7 @@ def settings(steps: int, end_time: float) -> exu.SimulationSettings:
     alpha = ss.timeIntegration.generalizedAlpha
     alpha.useNewmark, alpha.useIndex2Constraints, alpha.spectralRadius = True, True, 1.0
     alpha.newmarkBeta, alpha.newmarkGamma = 0.25, 0.5
-    ss.timeIntegration.newton.relativeTolerance = NEWTON_TOL
+    ss.timeIntegration.newton.relativeTolerance = tolerance or NEWTON_TOL
     ss.timeIntegration.newton.absoluteTolerance = 1e-14
     return ss
 
@@ -113,13 +117,24 @@ def _average(samples: list[dict]) -> dict[str, float]:
     return out
 
 
-def integrate(mechanism: LoopMechanism, pose, rows: np.ndarray, per_row: int,  # noqa: ANN001
+def integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int,
               row: float) -> list[dict | None]:
     """One Exudyn run from rest at ``pose`` (closed at the law's start) through the drive positions
     ``rows``, ``per_row`` steps between two rows, ``row`` apart in time: each row's averaged quantities
-    (module docstring), ``None`` for the rows after a failed step."""
+    (module docstring), ``None`` for the rows after a failed step.  A run whose Newton iteration stalls
+    above :data:`NEWTON_TOL` (round-off of a table in millimetres) is run again to :data:`NEWTON_RETRY`."""
+    out: list[dict | None] = []
+    for tolerance in (NEWTON_TOL, NEWTON_RETRY):
+        out = _integrate(mechanism, pose, rows, per_row, row, tolerance)
+        if all(r is not None for r in out):
+            break
+    return out
+
+
+def _integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int, row: float,
+               tolerance: float) -> list[dict | None]:
     d = mechanism.drive
-    law = drive_law(rows, d.speed, d.accel, row)
+    law = drive_law(rows, d.speed, d.accel, row, run_in_rows(mechanism))
     loop = build_system(mechanism, pose, law)
     h = row / per_row
     knots = [int(round(t / h)) for t in law.knots]
@@ -138,7 +153,7 @@ def integrate(mechanism: LoopMechanism, pose, rows: np.ndarray, per_row: int,  #
     loop.mbs.SetPreStepUserFunction(pre_step)
     steps = knots[-1] + half + 1
     try:
-        loop.mbs.SolveDynamic(settings(steps, steps * h))
+        loop.mbs.SolveDynamic(settings(steps, steps * h, tolerance))
     except RuntimeError:
         pass
     return [_average(s) if all(x is not None for x in s) else None for s in samples]
@@ -178,6 +193,15 @@ def swing(mechanism: LoopMechanism, poses: list) -> float:
     return out
 
 
+def run_in_rows(mechanism: LoopMechanism) -> int:
+    """The run-in's length in rows: the drive travels :data:`RUN_IN_TRAVEL` (a slide drive: that times the
+    table's length) or :data:`~.law.RUN_IN` rows, whichever is longer."""
+    positions = mechanism.drive.positions
+    spacing = float(np.median(np.abs(np.diff(positions)))) if positions.size > 1 else 0.0
+    scale = table_length(mechanism) if mechanism.drive.coordinate == "s" else 1.0
+    return max(RUN_IN, math.ceil(RUN_IN_TRAVEL * scale / spacing)) if spacing > 0.0 else RUN_IN
+
+
 def steps_per_row(mechanism: LoopMechanism, poses: list, travel: float | None = None) -> int:
     """The coarse run's steps between two rows: the median row spacing times :func:`swing` over ``travel``
     (:data:`STEP_TRAVEL`), at least :data:`MIN_STEPS_ACCEL` when the drive accelerates (module docstring)."""
@@ -198,18 +222,24 @@ def solve_loop(mechanism: LoopMechanism, travel: float | None = None) -> ExudynL
     per_row = steps_per_row(mechanism, poses, travel)
     row = row_time(positions, mechanism.drive.speed, mechanism.drive.accel)
     rows_out: list[tuple[dict, dict] | None] = [None] * n
+    transmission, transmission_error = np.full(n, np.nan), np.full(n, np.nan)
     for segment in _segments(status == Status.OK.value):
-        law = drive_law(positions[segment], mechanism.drive.speed, mechanism.drive.accel, row)
+        law = drive_law(positions[segment], mechanism.drive.speed, mechanism.drive.accel, row,
+                        run_in_rows(mechanism))
         pose, word, _ = close_at(mechanism, poses[segment[0]], law.at(0.0)[0])
         if word != Status.OK.value:
             status[segment] = Status.NOT_CONVERGED.value
             continue
-        runs = [integrate(mechanism, pose, positions[segment], level * per_row, row) for level in LEVELS]
+        runs = _runs(mechanism, pose, positions[segment], per_row, row)
         for i, *answers in zip(segment, *runs):
             if any(a is None for a in answers):
                 status[i] = Status.NOT_CONVERGED.value
                 continue
-            rows_out[i] = _richardson(*answers)
+            rows_out[i] = _richardson(*(a for a, _ in answers))
+            transmission[i], transmission_error[i] = _extrapolate(*(g for _, g in answers))
+    if solved_load(mechanism) is not None and np.isfinite(transmission).any():
+        bar = DEAD_CENTRE_TRANSMISSION.value * np.nanmax(np.abs(transmission)) + transmission_error
+        status[np.abs(transmission) <= bar] = Status.DEAD_CENTRE.value
     names = list(next((r[0] for r in rows_out if r is not None), {}))
     columns = {name: np.full(n, np.nan) for name in names}
     errors = {name: np.full(n, np.nan) for name in names}
@@ -225,6 +255,28 @@ def solve_loop(mechanism: LoopMechanism, travel: float | None = None) -> ExudynL
     return ExudynLoopTable(mechanism, columns, errors, status, residual)
 
 
+def _runs(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int,
+          row: float) -> list[list[tuple[dict, float] | None]]:
+    """Each step size's rows (:data:`LEVELS`) with the transmission of a given drive effort
+    (:mod:`.given`; NaN when the drive's effort is solved)."""
+    if solved_load(mechanism) is None:
+        runs = (integrate(mechanism, pose, rows, level * per_row, row) for level in LEVELS)
+        return [[None if r is None else (r, math.nan) for r in run] for run in runs]
+    zero, unit = variants(mechanism)
+    out = []
+    for level in LEVELS:
+        steps = level * per_row
+        pairs = zip(integrate(zero, pose, rows, steps, row), integrate(unit, pose, rows, steps, row))
+        out.append([None if a is None or b is None else combine(mechanism, a, b) for a, b in pairs])
+    return out
+
+
+def _extrapolate(coarse: float, middle: float, fine: float) -> tuple[float, float]:
+    """:math:`X` and :math:`E` of one quantity from its three runs (module docstring)."""
+    first, second = (4.0 * middle - coarse) / 3.0, (4.0 * fine - middle) / 3.0
+    return second, abs(second - first) / 15.0
+
+
 def _richardson(coarse: dict[str, float], middle: dict[str, float],
                 fine: dict[str, float]) -> tuple[dict, dict]:
     """The row extrapolated from the two finer runs and each column's error estimate from the coarser pair
@@ -234,8 +286,7 @@ def _richardson(coarse: dict[str, float], middle: dict[str, float],
         a, b = coarse[name], middle[name]
         if _is_angle(name):
             a, b = c + math.remainder(a - c, 2.0 * math.pi), c + math.remainder(b - c, 2.0 * math.pi)
-        first, second = (4.0 * b - a) / 3.0, (4.0 * c - b) / 3.0
-        value[name], error[name] = second, abs(second - first) / 15.0
+        value[name], error[name] = _extrapolate(a, b, c)
     return value, error
 
 

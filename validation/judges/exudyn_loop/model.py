@@ -107,8 +107,8 @@ def reference_inertia(mass: float, com: np.ndarray, inertia: np.ndarray) -> list
 
 
 def check_table(mechanism: LoopMechanism) -> None:
-    """Refuse, in one line, a table the judge does not model: a drive at another joint than joint 1, a
-    given drive effort (module docstring).
+    """Refuse, in one line, a table the judge does not model: a drive at another joint than joint 1
+    (module docstring).
 
     Raises
     ------
@@ -118,9 +118,6 @@ def check_table(mechanism: LoopMechanism) -> None:
     if d.joint != 0:
         raise ValueError(f"drive.joint: the Exudyn judge drives joint 1 only (its node angles are joint 1's "
                          f"coordinates), got joint {d.joint + 1}")
-    if d.effort is not None:
-        raise ValueError("drive.effort: the Exudyn judge prescribes the drive and solves its effort; a given "
-                         "drive effort with a solved load is not handled")
 
 
 def joint_markers(mechanism: LoopMechanism, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -154,7 +151,7 @@ def build_system(mechanism: LoopMechanism, pose: Pose, law: Law) -> ExudynLoop:
     Raises
     ------
     ValueError
-        If the drive is not joint 1, or its effort is given (one line each).
+        If the drive is not joint 1.
     """
     check_table(mechanism)
     container = exu.SystemContainer()
