@@ -1,7 +1,8 @@
 """The Exudyn judge generated from a loop table against the in-house engine on the same table.
 
 Both engines get the same table (the bundled ``rscr``, ``rsrc`` and ``7r``, the RSSR and RCCC as tables with
-the ``start`` values a user writes: the Pinocchio judge's presets) and each closes the loop on its own.  Each
+the ``start`` values a user writes: the Pinocchio judge's presets; two slider cranks with the drive torque
+given) and each closes the loop on its own.  Each
 column is compared over the peak of its unit group (``TableSpec.unit_group``; a group zero at every row on
 its rates' scale, as the gate's ``zero_group_scale``) on the rows both call ``ok``: kinematics within
 ``EXUDYN_KINEMATICS``, efforts and wrenches within ``EXUDYN_REACTIONS`` (2e-8 each: the judge's own
@@ -40,13 +41,14 @@ JUDGE = Path(__file__).parents[3] / "validation" / "judges" / "exudyn_loop"
 REACTION_GROUPS = ("force", "moment")
 
 
-def _table(name: str, rows: int | None = None) -> LoopMechanism:
-    """A bundled loop table or the Pinocchio judge's RSSR / RCCC preset, its first ``rows`` positions."""
-    mechanism = _preset(name) if name in ("rssr", "rccc") else linkage_case(read_linkage(name))
+def _table(name: str, rows: int | slice | None = None) -> LoopMechanism:
+    """A bundled loop table or one of the Pinocchio judge's presets, its positions ``rows`` (the first
+    ``rows`` if a number)."""
+    mechanism = linkage_case(read_linkage(name)) if name in ("rscr", "rsrc", "7r") else _preset(name)
     if rows is None:
         return mechanism
-    drive = dataclasses.replace(mechanism.drive, positions=mechanism.drive.positions[:rows])
-    return dataclasses.replace(mechanism, drive=drive)
+    chosen = mechanism.drive.positions[slice(rows) if isinstance(rows, int) else rows]
+    return dataclasses.replace(mechanism, drive=dataclasses.replace(mechanism.drive, positions=chosen))
 
 
 def worst_by_group(mine: LinkageTable, reference: LinkageTable, mechanism: LoopMechanism,
@@ -93,6 +95,20 @@ def test_presets_agree_with_the_in_house_engine(name: str) -> None:
     estimate = mine.meta["richardson"]
     for group, worst in worst_by_group(mine, reference, mechanism, estimate).items():
         assert worst <= _bar(group), ("estimate", group, worst)
+
+
+@pytest.mark.parametrize(("name", "rows"), [("thesis/ideal", slice(80, 101)),
+                                            ("iftomm/spatial-slider-crank", slice(0, 24))])
+def test_a_given_drive_effort_agrees_with_the_in_house_engine(name: str, rows: slice) -> None:
+    """A drive torque given and the slider's force solved, from two prescribed runs (``given.py``): the
+    slider crank through its dead centre at 90 degrees (its P joint; statuses equal there) and the IFToMM
+    slider crank (its U joint), within the bars."""
+    mechanism = _table(name, rows)
+    assert mechanism.drive.effort is not None
+    mine, reference = solve_table(mechanism), solve_loop_table(mechanism)
+    np.testing.assert_array_equal(np.asarray(mine.status, str), np.asarray(reference.status, str))
+    for group, worst in worst_by_group(mine, reference, mechanism).items():
+        assert worst <= _bar(group), (group, worst)
 
 
 def _faulty_worst(monkeypatch: pytest.MonkeyPatch, name: str, **faults: object) -> dict[str, float]:
@@ -163,13 +179,22 @@ def _imported_modules(path: Path) -> set[str]:
     return names
 
 
+def _loaded(module: str) -> set[str]:
+    """The ``dualmech`` modules a fresh interpreter holds after importing ``module``."""
+    code = f"import sys, {module}; print(' '.join(m for m in sys.modules if m.startswith('dualmech')))"
+    return set(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              check=True).stdout.split())
+
+
 def test_the_judge_never_imports_the_in_house_engine() -> None:
     """Neither its own imports (read with :mod:`ast`) nor anything they load reach the in-house engine
-    (the modules of ``IN_HOUSE``, the Pinocchio judge's list)."""
+    (the modules of ``IN_HOUSE``, the Pinocchio judge's list): its engine loads none of them, and its table
+    none beyond those the shared result table loads by itself (``models/linkages/table.py`` reaches
+    ``core/motion.py`` through the case files' plumbing, as the Pinocchio judge's table does)."""
     for path in JUDGE.glob("*.py"):
         assert not {n for n in _imported_modules(path) if n.startswith(IN_HOUSE)}, path.name
-    code = (f"import sys, {PACKAGE}.table; "
-            "print(' '.join(m for m in sys.modules if m.startswith('dualmech')))")
-    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert PACKAGE + ".engine" in loaded.split()
-    assert not set(loaded.split()) & set(IN_HOUSE), loaded
+    engine = _loaded(f"{PACKAGE}.engine")
+    assert f"{PACKAGE}.model" in engine and not engine & set(IN_HOUSE), sorted(engine & set(IN_HOUSE))
+    shared = _loaded("dualmech.models.linkages.table") | _loaded("dualmech.models.loop.columns")
+    added = _loaded(f"{PACKAGE}.table") - shared
+    assert f"{PACKAGE}.table" in added and not added & set(IN_HOUSE), sorted(added & set(IN_HOUSE))

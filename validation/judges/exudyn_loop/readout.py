@@ -28,7 +28,6 @@ from __future__ import annotations
 import exudyn as exu
 import numpy as np
 
-from dualmech.models.loop.columns import effort_names
 from dualmech.validation.judges.exudyn_loop.frames import (
     COORDINATES,
     joint_point,
@@ -110,8 +109,9 @@ def kinematics(loop: ExudynLoop, states: list) -> dict[str, float]:
 
 
 def reactions(loop: ExudynLoop, states: list) -> dict[str, float]:
-    """Every effort ``effort_<name>`` and joint wrench ``joint<i>_f*``, ``joint<i>_m*`` (module docstring)
-    from the current multipliers."""
+    """Every given and prescribed coordinate's effort ``effort_<name>`` and joint wrench ``joint<i>_f*``,
+    ``joint<i>_m*`` (module docstring) from the current multipliers.  (The table's efforts are among them:
+    this module reads no column list, so that the engine loads nothing of the result table.)"""
     mbs, mech = loop.mbs, loop.mechanism
     ae = np.asarray(mbs.systemData.GetAECoordinates(), float)
     sign = CONSTRAINT_SIGN
@@ -140,9 +140,8 @@ def reactions(loop: ExudynLoop, states: list) -> dict[str, float]:
         moment = moment + cross(f[:3, 3] - point, force)
         for kind, vector in (("f", force), ("m", moment)):
             out.update({f"joint{k + 1}_{kind}{axis_name}": float(x) for axis_name, x in zip("xyz", vector)})
-    names = {f"{c}{k + 1}": value for (k, c), value in given.items()}
-    names.update({f"{name}1": value for name, value in drive.items()})
-    out.update({f"effort_{e}": float(names[e]) for e in effort_names(mech)})
+    out.update({f"effort_{c}{k + 1}": float(value) for (k, c), value in given.items()})
+    out.update({f"effort_{name}1": value for name, value in drive.items()})
     return out
 
 
