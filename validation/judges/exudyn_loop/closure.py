@@ -24,6 +24,7 @@ run of assembled rows starts.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -149,6 +150,20 @@ def close_at(mechanism: LoopMechanism, pose: Pose, position: float, max_iter: in
         else:
             return pose, Status.NO_ASSEMBLY.value, norm
     return pose, Status.NOT_CONVERGED.value, float(np.linalg.norm(r))
+
+
+def close_along(mechanism: LoopMechanism, pose: Pose, start: float, end: float,
+                step: float = math.radians(2.0)) -> tuple[Pose, str]:
+    """``pose`` (closed at drive position ``start``) carried to ``end`` in steps of at most ``step`` (a
+    slide drive: times the table's length), each closed from the last: the pose and its status word."""
+    if mechanism.drive.coordinate == "s":
+        step *= table_length(mechanism)
+    word = Status.OK.value
+    for x in np.linspace(start, end, max(1, math.ceil(abs(end - start) / step)) + 1)[1:]:
+        pose, word, _ = close_at(mechanism, pose, x)
+        if word != Status.OK.value:
+            break
+    return pose, word
 
 
 def start_guess(mechanism: LoopMechanism) -> Pose:

@@ -2,8 +2,10 @@
 
 **Rows.**  The judge closes the loop at every drive position itself (:mod:`.closure`); each maximal run of
 consecutive closed rows is one Exudyn run (:mod:`.model`), from rest at the start of its law's run-in
-(:mod:`.law`) through all its rows; rows that do not close keep the closure's word, rows of a run whose
-Newton iteration fails are ``not_converged``.
+(:mod:`.law`: the drive travels :data:`RUN_IN_TRAVEL`, or :data:`~.law.RUN_IN` rows' time where that start
+does not close, as before a gap; the start pose is carried there from the first row in closed steps of
+2 degrees) through all its rows; rows that do not close keep the closure's word, rows of a run whose Newton
+iteration fails are ``not_converged``.
 
 **Integrator.**  Newmark's method with :math:`\\beta = 1/4`, :math:`\\gamma = 1/2` (the trapezoidal rule,
 spectral radius 1: no numerical damping), index-2 (velocity-level) constraints, Newton to a relative
@@ -39,7 +41,7 @@ import numpy as np
 from dualmech.core.status import Status
 from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
 from dualmech.models.loop.description import LoopMechanism
-from dualmech.validation.judges.exudyn_loop.closure import Pose, close_at, continuation
+from dualmech.validation.judges.exudyn_loop.closure import Pose, close_along, continuation
 from dualmech.validation.judges.exudyn_loop.frames import table_length
 from dualmech.validation.judges.exudyn_loop.given import combine, solved_load, variants
 from dualmech.validation.judges.exudyn_loop.law import RUN_IN, axial, drive_law, row_time
@@ -119,24 +121,25 @@ def _average(samples: list[dict]) -> dict[str, float]:
     return out
 
 
-def integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int,
-              row: float) -> list[dict | None]:
+def integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int, row: float,
+              run_in: int = RUN_IN) -> list[dict | None]:
     """One Exudyn run from rest at ``pose`` (closed at the law's start) through the drive positions
-    ``rows``, ``per_row`` steps between two rows, ``row`` apart in time: each row's averaged quantities
+    ``rows``, ``per_row`` steps between two rows, ``row`` apart in time, after ``run_in`` rows' time of
+    run-in (:func:`~.law.drive_law`): each row's averaged quantities
     (module docstring), ``None`` for the rows after a failed step.  A run whose Newton iteration stalls
     above :data:`NEWTON_TOL` (round-off of a table in millimetres) is run again to :data:`NEWTON_RETRY`."""
     out: list[dict | None] = []
     for tolerance in (NEWTON_TOL, NEWTON_RETRY):
-        out = _integrate(mechanism, pose, rows, per_row, row, tolerance)
+        out = _integrate(mechanism, pose, rows, per_row, row, run_in, tolerance)
         if all(r is not None for r in out):
             break
     return out
 
 
 def _integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int, row: float,
-               tolerance: float) -> list[dict | None]:
+               run_in: int, tolerance: float) -> list[dict | None]:
     d = mechanism.drive
-    law = drive_law(rows, d.speed, d.accel, row, run_in_rows(mechanism))
+    law = drive_law(rows, d.speed, d.accel, row, run_in)
     loop = build_system(mechanism, pose, law)
     h = row / per_row
     knots = [int(round(t / h)) for t in law.knots]
@@ -226,13 +229,16 @@ def solve_loop(mechanism: LoopMechanism, travel: float | None = None) -> ExudynL
     rows_out: list[tuple[dict, dict] | None] = [None] * n
     transmission, transmission_error = np.full(n, np.nan), np.full(n, np.nan)
     for segment in _segments(status == Status.OK.value):
-        law = drive_law(positions[segment], mechanism.drive.speed, mechanism.drive.accel, row,
-                        run_in_rows(mechanism))
-        pose, word, _ = close_at(mechanism, poses[segment[0]], law.at(0.0)[0])
+        for run_in in dict.fromkeys((run_in_rows(mechanism), RUN_IN)):  # a shorter run-in before a gap
+            law = drive_law(positions[segment], mechanism.drive.speed, mechanism.drive.accel, row, run_in)
+            first = positions[segment[0]]
+            pose, word = close_along(mechanism, poses[segment[0]], first, law.at(0.0)[0])
+            if word == Status.OK.value:
+                break
         if word != Status.OK.value:
             status[segment] = Status.NOT_CONVERGED.value
             continue
-        runs = _runs(mechanism, pose, positions[segment], per_row, row)
+        runs = _runs(mechanism, pose, positions[segment], per_row, row, run_in)
         for i, *answers in zip(segment, *runs):
             if any(a is None for a in answers):
                 status[i] = Status.NOT_CONVERGED.value
@@ -257,18 +263,18 @@ def solve_loop(mechanism: LoopMechanism, travel: float | None = None) -> ExudynL
     return ExudynLoopTable(mechanism, columns, errors, status, residual)
 
 
-def _runs(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int,
-          row: float) -> list[list[tuple[dict, float] | None]]:
+def _runs(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int, row: float,
+          run_in: int) -> list[list[tuple[dict, float] | None]]:
     """Each step size's rows (:data:`LEVELS`) with the transmission of a given drive effort
     (:mod:`.given`; NaN when the drive's effort is solved)."""
     if solved_load(mechanism) is None:
-        runs = (integrate(mechanism, pose, rows, level * per_row, row) for level in LEVELS)
+        runs = (integrate(mechanism, pose, rows, level * per_row, row, run_in) for level in LEVELS)
         return [[None if r is None else (r, math.nan) for r in run] for run in runs]
     zero, unit = variants(mechanism)
     out = []
     for level in LEVELS:
         steps = level * per_row
-        pairs = zip(integrate(zero, pose, rows, steps, row), integrate(unit, pose, rows, steps, row))
+        pairs = zip(*(integrate(variant, pose, rows, steps, row, run_in) for variant in (zero, unit)))
         out.append([None if a is None or b is None else combine(mechanism, a, b) for a, b in pairs])
     return out
 
