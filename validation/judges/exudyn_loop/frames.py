@@ -26,12 +26,10 @@ COORDINATES: dict[str, tuple[str, ...]] = {"R": ("theta",), "P": ("s",), "C": ("
 
 
 def rot(axis: int, angle: float) -> np.ndarray:
-    """The rotation by ``angle`` (rad) about axis ``axis`` (0 x, 1 y, 2 z), ``(3, 3)``."""
-    c, s = math.cos(angle), math.sin(angle)
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    r = np.eye(3)
-    r[i, i], r[i, j], r[j, i], r[j, j] = c, -s, s, c
-    return r
+    """The rotation by ``angle`` (rad) about axis ``axis`` (0 x, 1 y, 2 z), ``(3, 3)``: Rodrigues'
+    :math:`I + \\sin\\varphi\\,K + (1 - \\cos\\varphi)\\,K^2`, ``K`` the axis's cross-product matrix."""
+    k = np.cross(np.eye(3)[axis], -np.eye(3))
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
 
 
 def transform(rotation: np.ndarray | None = None, translation: np.ndarray | None = None) -> np.ndarray:
