@@ -19,7 +19,9 @@ to :data:`SEARCH_POSITIONS` evenly spread positions, at the first where any clos
 pose (:func:`~dualmech.models.loop.start.nearest_to_zero`, the rule every engine shares).  From it the loop
 is closed position by position, forward then backward (each from the previous closed pose, through
 :data:`SUBSTEPS` intermediate positions), which gives every row's status word and the closed pose where each
-run of assembled rows starts.
+run of assembled rows starts.  The rows past a gap are walked to from its edge as well, so they stay
+``no_assembly``: the judge does not re-close the loop on an assembly its continuation cannot reach (a
+direct Newton step from the edge closed the bundled ``7r`` on another of its assemblies there).
 """
 
 from __future__ import annotations
