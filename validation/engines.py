@@ -35,14 +35,29 @@ ENGINES: dict[str, dict[str, str]] = {
                    "rssr": "dualmech.validation.judges.presets:simulate_rssr",
                    "rccc": "dualmech.validation.judges.presets:simulate_rccc",
                    "loop": "dualmech.validation.judges.mujoco_loop.table:solve_sim_table"},
+    "exudyn": {"loop": "dualmech.validation.judges.exudyn_loop.table:solve_table"},
 }
+
+
+#: Registered engines that a matrix runs only where it names them (``engines = [...]``, ``--engines``): the
+#: Exudyn judge, new (issue 33), slow (~15 table rows/s: three step sizes and a run-in) and not yet right on
+#: every table (an RSSP, R-S-S-P, follows neither of the in-house engine's branches).
+OPT_IN: tuple[str, ...] = ("exudyn",)
+#: The engines of a matrix that names none: every registered engine but :data:`OPT_IN`.
+DEFAULT_ENGINES: tuple[str, ...] = tuple(e for e in ENGINES if e not in OPT_IN)
+
+
+def engines_for(kind: str) -> tuple[str, ...]:
+    """The engines of :data:`DEFAULT_ENGINES` registered for cases of ``kind``, in :data:`ENGINES` order."""
+    return tuple(e for e in DEFAULT_ENGINES if kind in ENGINES[e])
 #: The in-house engine's streamed solve, by kind: ``(is_long, stream)``, each ``"module:function"``:
 #: ``solve -o OUT`` of a case where ``is_long(case)`` writes it chunk by chunk with ``stream(case, OUT,
 #: progress)``, which returns the summary (:mod:`dualmech.validation.solve_output`).
 STREAMED: dict[str, tuple[str, str]] = {
     SLIDER_CRANK: ("dualmech.validation.solve_output:is_long",
                    "dualmech.validation.solve_output:stream_solve")}
-#: Why the simulation does not solve a case of a kind it is registered for (its one-line refusal).
+#: Why the simulation (or the Exudyn judge) does not solve a case of a kind it is registered for (its
+#: one-line refusal).
 SIM_REFUSALS: dict[str, str] = {
     "rssr": "; its input is servo-driven through every angle of the case: the case must give "
             "loads.output_torque and its loop close at all of them",
@@ -50,6 +65,8 @@ SIM_REFUSALS: dict[str, str] = {
             "another joint",
     "loop-closes": "; its drive is servo-driven through every position of the table: its loop must close "
                    "(ok) at all of them",
+    "exudyn": "; the Exudyn judge drives the first joint only (it prescribes the first link's own "
+              "coordinate): put the driven joint first",
 }
 
 #: Engines run in a thread of the running process beside a pool's workers (under their registered function
@@ -93,16 +110,21 @@ def solves(engine: str, kind: str, case: Any) -> bool:
     table's simulation needs the drive at a joint other than the last
     (:mod:`~dualmech.validation.judges.mujoco_loop.sim_mjcf`) and, as the RSSR's, its loop closed (``ok``)
     at every drive position: started at the edge of a gap, its servo took 20 deg of drive to settle (a
-    user's RRCRC assembling from 125 deg).  The slider crank's simulation decides for itself (its table
-    marks what it cannot follow)."""
+    user's RRCRC assembling from 125 deg).  The Exudyn judge drives the first joint only.  The slider
+    crank's simulation decides for itself (its table marks what it cannot follow)."""
     if kind not in ENGINES.get(engine, {}):
         return False
+    if engine == "exudyn":
+        return case.drive.joint == 0
     if engine != "mujoco-sim" or kind == SLIDER_CRANK:
         return True
     if kind == "loop" and case.drive.joint == len(case.joints) - 1:
         return False
     given = kind in ("rccc", "loop") or getattr(case, "mode", "") == "output"
-    return given and bool(is_status(run_engine("dualmech", case).status, Status.OK).all())
+    try:
+        return given and bool(is_status(run_engine("dualmech", case).status, Status.OK).all())
+    except ValueError:  # the in-house engine finds no start: the loop does not close there either
+        return False
 
 
 def spec_of(engine: str, kind: str) -> str:
@@ -144,16 +166,19 @@ def solve_checked(engine: str, case: Any) -> ColumnTable:
     kind = kind_of(case)
     if not solves(engine, kind, case):
         valid = [e for e in ENGINES if solves(e, kind, case)]
-        why = SIM_REFUSALS[_sim_refusal(kind, case)] if kind in ENGINES[engine] else ""
+        why = SIM_REFUSALS[_refusal(engine, kind, case)] if kind in ENGINES[engine] else ""
         raise CaseError(f"engine: {show(engine)} does not solve this {kind.upper()} case (valid: "
                         f"{', '.join(valid)}{why})")
     return run_engine(engine, case)
 
 
-def _sim_refusal(kind: str, case: Any) -> str:
-    """The key of :data:`SIM_REFUSALS` saying why the simulation does not solve ``case`` (:func:`solves`)."""
+def _refusal(engine: str, kind: str, case: Any) -> str:
+    """The key of :data:`SIM_REFUSALS` saying why ``engine`` (the simulation, or Exudyn) does not solve
+    ``case`` of a kind registered under it (:func:`solves`)."""
     if kind != "loop":
         return "rssr"
+    if engine == "exudyn":
+        return "exudyn"
     return "loop" if case.drive.joint == len(case.joints) - 1 else "loop-closes"
 
 

@@ -108,7 +108,8 @@ def test_validate_small_matrix_on_real_engines(small, tmp_path):
 
 def test_broken_judge_fails_names_case_and_quantity(small, tmp_path, monkeypatch):
     """A judge with one reaction perturbed by 1e-6: validate exits 1, names it, and JUnit records it."""
-    monkeypatch.setitem(engines.ENGINES, "mujoco", "tests.validation.test_validate:perturbed_inhouse")
+    fake = {"slider-crank": "tests.validation.test_validate:perturbed_inhouse"}
+    monkeypatch.setitem(engines.ENGINES, "mujoco", fake)
     out, junit = tmp_path / "run", tmp_path / "junit.xml"
     result = CliRunner().invoke(main, ["validate", str(small), "-o", str(out), "--jobs", "1",
                                        "--engines", "dualmech,mujoco", "--junit", str(junit)])

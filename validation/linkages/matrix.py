@@ -43,7 +43,7 @@ from dualmech.models.inputs import CaseError, check_keys, key_text, show
 from dualmech.models.kinds import LINKAGE_KINDS, kind_of
 from dualmech.models.linkages import bundled_names, is_linkage, linkage_case, read_linkage
 from dualmech.models.toml_input import read_toml
-from dualmech.validation.engines import ENGINES, solves
+from dualmech.validation.engines import DEFAULT_ENGINES, ENGINES, solves
 from dualmech.validation.matrix import MatrixError, check_file_name
 from dualmech.validation.matrix.data import MAX_MATRIX_CASES
 from dualmech.validation.matrix.expand import ID_SAFE, flatten, sweep_points
@@ -139,7 +139,7 @@ def load_linkage_matrix(source: str | Path) -> LinkageMatrix:
     """
     if is_linkage(source):
         entry = _entry(str(source), None, "case")  # a Path as well as its text (the Python API)
-        return LinkageMatrix(entry.id, f"one linkage case: {entry.case.name}", str(source), tuple(ENGINES),
+        return LinkageMatrix(entry.id, f"one linkage case: {entry.case.name}", str(source), DEFAULT_ENGINES,
                              "dualmech", (entry,))
     path = _matrix_file(source)
     if path is None:
@@ -327,7 +327,7 @@ def _case_data(source: Any, matrix_file: Path | None, where: str) -> dict:
 
 def _engines(data: dict, where: str) -> tuple[tuple[str, ...], str]:
     """``engines`` (reference first, each once) and ``reference``, checked."""
-    engines = data.get("engines", list(ENGINES))
+    engines = data.get("engines", list(DEFAULT_ENGINES))
     if not isinstance(engines, list) or not all(isinstance(e, str) for e in engines):
         raise MatrixError(f"{where}: expected a list of engine names, got {show(engines)}")
     for e in engines:

@@ -73,8 +73,9 @@ from typing import Any
 
 from dualmech.models.case import Case, load_case, preset_names
 from dualmech.models.inputs import check_keys, check_text, key_text, show
+from dualmech.models.kinds import SLIDER_CRANK
 from dualmech.models.toml_input import read_toml
-from dualmech.validation.engines import ENGINES
+from dualmech.validation.engines import engines_for
 from dualmech.validation.matrix.data import (
     COMPARABLE,
     MAX_MATRIX_CASES,
@@ -205,12 +206,17 @@ def parse_matrix(data: dict, source: str = "<matrix>", matrix_file: Path | None 
 
 def _engines(data: dict) -> tuple[tuple[str, ...], str]:
     """The matrix's engines (each once, in the file's order) and its reference engine."""
-    engines = data.get("engines", list(ENGINES))
+    engines = data.get("engines", list(engines_for(SLIDER_CRANK)))
     if not isinstance(engines, list) or not all(isinstance(e, str) for e in engines):
         raise MatrixError(f"engines: expected an array of engine names, got {show(engines)}")
     reference = data.get("reference", "dualmech")
     engines_t = tuple(dict.fromkeys(engines))
     check_engines(engines_t, reference)
+    valid = engines_for(SLIDER_CRANK)
+    for e in engines_t:
+        if e not in valid:
+            raise MatrixError(f"engines: {show(e)} does not solve a slider crank (valid: {', '.join(valid)}; "
+                              f"it judges loop tables: docs/matrix-format.md, \"Linkage matrices\")")
     return engines_t, reference
 
 
@@ -318,7 +324,7 @@ def design_matrix(source: str | Path | Case) -> Matrix:
         "description": f"one design: {case.name}",
         "base": case if isinstance(source, Case) else str(source),
         "base_label": "design",
-        "engines": list(ENGINES),
+        "engines": list(engines_for(SLIDER_CRANK)),
         "reference": "dualmech",
     }
     return parse_matrix(data, source=case.name if isinstance(source, Case) else str(source), matrix_file=None)

@@ -61,6 +61,14 @@ DEFAULT_TOLERANCES: dict[str, dict[str, str]] = {
         "assembly_limit_band": "ASSEMBLY_LIMIT_STATUS_BAND",
         "joint_lock_cap": "RIGID_JOINT_LOCK_CAP",
     },
+    "exudyn": {  # a loop table's judge only (a linkage matrix's): its Richardson-estimated error
+        "kinematics": "EXUDYN_KINEMATICS",
+        "reactions": "EXUDYN_REACTIONS",
+        "stroke": "EXUDYN_KINEMATICS",
+        "dead_centre_band": "DEAD_CENTRE_STATUS_BAND",
+        "assembly_limit_band": "ASSEMBLY_LIMIT_STATUS_BAND",
+        "joint_lock_cap": "RIGID_JOINT_LOCK_CAP",
+    },
     "mujoco-sim": {
         "kinematics": "MATRIX_SIM_KINEMATICS",
         "reactions": "SIM_REACTIONS",
