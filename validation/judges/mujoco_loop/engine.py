@@ -7,8 +7,10 @@ zero pose: :func:`~dualmech.models.loop.start.nearest_to_zero`).  From there the
 closed position by position, forward then backward, each from its neighbour's pose (continuation; a
 position that fails leaves the last closed pose as the next start), and the branch is followed by the
 sign of :func:`~.closure.branch`: a position closed on the other branch is a branch jump, except right
-after positions that did not close (a gap of no assembly, where continuity is lost): there it is searched
-again from random poses for one on the start's branch, and is a branch jump only if none is found.
+after positions that did not close (a gap of no assembly, where continuity is lost): there, and at every
+position after such a gap that continuation does not close at all (a random RRSRR re-assembles five
+positions past its gap, too far for Newton from the last closed pose), it is searched again from random
+poses for one on the start's branch, and is a branch jump or unclosed only if none is found.
 Nothing of the in-house engine is used (independence).
 
 Statuses (:mod:`dualmech.core.status`): ``no_assembly`` / ``not_converged`` from Newton
@@ -167,17 +169,18 @@ def find_start(lp: MjLoop, seed: int = 0) -> int:
                      "the joints' start values")
 
 
-def _branch_search(lp: MjLoop, k: int, sign: float, rng: np.random.Generator) -> bool:
+def _branch_search(lp: MjLoop, k: int, sign: float, rng: np.random.Generator) -> tuple[int, float] | None:
     """Close position ``k`` on the branch ``sign`` from random poses (:data:`SEARCH_TRIES`), where
-    continuation closed it on the other (e.g. past a gap of no assembly): whether one was found (then it is
-    the current pose)."""
+    continuation did not close it there (past a gap of no assembly: on the other branch, or not at all):
+    the closing try's iterations and gap if one was found (then it is the current pose), else ``None``."""
     values = drive_values(lp.mechanism, k)[0]
     for _ in range(SEARCH_TRIES):
         scatter(lp, rng)
         prescribe(lp, values)
-        if close(lp)[0] == Status.OK and branch(lp) == sign:
-            return True
-    return False
+        outcome, iterations, gap = close(lp)
+        if outcome == Status.OK and branch(lp) == sign:
+            return iterations, gap
+    return None
 
 
 def dynamics_at(lp: MjLoop, k: int, given: dict[str, float],
@@ -236,17 +239,21 @@ def sweep(lp: MjLoop, seed: int = 0) -> Iterator[tuple[int, str, int, float]]:
             prescribe(lp, drive_values(mechanism, k)[0])
             outcome, iterations, gap = close(lp)
             if outcome != Status.OK:
-                gap_before = True
-                yield k, outcome, iterations, gap
-                continue
+                found = _branch_search(lp, k, start_branch, rng) if gap_before and start_branch else None
+                if found is None:
+                    gap_before = True
+                    yield k, outcome, iterations, gap
+                    continue
+                iterations, gap = found
             sign = branch(lp)
             if start_branch is None:
                 start_branch, anchor = sign, (lp.data.qpos.copy(), lp.q_cut.copy())
-            searched = gap_before and sign != start_branch and _branch_search(lp, k, start_branch, rng)
+            found = _branch_search(lp, k, start_branch, rng) if gap_before and sign != start_branch else None
             gap_before = False
-            if sign != start_branch and not searched:
+            if sign != start_branch and found is None:
                 yield k, Status.BRANCH_JUMP.value, iterations, gap
                 continue
+            iterations, gap = found or (iterations, gap)
             last = (lp.data.qpos.copy(), lp.q_cut.copy())
             yield k, Status.OK.value, iterations, gap
 
