@@ -52,7 +52,7 @@ from exudyn.itemInterface import (
     ObjectJointGeneric,
     ObjectRigidBody,
 )
-from exudyn.rigidBodyUtilities import RotationMatrix2EulerParameters
+from scipy.spatial.transform import Rotation
 
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.validation.judges.exudyn_loop.closure import Pose
@@ -104,6 +104,17 @@ def reference_inertia(mass: float, com: np.ndarray, inertia: np.ndarray) -> list
     c = np.asarray(com, float)
     i = np.asarray(inertia, float) + mass * (c @ c * np.eye(3) - np.outer(c, c))
     return [i[0, 0], i[1, 1], i[2, 2], i[1, 2], i[0, 2], i[0, 1]]
+
+
+def euler_parameters(rotation: np.ndarray) -> list[float]:
+    """The Euler parameters ``[e0, e1, e2, e3]`` of a rotation matrix by scipy's (Shepperd's) method, exact
+    at every angle.  Exudyn's ``RotationMatrix2EulerParameters`` divides by :math:`\\sqrt{1 + tr R}` unless
+    that is below 1e-15: at a half-turn, rounded to -3.6e-15 on the RSSP's slider (``theta`` 20 degrees,
+    ``alpha`` 80 + 100 degrees), it gave a node 118 degrees off its link frame, a run that drifted to the
+    wrong branch (index-2 constraints never correct the positions) and failed steps; its other branch
+    has ``e0``'s sign flipped."""
+    x, y, z, w = Rotation.from_matrix(rotation).as_quat()
+    return [float(w), float(x), float(y), float(z)]
 
 
 def check_table(mechanism: LoopMechanism) -> None:
@@ -167,7 +178,7 @@ def build_system(mechanism: LoopMechanism, pose: Pose, law: Law) -> ExudynLoop:
             node = mbs.AddNode(NodeRigidBodyRxyz(referenceCoordinates=[0.0] * 6,
                                                  initialCoordinates=[*f[:3, 3], *angles]))
         else:
-            ep = list(RotationMatrix2EulerParameters(f[:3, :3]))
+            ep = euler_parameters(f[:3, :3])
             node = mbs.AddNode(NodeRigidBodyEP(referenceCoordinates=[*f[:3, 3], *ep]))
         body = mechanism.bodies[k]
         bodies.append(mbs.AddObject(ObjectRigidBody(
