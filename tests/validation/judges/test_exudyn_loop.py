@@ -29,7 +29,7 @@ from dualmech.models.linkages.table import LinkageTable  # noqa: E402
 from dualmech.models.loop.columns import loop_spec  # noqa: E402
 from dualmech.models.loop.description import LoopMechanism  # noqa: E402
 from dualmech.models.loop.table import solve_loop_table  # noqa: E402
-from dualmech.validation.judges.exudyn_loop import readout  # noqa: E402
+from dualmech.validation.judges.exudyn_loop import engine, readout  # noqa: E402
 from dualmech.validation.judges.exudyn_loop.table import solve_table  # noqa: E402
 from dualmech.validation.linkages.gate import zero_group_scale  # noqa: E402
 from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS  # noqa: E402
@@ -184,6 +184,20 @@ def test_nothing_is_written_to_the_working_directory(tmp_path: Path, monkeypatch
     monkeypatch.chdir(tmp_path)
     solve_table(_table("rscr", rows=2))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_failed_run_is_its_rows_status_and_prints_nothing(capfd: pytest.CaptureFixture[str],
+                                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    """Newton held to a tolerance it cannot reach fails every run: Exudyn's "DYNAMIC SOLVER FAILED" banner
+    (printed through ``exudyn.Print`` whatever ``verboseMode``) stays off the console, the rows say
+    ``not_converged`` and Exudyn's console flag is as it was."""
+    for name in ("NEWTON_TOL", "NEWTON_RETRY", "NEWTON_ABSOLUTE"):
+        monkeypatch.setattr(engine, name, 1e-40)
+    table = solve_table(_table("rscr", rows=2))
+    assert list(table.status) == ["not_converged"] * 2
+    assert np.isnan(table["theta4"]).all()
+    assert capfd.readouterr().out == ""
+    assert exudyn.config.printToConsole
 
 
 def test_a_drive_at_another_joint_is_refused() -> None:

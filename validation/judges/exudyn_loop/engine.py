@@ -32,7 +32,9 @@ A prescribed coordinate is its law's value, rate and acceleration.
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import exudyn as exu
@@ -62,6 +64,8 @@ MIN_STEPS_ACCEL = 64
 WEIGHTS = np.array([1.0, 2.0, 1.0]) / 4.0
 #: Newton's relative residual tolerance in every step, and the one of a run that stalls above it.
 NEWTON_TOL, NEWTON_RETRY = 1e-12, 1e-10
+#: Newton's absolute residual tolerance.
+NEWTON_ABSOLUTE = 1e-14
 
 
 @dataclass(frozen=True)
@@ -96,13 +100,27 @@ def settings(steps: int, end_time: float, tolerance: float = 0.0) -> exu.Simulat
     ss.timeIntegration.numberOfSteps = steps
     ss.timeIntegration.endTime = end_time
     ss.timeIntegration.verboseMode = 0
+    ss.show.statistics = ss.show.computationTime = False
     ss.timeIntegration.adaptiveStep = False
     alpha = ss.timeIntegration.generalizedAlpha
     alpha.useNewmark, alpha.useIndex2Constraints, alpha.spectralRadius = True, True, 1.0
     alpha.newmarkBeta, alpha.newmarkGamma = 0.25, 0.5
     ss.timeIntegration.newton.relativeTolerance = tolerance or NEWTON_TOL
-    ss.timeIntegration.newton.absoluteTolerance = 1e-14
+    ss.timeIntegration.newton.absoluteTolerance = NEWTON_ABSOLUTE
     return ss
+
+
+@contextlib.contextmanager
+def silent() -> Iterator[None]:
+    """Exudyn's console output off while a run solves, as it was after: ``verboseMode = 0`` does not stop
+    ``SolveDynamic`` printing its "DYNAMIC SOLVER FAILED" banner through ``exudyn.Print`` before it raises;
+    the global ``exudyn.config.printToConsole`` does.  A failed run is its rows' ``not_converged``."""
+    before = exu.config.printToConsole
+    exu.config.printToConsole = False
+    try:
+        yield
+    finally:
+        exu.config.printToConsole = before
 
 
 def _is_angle(name: str) -> bool:
@@ -157,10 +175,8 @@ def _integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: 
 
     loop.mbs.SetPreStepUserFunction(pre_step)
     steps = knots[-1] + half + 1
-    try:
+    with silent(), contextlib.suppress(RuntimeError):  # exudyn.SolverError: the rows after it are None
         loop.mbs.SolveDynamic(settings(steps, steps * h, tolerance))
-    except RuntimeError:
-        pass
     return [_average(s) if all(x is not None for x in s) else None for s in samples]
 
 
