@@ -29,7 +29,7 @@ from dualmech.models.linkages.table import LinkageTable  # noqa: E402
 from dualmech.models.loop.columns import loop_spec  # noqa: E402
 from dualmech.models.loop.description import LoopMechanism  # noqa: E402
 from dualmech.models.loop.table import solve_loop_table  # noqa: E402
-from dualmech.validation.judges.exudyn_loop import engine, readout  # noqa: E402
+from dualmech.validation.judges.exudyn_loop import closure, engine, readout  # noqa: E402
 from dualmech.validation.judges.exudyn_loop.table import solve_table  # noqa: E402
 from dualmech.validation.linkages.gate import zero_group_scale  # noqa: E402
 from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS  # noqa: E402
@@ -53,12 +53,13 @@ def _table(name: str, rows: int | slice | None = None) -> LoopMechanism:
     return dataclasses.replace(mechanism, drive=dataclasses.replace(mechanism.drive, positions=chosen))
 
 
-def _user_table(name: str, step: float, start: dict[int, list[float]] | None = None) -> LoopMechanism:
-    """A user table of :data:`TABLES` at drive positions ``step`` degrees apart, ``start`` values given to
-    the joints (0-based) of ``start``."""
+def _user_table(name: str, step: float, joint_start: dict[int, list[float]] | None = None,
+                **positions: float) -> LoopMechanism:
+    """A user table of :data:`TABLES` at drive positions ``step`` degrees apart (``positions``: other
+    ``start``, ``stop``), ``start`` values given to the joints (0-based) of ``joint_start``."""
     data = read_linkage(TABLES / f"{name}.toml")
-    data["drive"]["positions"] = {**data["drive"]["positions"], "step": step}
-    for k, values in (start or {}).items():
+    data["drive"]["positions"] = {**data["drive"]["positions"], "step": step, **positions}
+    for k, values in (joint_start or {}).items():
         data["joint"][k]["start"] = values
     return linkage_case(data)
 
@@ -135,6 +136,16 @@ def test_a_slider_frame_at_a_half_turn_agrees(start: float | None) -> None:
     assert np.sign(reference["s4"][0]) == (1.0 if start is None else -1.0)
     for group, worst in worst_by_group(mine, reference, mechanism).items():
         assert worst <= _bar(group), (group, worst)
+
+
+def test_a_closure_past_the_end_of_the_branch_is_a_branch_jump() -> None:
+    """The ``rrcrc``'s branch ends at 228 degrees; from 220 the judge's closure reached 230 on another
+    assembly and called it ``ok`` (its run then failed at the fold): the determinant's sign calls it a
+    branch jump, as the in-house engine does."""
+    mechanism = _user_table("rrcrc", 10.0, start=180.0, stop=240.0)
+    words = ["ok"] * 5 + ["branch_jump"]
+    assert list(closure.continuation(mechanism)[1]) == words
+    assert list(solve_loop_table(mechanism).status) == words
 
 
 def _faulty_worst(monkeypatch: pytest.MonkeyPatch, name: str, **faults: object) -> dict[str, float]:

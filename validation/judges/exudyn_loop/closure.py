@@ -21,7 +21,11 @@ is closed position by position, forward then backward (each from the previous cl
 :data:`SUBSTEPS` intermediate positions), which gives every row's status word and the closed pose where each
 run of assembled rows starts.  The rows past a gap are walked to from its edge as well, so they stay
 ``no_assembly``: the judge does not re-close the loop on an assembly its continuation cannot reach (a
-direct Newton step from the edge closed the bundled ``7r`` on another of its assemblies there).
+direct Newton step from the edge closed the bundled ``7r`` on another of its assemblies there).  A row, or
+an intermediate position, that closes with another sign of the square Jacobian's determinant than the
+start pose's (:func:`branch_sign`) is ``branch_jump`` and not followed: the ``rrcrc``'s branch ends at
+228 degrees, and from 220 Levenberg-Marquardt closed 230 on another assembly, which the run then tried to
+reach through the fold.
 """
 
 from __future__ import annotations
@@ -154,15 +158,40 @@ def close_at(mechanism: LoopMechanism, pose: Pose, position: float, max_iter: in
     return pose, Status.NOT_CONVERGED.value, float(np.linalg.norm(r))
 
 
+def branch_sign(mechanism: LoopMechanism, pose: Pose) -> int:
+    """The sign of the determinant of the closure's Jacobian over the free variables (:func:`_columns`)
+    made square by one gauge row per idle spin (an S-S link: its spin about the line through the two centres
+    at the first S joint's columns): it changes only through a singular pose (an edge of assembly), so it
+    labels the branch; 0 where the Jacobian is not square (a loop of other mobility)."""
+    joint_frames, link_frames = chain(mechanism, pose.values, pose.rotations)
+    columns = _columns(mechanism, pose, joint_frames, link_frames[-1])
+    keys, jac = [key for key, _ in columns], np.array([col for _, col in columns])
+    joints = mechanism.joints
+    gauges = []
+    for k, joint in enumerate(joints):
+        after = (k + 1) % len(joints)
+        if joint.type == "S" and joints[after].type == "S":
+            u = joint_frames[after][:3, 3] - joint_frames[k][:3, 3]
+            u /= np.linalg.norm(u)
+            gauges.append([u[key[1]] if key[0] == k and not isinstance(key[1], str) else 0.0 for key in keys])
+    square = np.vstack([jac.T, *gauges]) if gauges else jac.T
+    if square.shape[0] != square.shape[1]:
+        return 0
+    return int(np.sign(np.linalg.det(square)))
+
+
 def close_along(mechanism: LoopMechanism, pose: Pose, start: float, end: float,
                 step: float = math.radians(2.0)) -> tuple[Pose, str]:
     """``pose`` (closed at drive position ``start``) carried to ``end`` in steps of at most ``step`` (a
-    slide drive: times the table's length), each closed from the last: the pose and its status word."""
+    slide drive: times the table's length), each closed from the last: the pose and its status word
+    (``branch_jump`` where a step closes on another branch, :func:`branch_sign`)."""
     if mechanism.drive.coordinate == "s":
         step *= table_length(mechanism)
-    word = Status.OK.value
+    word, branch = Status.OK.value, branch_sign(mechanism, pose)
     for x in np.linspace(start, end, max(1, math.ceil(abs(end - start) / step)) + 1)[1:]:
         pose, word, _ = close_at(mechanism, pose, x)
+        if word == Status.OK.value and branch_sign(mechanism, pose) != branch:
+            word = Status.BRANCH_JUMP.value
         if word != Status.OK.value:
             break
     return pose, word
@@ -232,12 +261,15 @@ def continuation(mechanism: LoopMechanism) -> tuple[list[Pose | None], np.ndarra
     if status[at] != Status.OK.value:
         poses[at] = None
         return poses, status, res
+    branch = branch_sign(mechanism, poses[at])
     for order in (range(at + 1, n), range(at - 1, -1, -1)):
         last, last_position = poses[at], positions[at]
         for i in order:
             pose, word = last, Status.OK.value
             for x in np.linspace(last_position, positions[i], SUBSTEPS + 1)[1:]:
                 pose, word, res[i] = close_at(mechanism, pose, x)
+                if word == Status.OK.value and branch_sign(mechanism, pose) != branch:
+                    word = Status.BRANCH_JUMP.value
                 if word != Status.OK.value:
                     break
             status[i] = word
