@@ -138,6 +138,19 @@ def test_a_slider_frame_at_a_half_turn_agrees(start: float | None) -> None:
         assert worst <= _bar(group), (group, worst)
 
 
+def test_a_negative_drive_rate_agrees() -> None:
+    """The RSCR's rows rising while the drive turns backward: the drive passes them from the last, so the run
+    goes through them that way (a law through them rising at a negative rate at every row went back and
+    forth within each row: 1e-3 of the peak acceleration off); every column within the bars."""
+    mechanism = _table("rscr", rows=6)
+    mechanism = dataclasses.replace(mechanism, drive=dataclasses.replace(mechanism.drive,
+                                                                           speed=-mechanism.drive.speed))
+    mine, reference = solve_table(mechanism), solve_loop_table(mechanism)
+    np.testing.assert_array_equal(np.asarray(mine.status, str), np.asarray(reference.status, str))
+    for group, worst in worst_by_group(mine, reference, mechanism).items():
+        assert worst <= _bar(group), (group, worst)
+
+
 def test_a_closure_past_the_end_of_the_branch_is_a_branch_jump() -> None:
     """The ``rrcrc``'s branch ends at 228 degrees; from 220 the judge's closure reached 230 on another
     assembly and called it ``ok`` (its run then failed at the fold): the determinant's sign calls it a
@@ -146,6 +159,20 @@ def test_a_closure_past_the_end_of_the_branch_is_a_branch_jump() -> None:
     words = ["ok"] * 5 + ["branch_jump"]
     assert list(closure.continuation(mechanism)[1]) == words
     assert list(solve_loop_table(mechanism).status) == words
+
+
+def test_a_table_assembled_from_its_middle_agrees() -> None:
+    """The ``rrcrc`` assembles from 125 degrees: no run-in from rest closes before 130, nor past its branch's
+    end at 228; the table's motion from 170 and its reversal in time from 220 down to 130 judge every row
+    the in-house engine calls ``ok``, within the bars."""
+    mechanism = _user_table("rrcrc", 10.0, start=110.0, stop=250.0)
+    mine, reference = solve_table(mechanism), solve_loop_table(mechanism)
+    gone = ("branch_jump", "no_assembly")  # the gate's BRANCH_GONE: either word past the branch's end
+    words = [w if w not in gone else "gone" for w in np.asarray(mine.status, str)]
+    assert words == [w if w not in gone else "gone" for w in np.asarray(reference.status, str)], words
+    assert (np.asarray(mine.status) == "ok").sum() == 10
+    for group, worst in worst_by_group(mine, reference, mechanism).items():
+        assert worst <= _bar(group), (group, worst)
 
 
 def _faulty_worst(monkeypatch: pytest.MonkeyPatch, name: str, **faults: object) -> dict[str, float]:

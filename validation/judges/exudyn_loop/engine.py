@@ -1,11 +1,22 @@
 """The Exudyn judge of any loop table: its own closure, then Exudyn's dynamic runs with the drive prescribed.
 
 **Rows.**  The judge closes the loop at every drive position itself (:mod:`.closure`); each maximal run of
-consecutive closed rows is one Exudyn run (:mod:`.model`), from rest at the start of its law's run-in
-(:mod:`.law`: the drive travels :data:`RUN_IN_TRAVEL`, or :data:`~.law.RUN_IN` rows' time where that start
-does not close, as before a gap; the start pose is carried there from the first row in closed steps of
-2 degrees) through all its rows; rows that do not close keep the closure's word, rows of a run whose Newton
-iteration fails are ``not_converged``.
+consecutive closed rows (a segment) is judged by Exudyn runs (:mod:`.model`), each from rest at the start
+of its law's run-in (:mod:`.law`: the drive travels :data:`RUN_IN_TRAVEL`, or :data:`~.law.RUN_IN` rows'
+time where that start does not close; the start pose is carried there from the run's first row in closed
+steps of 2 degrees) through its rows; rows that do not close keep the closure's word, rows of a run whose
+Newton iteration fails are ``not_converged``.
+
+**Runs.**  A run passes the rows in time order: a drive of negative rate passes rising positions from the
+last (a law through them the other way would go back and forth within every row).  The equations of
+motion are even in time (gravity and the given efforts are constant, the velocity terms quadratic, the
+multipliers of a prescribed motion even), so the same motion reversed in time, through the rows the other
+way at the opposite rate and the same acceleration, gives the same coordinates, accelerations and
+reactions and the rates negated.  A segment is one run, the table's motion or else its reversal, whose
+run-in closes; where neither closes (a table that assembles only from or up to the segment's ends: the
+``rrcrc`` from 125 degrees), the table's motion through the rows from the first whose run-in starts
+within the segment, and the reversal through the rows before it from its far end alike; rows neither
+reaches (a segment shorter than two run-ins) are ``not_converged``.
 
 **Integrator.**  Newmark's method with :math:`\\beta = 1/4`, :math:`\\gamma = 1/2` (the trapezoidal rule,
 spectral radius 1: no numerical damping), index-2 (velocity-level) constraints, Newton to a relative
@@ -140,24 +151,25 @@ def _average(samples: list[dict]) -> dict[str, float]:
 
 
 def integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int, row: float,
-              run_in: int = RUN_IN) -> list[dict | None]:
+              run_in: int = RUN_IN, speed: float | None = None) -> list[dict | None]:
     """One Exudyn run from rest at ``pose`` (closed at the law's start) through the drive positions
     ``rows``, ``per_row`` steps between two rows, ``row`` apart in time, after ``run_in`` rows' time of
-    run-in (:func:`~.law.drive_law`): each row's averaged quantities
+    run-in (:func:`~.law.drive_law`), at the drive rate ``speed`` (the table's by default): each row's
+    averaged quantities
     (module docstring), ``None`` for the rows after a failed step.  A run whose Newton iteration stalls
     above :data:`NEWTON_TOL` (round-off of a table in millimetres) is run again to :data:`NEWTON_RETRY`."""
     out: list[dict | None] = []
     for tolerance in (NEWTON_TOL, NEWTON_RETRY):
-        out = _integrate(mechanism, pose, rows, per_row, row, run_in, tolerance)
+        out = _integrate(mechanism, pose, rows, per_row, row, run_in, tolerance,
+                         mechanism.drive.speed if speed is None else speed)
         if all(r is not None for r in out):
             break
     return out
 
 
 def _integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int, row: float,
-               run_in: int, tolerance: float) -> list[dict | None]:
-    d = mechanism.drive
-    law = drive_law(rows, d.speed, d.accel, row, run_in)
+               run_in: int, tolerance: float, speed: float) -> list[dict | None]:
+    law = drive_law(rows, speed, mechanism.drive.accel, row, run_in)
     loop = build_system(mechanism, pose, law)
     h = row / per_row
     knots = [int(round(t / h)) for t in law.knots]
@@ -245,22 +257,11 @@ def solve_loop(mechanism: LoopMechanism, travel: float | None = None) -> ExudynL
     rows_out: list[tuple[dict, dict] | None] = [None] * n
     transmission, transmission_error = np.full(n, np.nan), np.full(n, np.nan)
     for segment in _segments(status == Status.OK.value):
-        for run_in in dict.fromkeys((run_in_rows(mechanism), RUN_IN)):  # a shorter run-in before a gap
-            law = drive_law(positions[segment], mechanism.drive.speed, mechanism.drive.accel, row, run_in)
-            first = positions[segment[0]]
-            pose, word = close_along(mechanism, poses[segment[0]], first, law.at(0.0)[0])
-            if word == Status.OK.value:
-                break
-        if word != Status.OK.value:
-            status[segment] = Status.NOT_CONVERGED.value
-            continue
-        runs = _runs(mechanism, pose, positions[segment], per_row, row, run_in)
-        for i, *answers in zip(segment, *runs):
-            if any(a is None for a in answers):
+        for i, answer in _judge_segment(mechanism, poses, segment, per_row, row).items():
+            if answer is None:
                 status[i] = Status.NOT_CONVERGED.value
                 continue
-            rows_out[i] = _richardson(*(a for a, _ in answers))
-            transmission[i], transmission_error[i] = _extrapolate(*(g for _, g in answers))
+            rows_out[i], (transmission[i], transmission_error[i]) = answer
     if solved_load(mechanism) is not None and np.isfinite(transmission).any():
         bar = DEAD_CENTRE_TRANSMISSION.value * np.nanmax(np.abs(transmission)) + transmission_error
         status[np.abs(transmission) <= bar] = Status.DEAD_CENTRE.value
@@ -279,18 +280,90 @@ def solve_loop(mechanism: LoopMechanism, travel: float | None = None) -> ExudynL
     return ExudynLoopTable(mechanism, columns, errors, status, residual)
 
 
-def _runs(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int, row: float,
+def orders(mechanism: LoopMechanism, segment: np.ndarray) -> list[tuple[np.ndarray, float]]:
+    """The rows of ``segment`` in the order a run passes them, with the run's drive rate: the table's own
+    motion first (the drive passes its positions in time order: by rising position when its rate is
+    positive, by falling when negative), then that motion reversed in time (module docstring)."""
+    d = mechanism.drive
+    x = d.positions[segment]
+    rising = bool(x[-1] >= x[0])
+    if d.speed == 0.0:
+        return [(segment, 0.0)]
+    ahead = segment if (d.speed > 0.0) == rising else segment[::-1]
+    return [(ahead, d.speed), (ahead[::-1], -d.speed)]
+
+
+def _run_start(mechanism: LoopMechanism, poses: list, rows: np.ndarray, speed: float, row: float,
+               run_in: int) -> Pose | None:
+    """The closed pose at the start of the law of a run through ``rows`` (in run order) at ``speed``, carried
+    there from the first row's pose (:func:`~.closure.close_along`), or ``None`` where it does not close."""
+    law = drive_law(mechanism.drive.positions[rows], speed, mechanism.drive.accel, row, run_in)
+    first = mechanism.drive.positions[rows[0]]
+    pose, word = close_along(mechanism, poses[rows[0]], first, law.at(0.0)[0])
+    return pose if word == Status.OK.value else None
+
+
+def _inside(mechanism: LoopMechanism, rows: np.ndarray, speed: float, row: float, run_in: int) -> int:
+    """The first index ``j`` of ``rows`` (run order) whose run-in from rest starts within the rows: the drive
+    travels :math:`|w|\\,T_0/2` in it."""
+    x = mechanism.drive.positions[rows]
+    travel = abs(speed) * run_in * row / 2.0
+    return int(np.searchsorted(np.abs(x - x[0]), travel - 1e-12 * max(travel, 1.0)))
+
+
+def _judge_segment(mechanism: LoopMechanism, poses: list, segment: np.ndarray, per_row: int,
+                   row: float) -> dict[int, tuple[tuple[dict, dict], tuple[float, float]] | None]:
+    """Each row of one run of closed rows: its extrapolated row and error estimates with the transmission
+    and its estimate, ``None`` where no run reached it (module docstring, "Runs").  First one run through
+    every row, the table's motion or its time reversal, whose run-in closes (:func:`run_in_rows`, else
+    :data:`~.law.RUN_IN` rows); where neither closes (a table assembled only from or to its segment's ends),
+    the table's motion from the first row whose :data:`~.law.RUN_IN` run-in starts within the segment, and
+    the time reversal through the rows before it from the far end alike."""
+    out: dict[int, tuple | None] = {int(i): None for i in segment}
+    plans = [(rows, speed, run_in) for rows, speed in orders(mechanism, segment)
+             for run_in in dict.fromkeys((run_in_rows(mechanism), RUN_IN))]
+    for rows, speed, run_in in plans:
+        start = _run_start(mechanism, poses, rows, speed, row, run_in)
+        if start is not None:
+            return _judged(mechanism, start, rows, speed, per_row, row, run_in)
+    for rows, speed in orders(mechanism, segment):
+        rows = rows[_inside(mechanism, rows, speed, row, RUN_IN):]
+        start = _run_start(mechanism, poses, rows, speed, row, RUN_IN) if rows.size else None
+        if start is not None:
+            judged = _judged(mechanism, start, rows, speed, per_row, row, RUN_IN)
+            out.update({i: a for i, a in judged.items() if out[i] is None})
+    return out
+
+
+def _judged(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, speed: float, per_row: int, row: float,
+            run_in: int) -> dict[int, tuple[tuple[dict, dict], tuple[float, float]] | None]:
+    """One run through ``rows`` (run order) at ``speed`` from the closed ``pose`` at its law's start, each
+    row extrapolated (:func:`_richardson`); a run reversed in time gives the rates back negated."""
+    runs = _runs(mechanism, pose, mechanism.drive.positions[rows], speed, per_row, row, run_in)
+    out: dict[int, tuple | None] = {}
+    for i, *answers in zip(rows, *runs):
+        if any(a is None for a in answers):
+            out[int(i)] = None
+            continue
+        value, error = _richardson(*(a for a, _ in answers))
+        if speed != mechanism.drive.speed:
+            value = {k: -v if k.endswith("_dot") else v for k, v in value.items()}
+        out[int(i)] = (value, error), _extrapolate(*(g for _, g in answers))
+    return out
+
+
+def _runs(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, speed: float, per_row: int, row: float,
           run_in: int) -> list[list[tuple[dict, float] | None]]:
-    """Each step size's rows (:data:`LEVELS`) with the transmission of a given drive effort
-    (:mod:`.given`; NaN when the drive's effort is solved)."""
+    """Each step size's rows (:data:`LEVELS`; drive positions ``rows`` in run order at ``speed``) with the
+    transmission of a given drive effort (:mod:`.given`; NaN when the drive's effort is solved)."""
     if solved_load(mechanism) is None:
-        runs = (integrate(mechanism, pose, rows, level * per_row, row, run_in) for level in LEVELS)
+        runs = (integrate(mechanism, pose, rows, level * per_row, row, run_in, speed) for level in LEVELS)
         return [[None if r is None else (r, math.nan) for r in run] for run in runs]
     zero, unit = variants(mechanism)
     out = []
     for level in LEVELS:
         steps = level * per_row
-        pairs = zip(*(integrate(variant, pose, rows, steps, row, run_in) for variant in (zero, unit)))
+        pairs = zip(*(integrate(variant, pose, rows, steps, row, run_in, speed) for variant in (zero, unit)))
         out.append([None if a is None or b is None else combine(mechanism, a, b) for a, b in pairs])
     return out
 
