@@ -33,6 +33,7 @@ from dualmech.validation.judges.exudyn_loop import closure, engine, readout  # n
 from dualmech.validation.judges.exudyn_loop.table import solve_table  # noqa: E402
 from dualmech.validation.linkages.gate import zero_group_scale  # noqa: E402
 from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS  # noqa: E402
+from tests.models.loop.test_random_tables import random_table  # noqa: E402
 from tests.validation.judges.test_pinocchio_loop import IN_HOUSE, _preset  # noqa: E402
 
 PACKAGE = "dualmech.validation.judges.exudyn_loop"
@@ -173,6 +174,22 @@ def test_a_table_assembled_from_its_middle_agrees() -> None:
     assert (np.asarray(mine.status) == "ok").sum() == 10
     for group, worst in worst_by_group(mine, reference, mechanism).items():
         assert worst <= _bar(group), (group, worst)
+
+
+def _random(seed: int, topology: str, rows: int) -> LoopMechanism:
+    """A random table of tests/models/loop (:func:`random_table`), its first ``rows`` positions."""
+    mechanism = random_table(seed, topology)
+    drive = dataclasses.replace(mechanism.drive, positions=mechanism.drive.positions[:rows])
+    return dataclasses.replace(mechanism, drive=drive)
+
+
+def test_a_run_that_fails_in_its_run_in_gives_way_to_the_next() -> None:
+    """A random RSCR whose long run-in from rest starts 46 degrees back, near an edge of assembly where the
+    pose swings faster than the rows' steps allow: that run fails (every row was ``not_converged``), the
+    next plan (a shorter run-in) judges every row."""
+    mechanism = _random(1, "RSCR", 4)
+    mine, reference = solve_table(mechanism), solve_loop_table(mechanism)
+    assert list(mine.status) == list(reference.status) == ["ok"] * 4
 
 
 def _faulty_worst(monkeypatch: pytest.MonkeyPatch, name: str, **faults: object) -> dict[str, float]:

@@ -316,7 +316,9 @@ def _judge_segment(mechanism: LoopMechanism, poses: list, segment: np.ndarray, p
     """Each row of one run of closed rows: its extrapolated row and error estimates with the transmission
     and its estimate, ``None`` where no run reached it (module docstring, "Runs").  First one run through
     every row, the table's motion or its time reversal, whose run-in closes (:func:`run_in_rows`, else
-    :data:`~.law.RUN_IN` rows); where neither closes (a table assembled only from or to its segment's ends),
+    :data:`~.law.RUN_IN` rows) and whose steps all converge (a long run-in that starts near an edge of
+    assembly, where the pose swings faster than the rows' steps allow, fails; the next is tried, and the
+    rows a failed run reached are kept); where none does (a table assembled only from or to its ends),
     the table's motion from the first row whose :data:`~.law.RUN_IN` run-in starts within the segment, and
     the time reversal through the rows before it from the far end alike."""
     out: dict[int, tuple | None] = {int(i): None for i in segment}
@@ -325,11 +327,14 @@ def _judge_segment(mechanism: LoopMechanism, poses: list, segment: np.ndarray, p
     for rows, speed, run_in in plans:
         start = _run_start(mechanism, poses, rows, speed, row, run_in)
         if start is not None:
-            return _judged(mechanism, start, rows, speed, per_row, row, run_in)
+            judged = _judged(mechanism, start, rows, speed, per_row, row, run_in)
+            out.update({i: a for i, a in judged.items() if out[i] is None})
+            if all(a is not None for a in out.values()):
+                return out
     for rows, speed in orders(mechanism, segment):
         rows = rows[_inside(mechanism, rows, speed, row, RUN_IN):]
         start = _run_start(mechanism, poses, rows, speed, row, RUN_IN) if rows.size else None
-        if start is not None:
+        if start is not None and any(out[int(i)] is None for i in rows):
             judged = _judged(mechanism, start, rows, speed, per_row, row, RUN_IN)
             out.update({i: a for i, a in judged.items() if out[i] is None})
     return out
