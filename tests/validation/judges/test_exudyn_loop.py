@@ -192,6 +192,18 @@ def test_a_run_that_fails_in_its_run_in_gives_way_to_the_next() -> None:
     assert list(mine.status) == list(reference.status) == ["ok"] * 4
 
 
+def test_an_accelerating_drive_is_judged_to_its_estimate() -> None:
+    """A random RSSR whose drive rate is a fifth of its acceleration's per row: its Richardson estimate was
+    1e-7 of the peak, its first row (right after the run-in) off by 4e-8 below an estimate of 6e-10; the
+    steps shortened for the estimate and a lead row before the first, every column within the bars."""
+    mechanism = _random(4, "RSSR", 16)
+    mine, reference = solve_table(mechanism), solve_loop_table(mechanism)
+    for group, worst in worst_by_group(mine, reference, mechanism).items():
+        assert worst <= _bar(group), (group, worst)
+    for group, worst in worst_by_group(mine, reference, mechanism, mine.meta["richardson"]).items():
+        assert worst <= _bar(group) / 4, ("estimate", group, worst)
+
+
 def _faulty_worst(monkeypatch: pytest.MonkeyPatch, name: str, **faults: object) -> dict[str, float]:
     """The worst relative differences of a short table solved with ``faults`` patched into the readout."""
     mechanism = _table(name, rows=4)
