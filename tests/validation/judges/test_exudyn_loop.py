@@ -128,7 +128,7 @@ def test_a_given_drive_effort_agrees_with_the_in_house_engine(name: str, rows: s
 @pytest.mark.parametrize("start", [None, -0.17])
 def test_a_slider_frame_at_a_half_turn_agrees(start: float | None) -> None:
     """The RSSP's slider link frame is a half-turn at every pose (its P joint's ``theta`` 20 degrees, the
-    alphas 80 + 100): Exudyn's ``RotationMatrix2EulerParameters`` put its node 118 degrees off, and the run
+    alphas 80 + 100): Exudyn's ``RotationMatrix2EulerParameters`` put its node 175 degrees off, and the run
     followed neither branch (s4 -0.175 against +0.174 at row 0) or failed its steps; searched or
     started on the other branch, every column within the bars."""
     mechanism = _user_table("rssp", 30.0, None if start is None else {3: [start]})

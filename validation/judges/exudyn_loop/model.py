@@ -110,7 +110,7 @@ def euler_parameters(rotation: np.ndarray) -> list[float]:
     """The Euler parameters ``[e0, e1, e2, e3]`` of a rotation matrix by scipy's (Shepperd's) method, exact
     at every angle.  Exudyn's ``RotationMatrix2EulerParameters`` divides by :math:`\\sqrt{1 + tr R}` unless
     that is below 1e-15: at a half-turn, rounded to -3.6e-15 on the RSSP's slider (``theta`` 20 degrees,
-    ``alpha`` 80 + 100 degrees), it gave a node 118 degrees off its link frame, a run that drifted to the
+    ``alpha`` 80 + 100 degrees), it gave a node 175 degrees off its link frame, a run that drifted to the
     wrong branch (index-2 constraints never correct the positions) and failed steps; its other branch
     has ``e0``'s sign flipped."""
     x, y, z, w = Rotation.from_matrix(rotation).as_quat()
