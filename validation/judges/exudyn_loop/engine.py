@@ -20,23 +20,14 @@ reaches (a segment shorter than two run-ins) are ``not_converged``.
 
 **Integrator.**  Newmark's method with :math:`\\beta = 1/4`, :math:`\\gamma = 1/2` (the trapezoidal rule,
 spectral radius 1: no numerical damping), index-2 (velocity-level) constraints, Newton to a relative
-residual of :data:`NEWTON_TOL`.  Exudyn's default, index-3 generalized-alpha, needs a spectral radius below
-1 (numerical damping, no longer symmetric): on six rows of the RSCR, extrapolated alike, its reactions and
-accelerations were ~80 times further from the in-house engine's (joint 1's force 4e-7 N and an output
-acceleration 3e-6 rad/s² off, against 5e-9 N and 5e-8 rad/s², at spectral radius 0.8; 0.6 alike).
+residual of :data:`NEWTON_TOL`.  Exudyn's default, index-3 generalized-alpha (spectral radius 0.8 or 0.6:
+numerical damping) gave reactions and accelerations ~80 times further from the in-house engine's on six
+rows of the RSCR, extrapolated alike (joint 1's force 4e-7 N off, against 5e-9 N).
 
-**Rows from a run.**  The trapezoidal rule's accelerations, and with them the multipliers, carry a
-component that alternates from step to step (:math:`a_{j+1} = 2(v_{j+1} - v_j)/h - a_j` keeps any error
-of the start's accelerations with factor -1), so each quantity ``X`` of a row is read at its knot's step
-``j`` and its two neighbours, :math:`\\bar X = (X_{j-1} + 2X_j + X_{j+1})/4` (:data:`WEIGHTS`), which cancels
-it and leaves a smooth error :math:`c_2 h^2 + c_4 h^4 + \\dots` (the rule is symmetric).
-
-**Richardson.**  Three runs, with steps ``h``, ``h/2``, ``h/4`` (:data:`LEVELS`; ``h``: the fastest joint
-coordinate travels :data:`STEP_TRAVEL` per step, :func:`steps_per_row`), give two extrapolations and the
-error estimate of the finer one (its error is :math:`c_4 h^4/256`, the coarser's sixteen times that):
-
-.. math:: X_1 = \\frac{4\\bar X_{h/2} - \\bar X_h}{3}, \\quad X = \\frac{4\\bar X_{h/4} - \\bar X_{h/2}}{3},
-          \\quad E = \\frac{|X - X_1|}{15}.
+**Rows from a run** (:mod:`.richardson`): each quantity averaged over the steps around its row's knot,
+which cancels the trapezoidal rule's step-to-step alternation, then Richardson-extrapolated from three runs
+with steps ``h``, ``h/2``, ``h/4`` (:data:`LEVELS`; ``h``: the fastest joint coordinate travels
+:data:`STEP_TRAVEL` per step, :func:`steps_per_row`), which also gives its error estimate ``E``.
 
 **Step.**  The coarse step is first set by the rows (:func:`steps_per_row`); where the worst estimate over its
 unit group's peak exceeds :data:`ESTIMATE_LIMIT`, the runs are made again with the step shortened for
@@ -66,6 +57,13 @@ from dualmech.validation.judges.exudyn_loop.given import combine, solved_load, v
 from dualmech.validation.judges.exudyn_loop.law import RUN_IN, axial, drive_law, row_time
 from dualmech.validation.judges.exudyn_loop.model import build_system, check_table
 from dualmech.validation.judges.exudyn_loop.readout import read_row
+from dualmech.validation.judges.exudyn_loop.richardson import (
+    WEIGHTS,
+    average,
+    extrapolate,
+    richardson,
+    worst_estimate,
+)
 
 #: The drive's travel per step of the coarse run, rad (a slide drive: times the table's length); the fine
 #: run takes steps of half of it.
@@ -77,8 +75,6 @@ LEVELS = (1, 2, 4)
 #: The coarse run's least steps between rows when the drive accelerates: the law's rate returns to the
 #: table's at every row, so it wiggles on the rows' time scale (:mod:`.law`), not the motion's.
 MIN_STEPS_ACCEL = 64
-#: Weights of the steps around a row's knot (binomial: they cancel a step-to-step alternation).
-WEIGHTS = np.array([1.0, 2.0, 1.0]) / 4.0
 #: Newton's relative residual tolerance in every step, and the one of a run that stalls above it.
 NEWTON_TOL, NEWTON_RETRY = 1e-12, 1e-10
 #: A table whose worst Richardson estimate over its unit group's peak (:func:`worst_estimate`) is above
@@ -147,22 +143,6 @@ def silent() -> Iterator[None]:
         exu.config.printToConsole = before
 
 
-def _is_angle(name: str) -> bool:
-    return name.startswith(("theta", "eta")) and not name.endswith(("_dot", "_ddot"))
-
-
-def _average(samples: list[dict]) -> dict[str, float]:
-    """The samples of one row weighted by :data:`WEIGHTS` (module docstring); angles taken within half a
-    turn of the middle sample's (``atan2`` wraps at pi)."""
-    middle = samples[len(samples) // 2]
-    out = {}
-    for key, centre in middle.items():
-        values = [centre + math.remainder(s[key] - centre, 2 * math.pi) if _is_angle(key) else s[key]
-                  for s in samples]
-        out[key] = float(sum(w * v for w, v in zip(WEIGHTS, values)))
-    return out
-
-
 def integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: int, row: float,
               run_in: int = RUN_IN, speed: float | None = None) -> list[dict | None]:
     """One Exudyn run from rest at ``pose`` (closed at the law's start) through the drive positions
@@ -202,7 +182,7 @@ def _integrate(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, per_row: 
     steps = knots[-1] + half + 1
     with silent(), contextlib.suppress(RuntimeError):  # exudyn.SolverError: the rows after it are None
         loop.mbs.SolveDynamic(settings(steps, steps * h, tolerance))
-    return [_average(s) if all(x is not None for x in s) else None for s in samples]
+    return [average(s) if all(x is not None for x in s) else None for s in samples]
 
 
 def _prescribed(mechanism: LoopMechanism) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -317,34 +297,6 @@ def _judge_rows(mechanism: LoopMechanism, poses: list, status: np.ndarray, per_r
     return rows_out, transmission, transmission_error, status
 
 
-def unit_group(name: str) -> str:
-    """A column's unit group by its name: ``angle``, ``length`` with ``_dot``, ``_ddot``; ``force`` (a
-    slide's effort, ``joint<i>_f*``) or ``moment``."""
-    if name.startswith("effort_"):
-        return "force" if name[7:].startswith("s") else "moment"
-    if name.startswith("joint"):
-        return "force" if "_f" in name else "moment"
-    base = "length" if name.startswith("s") else "angle"
-    return base + next((suffix for suffix in ("_ddot", "_dot") if name.endswith(suffix)), "")
-
-
-def worst_estimate(rows: list, prescribed: dict, skip: np.ndarray) -> float:
-    """The largest Richardson estimate of the rows (``(value, error)`` pairs, ``None`` where not judged; not
-    the rows ``skip``, dead centres) over its unit group's largest value (:func:`unit_group`; the prescribed
-    coordinates, replaced by their law, left out)."""
-    judged = [r for r, dead in zip(rows, skip) if r is not None and not dead]
-    exact = {name + suffix for name in prescribed for suffix in ("", "_dot", "_ddot")}
-    peaks: dict[str, float] = {}
-    worst: dict[str, float] = {}
-    for value, error in judged:
-        for name, v in value.items():
-            group = unit_group(name)
-            peaks[group] = max(peaks.get(group, 0.0), abs(v))
-            if name not in exact:
-                worst[group] = max(worst.get(group, 0.0), error[name])
-    return max((w / peaks[g] for g, w in worst.items() if peaks[g] > 0.0), default=0.0)
-
-
 def orders(mechanism: LoopMechanism, segment: np.ndarray) -> list[tuple[np.ndarray, float]]:
     """The rows of ``segment`` in the order a run passes them, with the run's drive rate: the table's own
     motion first (the drive passes its positions in time order: by rising position when its rate is
@@ -414,7 +366,7 @@ def _judge_segment(mechanism: LoopMechanism, poses: list, segment: np.ndarray, p
 def _judged(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, speed: float, per_row: int, row: float,
             run_in: int) -> dict[int, tuple[tuple[dict, dict], tuple[float, float]] | None]:
     """One run through ``rows`` (run order) at ``speed`` from the closed ``pose`` at its law's start, each
-    row extrapolated (:func:`_richardson`); a run reversed in time gives the rates back negated."""
+    row extrapolated (:mod:`.richardson`); a run reversed in time gives the rates back negated."""
     runs = _runs(mechanism, pose, led(mechanism.drive.positions[rows]), speed, per_row, row, run_in)
     runs = [run[-rows.size:] for run in runs]
     out: dict[int, tuple | None] = {}
@@ -422,10 +374,10 @@ def _judged(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, speed: float
         if any(a is None for a in answers):
             out[int(i)] = None
             continue
-        value, error = _richardson(*(a for a, _ in answers))
+        value, error = richardson(*(a for a, _ in answers))
         if speed != mechanism.drive.speed:
             value = {k: -v if k.endswith("_dot") else v for k, v in value.items()}
-        out[int(i)] = (value, error), _extrapolate(*(g for _, g in answers))
+        out[int(i)] = (value, error), extrapolate(*(g for _, g in answers))
     return out
 
 
@@ -443,25 +395,6 @@ def _runs(mechanism: LoopMechanism, pose: Pose, rows: np.ndarray, speed: float, 
         pairs = zip(*(integrate(variant, pose, rows, steps, row, run_in, speed) for variant in (zero, unit)))
         out.append([None if a is None or b is None else combine(mechanism, a, b) for a, b in pairs])
     return out
-
-
-def _extrapolate(coarse: float, middle: float, fine: float) -> tuple[float, float]:
-    """:math:`X` and :math:`E` of one quantity from its three runs (module docstring)."""
-    first, second = (4.0 * middle - coarse) / 3.0, (4.0 * fine - middle) / 3.0
-    return second, abs(second - first) / 15.0
-
-
-def _richardson(coarse: dict[str, float], middle: dict[str, float],
-                fine: dict[str, float]) -> tuple[dict, dict]:
-    """The row extrapolated from the two finer runs and each column's error estimate from the coarser pair
-    (module docstring); angles of the runs taken within half a turn of the finest's."""
-    value, error = {}, {}
-    for name, c in fine.items():
-        a, b = coarse[name], middle[name]
-        if _is_angle(name):
-            a, b = c + math.remainder(a - c, 2.0 * math.pi), c + math.remainder(b - c, 2.0 * math.pi)
-        value[name], error[name] = _extrapolate(a, b, c)
-    return value, error
 
 
 __all__ = ["ExudynLoopTable", "integrate", "settings", "solve_loop", "steps_per_row", "swing"]
