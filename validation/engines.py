@@ -37,8 +37,6 @@ ENGINES: dict[str, dict[str, str]] = {
                    "loop": "dualmech.validation.judges.mujoco_loop.table:solve_sim_table"},
     "exudyn": {"loop": "dualmech.validation.judges.exudyn_loop.table:solve_table"},
 }
-
-
 #: Registered engines that a matrix runs only where it names them (``engines = [...]``, ``--engines``): the
 #: Exudyn judge (issue 33), slow: three step sizes, a run-in, shorter steps where its own error estimate asks
 #: (2 to 33 s a table, where the other judges take a fraction of a second).
@@ -50,6 +48,8 @@ DEFAULT_ENGINES: tuple[str, ...] = tuple(e for e in ENGINES if e not in OPT_IN)
 def engines_for(kind: str) -> tuple[str, ...]:
     """The engines of :data:`DEFAULT_ENGINES` registered for cases of ``kind``, in :data:`ENGINES` order."""
     return tuple(e for e in DEFAULT_ENGINES if kind in ENGINES[e])
+
+
 #: The in-house engine's streamed solve, by kind: ``(is_long, stream)``, each ``"module:function"``:
 #: ``solve -o OUT`` of a case where ``is_long(case)`` writes it chunk by chunk with ``stream(case, OUT,
 #: progress)``, which returns the summary (:mod:`dualmech.validation.solve_output`).
