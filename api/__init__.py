@@ -1,4 +1,4 @@
-"""dualmech: exact joint reactions of the generalized slider crank, judged by Pinocchio and MuJoCo.
+"""dualmech: exact joint reactions of single spatial loops, judged by Pinocchio, MuJoCo and Exudyn.
 
 The package face: every name a user needs, resolved at first use, so that ``import dualmech`` loads no
 engine (no Pinocchio, MuJoCo, numba or matplotlib) and ``dualmech.solve`` with the in-house engine never

@@ -61,7 +61,8 @@ class OneLineUsage(click.Group):
 @click.version_option(package_name="dualmech")
 @click.pass_context
 def main(ctx: click.Context) -> None:
-    """Dual-number solver for the generalized slider crank, judged by Pinocchio and MuJoCo."""
+    """Dual-number solver for single spatial loops (the generalized slider crank, the RSSR, the RCCC, any
+    table of R, P, C, S, U joints), judged by Pinocchio, MuJoCo and Exudyn."""
     show_warnings_as_lines()  # one line each, never Python's file:line and source
     # bounded (the interpreter's exit would join workers without a limit); Ctrl-C while it waits: 130
     ctx.call_on_close(when_closing(end_all_pools))
