@@ -119,12 +119,12 @@ def test_a_sign_flipped_in_one_engine_fails_validate(tmp_path: Path, monkeypatch
 
 
 def test_the_bundled_loop_matrix_sweeps_a_joint_row(tmp_path: Path) -> None:
-    """``validate loops``: both tables and the RSCR with its coupler (joint 2's a) at 0.10 and 0.14 m."""
+    """``validate loops``: the three tables and the RSCR with its coupler (joint 2's a) at 0.10 and 0.14 m."""
     run = tmp_path / "run"
     result = CliRunner().invoke(main, ["validate", "loops", "-o", str(run)])
     assert result.exit_code == 0, result.output
     summary = json.loads((run / "summary.json").read_text())
-    assert [c["id"] for c in summary["cases"]] == ["rscr", "rsrc", "rscr-joint_2_.a=0.1",
+    assert [c["id"] for c in summary["cases"]] == ["rscr", "rsrc", "7r", "rscr-joint_2_.a=0.1",
                                                    "rscr-joint_2_.a=0.14"]
     swept = np.genfromtxt(run / "tables" / "rscr-joint_2_.a=0.1" / "dualmech.csv", delimiter=",", names=True)
     base = np.genfromtxt(run / "tables" / "rscr" / "dualmech.csv", delimiter=",", names=True)

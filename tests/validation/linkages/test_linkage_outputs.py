@@ -81,13 +81,27 @@ def _timestep(speed: float, accel: float) -> float:
     return min(times) / 128
 
 
+def _fastest(kind: str, case, mechanism, reference) -> float:
+    """The largest rate of a joint coordinate of ``mechanism``'s table per unit rate of the input, at least 1
+    (angles in rad, slides over the table's length), from the in-house answer: the RSSR's output ``phi4``
+    (its table's only coordinate but the drive's: S joints have none), the RCCC's ``theta2, s2 .. theta4,
+    s4``."""
+    speed = abs(case.motion.speed)
+    if kind == "rssr":
+        return max(1.0, float(np.max(np.abs(reference["phi4_dot"]))) / speed)
+    size = max(abs(v) for j in mechanism.joints for v in (j.a, j.s))
+    q_dot = np.abs(rccc.analyze_rccc(case).q_dot) / speed
+    return max(1.0, float(q_dot[:, 0::2].max()), float(q_dot[:, 1::2].max()) / size)
+
+
 @pytest.mark.parametrize("kind, spec", [("rssr", rssr.SPEC), ("rccc", rccc.SPEC)])
 def test_linkage_simulation_tables(kind: str, spec) -> None:
     """MuJoCo's simulation of a linkage (the generated judge on its joint table): every column against the
     in-house engine at the case's rows within the simulated judge's tolerances, the same status words,
     ``theta1_deg`` the case's angles, ``dynamics_residual`` not given (NaN); ``residual`` (the weld's gap
     over the table's length) within ``SIM_STROKE`` and, with the drive's lag, bounding the RSSR's pose
-    gap.  ``meta``: MuJoCo's version, 128 steps per degree, the step by its rule (:func:`_timestep`), the
+    gap.  ``meta``: MuJoCo's version, 128 steps per degree, the step by its rule (:func:`_timestep` over
+    :func:`_fastest`), the
     drive servo's ``kp`` the input link's own inertia about the drive axis times ``(0.5 / dt)^2`` and
     ``kv`` at least critical for it, the run-in at least 128 steps and 12 servo time constants ``kv / kp``,
     and the largest drive lag the servo's: ``max |drive_torque| / kp``."""
@@ -111,8 +125,10 @@ def test_linkage_simulation_tables(kind: str, spec) -> None:
         assert np.all(_rssr_gap(case, table) <= table["residual"] + lag + S4_VS_CLOSED_FORM)
     assert meta["mujoco"] == mujoco.__version__ and meta["steps_per_degree"] == 128
     dt = meta["timestep"]
-    assert dt == pytest.approx(_timestep(case.motion.speed, case.motion.accel), rel=1e-12)
-    body = table_of[kind](case).bodies[0]
+    mechanism = table_of[kind](case)
+    assert dt == pytest.approx(_timestep(case.motion.speed, case.motion.accel)
+                               / _fastest(kind, case, mechanism, reference), rel=1e-12)
+    body = mechanism.bodies[0]
     about_axis = body.inertia[2][2] + body.mass * (body.com[0] ** 2 + body.com[1] ** 2)
     (kp,), (kv,) = meta["servo_kp"], meta["servo_kv"]
     assert kp == pytest.approx(about_axis * (0.5 / dt) ** 2, rel=1e-12)

@@ -37,7 +37,9 @@ class Survey:
 
     ``status`` (n,) its words; ``qpos`` (n, nq) and ``q_cut`` (n, c) its closed poses (NaN elsewhere);
     ``tangent`` (n, servos, n_u) their velocity-space motion per unit of each servoed coordinate;
-    ``iterations`` (n,); ``transmission`` (n,); ``inertia_high`` per servo the largest effective inertia.
+    ``iterations`` (n,); ``transmission`` (n,); ``inertia_high`` per servo the largest effective inertia;
+    ``fastest`` the largest rate of any scalar joint coordinate per unit rate of the drive over the closed
+    rows (:func:`joint_speeds`), at least 1.
     """
 
     status: np.ndarray
@@ -47,6 +49,7 @@ class Survey:
     iterations: np.ndarray
     transmission: np.ndarray
     inertia_high: tuple[float, ...]
+    fastest: float
 
     @property
     def assembled(self) -> np.ndarray:
@@ -60,6 +63,19 @@ def _unit_rates(lp: MjLoop) -> np.ndarray:
     rows = velocity_rows(lp)
     zero = np.zeros(rows.shape[0])
     return np.array([solve_free(lp, rows, unit, zero) for unit in np.eye(lp.prescribed.size)])
+
+
+def joint_speeds(lp: MjLoop, tangent: np.ndarray) -> np.ndarray:
+    """The rate of every scalar joint coordinate of the table (``docs/conventions.md``, "Loop tables": an R,
+    P, C or U joint's ``theta``, ``s``, ``eta``, the columns the gate compares) per unit rate of the drive,
+    ``(n, n_u)``, from the drive servo's ``tangent`` ``(n, n_u)``: angles in rad, slides over the table's
+    length, per radian of an angle drive or per table length of a slide drive; 0 at a ball's three rates
+    (no column)."""
+    types = lp.model.jnt_type[lp.model.dof_jntid]
+    slide = np.concatenate([types == mujoco.mjtJoint.mjJNT_SLIDE, [c == "s" for c in lp.cut]])
+    ball = np.concatenate([types == mujoco.mjtJoint.mjJNT_BALL, np.zeros(len(lp.cut), dtype=bool)])
+    per_drive = lp.size if lp.mechanism.drive.coordinate == "s" else 1.0
+    return np.where(ball, 0.0, np.abs(tangent) * per_drive / np.where(slide, lp.size, 1.0))
 
 
 def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
@@ -88,15 +104,21 @@ def survey(mechanism: LoopMechanism, seed: int = 0) -> Survey:
         mujoco.mj_fullM(lp.model, lp.data, mass)
         for s, v in enumerate(tangent[k, :, :lp.model.nv]):
             high[s] = max(high[s], float(v @ mass @ v))
-    return Survey(status, qpos, q_cut, tangent, iterations, transmission, tuple(high))
+    speeds = joint_speeds(lp, tangent[:, 0, :])
+    fastest = float(np.max(speeds[np.isfinite(speeds).all(axis=1)], initial=1.0))
+    return Survey(status, qpos, q_cut, tangent, iterations, transmission, tuple(high), fastest)
 
 
-def timestep(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE) -> float:
-    """Seconds per step (:mod:`.simulation`'s docstring, "Settings"): a slide drive's degree is one
-    degree times the table's length."""
+def timestep(mechanism: LoopMechanism, steps_per_degree: int = STEPS_PER_DEGREE,
+             fastest: float = 1.0) -> float:
+    """Seconds per step (:mod:`.simulation`'s docstring, "Settings"): one degree of the drive's fastest phase
+    over ``steps_per_degree`` (a slide drive's degree is one degree times the table's length), over
+    ``fastest`` (:attr:`Survey.fastest`) where a joint moves faster than the drive: one degree of the
+    fastest *joint*."""
     d = mechanism.drive
     degree = math.radians(1.0) * (length(mechanism) if d.coordinate == "s" else 1.0)
-    return phase_timestep(d.speed, d.accel, d.axial_amplitude, d.axial_cycles, steps_per_degree, degree)
+    drive = phase_timestep(d.speed, d.accel, d.axial_amplitude, d.axial_cycles, steps_per_degree, degree)
+    return drive / max(1.0, fastest)
 
 
 def length(mechanism: LoopMechanism) -> float:
@@ -181,11 +203,11 @@ def load_scale(mechanism: LoopMechanism) -> float:
 def plan(mechanism: LoopMechanism, sv: Survey,
          steps_per_degree: int = STEPS_PER_DEGREE) -> tuple[SimSettings, list, int]:
     """The simulation's settings, runs (:func:`schedule`) and run-in steps for the rows ``sv`` assembles."""
-    s = settings(mechanism, timestep(mechanism, steps_per_degree), sv)
+    s = settings(mechanism, timestep(mechanism, steps_per_degree, sv.fastest), sv)
     runin = runin_steps(s)
     dt, runs = schedule(mechanism, s.timestep, sv.assembled, runin)
     return (settings(mechanism, dt, sv) if dt != s.timestep else s), runs, runin
 
 
-__all__ = ["Survey", "length", "load_scale", "plan", "runin_steps", "schedule", "settings", "survey",
-           "timestep", "weld_time_constant"]
+__all__ = ["Survey", "joint_speeds", "length", "load_scale", "plan", "runin_steps", "schedule", "settings",
+           "survey", "timestep", "weld_time_constant"]

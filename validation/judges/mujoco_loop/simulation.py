@@ -18,7 +18,9 @@ starts ``runin`` steps before its first row.
 **Settings** (as the slider crank's simulated judge, ``validation/mujoco_sim.py``, where they are
 measured): ``dt`` = one degree of the drive's fastest phase (a slide: one degree times the table's
 length) over :data:`~dualmech.models.mjcf_settings.STEPS_PER_DEGREE`, at most
-:data:`~dualmech.models.mjcf_settings.MAX_TIMESTEP`; servo ``kp = I_low (0.5/dt)^2`` with ``I_low`` the
+:data:`~dualmech.models.mjcf_settings.MAX_TIMESTEP`, and one degree of the fastest joint where a joint
+turns faster than the drive (:func:`.sim_plan.timestep`, the survey's :attr:`.sim_plan.Survey.fastest`);
+servo ``kp = I_low (0.5/dt)^2`` with ``I_low`` the
 driven link's own inertia about (mass along) the drive axis, ``kv = 2 sqrt(kp I_high)`` with ``I_high``
 the margin :data:`~dualmech.validation.mujoco_sim_plan.SIM_INERTIA_MARGIN` times the largest effective
 inertia; weld ``solref = (2 dt, 2)`` (damping ratio 4 with a universal joint), ``solimp`` 0.9999; the run-in
