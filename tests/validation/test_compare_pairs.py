@@ -152,3 +152,34 @@ def test_a_fault_in_one_engine_shows_in_exactly_its_pairs(pairs_matrix: Matrix, 
         assert moments.passed != has, (pair.one, pair.other)
         assert_allclose(moments.max_rel, expected if has else 0.0, rtol=RTOL, atol=1e-16)
         assert all(c.passed for g, c in pair.cells.items() if g != "moments"), (pair.one, pair.other)
+
+
+def test_the_slider_cranks_report_renders_the_pair_table(small: Path, tmp_path: Path) -> None:
+    """The slider crank's report (the stand-in engines of ``matrix_fakes``: the judges agree to ~1e-13 and
+    ~1e-11): one row per pair with the comparison's cells, the stroke among its columns; ``summary.json``
+    has the same pairs."""
+    import json
+
+    from dualmech.validation.report.render import write_report
+    from dualmech.validation.run.runner import run_matrix
+
+    from .test_validate import FAKE_REGISTRY
+
+    out = tmp_path / "run"
+    run_matrix(load_matrix(small), out, jobs=1, registry=FAKE_REGISTRY)
+    write_report(out, None, jobs=1)
+    pairs = json.loads((out / "summary.json").read_text())["pairs"]
+    assert [(p["one"], p["other"], p["verdict"]) for p in pairs] == [
+        (R, P, True), (R, M, True), (P, M, False)]
+    markdown = (out / "report.md").read_text()
+    section = markdown.split("## Agreement of every pair of engines\n", 1)[1].split("\n## ", 1)[0]
+    groups = ["coordinates", "rates", "forces", "moments", "efforts", "stroke"]
+    assert f"| pair | kind | cases | statuses | {' | '.join(groups)} |" in section
+    for p in pairs:
+        cells = " | ".join(f"✓ {p['cells'][g]['max_rel']:.2g} ({p['cells'][g]['tolerance']['value']:g})"
+                           for g in groups)
+        kind = "gate" if p["verdict"] else "informative"
+        assert f"| {p['one']} – {p['other']} | {kind} | 6 | agree | {cells} |" in section
+    # the fakes' own deviations (matrix_fakes): pinocchio ~1e-13, mujoco ~1e-11 of each value
+    worst = {(p["one"], p["other"]): max(c["max_rel"] for c in p["cells"].values()) for p in pairs}
+    assert 1e-14 < worst[R, P] < 1e-12 < worst[R, M] < 1e-10 and 1e-12 < worst[P, M] < 1e-10
