@@ -8,7 +8,10 @@ checks of its kind (the slider crank's :func:`~dualmech.validation.compare.check
 linkages' :func:`~dualmech.validation.linkages.gate.judge_checks`) with the engine earlier in the matrix's
 order in the reference's place: its scale ``s_g`` (the case's own peak, as that engine gives it), its
 condition factor, the same row matching, status rules and per-row laws, and the looser of the two judges'
-tolerances (:func:`looser`).  A pair with the reference is the gate's own checks of the judge.
+tolerances (:func:`looser`), beside its own ``status`` check (the reference's, :func:`case_pairs`).  A pair
+with the reference is the gate's own checks of the judge.  The slider crank's per-row laws (near a joint
+lock, the conditioning of a row) are the case's, measured on the reference: a case whose reference failed
+is compared by no pair, as by no judge.
 
 The pair of two judges is informative, not a verdict (its
 :attr:`~dualmech.validation.compare.results.Pair.verdict` is false): each judge is held to the reference
