@@ -51,6 +51,11 @@ engine that disagrees with the others (its ``odd_one_out``, leading its detail):
 two judges agree with each other and both disagree with it, a judge when another judge, as precise,
 agrees with the reference and not with it (:mod:`~dualmech.validation.compare.odd_one_out`).
 
+**Every pair.**  Beside the verdicts, every pair of engines that answered a case is measured as the
+gate measures a judge, the pair's first engine in the reference's place, at the looser of the two
+tolerances (:attr:`Comparison.pairs`, :mod:`~dualmech.validation.compare.pairs`): the report's pair table.
+A pair of two judges is informative, not a verdict.
+
 **Missing work.**  A case, or an engine of a case, absent from the results gives a
 failing ``engine`` check marked ``incomplete``; the run's :class:`Verdict` is then
 ``INCOMPLETE`` (never ``PASS``), unless a comparison failed outright (``FAIL``).
@@ -90,13 +95,14 @@ from dualmech.validation.compare.results import (
     VERDICTS,
     Check,
     Comparison,
+    Pair,
     Verdict,
 )
 
 __all__ = [
     "ENGINE", "EXPECT_NO_ASSEMBLY", "NEAR_JOINT_LOCK", "POSE_COLUMNS", "RATE_COLUMNS", "STATUS",
-    "STATUS_RULES", "STROKE", "STROKE_PROXY", "UNIT_GROUP", "VERDICTS", "Check", "Comparison", "StatusRule",
-    "Verdict", "compare_case", "compare_run", "condition_factor", "engine_failures", "first_line",
-    "given_under", "lock_factor", "lock_rate", "quantity_check", "reference_check", "relative_differences",
-    "rows_given", "status_check", "stroke", "stroke_check", "unit_scales",
+    "STATUS_RULES", "STROKE", "STROKE_PROXY", "UNIT_GROUP", "VERDICTS", "Check", "Comparison", "Pair",
+    "StatusRule", "Verdict", "compare_case", "compare_run", "condition_factor", "engine_failures",
+    "first_line", "given_under", "lock_factor", "lock_rate", "quantity_check", "reference_check",
+    "relative_differences", "rows_given", "status_check", "stroke", "stroke_check", "unit_scales",
 ]

@@ -31,6 +31,7 @@ from dualmech.validation.compare.joint_lock import (
     widened,
 )
 from dualmech.validation.compare.odd_one_out import name_odd_one_out
+from dualmech.validation.compare.pairs import case_pairs, looser, pair_table, slider_crank_group
 from dualmech.validation.compare.results import (
     ENGINE,
     EXPECT_NO_ASSEMBLY,
@@ -333,6 +334,7 @@ def _compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]
     dead: dict[str, dict[str, int]] = {}
     errors: dict[str, dict[str, str]] = {}
     rows: dict[str, dict[str, RowDifferences]] = {}
+    pairs: dict[tuple[str, str], list[tuple[str, Check]]] = {}
     engine_tol = ResolvedTolerance("exact", 0.0, "the engine must run")
     for mc in matrix.cases:
         per_engine = results.get(mc.id, {})
@@ -352,7 +354,7 @@ def _compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]
             checks += [_fail(mc.id, e, ENGINE, engine_tol, f"not compared: the reference {why}",
                              incomplete=why == "did not run") for e in matrix.judges if e in tables]
             continue
-        checks.append(reference_check(mc.id, ref, matrix.quantities, mc.expect))
+        own = reference_check(mc.id, ref, matrix.quantities, mc.expect)
         case = case_from_dict(mc.raw)
         lock, conditioning = lock_rate(case, ref), Conditioning.of(case, ref)
         judged: list[Check] = []
@@ -362,8 +364,15 @@ def _compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]
                 judged += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities,
                                        matrix.tolerances[e], mc.expect, rel, lock, conditioning)
         same_rows = {e: t for e, t in tables.items() if e in matrix.judges and len(t) == len(ref)}
-        checks += name_odd_one_out(judged, ref, same_rows, mc.mode, matrix.tolerances, conditioning)
-    return Comparison(tuple(checks), strokes, dead, errors, rows)
+        gate = [own, *name_odd_one_out(judged, ref, same_rows, mc.mode, matrix.tolerances, conditioning)]
+        checks += gate
+        case_pairs(list(tables), matrix.reference, gate, lambda a, b: [
+            reference_check(mc.id, tables[a], matrix.quantities, mc.expect),
+            *compare_case(mc.id, mc.mode, tables[a], tables[b], matrix.quantities, looser(
+                matrix.tolerances[a], matrix.tolerances[b]), mc.expect, None, lock, conditioning)],
+            slider_crank_group, pairs)
+    return Comparison(tuple(checks), strokes, dead, errors, rows, pair_table(pairs, matrix.engines,
+                                                                             matrix.reference))
 
 
 def _relative_rows(case_id: str, engine: str, mode: str, reference: ResultTable, judge: ResultTable,

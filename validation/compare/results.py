@@ -119,6 +119,39 @@ class Check:
         return d
 
 
+@dataclass(frozen=True)
+class Pair:
+    """Two engines' agreement over a run's cases, per column group
+    (:mod:`~dualmech.validation.compare.pairs`).
+
+    Attributes
+    ----------
+    one, other : str
+        The engines, ``one`` earlier in the matrix's order (in the reference's place).
+    verdict : bool
+        Whether ``one`` is the reference: the pair's checks are then the gate's (else informative).
+    cells : dict
+        Column group (:data:`~dualmech.validation.compare.pairs.GROUPS`) -> the pair's check of the
+        largest ratio to tolerance over every case and column of the group (a failing check first).
+    cases : int
+        Cases both engines answered (one ``status`` check each).
+    status_rows : int
+        Rows, over those cases, whose statuses the status rules do not accept, or where an engine failed.
+    """
+
+    one: str
+    other: str
+    verdict: bool
+    cells: dict[str, Check]
+    cases: int
+    status_rows: int
+
+    def to_dict(self) -> dict:
+        """JSON-ready form (``summary.json``)."""
+        return {"one": self.one, "other": self.other, "verdict": self.verdict, "cases": self.cases,
+                "status_rows": self.status_rows, "cells": {g: c.to_dict() for g, c in self.cells.items()}}
+
+
 #: One judge on one case, row by row: theta1_deg, worst kinematic r_i, worst reaction r_i, each ``(n,)``.
 RowDifferences = tuple[np.ndarray, np.ndarray, np.ndarray]
 
@@ -134,6 +167,9 @@ class Comparison:
     #: case -> judge -> (theta1_deg, worst kinematic r_i, worst reaction r_i) per row, each ``(n,)``: the
     #: gate's own relative differences, kept for the report's difference figures (NaN: nothing compared)
     row_differences: dict[str, dict[str, RowDifferences]] = field(default_factory=dict)
+    #: every pair of engines that answered a case, measured as the gate measures a judge (the report's pair
+    #: table, :mod:`~dualmech.validation.compare.pairs`)
+    pairs: tuple[Pair, ...] = ()
 
     @property
     def verdict(self) -> Verdict:

@@ -250,19 +250,22 @@ def column_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spe
                  n_excluded, int(infinite.sum()), passed, "; ".join(notes))
 
 
-def judge_checks(case_id: str, reference: LinkageTable, judge: LinkageTable, spec: TableSpec
+def judge_checks(case_id: str, reference: LinkageTable, judge: LinkageTable, spec: TableSpec,
+                 tolerances: dict[str, ResolvedTolerance] | None = None
                  ) -> tuple[list[Check], tuple[np.ndarray, ...] | None]:
     """Every check of one judge on one case, and per row its worst kinematic and reaction ``r_i`` over their
     tolerance (the key column ``spec.key`` and the two ratios, each ``(n,)``, NaN where nothing was compared;
     for the report; ``None`` when the rows differ).  ``reference`` is the in-house table at the judge's
-    rows."""
+    rows, or another judge's (a pair of judges, :mod:`~dualmech.validation.compare.pairs`): the columns
+    compared are those both give; ``tolerances`` (``kinematics``, ``reactions``), the judge's own
+    (:func:`judge_tolerances`) by default."""
     theta = reference[spec.key]
     if len(judge) != len(reference) or not np.allclose(judge[spec.key], theta, rtol=0, atol=1e-9):
         detail = f"rows differ: {len(judge)} input values against the reference's {len(reference)}"
         nan = float("nan")
         return [Check(case_id, judge.engine, STATUS, nan, nan, nan, EXACT, nan, 0, 0, 0, False, detail)], None
-    columns = compared_columns(spec, judge)
-    tols = judge_tolerances(judge.engine)
+    columns = tuple(c for c in compared_columns(spec, judge) if c in compared_columns(spec, reference))
+    tols = tolerances or judge_tolerances(judge.engine)
     group = {c: "kinematics" if c in spec.kinematics else "reactions" for c in columns}
     rel = relative_differences(reference, judge, spec, columns)
     scales = unit_scales(reference, judge, spec, columns)

@@ -19,7 +19,14 @@ from dualmech.models.linkages import linkage_case, table_spec
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.compare import Check, Comparison, Verdict
 from dualmech.validation.compare.baseline import run_summary
-from dualmech.validation.linkages.gate import engine_check, judge_checks, reference_check, reference_values
+from dualmech.validation.compare.pairs import case_pairs, column_group, looser, pair_table
+from dualmech.validation.linkages.gate import (
+    engine_check,
+    judge_checks,
+    judge_tolerances,
+    reference_check,
+    reference_values,
+)
 from dualmech.validation.linkages.matrix import LinkageEntry, LinkageMatrix
 from dualmech.validation.matrix import Matrix, MatrixCase
 from dualmech.validation.progress import ProgressCallback
@@ -121,20 +128,26 @@ def run_linkages(matrix: LinkageMatrix, outdir: str | Path | None = None, *, job
                                                          for e in matrix.cases}
     ratios: dict[str, dict[str, tuple[np.ndarray, ...]]] = {}
     checks: list[Check] = []
+    pairs: dict[tuple[str, str], list[tuple[str, Check]]] = {}
     for entry in matrix.cases:
         ratios[entry.id] = {}
-        checks += _compare_case(matrix, entry, tables[entry.id], ratios[entry.id])
+        checks += _compare_case(matrix, entry, tables[entry.id], ratios[entry.id], pairs)
     errors = {cid: {e: t for e, t in per.items() if isinstance(t, str)} for cid, per in tables.items()}
     dead = {cid: {e: int(is_status(t.status, Status.DEAD_CENTRE).sum()) for e, t in per.items()
                   if not isinstance(t, str)} for cid, per in tables.items()}
-    comparison = Comparison(tuple(checks), {}, dead, errors)
+    comparison = Comparison(tuple(checks), {}, dead, errors,
+                            pairs=pair_table(pairs, matrix.engines, matrix.reference))
     return LinkageRun(matrix, tables, comparison, ratios,
                       {e.id: seconds.get(e.id, {}) for e in matrix.cases})
 
 
 def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, LinkageTable | str],
-                  ratios: dict[str, tuple[np.ndarray, ...]]) -> list[Check]:
-    """The checks of one case: the reference's own, then every judge's (engine, status, columns)."""
+                  ratios: dict[str, tuple[np.ndarray, ...]],
+                  pairs: dict[tuple[str, str], list[tuple[str, Check]]]) -> list[Check]:
+    """The checks of one case: the reference's own, then every judge's (engine, status, columns); each pair
+    of engines that answered it added to ``pairs`` (:func:`~dualmech.validation.compare.pairs.case_pairs`:
+    two judges by the gate's :func:`~dualmech.validation.linkages.gate.judge_checks`, at the looser of their
+    tolerances)."""
     name = matrix.reference
     reference = tables[name]
     judges = [e for e in tables if e != name]
@@ -152,6 +165,12 @@ def _compare_case(matrix: LinkageMatrix, entry: LinkageEntry, tables: dict[str, 
         checks += found
         if rows is not None:
             ratios[e] = rows
+    answered = {e: t for e, t in tables.items() if not isinstance(t, str)}
+    case_pairs([e for e in matrix.engines if e in answered], name, checks,
+               lambda one, other: [reference_check(entry.id, answered[one], spec), *judge_checks(
+                   entry.id, answered[one], answered[other], spec,
+                   looser(judge_tolerances(one), judge_tolerances(other)))[0]],
+               lambda column: column_group(column, spec.pose, spec.rates), pairs)
     return checks
 
 

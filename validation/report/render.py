@@ -30,6 +30,7 @@ from dualmech.validation.report.sections import (
     dead_centre_rows,
     design_rows,
     engine_versions,
+    pair_groups,
     stroke_rows,
     summary_rows,
     tolerance_rows,
@@ -131,6 +132,7 @@ def comparison_summary(matrix: Matrix, comparison: Comparison, run: dict) -> dic
         "dead_centres": comparison.dead_centres,
         "errors": comparison.errors,
         "checks": [c.to_dict() for c in comparison.checks],
+        "pairs": [p.to_dict() for p in comparison.pairs],
     }
 
 
@@ -270,6 +272,8 @@ def run_context(matrix: Matrix, run: dict, results: dict, comparison: Comparison
         "failures": failures[:200],
         "n_failures": len(failures),
         "near_lock": [c for c in comparison.checks if c.near_joint_lock],
+        "pairs": comparison.pairs,
+        "pair_groups": pair_groups(comparison.pairs),
         "summary": summary_rows(matrix, comparison),
         "mode_label": "mode",
         "input_name": "crank angle",

@@ -15,7 +15,8 @@ import numpy as np
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import REACTION_COLUMNS, ColumnTable, ResultTable
 from dualmech.models.design_summary import DesignSummary, design_summary
-from dualmech.validation.compare import ENGINE, STATUS, STROKE, Comparison
+from dualmech.validation.compare import ENGINE, STATUS, STROKE, Comparison, Pair
+from dualmech.validation.compare.pairs import GROUPS
 from dualmech.validation.matrix import Matrix, ResolvedTolerance
 from dualmech.validation.report.derived import Balancing
 from dualmech.validation.report.figures import FigureSpec
@@ -73,6 +74,12 @@ def stroke_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
             }
         )
     return rows
+
+
+def pair_groups(pairs: tuple[Pair, ...]) -> list[str]:
+    """The columns of the pair table: the column groups some pair was compared on, in
+    :data:`~dualmech.validation.compare.pairs.GROUPS`'s order."""
+    return [g for g in GROUPS if any(g in p.cells for p in pairs)]
 
 
 def balancing_spec(balance: Balancing) -> FigureSpec | None:

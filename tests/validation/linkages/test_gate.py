@@ -133,3 +133,19 @@ def test_an_engine_that_raises_fails_the_gate(monkeypatch: pytest.MonkeyPatch) -
     assert str(run.verdict) == "FAIL"
     [check] = run.comparison.failures()
     assert (check.quantity, check.detail) == ("engine", "RuntimeError: the judge fell over")
+
+
+def test_a_pair_of_judges_compares_the_columns_both_give() -> None:
+    """A judge that gives only a few columns (``meta["gives"]``, NaN elsewhere) in the reference's place of
+    a pair (:mod:`dualmech.validation.compare.pairs`): the other judge is checked on those columns only,
+    not failed on the columns the first leaves out."""
+    from dualmech.models.linkages import solve_linkage
+    from dualmech.validation.linkages.gate import judge_checks
+
+    table = solve_linkage("rssr")
+    few = ("phi4_deg", "j2_fx")
+    first = replace(table, engine="mujoco-sim", meta={**table.meta, "gives": few},
+                    columns={c: v if c in few or c not in RSSR_SPEC.reactions + RSSR_SPEC.kinematics
+                             else np.full_like(v, np.nan) for c, v in table.columns.items()})
+    checks, _ = judge_checks("rssr", first, replace(table, engine="exudyn"), RSSR_SPEC)
+    assert [c.quantity for c in checks] == ["status", *few] and all(c.passed for c in checks)
