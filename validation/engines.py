@@ -172,6 +172,17 @@ def solve_checked(engine: str, case: Any) -> ColumnTable:
     return run_engine(engine, case)
 
 
+def refusal(engine: str, case: Any) -> str | None:
+    """Why ``engine`` does not solve the checked ``case`` (:func:`solves`), one line, e.g. "the Exudyn judge
+    drives the first joint only (...)"; ``None`` where it does."""
+    kind = kind_of(case)
+    if solves(engine, kind, case):
+        return None
+    if kind not in ENGINES.get(engine, {}):
+        return f"{engine} does not solve a {kind} case"
+    return SIM_REFUSALS[_refusal(engine, kind, case)].removeprefix("; ")
+
+
 def _refusal(engine: str, kind: str, case: Any) -> str:
     """The key of :data:`SIM_REFUSALS` saying why ``engine`` (the simulation, or Exudyn) does not solve
     ``case`` of a kind registered under it (:func:`solves`)."""

@@ -43,7 +43,7 @@ from dualmech.models.inputs import CaseError, check_keys, key_text, show
 from dualmech.models.kinds import LINKAGE_KINDS, kind_of
 from dualmech.models.linkages import bundled_names, is_linkage, linkage_case, read_linkage
 from dualmech.models.toml_input import read_toml
-from dualmech.validation.engines import DEFAULT_ENGINES, ENGINES, solves
+from dualmech.validation.engines import DEFAULT_ENGINES, ENGINES, refusal, solves
 from dualmech.validation.matrix import MatrixError, check_file_name
 from dualmech.validation.matrix.data import MAX_MATRIX_CASES
 from dualmech.validation.matrix.expand import ID_SAFE, flatten, sweep_points
@@ -98,6 +98,15 @@ class LinkageMatrix:
     def engines_of(self, entry: LinkageEntry) -> tuple[str, ...]:
         """The matrix's engines that solve ``entry`` (the others are not applicable to it)."""
         return tuple(e for e in self.engines if solves(e, entry.kind, entry.case))
+
+    def not_applicable(self) -> dict[str, dict[str, str]]:
+        """Per case id, the matrix's engines that do not solve it, each with why (:func:`refusal`, one line);
+        cases every engine solves are left out."""
+        out: dict[str, dict[str, str]] = {}
+        for entry in self.cases:
+            why = {e: w for e in self.engines if (w := refusal(e, entry.case)) is not None}
+            out.update({entry.id: why} if why else {})
+        return out
 
     def with_engines(self, names: tuple[str, ...]) -> LinkageMatrix:
         """The same cases on ``names`` only (the reference among them; ``--engines``)."""

@@ -93,6 +93,7 @@ def linkage_context(run: LinkageRun, matrix: Matrix, stored: dict) -> dict:
         row.update(mode=kinds[row["case"]], run=bool(run.tables.get(row["case"])))
     label = input_label(run)
     context.update(mode_label="kind", key_label=label, input_name=f"input ({label})", omitted=list(OMITTED),
+                   not_applicable=not_applicable_lines(run),
                    gate=GATE,
                    design=design_tables(run),
                    tolerances=tolerance_rows({e: judge_tolerances(e) for e in run.matrix.judges}))
@@ -105,7 +106,8 @@ def linkage_summary(run: LinkageRun, matrix: Matrix, stored: dict) -> dict:
     and engines, and per judge its worst check (the input value of its worst row as ``at``)."""
     keys = {e.id: table_spec(e.kind, e.case).key_label for e in run.matrix.cases}
     cases = [{"id": e.id, "kind": e.kind, "source": e.source, "key": table_spec(e.kind, e.case).key,
-              "engines": list(run.matrix.engines_of(e))} for e in run.matrix.cases]
+              "engines": list(run.matrix.engines_of(e)),
+              "not_applicable": run.matrix.not_applicable().get(e.id, {})} for e in run.matrix.cases]
     worst = {judge: {"case": c.case, "quantity": c.quantity, "ratio": c.ratio, "max_rel": c.max_rel,
                      "tolerance": c.tolerance.name, "passed": c.passed, "input": keys[c.case][0],
                      "input_unit": keys[c.case][1], "at": c.worst_theta_deg}
@@ -198,6 +200,13 @@ def console_table(run: LinkageRun, title: str) -> Any:
     return table
 
 
+def not_applicable_lines(run: LinkageRun) -> list[str]:
+    """One line per case and engine of the matrix that does not solve it (a "–" in the summary), saying why:
+    ``"exudyn on rrcrc: the Exudyn judge drives the first joint only (...)"``."""
+    return [f"{engine} on {case}: {why}" for case, engines in run.matrix.not_applicable().items()
+            for engine, why in engines.items()]
+
+
 def verdict_lines(run: LinkageRun, markdown: str) -> list[Any]:
     """The verdict line with each judge's worst ratio, and the first failures (the rest: see ``markdown``)."""
     from dualmech.validation.report.console import VERDICT_COLOURS, failure_lines
@@ -205,7 +214,8 @@ def verdict_lines(run: LinkageRun, markdown: str) -> list[Any]:
     failures = run.comparison.failures()
     n = len(run.comparison.checks)
     worst = "; ".join(f"{e} {c.ratio:.2g} ({c.case} {c.quantity})" for e, c in run.worst().items())
-    out: list[Any] = [f"[{VERDICT_COLOURS[str(run.verdict)]}]{run.verdict}[/]: {n - len(failures)} of {n} "
-                      f"checks passed; worst ratio (relative difference / tolerance): {worst}",
-                      *failure_lines(failures, markdown)]
+    out: list[Any] = [f"[dim]– not applicable: {line}[/]" for line in not_applicable_lines(run)]
+    out += [f"[{VERDICT_COLOURS[str(run.verdict)]}]{run.verdict}[/]: {n - len(failures)} of {n} "
+            f"checks passed; worst ratio (relative difference / tolerance): {worst}",
+            *failure_lines(failures, markdown)]
     return out

@@ -3,6 +3,8 @@ closes at all of them; elsewhere it is "not applicable" and the rigid judges sti
 
 from __future__ import annotations
 
+import html
+import json
 from pathlib import Path
 
 import pytest
@@ -44,3 +46,36 @@ def test_a_partly_assembling_case_passes_on_the_rigid_judges(tmp_path, monkeypat
     # there have no in-house counterpart
     monkeypatch.setattr(matrix, "solves", lambda engine, kind, case: kind in engines.ENGINES[engine])
     assert run_linkages(load_linkage_matrix(str(_partial(tmp_path)))).comparison.verdict == "FAIL"
+
+
+def test_each_engine_not_applicable_says_why(tmp_path: Path) -> None:
+    """A user's five-joint table driven at its second joint, assembling from 125 deg: the simulation (the loop
+    does not close at every position) and the Exudyn judge (it drives the first joint only) do not solve it.
+    The console, both report pages and ``summary.json`` say so with each engine's one-line reason
+    (:data:`~dualmech.validation.engines.SIM_REFUSALS`), never a bare "–"; the engines that solve it are not
+    named there."""
+    import dualmech
+
+    table = Path(__file__).parent / "tables" / "rrcrc.toml"
+    text = table.read_text()
+    assert text.count("\njoint = 1\n") == 1
+    path = tmp_path / "rrcrc.toml"
+    path.write_text(text.replace("\njoint = 1\n", "\njoint = 2\n"))
+    run = dualmech.validate(path, tmp_path / "run", engines="dualmech,mujoco,mujoco-sim,exudyn", jobs=1)
+    run.write_report()
+    why = {"mujoco-sim": engines.SIM_REFUSALS["loop-closes"][2:],
+           "exudyn": engines.SIM_REFUSALS["exudyn"][2:]}
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert [(c["id"], c["engines"], c["not_applicable"]) for c in summary["cases"]] == [
+        ("rrcrc", ["dualmech", "mujoco"], why)]
+    lines = [f"{e} on rrcrc: {w}" for e, w in why.items()]
+    assert run.run.matrix.not_applicable() == {"rrcrc": why}
+    markdown = (tmp_path / "run" / "report.md").read_text()
+    assert f"– not applicable: {'; '.join(lines)}." in markdown.replace("\\", "")
+    page = (tmp_path / "run" / "report.html").read_text()
+    assert f'id="not-applicable">– not applicable: {"; ".join(lines)}.</p>' in html.unescape(page)
+    console = [line for line in run.console_summary("1 job", "report.md") if isinstance(line, str)]
+    said = [c for c in console if "not applicable" in c]
+    assert said == [f"[dim]– not applicable: {line}[/]" for line in lines]
+    bundled = load_linkage_matrix("rscr")
+    assert bundled.not_applicable() == {}
