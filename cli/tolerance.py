@@ -1,4 +1,4 @@
-"""``dualmech tolerance``: distributions of the stroke and joint loads under manufacturing tolerances.
+"""``dualmech tolerance``: distributions of a mechanism's outputs and loads under manufacturing tolerances.
 
 A thin shell over :func:`dualmech.verbs.tolerance_study` (``dualmech.tolerance_study``);
 ``docs/conventions.md`` ("Tolerance analysis") defines the SPEC, every column and the summary.
@@ -61,7 +61,7 @@ def _print_summary(summary: dict, case: StudyCase) -> None:
 @one_line_errors
 def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir: str, jobs: int,
               scheduler: str | None, judge_samples: int) -> None:
-    """Tolerance study of CASE: Monte Carlo of SPEC and exact sensitivities, judged and reported."""
+    """Tolerance study of CASE (any kind): Monte Carlo of SPEC and sensitivities, judged and reported."""
     from dualmech.models.plausibility import ImplausibleUnitsWarning
     from dualmech.verbs import tolerance_study
 

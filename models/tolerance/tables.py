@@ -275,8 +275,8 @@ def masses(case: TableCase) -> str:
 
 
 def _mode(record: Any) -> str:
-    """The load mode in ``summary.json``: the RSSR's and RCCC's (``torque``: drive torque given, or
-    ``output``), ``loop`` for a loop table (its given and solved efforts are its outputs)."""
+    """The load mode in ``summary.json``: the RSSR's (``torque``: drive torque given, or ``output``), else
+    the kind (``rccc``, ``loop``: their given and solved efforts are among the outputs)."""
     return getattr(record, "mode", kind_of(record))
 
 
