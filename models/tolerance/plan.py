@@ -16,7 +16,7 @@ SPEC addresses the table's keys, and the chunks' workers rebuild the case from i
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
@@ -34,20 +34,17 @@ from dualmech.models.toml_input import read_toml
 @dataclass(frozen=True)
 class TableCase:
     """A checked case of a kind other than the slider crank (``record``) and the case table ``raw`` it was
-    read from; ``name`` is the record's, ``units`` the table's label (a loop table's record has none)."""
+    read from; ``name`` is the record's, ``units`` the table's label (``"consistent"`` where it states
+    none; a loop table's record has none)."""
 
     raw: dict
     record: Any
+    name: str = field(init=False)
+    units: str = field(init=False)
 
-    @property
-    def name(self) -> str:
-        """The case's name."""
-        return self.record.name
-
-    @property
-    def units(self) -> str:
-        """The case table's unit label (``"consistent"`` where it states none)."""
-        return str(self.raw.get("units", "consistent"))
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "name", self.record.name)
+        object.__setattr__(self, "units", str(self.raw.get("units", "consistent")))
 
 
 #: A study's case: the slider crank's, or another kind's with its table.

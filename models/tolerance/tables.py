@@ -41,7 +41,8 @@ from __future__ import annotations
 
 import copy
 import re
-from typing import Any, Mapping, Sequence
+from dataclasses import replace
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -214,11 +215,30 @@ def table_outputs(tables: Sequence[Any], record: Any) -> dict[str, np.ndarray]:
     return {**out, **design_counts(position_counts(codes))}
 
 
+def _solved(solve: Callable[[Any], Any], record: Any) -> Any | None:
+    """``record``'s table, or ``None`` where the solver refuses it in one line (a loop table whose start pose
+    does not close the loop: no position assembles on the branch it would follow)."""
+    try:
+        return solve(record)
+    except ValueError:
+        return None
+
+
+def _unassembled(like: Any) -> Any:
+    """A table like ``like`` in which no position assembles: every value NaN, every status ``no_assembly``."""
+    columns = {c: np.full(len(like), np.nan) for c in like.columns}
+    return replace(like, columns=columns, status=np.full(len(like), Status.NO_ASSEMBLY.value, dtype=object))
+
+
 def analyse(case: TableCase, spec: Spec, x: np.ndarray, first: int) -> dict[str, np.ndarray]:
     """Every output of the sampled designs ``x`` ``(m, k)``: each built by the kind's reader and solved by
-    its in-house solver (every drive position of a design at once)."""
+    its in-house solver (every drive position of a design at once); a design the solver refuses
+    (:func:`_solved`) is counted as assembling at no position."""
     solve = in_house(case.record)
-    tables = [solve(design(case, spec, row, design_name(first + i))) for i, row in enumerate(x)]
+    tables = [_solved(solve, design(case, spec, row, design_name(first + i))) for i, row in enumerate(x)]
+    if any(t is None for t in tables):
+        none = _unassembled(solve(case.record))
+        tables = [none if t is None else t for t in tables]
     return table_outputs(tables, case.record)
 
 

@@ -86,3 +86,25 @@ def test_the_summary_names_the_kind_units_and_sensitivity_method(tmp_path):
     assert stored["sensitivity_method"].startswith(method)
     assert stored["units"] == plan_of(study.case).units(study.case)
     assert stored["round_off"] == {"peak_joint2_moment": pytest.approx(0.0, abs=1e-12)}  # a ball: no moment
+
+
+def test_sensitivities_off_by_1e_3_fail_the_check(tmp_path, monkeypatch):
+    """Deliberate fault: the loop table's derivative of its output range by a joint's twist comes out 1e-3
+    too large; the check (differences at a step a thousand times smaller) names it."""
+    from dataclasses import replace
+
+    import dualmech.models.tolerance.tables as tables
+
+    real = tables.PLAN.sensitivities
+
+    def off(case, spec, table):
+        sens = real(case, spec, table)
+        values = {n: dict(v) for n, v in sens.values.items()}
+        values["range_theta4"]["joint[4].alpha_deg"] *= 1.001
+        return replace(sens, values=values)
+
+    monkeypatch.setattr(tables, "PLAN", replace(tables.PLAN, sensitivities=off))
+    study = _study("rscr", {"joint[4].alpha_deg": {"dist": "normal", "sd": 0.3}}, 1)
+    summary, _, _ = run_study(study, "linear", tmp_path / "out", judge_samples=0)
+    check = summary["sensitivity_check"]
+    assert not check["passed"] and (check["output"], check["key"]) == ("range_theta4", "joint[4].alpha_deg")
