@@ -94,7 +94,7 @@ class DifferenceCheck:
                 "key": self.key,
                 "exact": self.exact, "central_difference": self.difference, "steps": self.steps,
                 "bound": self.bound, "rtol": RTOL,
-                "method": "central differences of the compiled solver, exact steps, Richardson; bound "
+                "method": "central differences of the solver, exact steps, Richardson; bound "
                           "RTOL |D| + truncation + rounding"}
 
 

@@ -48,7 +48,25 @@ def test_the_bundled_study_runs_judged_and_reported(tmp_path):
     md = (tmp_path / "report.md").read_text()
     assert "## Spot checks by the judges" in md and "figures/tornado-stroke.png" in md
     assert (tmp_path / "samples.csv").read_text().count("\n") == 41
-    assert s["sensitivity_check"]["passed"] and "central differences of the compiled solver" in md
+    assert s["sensitivity_check"]["passed"] and "central differences of the solver" in md
+    assert "First derivatives by complex step through the numpy solver" in md
+
+
+def test_a_loop_table_is_studied_by_its_joint_rows(tmp_path):
+    """A bundled loop table, its SPEC naming rows of the joint table: the study runs, prints the kind's
+    outputs with their units, and its report says how its sensitivities were taken."""
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[tolerances]\n"joint[2].a" = { dist = "normal", sd = 5e-4 }\n')
+    result = _run("rsrc", "--spec", spec, "-o", tmp_path / "out", "-n", 8, "--judge-samples", 0)
+    assert result.exit_code == 0, result.output + result.stderr
+    lines = result.output.splitlines()
+    at = lines.index("nominal design: body masses: 0.4, 0.9, 1.5")  # units "SI": not a label dualmech knows
+    assert [line.split()[0] for line in lines[at + 3:at + 6]] == ["range_s4", "peak_joint1_force",
+                                                                  "peak_joint1_moment"]
+    assert "peak_joint2_moment: 0 in every design (the solver's round-off" in result.output  # a ball
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "First derivatives by central differences of the solver, Richardson, step 0.001" in md
+    assert "loop, load mode `loop`" in md
 
 
 def test_linear_method_needs_no_samples(tmp_path):
