@@ -210,3 +210,54 @@ def test_designs_that_do_not_assemble_are_counted_never_dropped():
     assert out["status"].tolist() == ["ok", "no_assembly"]
     assert out["assembled_fraction"].tolist() == [1.0, 0.0]
     assert all(np.isnan(out[n][1]) for n in plan_of(loop).outputs(loop.record))
+
+
+def _as_loop_table(case) -> dict:
+    """The slider crank ``case`` as a loop case table (the preset's joints, drive, bodies and load, the
+    bodies by their mass, centre and inertia: fixed, as the case's are under the keys varied below)."""
+    from dualmech.models.loop.presets import slider_crank_table
+
+    m = slider_crank_table(case)
+    step = float(np.diff(case.motion.angles_deg)[0])
+    positions = {"start": float(case.motion.angles_deg[0]), "stop": float(case.motion.angles_deg[-1]) + step,
+                 "step": step}
+    return {"name": f"{case.name}-table", "units": case.units, "mechanism": {"kind": "loop"},
+            "gravity": case.loads.gravity.tolist(),
+            "joint": [{"type": j.type, "alpha_deg": np.degrees(j.alpha), "a": j.a, "s": j.s}
+                      for j in m.joints],
+            "drive": {"joint": 1, "positions": positions, "speed": m.drive.speed, "accel": m.drive.accel,
+                      "axial_shift": m.drive.axial_shift},
+            "body": [{"mass": b.mass, "com": b.com.tolist(), "inertia": b.inertia.tolist()}
+                     for b in m.bodies],
+            "load": [{"joint": 4, "coordinate": "s", "value": m.loads[0].value}]}
+
+
+def test_a_slider_crank_as_a_loop_table_has_its_complex_step_sensitivities():
+    """Oracle: the slider crank's exact (complex-step) derivatives of the same design. The first design,
+    its slider guide twisted off the crank plane (262 deg, where the stroke's twist derivative is not 0),
+    solved as a slider crank and as a loop table: the offset a4 is joint 4's a, the twist its alpha, the
+    slider force minus joint 4's effort along its axis."""
+    from dualmech.models.case import load_case
+
+    case = load_case(Path(__file__).parents[2] / "examples" / "first-design.toml")
+    case = case.with_values({"geometry.slider_twist_deg": 262.0})
+    loop = study_case(_as_loop_table(case))
+    keys = {"geometry.slider_offset": ("joint[4].a", 1.0),
+            "geometry.slider_twist_deg": ("joint[4].alpha_deg", 1.0),
+            "loads.slider_force": ("load[1].value", -1.0)}
+    sd = {"geometry.slider_offset": 1e-3, "geometry.slider_twist_deg": 0.5, "loads.slider_force": 5.0}
+    exact = plan_of(case).sensitivities(case, _spec(**{k: {"dist": "normal", "sd": sd[k]} for k in keys}),
+                                        in_house(case)(case))
+    spec = _spec(**{key: {"dist": "normal", "sd": sd[k]} for k, (key, _) in keys.items()})
+    differences = plan_of(loop).sensitivities(loop, spec, _nominal(loop))
+    outputs = {"stroke": "range_s4", "peak_j1_force": "peak_joint1_force",
+               "peak_j2_force": "peak_joint2_force", "peak_j3_force": "peak_joint3_force",
+               "peak_j4_force": "peak_joint4_force",
+               "peak_j1_moment": "peak_joint1_moment", "peak_drive_torque": "peak_effort_theta1"}
+    for ours, theirs in outputs.items():
+        assert_allclose(differences.nominal_outputs[theirs], exact.nominal_outputs[ours], rtol=1e-12)
+        for k, (key, sign) in keys.items():
+            want = exact.values[ours][k]
+            scale = max(abs(v) for v in exact.values[ours].values())
+            assert_allclose(sign * differences.values[theirs][key], want, rtol=1e-7, atol=1e-9 * scale,
+                            err_msg=f"d {ours} / d {k}")
