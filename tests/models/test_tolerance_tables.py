@@ -261,3 +261,14 @@ def test_a_slider_crank_as_a_loop_table_has_its_complex_step_sensitivities():
             scale = max(abs(v) for v in exact.values[ours].values())
             assert_allclose(sign * differences.values[theirs][key], want, rtol=1e-7, atol=1e-9 * scale,
                             err_msg=f"d {ours} / d {k}")
+
+
+def test_every_kind_names_its_tolerance_plan():
+    """The kind table names each kind's plan (no kind is left without a study); the table kinds share one."""
+    from dualmech.models.kinds import KIND_HOMES, SLIDER_CRANK, resolve
+    from dualmech.models.tolerance.plan import TolerancePlan
+    from dualmech.models.tolerance.tables import PLAN
+
+    plans = {kind: resolve(home.tolerance) for kind, home in KIND_HOMES.items()}
+    assert all(isinstance(p, TolerancePlan) for p in plans.values())
+    assert {k for k, p in plans.items() if p is PLAN} == set(KIND_HOMES) - {SLIDER_CRANK}
