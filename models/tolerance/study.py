@@ -206,7 +206,7 @@ def _parquet_writer(path: Path, names: list[str]):
     import pyarrow.parquet as pq
 
     types = {"design": pa.int64(), "status": pa.string(), "dead_centres": pa.int64(),
-             "failed_positions": pa.int64()}
+             "failed_positions": pa.int64(), "branch_jumps": pa.int64()}
     schema = pa.schema([(c, types.get(c, pa.float64())) for c in names])
     return pq.ParquetWriter(str(path), schema, use_dictionary=["status"])
 

@@ -272,3 +272,23 @@ def test_every_kind_names_its_tolerance_plan():
     plans = {kind: resolve(home.tolerance) for kind, home in KIND_HOMES.items()}
     assert all(isinstance(p, TolerancePlan) for p in plans.values())
     assert {k for k, p in plans.items() if p is PLAN} == set(KIND_HOMES) - {SLIDER_CRANK}
+
+
+def test_a_designs_branch_jumps_no_assembly_and_dead_centres_are_recorded():
+    """The 7R with two keys moved to where its followed branch ends inside the cycle: the design is partial,
+    and its counts are those of its table solved by ``dualmech solve`` (its words counted directly)."""
+    study = study_case("7r")
+    plan = plan_of(study)
+    spec = _spec(**{"joint[3].a": {"dist": "normal", "sd": 2e-3},
+                    "joint[5].alpha_deg": {"dist": "normal", "sd": 0.5}})
+    x = np.array([[0.2511796295897352, 94.78462696593039]])
+    out = plan.analyse(study, spec, x, 0)
+    words = np.asarray(dualmech.solve(design_table(study, spec, x[0], "d")).status, dtype=str)
+    assert (words == "branch_jump").sum() > 0 and (words == "no_assembly").sum() > 0  # the case is as meant
+    assert out["status"].tolist() == ["partial"]
+    assert out["branch_jumps"].tolist() == [(words == "branch_jump").sum()]
+    assert out["failed_positions"].tolist() == [np.isin(words, ["branch_jump", "not_converged",
+                                                                "not_finite"]).sum()]
+    assert out["dead_centres"].tolist() == [(words == "dead_centre").sum()]
+    assembled = np.isin(words, ["ok", "dead_centre", "assembly_limit"]).mean()
+    assert_allclose(out["assembled_fraction"], [assembled], rtol=1e-15)
