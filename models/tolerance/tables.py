@@ -20,8 +20,9 @@ ranges are the reader's (a refused design stops the study with one line naming i
   ``peak_effort_s4``; the given efforts among them are constant (the summary says so);
 * the counts and the design's status of :mod:`~dualmech.models.tolerance.outputs`.
 
-**Sensitivities.**  The table kinds' solvers are not carried through in complex arithmetic (the loop
-engine's continuation compares real closure errors and branch signs, its compiled kernel is float64), so
+**Sensitivities.**  The table kinds' solvers are not carried through in complex arithmetic (a loop
+record's joints refuse a complex number, ``core/loop.py`` reads a table's constants by ``float``, the
+continuation compares real closure errors and branch signs, the compiled kernel is float64), so
 their derivatives are central differences of the solver, Richardson-extrapolated
 (:func:`~dualmech.models.tolerance.differences.central_differences`), at :data:`STEP` of the key's scale:
 
@@ -29,12 +30,13 @@ their derivatives are central differences of the solver, Richardson-extrapolated
           |D - y'| \lesssim \frac{h^4}{\ell^4}\,|y| + \frac{\nu}{h},
 
 with :math:`\nu \approx` a few ulps of the output its rounding, :math:`\ell` its scale of variation.  At
-``h = 1e-3`` of the scale (itself at most the key's sd) the truncation term is ~1e-12 and the rounding
-~1e-12 of the derivative, each far below the study's check (RTOL 1e-6); a step of 1e-6, the check's,
-would give up three digits to rounding.  Each output is taken at the fixed row(s) of its maximum in the
+``h = 1e-3`` of the scale (itself at most the key's sd) the truncation term is negligible for any key whose
+sd is small against its value, and the rounding :math:`\nu/h` a thousand times smaller than at the check's
+step of 1e-6 (measured against the slider crank's exact complex-step derivatives of the same design solved
+as a loop table: 5e-10 to 2e-8 relative).  Each output is taken at the fixed row(s) of its maximum in the
 nominal design, as the slider crank's.  The study's sensitivity check then differences the solver again
-at 1e-6 of the scale (a step a thousand times smaller, with its own truncation and rounding bound), so a
-derivative is accepted only where two steps three decades apart agree.
+at 1e-6 of the scale, with its own truncation and rounding bound, so a derivative is accepted only where
+two steps three decades apart agree.
 """
 
 from __future__ import annotations
