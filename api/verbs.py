@@ -349,7 +349,7 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
     Parameters
     ----------
     case : Case, str, os.PathLike or dict
-        The nominal design (as :func:`solve` takes it).
+        The nominal design of any kind: a case file, bundled name or table, or a slider-crank Case.
     spec : Spec, str, os.PathLike or dict
         The tolerance SPEC: a distribution per varied case key (``docs/conventions.md``, "Tolerance
         analysis"), as a file or its table.
@@ -371,13 +371,14 @@ def tolerance_study(case: Case | str | os.PathLike | dict, spec: Spec | str | os
     ToleranceStudy
         ``.summary``, ``.samples``, ``.files``, ``.passed``.
     """
+    from dualmech.models.tolerance.plan import record_of
     from dualmech.models.tolerance.study import StudyInput
     from dualmech.validation.rundir import locked
     from dualmech.validation.tolerance.report import FigureDrawing, write_tolerance_report
     from dualmech.validation.tolerance.study import run_study
 
     nominal = as_case(case)
-    warn_implausible(nominal)
+    warn_implausible(record_of(nominal))
     spec = as_spec(spec)
     if not isinstance(outdir, (str, os.PathLike)):
         raise TypeError(f"outdir: expected a folder path, got {show(outdir)}")

@@ -1,4 +1,4 @@
-"""``dualmech tolerance``: distributions of the stroke and joint loads under manufacturing tolerances.
+"""``dualmech tolerance``: distributions of a mechanism's outputs and loads under manufacturing tolerances.
 
 A thin shell over :func:`dualmech.verbs.tolerance_study` (``dualmech.tolerance_study``);
 ``docs/conventions.md`` ("Tolerance analysis") defines the SPEC, every column and the summary.
@@ -19,28 +19,17 @@ import click
 from dualmech.cli.errors import on_interrupt, one_line_errors
 from dualmech.cli.progress import progress
 from dualmech.cli.solve import warn_units
-from dualmech.models.case import Case
-from dualmech.models.plausibility import masses_line
-from dualmech.validation.arguments import MAX_JOBS, as_case
+from dualmech.models.tolerance.plan import StudyCase, plan_of, record_of, study_case
+from dualmech.validation.arguments import MAX_JOBS
 
 
-def output_units(mode: str, units: str) -> dict[str, str]:
-    """The unit of every output of a design in load mode ``mode`` under the unit label ``units``."""
-    from dualmech.models.tolerance.outputs import FORCES, MOMENTS, SOLVED_LOAD
-    from dualmech.models.units import column_unit
-
-    columns = {"stroke": "S4", **{n: f"{prefix}x" for n, prefix in FORCES + MOMENTS},
-               SOLVED_LOAD[mode][0]: SOLVED_LOAD[mode][1]}
-    return {name: column_unit(column, units) for name, column in columns.items()}
-
-
-def _print_summary(summary: dict, case: Case) -> None:
-    click.echo(f"nominal design: {masses_line(case)}")
+def _print_summary(summary: dict, case: StudyCase) -> None:
+    click.echo(f"nominal design: {plan_of(case).masses(case)}")
     y = summary.get("yield")
     if y:
         click.echo(f"yield {y['value']:.4f} (95 % Wilson {y['ci'][0]:.4f}..{y['ci'][1]:.4f}), "
                    f"{y['ok']} of {y['n']} designs assemble over the whole cycle")
-    units = output_units(summary["mode"], case.units)
+    units = summary["units"]
     click.echo(f"{'output':20s} {'unit':>9s} {'mean':>13s} {'std':>11s} {'linear std':>11s} {'p99':>13s}")
     for name in summary["nominal"]:
         o = summary["outputs"].get(name, {})
@@ -72,13 +61,13 @@ def _print_summary(summary: dict, case: Case) -> None:
 @one_line_errors
 def tolerance(case: str, spec_file: str, n: int, seed: int, method: str, outdir: str, jobs: int,
               scheduler: str | None, judge_samples: int) -> None:
-    """Tolerance study of CASE: Monte Carlo of SPEC and exact sensitivities, judged and reported."""
+    """Tolerance study of CASE (any kind): Monte Carlo of SPEC and sensitivities, judged and reported."""
     from dualmech.models.plausibility import ImplausibleUnitsWarning
     from dualmech.verbs import tolerance_study
 
     on_interrupt(f"finished chunks are kept in {outdir}; re-run the same command to finish")
-    nominal = as_case(case)
-    warn_units(nominal)  # the command's own one line each; the API's warning of the same is not repeated
+    nominal = study_case(case)
+    warn_units(record_of(nominal))  # the command's own one line each; the API's same warning is not repeated
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ImplausibleUnitsWarning)
         done = tolerance_study(nominal, spec_file, n=n, seed=seed, method=method, outdir=outdir, jobs=jobs,

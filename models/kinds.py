@@ -31,7 +31,8 @@ class Kind(NamedTuple):
     ``warnings``: record -> one line per implausible size (warnings, never errors); ``assembly``:
     record -> why the design assembles at no drive position, or ``None`` (``dualmech solve`` refuses
     such a design); ``joint_frames``: (record, table, path) -> writes the joint-frame table of
-    ``solve --frames joint``.
+    ``solve --frames joint``; ``tolerance``: its
+    :class:`~dualmech.models.tolerance.plan.TolerancePlan` (``dualmech tolerance``).
     """
 
     record: str
@@ -45,6 +46,7 @@ class Kind(NamedTuple):
     warnings: str = ""
     assembly: str = ""
     joint_frames: str = ""
+    tolerance: str = ""
 
 
 #: The forward-dynamics options every kind's simulator takes (``dualmech.simulate``).
@@ -52,6 +54,8 @@ SIM_OPTIONS = ("torque", "psi0", "psidot0", "damping", "samples", "method", "rto
                "time_limit", "progress")
 
 _LINKAGES = "dualmech.models.linkages"
+#: The tolerance plan of every kind whose table has a TableSpec (the RSSR, RCCC and loop tables).
+_TABLE_TOLERANCE = "dualmech.models.tolerance.tables:PLAN"
 #: Every kind dualmech solves.
 KIND_HOMES: dict[str, Kind] = {
     SLIDER_CRANK: Kind("dualmech.models.case:Case", "dualmech.models.case:case_from_dict",
@@ -62,20 +66,21 @@ KIND_HOMES: dict[str, Kind] = {
                        sim_options=("slider_load", "slider_damping"),
                        warnings="dualmech.models.plausibility:implausible",
                        assembly="dualmech.models.slider_crank:assembly_failure",
-                       joint_frames="dualmech.models.joint_frames:write_joint_frame_csv"),
+                       joint_frames="dualmech.models.joint_frames:write_joint_frame_csv",
+                       tolerance="dualmech.models.tolerance.slider_crank:PLAN"),
     "rssr": Kind(f"{_LINKAGES}.rssr_case:RssrCase", f"{_LINKAGES}.rssr_case:rssr_from_dict",
                  f"{_LINKAGES}.rssr:solve_rssr", f"{_LINKAGES}.rssr:SPEC",
                  f"{_LINKAGES}.forward_dynamics:simulate", f"{_LINKAGES}:summary",
-                 f"{_LINKAGES}.forward_dynamics:linkage_summary"),
+                 f"{_LINKAGES}.forward_dynamics:linkage_summary", tolerance=_TABLE_TOLERANCE),
     "rccc": Kind(f"{_LINKAGES}.rccc_case:RcccCase", f"{_LINKAGES}.rccc_case:rccc_from_dict",
                  f"{_LINKAGES}.rccc:solve_rccc", f"{_LINKAGES}.rccc:SPEC",
                  f"{_LINKAGES}.forward_dynamics:simulate", f"{_LINKAGES}:summary",
-                 f"{_LINKAGES}.forward_dynamics:linkage_summary"),
+                 f"{_LINKAGES}.forward_dynamics:linkage_summary", tolerance=_TABLE_TOLERANCE),
     "loop": Kind("dualmech.models.loop.description:LoopMechanism",
                  "dualmech.models.loop.table_format:loop_from_dict",
                  "dualmech.models.loop.table:solve_loop_table", "dualmech.models.loop.columns:loop_spec",
                  "dualmech.models.loop.forward_dynamics:simulate", f"{_LINKAGES}:summary",
-                 "dualmech.models.loop.forward_dynamics:loop_summary"),
+                 "dualmech.models.loop.forward_dynamics:loop_summary", tolerance=_TABLE_TOLERANCE),
 }
 KINDS = tuple(KIND_HOMES)
 #: The kinds other than the slider crank (the linkages: their own case format and table columns).

@@ -137,3 +137,31 @@ def test_tolerance_tutorial_spec_loads(tmp_path: Path) -> None:
     (tmp_path / "spec.toml").write_text(toml_blocks("tolerance.md")[0], encoding="utf-8")
     assert list(load_spec(tmp_path / "spec.toml").keys) == [
         "geometry.slider_offset", "geometry.slider_twist_deg", "geometry.rod_length"]
+
+
+#: A value the tutorial prints with 6 significant digits, against the study that printed it.
+PRINTED_RTOL = 1e-5
+
+
+def test_tolerance_tutorial_rssr_spec_gives_the_linear_spread_it_prints(tmp_path: Path) -> None:
+    """The tutorial's RSSR SPEC loads with the RSSR's own keys, and its linear propagation (deterministic:
+    the sensitivities at the nominal design) gives the linear std the printed run shows."""
+    from dualmech.models.tolerance.plan import study_case
+    from dualmech.models.tolerance.study import StudyInput
+    from dualmech.validation.tolerance.study import run_study
+
+    (tmp_path / "rssr-spec.toml").write_text(toml_blocks("tolerance.md")[1], encoding="utf-8")
+    spec = load_spec(tmp_path / "rssr-spec.toml")
+    assert list(spec.keys) == ["geometry.coupler", "geometry.output_crank", "geometry.frame_twist_deg",
+                               "bodies.coupler.mass"]
+    summary, _, _ = run_study(StudyInput(study_case("rssr"), spec, 1, 0), "linear", tmp_path / "out",
+                              judge_samples=0)
+    assert summary["sensitivity_check"]["passed"]
+    text = (TUTORIALS / "tolerance.md").read_text(encoding="utf-8")
+    printed = {m[1]: float(m[2]) for m in re.finditer(r"^(range_\w+|peak_\w+) +\S+ +\S+ +\S+ +(\S+) +\S+$",
+                                                         text, re.M)}
+    assert set(printed) == {"range_phi4_deg", "peak_j1_force", "peak_j1_moment", "peak_drive_torque",
+                            "peak_output_torque"}
+    del printed["peak_output_torque"]  # the given torque: its linear std is the differences' round-off
+    for name, value in printed.items():
+        assert_allclose(summary["linear_std"][name], value, rtol=PRINTED_RTOL, err_msg=name)

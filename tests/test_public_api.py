@@ -17,11 +17,14 @@ from numpy.testing import assert_allclose, assert_array_equal
 import dualmech
 from dualmech.core.status import ASSEMBLED
 from dualmech.core.table import COLUMNS, NUMERIC_COLUMNS, ResultTable
+from dualmech.models.catalogue import load_mechanism
 from dualmech.validation.tolerances import MATRIX_KINEMATICS
 
 ROOT = Path(__file__).resolve().parents[1]
 PRESET = "thesis/a4-30-s1-3"
 #: One case, the in-house reference judged by Pinocchio (docs/matrix-format.md, "A minimal matrix").
+#: A SPEC of one loop-table key (a joint row, as a matrix addresses it).
+ONE_KEY_SPEC = {"tolerances": {"joint[2].a": {"dist": "normal", "sd": 5e-4}}}
 ONE_CASE_MATRIX = 'name = "one-case"\nbase = "thesis/ideal"\nengines = ["dualmech", "pinocchio"]\n'
 #: A small SI design built in code (the README's "Your first design").
 SI_TABLES = {
@@ -143,6 +146,10 @@ def test_solve_takes_a_preset_a_file_or_a_table() -> None:
     (lambda: dualmech.simulate("rssr", 1.0, slider_load=5.0), ValueError,
      r"^slider_load: a rssr case has no slider \(valid options: torque, psi0"),
     (lambda: dualmech.tolerance_study("thesis/ideal", 7), TypeError, r"^spec: expected a tolerance SPEC"),
+    (lambda: dualmech.tolerance_study(load_mechanism("rssr"), ONE_KEY_SPEC), dualmech.CaseError,
+     r"^case: the tolerance study of a rssr case needs its case table"),
+    (lambda: dualmech.tolerance_study("rssr", ONE_KEY_SPEC), ValueError,
+     r"^tolerances.'joint\[2\].a': not a key that can vary \(valid: geometry.input_crank, "),
     (lambda: dualmech.load_case(None), TypeError, r"^source: expected a case file path or a preset name"),
     (lambda: dualmech.load_case("thesis/ideal").with_values(3), TypeError, r"^updates: expected a dict"),
     (lambda: dualmech.load_case("thesis/ideal").with_values({1: 2}), TypeError, r"^updates: expected a dict"),
@@ -280,6 +287,15 @@ def test_validate_of_a_linkage_is_the_linkage_gate(tmp_path, monkeypatch) -> Non
     fault_engine(monkeypatch, "pinocchio", shifted, ("rssr",))  # in this process: jobs=1
     bad = dualmech.validate("rssr", tmp_path / "bad", engines=["dualmech", "pinocchio"], jobs=1)
     assert bad.verdict == "FAIL"
+
+
+def test_a_tolerance_study_takes_every_kind(tmp_path) -> None:
+    """A loop table by its bundled name, its SPEC naming a joint row: the study runs as the slider crank's
+    (it refused every kind but the slider crank), its summary naming the kind and its outputs."""
+    study = dualmech.tolerance_study("rscr", ONE_KEY_SPEC, n=4, method="both", outdir=tmp_path / "study",
+                                     judge_samples=0)
+    assert study.passed and study.summary["kind"] == "loop" and study.summary["yield"]["ok"] == 4
+    assert study.x.shape == (4, 1) and list(study.summary["sensitivity"]["range_theta4"]) == ["joint[2].a"]
 
 
 @pytest.mark.parametrize(("judges", "check", "passed"), [

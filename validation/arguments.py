@@ -8,31 +8,29 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from dualmech.models.case import Case
-from dualmech.models.inputs import CaseError, show
+from dualmech.models.inputs import show
 from dualmech.validation.engines import ENGINES
 
 if TYPE_CHECKING:
+    from dualmech.models.tolerance.plan import StudyCase
     from dualmech.models.tolerance.spec import Spec
 
 
-def as_case(case: Case | str | os.PathLike | dict, argument: str = "case") -> Case:
-    """``case`` as a slider-crank :class:`Case`: itself, a case file or preset name, or a case table
-    (:func:`~dualmech.models.catalogue.load_mechanism`); anything else is a one-line ``TypeError`` naming
-    ``argument``, a case of another kind a one-line ``CaseError`` naming its kind (the tolerance study, its
-    one user, serves the slider crank only)."""
-    from dualmech.models.catalogue import load_mechanism
-    from dualmech.models.kinds import kind_of
+def as_case(case: Case | str | os.PathLike | dict, argument: str = "case") -> StudyCase:
+    """``case`` as a tolerance study's case (:func:`~dualmech.models.tolerance.plan.study_case`): a
+    slider-crank :class:`Case` or a :class:`~dualmech.models.tolerance.plan.TableCase` itself, or a case
+    file, preset name or case table of any kind; anything else is a one-line ``TypeError`` naming
+    ``argument``, another kind's checked record (without the table a SPEC addresses) a one-line
+    ``CaseError``."""
+    from dualmech.models.kinds import is_record
+    from dualmech.models.tolerance.plan import TableCase, study_case
 
-    if isinstance(case, Case):
+    if isinstance(case, TableCase):
         return case
-    if not isinstance(case, (str, os.PathLike, dict)):
+    if not isinstance(case, (Case, str, os.PathLike, dict)) and not is_record(case):
         raise TypeError(f"{argument}: expected a dualmech.Case, a case file, a preset name or a case table "
                         f"(dict), got {show(case)}")
-    record = load_mechanism(case)
-    if not isinstance(record, Case):
-        raise CaseError(f"{argument}: the tolerance study takes a slider-crank case; {show(case)} is a "
-                        f"{kind_of(record)} case (not built yet for that kind)")
-    return record
+    return study_case(case)
 
 
 def as_spec(spec: Spec | str | os.PathLike | dict) -> Spec:

@@ -49,8 +49,10 @@ import numpy as np
 
 from dualmech.models.case import Case
 from dualmech.models.tolerance.designs import analyse_designs, design_arrays
-from dualmech.models.tolerance.sensitivity import Sensitivities, output_group
-from dualmech.models.tolerance.spec import Spec, nominal_values
+from dualmech.models.tolerance.outputs import group_of
+from dualmech.models.tolerance.plan import StudyCase, TolerancePlan, plan_of, record_of
+from dualmech.models.tolerance.sensitivity import Sensitivities
+from dualmech.models.tolerance.spec import Spec
 from dualmech.models.tolerance.summary import round_off_outputs
 
 #: Step relative to the key's scale: truncation after Richardson ~ (h/scale)^4, rounding nu/h (both bounded
@@ -92,7 +94,7 @@ class DifferenceCheck:
                 "key": self.key,
                 "exact": self.exact, "central_difference": self.difference, "steps": self.steps,
                 "bound": self.bound, "rtol": RTOL,
-                "method": "central differences of the compiled solver, exact steps, Richardson; bound "
+                "method": "central differences of the solver, exact steps, Richardson; bound "
                           "RTOL |D| + truncation + rounding"}
 
 
@@ -102,12 +104,13 @@ def exact_step(x0: np.ndarray, h: np.ndarray) -> np.ndarray:
     return (x0 + h) - x0
 
 
-def steps(spec: Spec, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(h, h2)`` per key, each ``(k,)``, key units, exactly representable (module docstring)."""
+def steps(spec: Spec, x0: np.ndarray, step: float = STEP) -> tuple[np.ndarray, np.ndarray]:
+    """``(h, h2)`` per key, each ``(k,)``, key units, exactly representable (module docstring); ``step`` the
+    step relative to the key's scale."""
     sd = np.array([t.std() for t in spec.tolerances])
     size = np.abs(x0)
     scale = np.where(x0 != 0.0, np.minimum(np.maximum(sd, MIN_SCALE * size), size), sd)
-    target = np.maximum(STEP * scale, 2.0 * np.finfo(float).tiny)  # never a zero step, nor its half
+    target = np.maximum(step * scale, 2.0 * np.finfo(float).tiny)  # never a zero step, nor its half
     return exact_step(x0, target), exact_step(x0, 0.5 * target)
 
 
@@ -120,42 +123,55 @@ class Differences:
     rounding: dict[str, np.ndarray]
 
 
-def central_differences(case: Case, spec: Spec, sens: Sensitivities) -> Differences:
-    """``D``, ``T`` and ``R`` per output at the crank angles of ``sens.positions_deg`` (module docstring)."""
-    x0 = nominal_values(case, spec)
-    h, h2 = steps(spec, x0)
+def slider_crank_points(case: Case, spec: Spec, sens: Sensitivities, x: np.ndarray) -> dict[str, np.ndarray]:
+    """Every output of the slider-crank designs ``x`` ``(m, k)`` at the crank angle(s) of its derivative
+    (``sens.positions_deg``), ``(m,)`` each (NaN where it has none), by the compiled kernel (the study's
+    own path, :func:`~dualmech.models.tolerance.designs.design_arrays`)."""
+    out = {}
+    for name, angles in sens.positions_deg.items():
+        if not angles:
+            out[name] = np.full(x.shape[0], np.nan)
+            continue
+        at = case.with_parts(motion=replace(case.motion, angles_deg=np.asarray(angles, dtype=float)))
+        out[name] = analyse_designs(design_arrays(at, spec, x), case.loads.mode)[name]
+    return out
+
+
+def central_differences(case: StudyCase, spec: Spec, sens: Sensitivities, plan: TolerancePlan,
+                        step: float = STEP) -> Differences:
+    """``D``, ``T`` and ``R`` per output at the drive positions of ``sens.positions_deg`` (module docstring),
+    the outputs by the kind's ``plan.points``; ``step`` relative to each key's scale."""
+    x0 = plan.nominal_values(case, spec)
+    h, h2 = steps(spec, x0, step)
     k = x0.size
     eye = np.eye(k)
     moves = [eye * h, -eye * h, eye * h2, -eye * h2]
     ulp = NOISE_ULPS * np.spacing(np.maximum(np.abs(x0), h))  # a key at 0: ulps of its step
     moves += [eye * (m * ulp) for m in range(NOISE_POINTS + 1)]
-    x = np.concatenate([x0 + m for m in moves])
+    points = plan.points(case, spec, sens, np.concatenate([x0 + m for m in moves]))
     q2 = np.square(h / h2)
-    mode = case.loads.mode
-    nan = np.full(k, np.nan)
+    groups = plan.groups(record_of(case))
     value, truncation, rounding = {}, {}, {}
-    for name, angles in sens.positions_deg.items():
-        if not angles:
-            value[name], truncation[name], rounding[name] = nan, nan, nan
-            continue
-        at = case.with_parts(motion=replace(case.motion, angles_deg=np.asarray(angles, dtype=float)))
-        y = analyse_designs(design_arrays(at, spec, x), mode)[name].reshape(len(moves), k)
+    for name, y in points.items():
+        y = y.reshape(len(moves), k)
         d1, d2 = (y[0] - y[1]) / (2.0 * h), (y[2] - y[3]) / (2.0 * h2)
         value[name] = (q2 * d2 - d1) / (q2 - 1.0)
         truncation[name] = np.abs(d2 - d1) / (q2 - 1.0)
         near = y[4:]  # at x0 + m ulp, m = 0..NOISE_POINTS: their departure from a line is rounding
         line = near[0] + np.outer(np.arange(NOISE_POINTS + 1), near[1] - near[0])
         noise = np.max(np.abs(near - line), axis=0)
-        peaks = [abs(sens.nominal_outputs[n]) for n in output_group(name, mode)]
+        peaks = [abs(sens.nominal_outputs[n]) for n in group_of(name, groups) if n in sens.nominal_outputs]
         floor = NOISE_FLOOR * _EPS * max((p for p in peaks if math.isfinite(p)), default=0.0)
         rounding[name] = NOISE_MARGIN * np.maximum(noise, floor) * (q2 / h2 + 1.0 / h) / (q2 - 1.0)
     return Differences(value, truncation, rounding)
 
 
-def check_sensitivities(case: Case, spec: Spec, sens: Sensitivities) -> DifferenceCheck:
-    """The exact sensitivities against :func:`central_differences` (module docstring)."""
-    diffs = central_differences(case, spec, sens)
-    zero = round_off_outputs(sens.nominal_outputs, None)  # round-off, reported as 0: no derivative to check
+def check_sensitivities(case: StudyCase, spec: Spec, sens: Sensitivities) -> DifferenceCheck:
+    """The sensitivities against :func:`central_differences` of the kind's solver (module docstring)."""
+    plan = plan_of(case)
+    diffs = central_differences(case, spec, sens, plan)
+    # round-off, reported as 0: no derivative to check
+    zero = round_off_outputs(sens.nominal_outputs, None, plan.groups(record_of(case)))
     worst = (0.0, "", "", math.nan, math.nan, math.nan)
     for name, d in diffs.value.items():
         if name in zero:
@@ -170,7 +186,7 @@ def check_sensitivities(case: Case, spec: Spec, sens: Sensitivities) -> Differen
         j = int(np.argmax(ratio))
         if ratio[j] > worst[0]:
             worst = (float(ratio[j]), name, spec.keys[j], float(g[j]), float(d[j]), float(bound[j]))
-    h, _ = steps(spec, nominal_values(case, spec))
+    h, _ = steps(spec, plan.nominal_values(case, spec))
     ratio, output, key, exact, difference, bound = worst
     return DifferenceCheck(ratio <= 1.0, ratio, output, key, exact, difference,
                            dict(zip(spec.keys, map(float, h))), bound)

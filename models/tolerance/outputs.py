@@ -16,7 +16,8 @@ Per design (``docs/conventions.md``, "Tolerance analysis"):
 * ``assembled_fraction`` -- share of the case's crank positions that assemble;
   ``dead_centres`` -- positions flagged ``dead_centre`` (torque mode; excluded from every peak,
   as are ``assembly_limit`` positions, whose reactions are not given); ``failed_positions`` --
-  positions where the engine failed (``branch_jump``, ``not_converged``, ``not_finite``);
+  positions where the engine failed (``branch_jump``, ``not_converged``, ``not_finite``), ``branch_jumps``
+  those of them where the loop closed on another branch than the one followed;
 * ``status`` -- a :class:`DesignStatus`.
 
 A peak is the maximum over the sampled crank angles; its crank position is the one
@@ -59,7 +60,7 @@ LOAD_GROUPS: dict[str, tuple[str, ...]] = {
     "moment": tuple(n for n, _ in MOMENTS) + ("peak_drive_torque",),
 }
 #: Count columns beside the outputs.
-COUNTS: tuple[str, ...] = ("assembled_fraction", "dead_centres", "failed_positions")
+COUNTS: tuple[str, ...] = ("assembled_fraction", "dead_centres", "failed_positions", "branch_jumps")
 #: Position status words that are engine failures.
 FAILURES: tuple[str, ...] = (Status.BRANCH_JUMP, Status.NOT_CONVERGED, Status.NOT_FINITE)
 
@@ -71,6 +72,7 @@ def _codes(words: frozenset[str] | tuple[str, ...]) -> np.ndarray:
 
 _ASSEMBLED, _FAILED = _codes(ASSEMBLED), _codes(FAILURES)
 _OK, _DEAD = STATUSES.index(Status.OK), STATUSES.index(Status.DEAD_CENTRE)
+_BRANCH = STATUSES.index(Status.BRANCH_JUMP)
 
 
 def status_codes(words: np.ndarray) -> np.ndarray:
@@ -97,13 +99,13 @@ def needed_columns(mode: str) -> tuple[str, ...]:
 
 
 #: Status code -> whether the row assembles (is failed): lookup tables, cheaper than ``np.isin`` per block.
-_IS_ASSEMBLED = np.isin(np.arange(len(STATUSES)), _ASSEMBLED)
+IS_ASSEMBLED = np.isin(np.arange(len(STATUSES)), _ASSEMBLED)
 _IS_FAILED = np.isin(np.arange(len(STATUSES)), _FAILED)
 
 
 def _assembled(columns: Mapping[str, np.ndarray], codes: np.ndarray) -> np.ndarray:
     """Rows that assemble with a finite S4: the rows of the stroke."""
-    return _IS_ASSEMBLED[codes] & np.isfinite(columns["S4"])
+    return IS_ASSEMBLED[codes] & np.isfinite(columns["S4"])
 
 
 def candidate_values(columns: Mapping[str, np.ndarray], codes: np.ndarray,
@@ -173,7 +175,8 @@ class DesignReduction:
         self.mode = mode
         self.extremes = {name: np.full(m, -np.inf) for name in output_names(mode)}
         self.extremes["stroke_min"] = np.full(m, np.inf)
-        self.counts = {k: np.zeros(m, dtype=np.int64) for k in ("positions", "assembled", "dead", "failed")}
+        self.counts = {k: np.zeros(m, dtype=np.int64)
+                       for k in ("positions", "assembled", "dead", "failed", "branch")}
 
     def add(self, first: int, columns: Mapping[str, np.ndarray], codes: np.ndarray) -> None:
         """Fold in designs ``first ..`` at a block of positions: ``columns`` and ``codes`` ``(d, q)``."""
@@ -181,10 +184,8 @@ class DesignReduction:
         for name, values in block_extremes(columns, codes, self.mode).items():
             fold = np.minimum if name == "stroke_min" else np.maximum
             fold(self.extremes[name][rows], values, out=self.extremes[name][rows])
-        self.counts["positions"][rows] += codes.shape[1]
-        self.counts["assembled"][rows] += _IS_ASSEMBLED[codes].sum(axis=1)
-        self.counts["dead"][rows] += (codes == _DEAD).sum(axis=1)
-        self.counts["failed"][rows] += _IS_FAILED[codes].sum(axis=1)
+        for name, count in position_counts(codes).items():
+            self.counts[name][rows] += count
 
     def result(self) -> dict[str, np.ndarray]:
         """Every output, count and the status, arrays ``(m,)`` (module docstring)."""
@@ -196,14 +197,32 @@ class DesignReduction:
             found = np.isfinite(peak)
             out[name] = np.full(peak.shape, np.nan)
             out[name][found] = np.sqrt(peak[found]) if name in vectors else peak[found]
-        frac = self.counts["assembled"] / self.counts["positions"]
-        out["assembled_fraction"] = frac
-        out["dead_centres"] = self.counts["dead"].copy()
-        out["failed_positions"] = self.counts["failed"].copy()
-        design = np.where(frac == 1.0, DesignStatus.OK.value, DesignStatus.PARTIAL.value).astype(object)
-        design[frac == 0.0] = DesignStatus.NO_ASSEMBLY.value
-        out["status"] = design
-        return out
+        return {**out, **design_counts(self.counts)}
+
+
+def position_counts(codes: np.ndarray) -> dict[str, np.ndarray]:
+    """Per design (row of the status codes ``codes`` ``(d, q)``), its positions, and those that assemble, are
+    ``dead_centre``, failed or ``branch_jump``, ``(d,)`` each."""
+    return {"positions": np.full(codes.shape[0], codes.shape[1], dtype=np.int64),
+            "assembled": IS_ASSEMBLED[codes].sum(axis=1), "dead": (codes == _DEAD).sum(axis=1),
+            "failed": _IS_FAILED[codes].sum(axis=1), "branch": (codes == _BRANCH).sum(axis=1)}
+
+
+def design_counts(counts: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """:data:`COUNTS` and the :class:`DesignStatus` of designs whose :func:`position_counts` (summed over
+    every position) are ``counts``, ``(m,)`` each."""
+    frac = counts["assembled"] / counts["positions"]
+    design = np.where(frac == 1.0, DesignStatus.OK.value, DesignStatus.PARTIAL.value).astype(object)
+    design[frac == 0.0] = DesignStatus.NO_ASSEMBLY.value
+    return {"assembled_fraction": frac, "dead_centres": counts["dead"].copy(),
+            "failed_positions": counts["failed"].copy(), "branch_jumps": counts["branch"].copy(),
+            "status": design}
+
+
+def group_of(name: str, groups: Mapping[str, tuple[str, ...]]) -> tuple[str, ...]:
+    """The outputs of ``name``'s unit group in ``groups`` (:data:`LOAD_GROUPS` or a table kind's): a value
+    near 0 is judged by their peak; ``(name,)`` for an output of no group (a stroke, a range)."""
+    return next((g for g in groups.values() if name in g), (name,))
 
 
 def _stacked(tables: Sequence[ResultTable], mode: str) -> tuple[dict[str, np.ndarray], np.ndarray]:

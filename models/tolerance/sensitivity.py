@@ -48,9 +48,11 @@ from dualmech.models.slider_crank_closure import close_loop
 from dualmech.models.slider_crank_loop import LOOP, Batch
 from dualmech.models.tolerance.outputs import (
     FORCES,
+    LOAD_GROUPS,
     MOMENTS,
     SOLVED_LOAD,
     design_outputs,
+    group_of,
     output_names,
     peak_positions,
 )
@@ -124,11 +126,9 @@ def _outputs(an: Analysis, at: dict[int, int], where: dict[str, tuple[np.ndarray
 
 
 def output_group(name: str, mode: str) -> tuple[str, ...]:
-    """The outputs of ``name``'s unit (length, force or moment): a value near 0 is judged by their peak."""
-    load, _ = SOLVED_LOAD[mode]
-    forces = tuple(n for n, _ in FORCES) + ((load,) if mode == "torque" else ())
-    moments = tuple(n for n, _ in MOMENTS) + ((load,) if mode == "force" else ())
-    return next((g for g in (forces, moments) if name in g), (name,))
+    """The outputs of ``name``'s unit (length, force or moment) in load mode ``mode``: a value near 0 is
+    judged by their peak (:func:`~dualmech.models.tolerance.outputs.group_of`)."""
+    return tuple(n for n in group_of(name, LOAD_GROUPS) if n in output_names(mode))
 
 
 def sensitivities(case: Case, spec: Spec, table: ResultTable | None = None) -> Sensitivities:

@@ -19,6 +19,7 @@ loader's own ranges (``docs/conventions.md``, "Input ranges").
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,8 @@ class SpecError(ValueError):
     """A tolerance SPEC that cannot be used; the message is one line."""
 
 
-#: Case keys a SPEC may vary (scalars of the case file; ``docs/conventions.md``, "Case files").
+#: Slider-crank case keys a SPEC may vary (scalars of the case file; ``docs/conventions.md``, "Case files";
+#: another kind's: :mod:`~dualmech.models.tolerance.tables`).
 #: Body masses may be varied even when the case derives them from a shape and a density: the
 #: sampled design then states the mass, and the inertia keeps its shape (scaled by the mass).
 KEYS: tuple[str, ...] = (
@@ -51,8 +53,9 @@ DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
     "uniform": ("low", "high"),
     "truncnormal": ("sd", "low", "high"),
 }
-#: Most keys in one SPEC (each is an input of the sensitivities and of the Sobol estimates).
-MAX_KEYS = len(KEYS)
+#: Most keys in one SPEC: each is an input of the sensitivities and of the Sobol estimates, and costs its own
+#: solves of the sensitivity check (nine designs); a loop table of six joints states about 32 numbers.
+MAX_KEYS = 32
 #: Bound on any offset parameter: the case loader's bound on its numbers (``SCALE``).
 OFFSET = Range(-1e15, 1e15, "an offset in the key's units")
 #: A truncated normal must keep at least this probability mass, else its samples lose precision.
@@ -166,8 +169,6 @@ def _dotted(key: str) -> str:
 
 def _tolerance(key: str, entry: Any) -> Tolerance:
     where = f"tolerances.{key_text(key)}"
-    if key not in KEYS:
-        raise SpecError(f"{where}: not a key that can vary (valid: {', '.join(KEYS)})")
     if not isinstance(entry, dict):
         raise SpecError(f"{where}: expected a table such as {{ dist = \"normal\", sd = 0.1 }}, "
                         f"got {show(entry)}")
@@ -234,12 +235,36 @@ def _get(raw: dict, dotted: str) -> Any:
     return node
 
 
-def nominal_values(case: Case, spec: Spec) -> np.ndarray:
-    """The case's value of every varied key, ``(k,)``, in the key's units.
+_ROW_KEY = re.compile(r"^(\w+)\[(\d+)\]\.(.+)$")
 
-    A body mass the case derives from a shape and a density is the derived mass.  A key the case
-    does not state (and cannot derive) is a :class:`SpecError`.
+
+def key_list(keys: tuple[str, ...]) -> str:
+    """``keys`` as one short text, the rows of an array of tables that state the same key together:
+    ``"joint[1, 2, 4].a, joint[3].alpha_deg, drive.speed"``."""
+    rows: dict[str, list[str]] = {}
+    for key in keys:
+        match = _ROW_KEY.match(key)
+        pattern, row = (f"{match[1]}[{{}}].{match[3]}", match[2]) if match else (key, "")
+        rows.setdefault(pattern, []).append(row)
+    return ", ".join(pattern.format(", ".join(r)) if r[0] else pattern for pattern, r in rows.items())
+
+
+def check_varied(spec: Spec, valid: tuple[str, ...]) -> None:
+    """A one-line :class:`SpecError` for the first key of ``spec`` not in ``valid`` (the keys the case's
+    kind lets vary), naming them (:func:`key_list`)."""
+    for key in spec.keys:
+        if key not in valid:
+            raise SpecError(f"tolerances.{key_text(key)}: not a key that can vary (valid: {key_list(valid)})")
+
+
+def nominal_values(case: Case, spec: Spec) -> np.ndarray:
+    """The slider-crank case's value of every varied key, ``(k,)``, in the key's units.
+
+    A key not in :data:`KEYS` is a :class:`SpecError` naming them.  A body mass the case derives from a
+    shape and a density is the derived mass.  A key the case does not state (and cannot derive) is a
+    :class:`SpecError`.
     """
+    check_varied(spec, KEYS)
     out = []
     for key in spec.keys:
         value = _get(case.raw, key)

@@ -23,11 +23,10 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from dualmech.models.case import Case, case_from_dict
-from dualmech.models.tolerance.designs import analyse_designs, design_arrays
-from dualmech.models.tolerance.outputs import COUNTS, output_names
+from dualmech.models.tolerance.outputs import COUNTS
+from dualmech.models.tolerance.plan import StudyCase, plan_of, record_of, study_case
 from dualmech.models.tolerance.sampling import chunk_bounds, n_chunks, sample_chunk
-from dualmech.models.tolerance.spec import Spec, nominal_values, spec_from_dict
+from dualmech.models.tolerance.spec import Spec, spec_from_dict
 
 #: Format tag of ``study.json``.
 STUDY_FORMAT = "dualmech-tolerance/1"
@@ -39,9 +38,9 @@ MAX_DESIGNS = 10_000_000
 
 @dataclass(frozen=True)
 class StudyInput:
-    """What a study is: the nominal case, the SPEC, how many designs and the seed."""
+    """What a study is: the nominal case (of any kind), the SPEC, how many designs and the seed."""
 
-    case: Case
+    case: StudyCase
     spec: Spec
     n: int
     seed: int
@@ -50,6 +49,15 @@ class StudyInput:
         """JSON-ready identity (``study.json``); a resumed study must have the same."""
         return {"format": STUDY_FORMAT, "case": self.case.raw, "spec": self.spec.to_dict(), "n": self.n,
                 "seed": self.seed}
+
+    def __post_init__(self) -> None:
+        """A key the case's kind cannot vary, or the case does not state: one line naming the valid ones
+        (:class:`~dualmech.models.tolerance.spec.SpecError`), before any folder is touched."""
+        plan_of(self.case).nominal_values(self.case, self.spec)
+
+    def outputs(self) -> tuple[str, ...]:
+        """The outputs of a design, in order (the case's kind's)."""
+        return plan_of(self.case).outputs(record_of(self.case))
 
     def fingerprint(self) -> str:
         """SHA-256 (16 hex digits) of :meth:`identity`: what every stored chunk of this study carries."""
@@ -60,13 +68,14 @@ class StudyInput:
 def solve_chunk(case_raw: dict, spec_dict: dict, n: int, seed: int, index: int) -> dict:
     """Task: sample chunk ``index``, solve its designs together as arrays, return its rows.
 
+    ``case_raw`` is the case table (of any kind: :func:`~dualmech.models.tolerance.plan.study_case`).
     Returns ``{"index", "x" (m, k), "outputs": {name: (m,)}}``.  Picklable arguments only
     (runs in pool workers and on Dask workers).
     """
-    case, spec = case_from_dict(case_raw), spec_from_dict(spec_dict)
-    x = sample_chunk(spec, nominal_values(case, spec), n, seed, index)
-    designs = design_arrays(case, spec, x, chunk_bounds(n, index)[0])
-    return {"index": index, "x": x, "outputs": analyse_designs(designs, case.loads.mode)}
+    case, spec = study_case(case_raw), spec_from_dict(spec_dict)
+    plan = plan_of(case)
+    x = sample_chunk(spec, plan.nominal_values(case, spec), n, seed, index)
+    return {"index": index, "x": x, "outputs": plan.analyse(case, spec, x, chunk_bounds(n, index)[0])}
 
 
 def chunk_name(index: int) -> str:
@@ -89,7 +98,7 @@ def chunk_part(study: StudyInput, index: int, data: Mapping[str, np.ndarray]
     (:func:`chunk_arrays`); ``None`` if they are of another study or chunk, or any is missing or of
     another shape or kind (the chunk is then solved again)."""
     lo, hi = chunk_bounds(study.n, index)
-    names = ["status", *COUNTS, *output_names(study.case.loads.mode)]
+    names = ["status", *COUNTS, *study.outputs()]
     wanted = {"fingerprint", "index", "x", *(f"out_{k}" for k in names if k != "status")}
     if not wanted <= set(data):
         return None
@@ -112,9 +121,9 @@ def check_size(study: StudyInput) -> None:
         raise ValueError(f"n: expected 1 to {MAX_DESIGNS:,} designs, got {study.n!r}")
 
 
-def columns(spec: Spec, mode: str) -> list[str]:
+def columns(spec: Spec, outputs: tuple[str, ...]) -> list[str]:
     """The columns of ``samples.csv`` (``docs/conventions.md``, "Tolerance analysis")."""
-    return ["design", *spec.keys, "status", *COUNTS, *output_names(mode)]
+    return ["design", *spec.keys, "status", *COUNTS, *outputs]
 
 
 class SampleStream:
@@ -131,7 +140,7 @@ class SampleStream:
     def __init__(self, study: StudyInput, resumed: set[int], csv_path: Path, parquet_path: Path | None,
                  load: Callable[[int], tuple[np.ndarray, dict[str, np.ndarray]]]) -> None:
         self.study, self.resumed, self.load = study, resumed, load
-        self.names = columns(study.spec, study.case.loads.mode)
+        self.names = columns(study.spec, study.outputs())
         self.pending: dict[int, tuple[np.ndarray, dict[str, np.ndarray]]] = {}
         self.parts: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []
         self._csv = Path(csv_path).open("w", newline="")
@@ -197,7 +206,7 @@ def _parquet_writer(path: Path, names: list[str]):
     import pyarrow.parquet as pq
 
     types = {"design": pa.int64(), "status": pa.string(), "dead_centres": pa.int64(),
-             "failed_positions": pa.int64()}
+             "failed_positions": pa.int64(), "branch_jumps": pa.int64()}
     schema = pa.schema([(c, types.get(c, pa.float64())) for c in names])
     return pq.ParquetWriter(str(path), schema, use_dictionary=["status"])
 

@@ -35,6 +35,7 @@ is **constant**: ``constant`` gives its spread; it has no distribution to draw a
 from __future__ import annotations
 
 import math
+from typing import Mapping
 
 import numpy as np
 from scipy.special import ndtri
@@ -125,16 +126,18 @@ def linear_propagation(sens: Sensitivities, spec: Spec) -> dict:
     return out
 
 
-def round_off_outputs(nominal: dict[str, float], samples: dict[str, np.ndarray] | None) -> dict[str, float]:
+def round_off_outputs(nominal: dict[str, float], samples: dict[str, np.ndarray] | None,
+                      groups: Mapping[str, tuple[str, ...]] = LOAD_GROUPS) -> dict[str, float]:
     """The structurally zero outputs (module docstring) and their round-off level: the largest value of each
     over the nominal design and the sampled ones that assemble fully (``samples``: every output ``(n,)``
-    and ``status``; ``None``: the nominal design only)."""
+    and ``status``; ``None``: the nominal design only); ``groups``: the loads' unit groups (the slider
+    crank's :data:`~dualmech.models.tolerance.outputs.LOAD_GROUPS`, or a table kind's)."""
     designs = {name: np.array([value]) for name, value in nominal.items()}
     if samples is not None:
         ok = np.asarray(samples["status"], dtype=str) == DesignStatus.OK.value
         designs = {name: np.append(v, np.asarray(samples[name], float)[ok]) for name, v in designs.items()}
     out = {}
-    for group in LOAD_GROUPS.values():
+    for group in groups.values():
         names = [n for n in group if n in designs]
         if not names:
             continue
@@ -186,15 +189,17 @@ def _as_zero(out: dict, round_off: dict[str, float], keys: tuple[str, ...], n: i
 
 
 def summarize(spec: Spec, nominal: dict[str, float], x: np.ndarray | None,
-              samples: dict[str, np.ndarray] | None, sens: Sensitivities | None) -> dict:
+              samples: dict[str, np.ndarray] | None, sens: Sensitivities | None,
+              groups: Mapping[str, tuple[str, ...]] = LOAD_GROUPS) -> dict:
     """The statistics of ``summary.json`` (module docstring), without the study's identity fields.
 
     ``nominal`` are the outputs of the nominal design (their names are the outputs summarised);
     ``x`` ``(n, k)`` sampled key values and ``samples`` (every output and ``status``, ``(n,)``) are
-    ``None`` for ``--method linear``; ``sens`` is ``None`` for ``--method mc``.
+    ``None`` for ``--method linear``; ``sens`` is ``None`` for ``--method mc``; ``groups`` the loads' unit
+    groups (:func:`round_off_outputs`).
     """
     names = tuple(nominal)
-    round_off = round_off_outputs(nominal, samples)
+    round_off = round_off_outputs(nominal, samples, groups)
     out: dict = {"outputs": {}, "yield": None, "sensitivity": None, "sensitivity_positions_deg": None,
                  "linear_std": None, "linear_mean": None, "linear_share": None, "contribution": None,
                  "nominal": dict(nominal), "round_off": round_off}

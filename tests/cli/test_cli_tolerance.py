@@ -9,6 +9,7 @@ from click.testing import CliRunner
 import dualmech.models
 from dualmech.cli import main
 from dualmech.models.case import load_case
+from dualmech.models.inputs import key_text
 from dualmech.models.slider_crank import solve_case
 
 SPEC = Path(dualmech.models.__file__).parent / "cases/thesis/tolerances/tolerances-thesis.toml"
@@ -47,7 +48,25 @@ def test_the_bundled_study_runs_judged_and_reported(tmp_path):
     md = (tmp_path / "report.md").read_text()
     assert "## Spot checks by the judges" in md and "figures/tornado-stroke.png" in md
     assert (tmp_path / "samples.csv").read_text().count("\n") == 41
-    assert s["sensitivity_check"]["passed"] and "central differences of the compiled solver" in md
+    assert s["sensitivity_check"]["passed"] and "central differences of the solver" in md
+    assert "First derivatives by complex step through the numpy solver" in md
+
+
+def test_a_loop_table_is_studied_by_its_joint_rows(tmp_path):
+    """A bundled loop table, its SPEC naming rows of the joint table: the study runs, prints the kind's
+    outputs with their units, and its report says how its sensitivities were taken."""
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[tolerances]\n"joint[2].a" = { dist = "normal", sd = 5e-4 }\n')
+    result = _run("rsrc", "--spec", spec, "-o", tmp_path / "out", "-n", 8, "--judge-samples", 0)
+    assert result.exit_code == 0, result.output + result.stderr
+    lines = result.output.splitlines()
+    at = lines.index("nominal design: body masses: 0.4, 0.9, 1.5")  # units "SI": not a label dualmech knows
+    assert [line.split()[0] for line in lines[at + 3:at + 6]] == ["range_s4", "peak_joint1_force",
+                                                                  "peak_joint1_moment"]
+    assert "peak_joint2_moment: 0 in every design (the solver's round-off" in result.output  # a ball
+    md = (tmp_path / "out" / "report.md").read_text()
+    assert "First derivatives by central differences of the solver, Richardson, step 0.001" in md
+    assert "loop, load mode `loop`" in md
 
 
 def test_linear_method_needs_no_samples(tmp_path):
@@ -82,17 +101,20 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, spec_text, args, words):
         assert w in lines[0]
 
 
-@pytest.mark.parametrize("case", ["rssr", "rscr"])
-def test_a_case_of_another_kind_is_refused_by_its_kind(tmp_path, case):
-    """The study serves the slider crank only: a bundled RSSR or loop table is named as such, in one line
-    (seen failing before: it said the name was neither a file nor a bundled preset)."""
+@pytest.mark.parametrize("case, valid", [("rscr", "joint[1, 2, 3, 4].a, joint[3, 4].alpha_deg, joint[4].s, "),
+                                         ("rssr", "geometry.input_crank, geometry.input_offset, ")])
+def test_a_key_the_case_does_not_state_is_one_line_naming_the_valid_ones(tmp_path, case, valid):
+    """Every kind is studied by its own case keys (seen failing before: the study refused a bundled RSSR or
+    loop table whatever its SPEC): a loop table has no geometry.coupler, an RSSR no joint rows."""
     spec = tmp_path / "spec.toml"
-    spec.write_text('[tolerances]\n"geometry.coupler" = { dist = "normal", sd = 1e-3 }\n')
+    key = {"rscr": "geometry.coupler", "rssr": "joint[2].a"}[case]
+    spec.write_text(f'[tolerances]\n"{key}" = {{ dist = "normal", sd = 1e-3 }}\n')
     result = _run(case, "--spec", spec, "-o", tmp_path / "out", "-n", 5)
     assert result.exit_code == 2, result.output + result.stderr
-    kind = {"rssr": "rssr", "rscr": "loop"}[case]
-    assert result.stderr == (f"dualmech: error: case: the tolerance study takes a slider-crank case; "
-                             f"{case!r} is a {kind} case (not built yet for that kind)\n")
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith(f"dualmech: error: tolerances.{key_text(key)}: not a key that can vary "
+                               f"(valid: {valid}")
     assert not (tmp_path / "out").exists()
 
 
@@ -132,9 +154,9 @@ def test_sensitivities_the_solver_disagrees_with_are_named_and_exit_1(tmp_path, 
     """Deliberate fault: the exact derivative of the stroke by a4 comes out 1e-3 too large."""
     from dataclasses import replace
 
-    import dualmech.models.tolerance.sensitivity as sensitivity
+    import dualmech.models.tolerance.slider_crank as slider_crank
 
-    real = sensitivity.sensitivities
+    real = slider_crank.PLAN.sensitivities
 
     def off(case, spec, table=None):
         exact = real(case, spec, table)
@@ -142,7 +164,7 @@ def test_sensitivities_the_solver_disagrees_with_are_named_and_exit_1(tmp_path, 
         values["stroke"]["geometry.slider_offset"] *= 1.001
         return replace(exact, values=values)
 
-    monkeypatch.setattr(sensitivity, "sensitivities", off)
+    monkeypatch.setattr(slider_crank, "PLAN", replace(slider_crank.PLAN, sensitivities=off))
     result = _run(CASE, "--spec", SPEC, "--method", "linear", "-o", tmp_path, "--judge-samples", 0)
     assert result.exit_code == 1, result.output + result.stderr
     assert "FAIL: d stroke / d geometry.slider_offset" in result.stderr

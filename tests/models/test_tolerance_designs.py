@@ -74,7 +74,8 @@ def test_blocked_outputs_are_those_of_the_designs_tables(mode, keys, chunk_posit
     got = analyse_designs(design_arrays(case, spec, x), mode, chunk_positions)
     want = design_outputs([solve_case(design_case(case, spec, row, "d")) for row in x], mode)
     assert len(set(want["status"])) > 1  # the sample crosses the edge of assembly
-    for name in (*output_names(mode), "assembled_fraction", "dead_centres", "failed_positions", "status"):
+    counts = ("assembled_fraction", "dead_centres", "failed_positions", "branch_jumps")
+    for name in (*output_names(mode), *counts, "status"):
         assert_array_equal(got[name], want[name], err_msg=name)
 
 

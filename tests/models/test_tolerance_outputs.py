@@ -49,6 +49,7 @@ def _defined(columns, codes, mode):
     out["dead_centres"] = (codes == STATUSES.index("dead_centre")).sum(axis=1)
     failed = [STATUSES.index(s) for s in ("branch_jump", "not_converged", "not_finite")]
     out["failed_positions"] = np.isin(codes, failed).sum(axis=1)
+    out["branch_jumps"] = (codes == STATUSES.index("branch_jump")).sum(axis=1)
     return out
 
 

@@ -24,7 +24,6 @@ def test_nested_tables_and_dotted_keys_are_the_same_spec():
 
 
 @pytest.mark.parametrize("data, words", [
-    ({"tolerances": {"geometry.nope": {"dist": "normal", "sd": 1}}}, ["tolerances.geometry.nope", "valid"]),
     ({"tolerances": {"geometry.slider_offset": {"dist": "gauss", "sd": 1}}},
      ["dist", "'gauss'", "truncnormal"]),
     ({"tolerances": {"geometry.slider_offset": {"dist": "normal"}}}, ["sd", "required"]),
@@ -48,6 +47,17 @@ def test_bad_specs_are_one_line_naming_key_value_and_what_is_valid(data, words):
     assert "\n" not in message
     for w in words:
         assert w in message
+
+
+def test_a_key_the_slider_crank_cannot_vary_is_one_line_naming_the_valid_ones():
+    """Keys are the case kind's: checked when the SPEC meets the case (a loop table's "joint[2].a" parses)."""
+    spec = _spec(geometry__nope={"dist": "normal", "sd": 1})
+    with pytest.raises(SpecError) as err:
+        nominal_values(load_case("ideal"), spec)
+    message = str(err.value)
+    assert "\n" not in message
+    assert message.startswith("tolerances.geometry.nope: not a key that can vary "
+                              "(valid: geometry.crank_length, geometry.rod_length, ")
 
 
 def test_a_key_the_case_does_not_give_is_refused():

@@ -52,7 +52,7 @@ def test_rows_are_the_designs_solved_one_by_one(tmp_path):
     study = _study()
     summary, x, samples = run_study(study, "mc", tmp_path, judge_samples=0)
     lines = (tmp_path / "samples.csv").read_text().splitlines()
-    assert lines[0].split(",") == columns(study.spec, "torque") and len(lines) == N + 1
+    assert lines[0].split(",") == columns(study.spec, study.outputs()) and len(lines) == N + 1
     statuses = set(samples["status"])
     assert statuses == {DesignStatus.OK, DesignStatus.PARTIAL, DesignStatus.NO_ASSEMBLY}
     assert 0 < summary["yield"]["value"] < 1
@@ -66,7 +66,7 @@ def test_rows_are_the_designs_solved_one_by_one(tmp_path):
     import pyarrow.parquet as pq
 
     table = pq.read_table(tmp_path / "samples.parquet")
-    assert table.column_names == columns(study.spec, "torque") and table.num_rows == N
+    assert table.column_names == columns(study.spec, study.outputs()) and table.num_rows == N
 
 
 def test_an_interrupted_study_resumes_with_the_same_rows(tmp_path):

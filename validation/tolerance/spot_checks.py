@@ -1,25 +1,31 @@
 """A tolerance study's spot checks: sampled designs re-solved by the judges, compared like the matrix.
 
 Each picked design is solved by the in-house engine (the reference) and by every judge
-(:func:`dualmech.validation.engines.run_engine`), and compared column by column with
-:func:`dualmech.validation.compare.compare_case` under the validation matrix's default
-tolerances for that judge (``validation/matrix/tolerances.py``, ``DEFAULT_TOLERANCES``; each named in
-``validation/tolerances.py``).  A design is picked among those that assemble at least in part,
-by the study's seed (:func:`~dualmech.models.tolerance.sampling.judge_picks`).
+(:func:`dualmech.validation.engines.run_engine`, by the design's kind: a loop table's judges are generated
+from its table), and compared column by column as ``dualmech validate`` compares them, under the
+validation matrix's default tolerances for that judge (``validation/matrix/tolerances.py``,
+``DEFAULT_TOLERANCES``; each named in ``validation/tolerances.py``): a slider crank by
+:func:`dualmech.validation.compare.compare_case`, another kind by its TableSpec
+(:func:`dualmech.validation.linkages.gate.judge_checks`).  A design is picked among those that assemble at
+least in part, by the study's seed (:func:`~dualmech.models.tolerance.sampling.judge_picks`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dualmech.core.table import ResultTable
+from dualmech.core.table import ColumnTable
 from dualmech.models.case import Case
-from dualmech.models.tolerance.outputs import DesignStatus, design_outputs, output_names
+from dualmech.models.kinds import SLIDER_CRANK, kind_of
+from dualmech.models.linkages import table_spec
+from dualmech.models.tolerance.outputs import DesignStatus
+from dualmech.models.tolerance.plan import in_house, plan_of
 from dualmech.validation import engines
-from dualmech.validation.compare import compare_case
+from dualmech.validation.compare import Check, compare_case
+from dualmech.validation.linkages.gate import judge_checks
 from dualmech.validation.matrix import COMPARABLE, resolve_tolerances
 
 if TYPE_CHECKING:
@@ -56,27 +62,37 @@ def judge_tolerances(engine: str) -> dict:
     return resolve_tolerances(None, (engine,), COMPARABLE)[engine]
 
 
-def spot_check(design: Case, reference: ResultTable, engine: str, judge: ResultTable) -> SpotCheck:
-    """Compare ``judge`` (engine ``engine``) with the in-house ``reference`` on one design."""
-    mode = design.loads.mode
-    checks = compare_case(design.name, mode, reference, judge, COMPARABLE, judge_tolerances(engine))
-    worst = max(checks, key=lambda c: c.ratio)
+def _slider_crank_checks(design: Case, reference: ColumnTable, engine: str,
+                         judge: ColumnTable) -> list[Check]:
+    tolerances = judge_tolerances(engine)
+    return compare_case(design.name, design.loads.mode, reference, judge, COMPARABLE, tolerances)
+
+
+def _table_checks(design: Any, reference: ColumnTable, engine: str, judge: ColumnTable) -> list[Check]:
+    return judge_checks(design.name, reference, judge, table_spec(kind_of(design), design))[0]
+
+
+def spot_check(design: Any, reference: ColumnTable, engine: str, judge: ColumnTable) -> SpotCheck:
+    """Compare ``judge`` (engine ``engine``) with the in-house ``reference`` on one design (a checked record
+    of any kind)."""
+    compare = _slider_crank_checks if kind_of(design) == SLIDER_CRANK else _table_checks
+    checks = compare(design, reference, engine, judge)
+    worst = max(checks, key=lambda c: c.ratio if np.isfinite(c.ratio) else np.inf)
     failures = tuple(f"{c.quantity}: {c.detail or f'ratio {c.ratio:.3g}'}" for c in checks if not c.passed)
-    ours, theirs = design_outputs([reference], mode), design_outputs([judge], mode)
-    outputs = {n: (float(ours[n][0]), float(theirs[n][0])) for n in output_names(mode)}
+    plan = plan_of(design)
+    ours, theirs = plan.table_outputs([reference], design), plan.table_outputs([judge], design)
+    outputs = {n: (float(ours[n][0]), float(theirs[n][0])) for n in plan.outputs(design)}
     return SpotCheck(design.name, engine, not failures, len(checks), float(worst.ratio), worst.quantity,
                      failures, outputs)
 
 
-def run_spot_checks(designs: list[Case], judges: tuple[str, ...] = JUDGES,
+def run_spot_checks(designs: list[Any], judges: tuple[str, ...] = JUDGES,
                     progress: ProgressCallback | None = None) -> list[SpotCheck]:
-    """Every judge on every design (the reference solved once per design); ``progress(done, len(designs),
-    name)`` after each design."""
-    from dualmech.models.slider_crank import solve_case
-
+    """Every judge on every design (checked records of any kind; the reference solved once per design);
+    ``progress(done, len(designs), name)`` after each design."""
     out = []
     for k, design in enumerate(designs):
-        reference = solve_case(design)
+        reference = in_house(design)(design)
         out += [spot_check(design, reference, e, engines.run_engine(e, design)) for e in judges]
         if progress is not None:
             progress(k + 1, len(designs), design.name)

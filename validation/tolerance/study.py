@@ -29,13 +29,11 @@ from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 
-from dualmech.models.slider_crank import solve_case
-from dualmech.models.tolerance import sensitivity
+from dualmech.models.kinds import kind_of
 from dualmech.models.tolerance.designs import design_name
 from dualmech.models.tolerance.differences import check_sensitivities
-from dualmech.models.tolerance.outputs import design_outputs, output_names, output_units
+from dualmech.models.tolerance.plan import in_house, plan_of, record_of
 from dualmech.models.tolerance.sampling import judge_picks, n_chunks
-from dualmech.models.tolerance.spec import design_case, nominal_values
 from dualmech.models.tolerance.study import (
     METHODS,
     SampleStream,
@@ -240,30 +238,31 @@ def _run_locked(study: StudyInput, method: str, outdir: Path, jobs: int, schedul
     if method != "linear":
         timing, x, samples = monte_carlo(outdir, study, jobs, scheduler, figures, tasks)
     start = time.perf_counter()
-    table = solve_case(study.case)
-    mode = study.case.loads.mode
-    solved = design_outputs([table], mode)
-    nominal = {name: float(solved[name][0]) for name in output_names(mode)}
-    sens = sensitivity.sensitivities(study.case, study.spec, table) if method != "mc" else None
+    plan, record = plan_of(study.case), record_of(study.case)
+    table = in_house(record)(record)
+    solved = plan.table_outputs([table], record)
+    nominal = {name: float(solved[name][0]) for name in plan.outputs(record)}
+    sens = plan.sensitivities(study.case, study.spec, table) if method != "mc" else None
     check = check_sensitivities(study.case, study.spec, sens).to_dict() if sens is not None else None
     timing["sensitivity_s"] = time.perf_counter() - start
-    stats = summarize(study.spec, nominal, x, samples, sens)
+    stats = summarize(study.spec, nominal, x, samples, sens, plan.groups(record))
+    units = plan.units(study.case)
     if figures is not None:
-        figures.start(finite_json({**stats, "keys": list(study.spec.keys),
-                                   "units": output_units(mode, study.case.units)}), samples)
+        figures.start(finite_json({**stats, "keys": list(study.spec.keys), "units": units}), samples)
     if samples is not None:
         picks = judge_picks(judge_samples, study.seed, candidates(samples["status"]))
-        designs = [design_case(study.case, study.spec, x[i], design_name(int(i))) for i in picks]
+        designs = [plan.design(study.case, study.spec, x[i], design_name(int(i))) for i in picks]
     else:
-        designs = [study.case] if judge_samples else []
+        designs = [record] if judge_samples else []
     start = time.perf_counter()
     with _task(tasks, "tolerance: judges' spot checks", "designs") as bar:
         spots = run_spot_checks(designs, progress=bar)
     timing["judges_s"] = time.perf_counter() - start
     summary = {"n": study.n if samples is not None else 0, "seed": study.seed, "method": method,
-               "case": study.case.name, "mode": study.case.loads.mode, "keys": list(study.spec.keys),
-               "units": output_units(mode, study.case.units),
-               "nominal_values": dict(zip(study.spec.keys, nominal_values(study.case, study.spec).tolist())),
+               "case": study.case.name, "kind": kind_of(record), "mode": plan.mode(record),
+               "keys": list(study.spec.keys), "units": units, "sensitivity_method": plan.method,
+               "nominal_values": dict(zip(study.spec.keys,
+                                          plan.nominal_values(study.case, study.spec).tolist())),
                "spec": study.spec.to_dict(), **stats, "sensitivity_check": check,
                "judges": [s.to_dict() for s in spots],
                "judges_passed": all(s.passed for s in spots), "timing": timing, "versions": versions()}
