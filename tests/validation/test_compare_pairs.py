@@ -176,8 +176,8 @@ def test_the_slider_cranks_report_renders_the_pair_table(small: Path, tmp_path: 
     groups = ["coordinates", "rates", "forces", "moments", "efforts", "stroke"]
     assert f"| pair | kind | cases | statuses | {' | '.join(groups)} |" in section
     for p in pairs:
-        cells = " | ".join(f"✓ {p['cells'][g]['max_rel']:.2g} ({p['cells'][g]['tolerance']['value']:g})"
-                           for g in groups)
+        cells = " | ".join(f"✓ {p['cells'][g]['max_rel']:.2g} ({p['cells'][g]['tolerance']['value']:g}) "
+                           + p["cells"][g]["quantity"].replace("_", "\\_") for g in groups)
         kind = "gate" if p["verdict"] else "informative"
         assert f"| {p['one']} – {p['other']} | {kind} | 6 | agree | {cells} |" in section
     # the fakes' own deviations (matrix_fakes): pinocchio ~1e-13, mujoco ~1e-11 of each value

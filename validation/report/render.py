@@ -278,6 +278,7 @@ def run_context(matrix: Matrix, run: dict, results: dict, comparison: Comparison
         "mode_label": "mode",
         "input_name": "crank angle",
         "omitted": [],
+        "not_applicable": [],  # "engine on case: why", of a linkage run's engines that do not solve a case
         "dead_centres": dead_centre_rows(matrix, results, keys),
         "key_label": "theta1 [deg]",
         "engine_versions": engine_versions(results),

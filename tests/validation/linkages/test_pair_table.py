@@ -43,14 +43,14 @@ def _group(column: str, pose: tuple[str, ...], rates: tuple[str, ...]) -> str:
 
 
 def _cell(one: dict[str, np.ndarray], other: dict[str, np.ndarray], columns: list[str], compared: list[str],
-          unit_group) -> float:
+          unit_group) -> tuple[float, str]:
     """The worst ``|other - one| / s_g(one)`` over ``columns`` and the rows both give, ``s_g`` over every
-    ``compared`` column of the unit group (module docstring)."""
+    ``compared`` column of the unit group (module docstring), and the column where it occurs."""
     both = {c: np.isfinite(one[c]) & np.isfinite(other[c]) for c in compared}
     scale: dict[str, float] = {}
     for c in compared:
         scale[unit_group(c)] = max(scale.get(unit_group(c), 0.0), float(np.abs(one[c][both[c]]).max()))
-    return max(float(np.abs(other[c] - one[c])[both[c]].max()) / scale[unit_group(c)] for c in columns)
+    return max((float(np.abs(other[c] - one[c])[both[c]].max()) / scale[unit_group(c)], c) for c in columns)
 
 
 def test_the_report_shows_every_pair_of_engines(tmp_path: Path) -> None:
@@ -79,11 +79,11 @@ def test_the_report_shows_every_pair_of_engines(tmp_path: Path) -> None:
         assert cells[:4] == [f"{one} – {other}", kind, "1", "agree"]
         looser = [max(TOLERANCES[e][i] for e in (one, other) if e in TOLERANCES) for i in (0, 1)]
         for (group, columns), cell in zip(groups.items(), cells[4:]):
-            value = _cell(tables[one], tables[other], columns, compared, spec.unit_group)
+            value, column = _cell(tables[one], tables[other], columns, compared, spec.unit_group)
             held = stored[one, other]["cells"][group]
             assert_allclose(held["max_rel"], value, rtol=1e-9, atol=0, err_msg=f"{one}-{other} {group}")
             tolerance = looser[0] if group in ("coordinates", "rates") else looser[1]
             assert held["tolerance"]["value"] == tolerance and value <= tolerance
-            assert cell == f"✓ {held['max_rel']:.2g} ({tolerance:g})"
+            assert cell.replace("\\", "") == f"✓ {held['max_rel']:.2g} ({tolerance:g}) {column}"
     html = (out / "report.html").read_text()
     assert html.count('<table id="pair-table">') == 1 and "informative, not a verdict" in html
