@@ -72,6 +72,10 @@ def test_each_engine_not_applicable_says_why(tmp_path: Path) -> None:
     assert run.run.matrix.not_applicable() == {"rrcrc": why}
     markdown = (tmp_path / "run" / "report.md").read_text()
     assert f"– not applicable: {'; '.join(lines)}." in markdown.replace("\\", "")
+    registry = json.loads((tmp_path / "run" / "run.json").read_text())["registry"]
+    assert registry["exudyn"] == registry["mujoco-sim"] == ""  # neither ran: the page says so, never "= "
+    none = "(solves no case of this run)"
+    assert f"; mujoco-sim = {none}; exudyn = {none}" in markdown.replace("\\", "")
     page = (tmp_path / "run" / "report.html").read_text()
     assert f'id="not-applicable">– not applicable: {"; ".join(lines)}.</p>' in html.unescape(page)
     console = [line for line in run.console_summary("1 job", "report.md") if isinstance(line, str)]
