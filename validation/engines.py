@@ -35,7 +35,8 @@ ENGINES: dict[str, dict[str, str]] = {
                    "rssr": "dualmech.validation.judges.presets.engines:simulate_rssr",
                    "rccc": "dualmech.validation.judges.presets.engines:simulate_rccc",
                    "loop": "dualmech.validation.judges.mujoco_loop.table:solve_sim_table"},
-    "exudyn": {"rssr": "dualmech.validation.judges.presets.engines:solve_exudyn_rssr",
+    "exudyn": {SLIDER_CRANK: "dualmech.validation.judges.presets.slider_crank:solve_case",
+               "rssr": "dualmech.validation.judges.presets.engines:solve_exudyn_rssr",
                "rccc": "dualmech.validation.judges.presets.engines:solve_exudyn_rccc",
                "loop": "dualmech.validation.judges.exudyn_loop.table:solve_table"},
 }
