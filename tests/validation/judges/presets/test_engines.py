@@ -12,6 +12,7 @@ import pytest
 from dualmech.models.linkages import linkage_case, rccc, read_linkage, rssr
 from dualmech.models.linkages.table import LinkageTable
 from dualmech.validation.engines import get_engine, run_engine
+from dualmech.validation.judges.exudyn_loop.closure import CLOSURE_TOL
 from dualmech.validation.linkages.gate import worst
 from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS
 from tests.models.linkages.cases import random_rssr
@@ -40,10 +41,13 @@ def _agrees(kind: str, case, table: LinkageTable) -> None:
 @pytest.mark.parametrize("kind", ["rssr", "rccc"])
 def test_the_exudyn_judge_agrees_with_the_in_house_engine(kind: str) -> None:
     """One run from the first row's first crude start answers every row; ``dynamics_residual`` is not
-    given (NaN: no least squares) and the judge counts no iterations."""
+    given (NaN: no least squares), the judge counts no iterations, its closure closes (``residual`` within
+    its tolerance) at the case's angles."""
     case = _every(kind, 20.0)
     table = get_engine("exudyn", kind)(case)
     _agrees(kind, case, table)
+    np.testing.assert_allclose(table["theta1_deg"], case.motion.angles_deg, rtol=0.0, atol=1e-12)
+    assert (table["residual"] <= CLOSURE_TOL).all()
     assert table.engine == "exudyn" and table.meta["restarts"].tolist() == [0]
     assert "iterations" not in table.meta and np.isnan(table["dynamics_residual"]).all()
 

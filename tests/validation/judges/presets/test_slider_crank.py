@@ -24,6 +24,7 @@ from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS
 
 pytest.importorskip("exudyn")
 
+from dualmech.validation.judges.exudyn_loop.closure import CLOSURE_TOL  # noqa: E402
 from dualmech.validation.judges.presets import slider_crank  # noqa: E402
 
 
@@ -99,6 +100,23 @@ def test_the_rows_past_a_gap_are_a_run_of_their_own(judged: dict) -> None:
     assert starts.size == 2
     assert mine.meta["restarts"].tolist() == starts.tolist()
     assert mine.meta["messages"] == reference.meta["messages"]
+
+
+def test_transmission_and_condition_are_its_own_pose(judged: dict) -> None:
+    """``transmission`` ``z·((P2 - hub) x u) / a1`` and ``closure_condition`` ``|u·k4|`` by hand from the
+    table's own ``S1``, ``S4`` (``P3 = F - S4 k4``); ``residual``: its closure within its tolerance (over
+    the table's length, the rod's here)."""
+    case, mine, _ = _judged(judged, "universal")
+    g = case.geometry
+    theta, s1 = np.radians(mine["theta1_deg"]), mine["S1"]
+    hub = np.stack([0.0 * s1, 0.0 * s1, s1], 1)
+    p2 = hub + g.crank_length * np.stack([np.cos(theta), np.sin(theta), 0.0 * s1], 1)
+    p3 = g.foot - mine["S4"][:, None] * g.k4
+    u = (p3 - p2) / np.linalg.norm(p3 - p2, axis=1)[:, None]
+    np.testing.assert_allclose(mine["transmission"], np.cross(p2 - hub, u)[:, 2] / g.crank_length,
+                               rtol=0.0, atol=1e-14)
+    np.testing.assert_allclose(mine["closure_condition"], np.abs(u @ g.k4), rtol=0.0, atol=1e-14)
+    assert (mine["residual"] <= 10 * CLOSURE_TOL).all()
 
 
 def test_the_dead_centre_is_the_slider_cranks_word(judged: dict) -> None:
