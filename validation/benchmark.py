@@ -242,11 +242,11 @@ def time_exudyn(cases: list[Case], repeats: int) -> Timing:
     systems are built inside each of its runs (a run's drive law is part of its system) and the case's
     joint table in microseconds; no time inside the engine (each run is one library call with the judge's
     Python in it: the law and the read-out at every step)."""
-    from dualmech.validation.judges.presets.slider_crank import solve_case
+    from dualmech.validation.engines import run_engine
 
     def run() -> None:
         for case in cases:
-            solve_case(case)
+            run_engine("exudyn", case)
 
     return measure("Exudyn judge full analysis (its runs build their systems)", _positions(cases), run,
                    repeats)

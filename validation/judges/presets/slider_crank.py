@@ -33,11 +33,10 @@ import numpy as np
 from dualmech.core.assembly import edge_status, foot_s4, reach
 from dualmech.core.status import Status, flag_joint_lock, is_status, settle
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
-from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
+from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, DEAD_CENTRE_TRANSMISSION
 from dualmech.models.angle_ranges import status_messages
 from dualmech.models.case import Case
 from dualmech.models.loop.presets import slider_crank_start, slider_crank_table, started
-from dualmech.validation import tolerances
 from dualmech.validation.judges.exudyn_loop.frames import table_length
 from dualmech.validation.judges.exudyn_loop.table import ENGINE, solve_table
 
@@ -68,7 +67,7 @@ def solve_case(case: Case) -> ResultTable:
     g = case.geometry
     p2, origin = crank_pins(case)
     n = p2.shape[0]
-    reaches = reach(p2, g.foot, g.k4, g.rod_length) <= 1.0 + tolerances.ASSEMBLY_REACH.value
+    reaches = reach(p2, g.foot, g.k4, g.rod_length) <= 1.0 + ASSEMBLY_REACH.value
     mechanism = slider_crank_table(case)
     names = ("s4", "s4_dot", "s4_ddot", "residual") + tuple(
         f"joint{j}_{kind}{axis}" for j in range(1, 5) for kind in "fm" for axis in "xyz")
@@ -100,8 +99,8 @@ def _table(case: Case, got: dict[str, np.ndarray], words: np.ndarray, p2: np.nda
     with np.errstate(invalid="ignore"):
         rho = np.where(closed, np.sqrt(1.0 - np.minimum(condition, 1.0) ** 2),
                        reach(p2, g.foot, g.k4, g.rod_length))
-    status, condition = edge_status(words, closed, rho, condition, tolerances.ASSEMBLY_REACH.value,
-                                    tolerances.ASSEMBLY_LIMIT_CONDITION.value)
+    status, condition = edge_status(words, closed, rho, condition, ASSEMBLY_REACH.value,
+                                    ASSEMBLY_LIMIT_CONDITION.value)
     limit = (status == Status.ASSEMBLY_LIMIT.value) & ~closed
     s4 = np.where(limit, foot_s4(p2, g.foot, g.k4), s4)
     arm = p2 - origin
