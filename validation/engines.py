@@ -158,7 +158,8 @@ def solve_checked(engine: str, case: Any) -> ColumnTable:
     """``case`` (a checked case of any kind) solved by ``engine``: ``"dualmech"`` (the in-house dual-number
     method), ``"pinocchio"``, ``"mujoco"`` (the rigid judges; a loop table's are generated from it) or
     ``"mujoco-sim"`` (MuJoCo's simulation; of an RCCC case, an RSSR case in output-torque mode or a loop
-    table driven at another joint than its last, its rows are the simulated input states).
+    table driven at another joint than its last, its rows are the simulated input states) or ``"exudyn"``
+    (the Exudyn judge of the case's joint table; a loop table driven at its first joint).
 
     Raises
     ------
