@@ -20,8 +20,8 @@ Names
 Case, case_from_dict, load_case, preset_names, CaseError
     A design: built in code, from a table, from a case file or a bundled preset; the error of a bad one.
 solve
-    One case on one engine (``"dualmech"``, ``"pinocchio"``, ``"mujoco"``, ``"mujoco-sim"``): a
-    :class:`ResultTable`.
+    One case on one engine (``"dualmech"``, ``"pinocchio"``, ``"mujoco"``, ``"mujoco-sim"``,
+    ``"exudyn"``): a :class:`ResultTable`.
 validate, ValidationRun
     A validation matrix (or one case on every engine): run, compared, ``.write_report()``.
 simulate, Simulation

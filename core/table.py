@@ -73,7 +73,7 @@ class ResultTable(ColumnTable):
     Attributes
     ----------
     engine : str
-        ``"dualmech"``, ``"pinocchio"``, ``"mujoco"`` or ``"mujoco-sim"``.
+        ``"dualmech"``, ``"pinocchio"``, ``"mujoco"``, ``"mujoco-sim"`` or ``"exudyn"``.
     case : str
         The case name.
     columns : dict[str, numpy.ndarray]

@@ -174,6 +174,17 @@ def _rigid_linkage_judges() -> dict[str, dict[str, str]]:
 
 
 ORACLES |= _rigid_linkage_judges()
+EXUDYN_PRESETS = "tests/validation/judges/presets/"
+EXUDYN_LINKAGE = EXUDYN_PRESETS + "test_engines.py::test_the_exudyn_judge_agrees_with_the_in_house_engine"
+ORACLES |= {f"{kind}-exudyn": {c: EXUDYN_LINKAGE for c in (*spec.columns, "status", "meta:restarts")}
+            for kind, spec in (("rssr", rssr.SPEC), ("rccc", rccc.SPEC))}
+EXUDYN_AGREES = EXUDYN_PRESETS + "test_slider_crank.py::test_the_judge_agrees_with_the_in_house_engine"
+EXUDYN_POSE = EXUDYN_PRESETS + "test_slider_crank.py::test_transmission_and_condition_are_its_own_pose"
+EXUDYN_GAP = EXUDYN_PRESETS + "test_slider_crank.py::test_the_rows_past_a_gap_are_a_run_of_their_own"
+ORACLES["exudyn"] = _columns(EXUDYN_AGREES, EXUDYN_AGREES, EXUDYN_AGREES, EXUDYN_POSE,
+                             theta1_deg=EXUDYN_AGREES, S1=EXUDYN_AGREES, residual=EXUDYN_POSE,
+                             closure_condition=EXUDYN_POSE, status=EXUDYN_AGREES,
+                             **{"meta:restarts": EXUDYN_GAP, "meta:messages": EXUDYN_GAP})
 ORACLES |= {f"{kind}-mujoco-sim": {**{c: LINKAGE_SIM_TABLE for c in (*spec.columns, "status")},
                                   **{f"meta:{k}": LINKAGE_SIM_TABLE for k in (
                                       "mujoco", "timestep", "steps_per_degree", "runin_steps", "servo_kp",
@@ -227,7 +238,7 @@ def _outputs(engine: str) -> set[str]:
     if engine.startswith("loop-"):
         table = solve_linkage_by("rscr", engine.split("-", 1)[1])
         return set(table.columns) | {"status"} | {f"meta:{k}" for k in table.meta}
-    if engine.endswith(("-pinocchio", "-mujoco", "-mujoco-sim")):
+    if engine.endswith(("-pinocchio", "-mujoco", "-mujoco-sim", "-exudyn")):
         kind, judge = engine.split("-", 1)
         table = solve_linkage_by(kind, judge)
         return set(table.columns) | {"status"} | {f"meta:{k}" for k in table.meta}
@@ -237,8 +248,12 @@ def _outputs(engine: str) -> set[str]:
     if engine == "simulate":
         sim = fd.simulate(SMALL, 0.05, samples=3)
         return set(sim.columns()) | {f"info:{k}" for k in sim.info}
-    table = (slider_crank.to_table(slider_crank.analyze(SMALL)) if engine == "dualmech-numpy"
-             else run_engine(engine, SMALL))
+    if engine == "exudyn":  # it integrates through the angles: 60 degrees of them, not a turn
+        table = run_engine(engine, SMALL.with_values({"motion.angles_deg": {"start": 0.0, "stop": 60.0,
+                                                                            "step": 30.0}}))
+    else:
+        table = (slider_crank.to_table(slider_crank.analyze(SMALL)) if engine == "dualmech-numpy"
+                 else run_engine(engine, SMALL))
     return set(table.columns) | {"status"} | {f"meta:{k}" for k in table.meta}
 
 

@@ -17,13 +17,14 @@ seeded random cases (the thesis example with random offset, twist and axial shif
 * **dualmech loop kernel** -- the generic loop engine compiled (:mod:`dualmech.core.kernel.loop_engine`)
   on the slider crank's joint table (:func:`dualmech.models.loop.presets.slider_crank_table`): some of the
   cases, and one long case (a tenth of the Parquet row's positions), through ``analyze_loop``.
-* **Pinocchio, MuJoCo** -- best-effort drivers: the model built once per case outside the
+* **Pinocchio, MuJoCo, Exudyn** -- best-effort drivers: the model built once per case outside the
   timing (Pinocchio: :func:`~dualmech.validation.pinocchio_engine.solve` with a prebuilt
   model; MuJoCo rigid: the per-position loop of
   :func:`~dualmech.validation.mujoco_engine.solve_case` on a prebuilt model).  Beside the
   driver's total, the time inside the engine: the seconds spent in the library's own
   functions (:func:`library_time`), measured in separate runs so that the timers do not
-  slow the total.
+  slow the total.  The Exudyn judge (:func:`time_exudyn`) has nothing to prebuild: its systems are
+  built inside its runs; it runs on fewer cases (``exudyn_cases``), ~20 s each.
 * **the main job** -- ``dualmech validate`` of the default matrix with its report, as a user runs it: a
   fresh process into a fresh folder each time (:func:`time_main_job`), its wall time and the CPU time of
   the process and its workers.
@@ -235,6 +236,22 @@ def time_mujoco(cases: list[Case], repeats: int) -> Timing:
                    _inside(mujoco, mujoco.mj_step, run))
 
 
+def time_exudyn(cases: list[Case], repeats: int) -> Timing:
+    """The Exudyn judge on the slider crank (``dualmech solve --engine exudyn``:
+    :func:`~dualmech.validation.judges.presets.slider_crank.solve_case`): nothing to prebuild, its
+    systems are built inside each of its runs (a run's drive law is part of its system) and the case's
+    joint table in microseconds; no time inside the engine (each run is one library call with the judge's
+    Python in it: the law and the read-out at every step)."""
+    from dualmech.validation.engines import run_engine
+
+    def run() -> None:
+        for case in cases:
+            run_engine("exudyn", case)
+
+    return measure("Exudyn judge full analysis (its runs build their systems)", _positions(cases), run,
+                   repeats)
+
+
 def _inside(module: ModuleType, like: Callable, run: Callable[[], None]) -> Callable[[], float]:
     """A run of ``run`` that returns the seconds spent in ``module``'s functions (:func:`library_time`)."""
     def timed_run() -> float:
@@ -329,10 +346,11 @@ def performance_page(table: str, command: str) -> str:
 
 
 def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000, repeats: int = 3,
-                  main_job: int = 0, loop_cases: int = 50) -> str:
+                  main_job: int = 0, loop_cases: int = 50, exudyn_cases: int = 1) -> str:
     """Run the benchmark and return a Markdown report (``main_job`` > 0: that many timed runs of the main
     job too; ``loop_cases``: the generic loop kernel on that many of the cases and on a tenth of ``big``
-    positions, :func:`time_loop_kernel`)."""
+    positions, :func:`time_loop_kernel`; ``exudyn_cases``: the Exudyn judge on that many of the judges'
+    cases, :func:`time_exudyn`: ~20 s a case of 360 positions, each of the runs)."""
     bench = random_cases(cases)
     n = _positions(bench)
     prepared = closed_form_inputs(bench)
@@ -351,9 +369,12 @@ def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000,
     if loop_cases:
         rows += time_loop_kernel(bench[:loop_cases], max(big // 10, 360), repeats)
     judges = bench[:judge_cases]
-    for timer in (time_pinocchio, time_mujoco) if judges else ():
+    timers = ((time_pinocchio, judges), (time_mujoco, judges), (time_exudyn, judges[:exudyn_cases]))
+    for timer, chosen in timers:
+        if not chosen:
+            continue
         try:
-            rows.append(timer(judges, repeats))
+            rows.append(timer(chosen, repeats))
         except ImportError:
             continue
     lines = [

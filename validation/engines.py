@@ -24,18 +24,21 @@ from dualmech.models.kinds import KIND_HOMES, SLIDER_CRANK, kind_of
 ENGINES: dict[str, dict[str, str]] = {
     "dualmech": {kind: home.solver for kind, home in KIND_HOMES.items()},  # each kind's own (models/kinds.py)
     "pinocchio": {SLIDER_CRANK: "dualmech.validation.pinocchio_engine:solve_case",
-                  "rssr": "dualmech.validation.judges.presets:solve_pinocchio_rssr",
-                  "rccc": "dualmech.validation.judges.presets:solve_pinocchio_rccc",
+                  "rssr": "dualmech.validation.judges.presets.engines:solve_pinocchio_rssr",
+                  "rccc": "dualmech.validation.judges.presets.engines:solve_pinocchio_rccc",
                   "loop": "dualmech.validation.judges.pinocchio_loop.table:solve_table"},
     "mujoco": {SLIDER_CRANK: "dualmech.validation.mujoco_engine:solve_case",
-               "rssr": "dualmech.validation.judges.presets:solve_mujoco_rssr",
-               "rccc": "dualmech.validation.judges.presets:solve_mujoco_rccc",
+               "rssr": "dualmech.validation.judges.presets.engines:solve_mujoco_rssr",
+               "rccc": "dualmech.validation.judges.presets.engines:solve_mujoco_rccc",
                "loop": "dualmech.validation.judges.mujoco_loop.table:solve_table"},
     "mujoco-sim": {SLIDER_CRANK: "dualmech.validation.mujoco_sim:solve_case",
-                   "rssr": "dualmech.validation.judges.presets:simulate_rssr",
-                   "rccc": "dualmech.validation.judges.presets:simulate_rccc",
+                   "rssr": "dualmech.validation.judges.presets.engines:simulate_rssr",
+                   "rccc": "dualmech.validation.judges.presets.engines:simulate_rccc",
                    "loop": "dualmech.validation.judges.mujoco_loop.table:solve_sim_table"},
-    "exudyn": {"loop": "dualmech.validation.judges.exudyn_loop.table:solve_table"},
+    "exudyn": {SLIDER_CRANK: "dualmech.validation.judges.presets.slider_crank:solve_case",
+               "rssr": "dualmech.validation.judges.presets.engines:solve_exudyn_rssr",
+               "rccc": "dualmech.validation.judges.presets.engines:solve_exudyn_rccc",
+               "loop": "dualmech.validation.judges.exudyn_loop.table:solve_table"},
 }
 #: Registered engines that a matrix runs only where it names them (``engines = [...]``, ``--engines``): the
 #: Exudyn judge (issue 33), slow: three step sizes, a run-in, shorter steps where its own error estimate asks
@@ -110,12 +113,13 @@ def solves(engine: str, kind: str, case: Any) -> bool:
     table's simulation needs the drive at a joint other than the last
     (:mod:`~dualmech.validation.judges.mujoco_loop.sim_mjcf`) and, as the RSSR's, its loop closed (``ok``)
     at every drive position: started at the edge of a gap, its servo took 20 deg of drive to settle (a
-    user's RRCRC assembling from 125 deg).  The Exudyn judge drives the first joint only.  The slider
+    user's RRCRC assembling from 125 deg).  The Exudyn judge drives the first joint only (every preset's
+    table drives its crank, joint 1).  The slider
     crank's simulation decides for itself (its table marks what it cannot follow)."""
     if kind not in ENGINES.get(engine, {}):
         return False
-    if engine == "exudyn":
-        return case.drive.joint == 0
+    if engine == "exudyn":  # a preset's table (RSSR, RCCC, slider crank) drives its crank, joint 1
+        return kind != "loop" or case.drive.joint == 0
     if engine != "mujoco-sim" or kind == SLIDER_CRANK:
         return True
     if kind == "loop" and case.drive.joint == len(case.joints) - 1:
@@ -154,7 +158,8 @@ def solve_checked(engine: str, case: Any) -> ColumnTable:
     """``case`` (a checked case of any kind) solved by ``engine``: ``"dualmech"`` (the in-house dual-number
     method), ``"pinocchio"``, ``"mujoco"`` (the rigid judges; a loop table's are generated from it) or
     ``"mujoco-sim"`` (MuJoCo's simulation; of an RCCC case, an RSSR case in output-torque mode or a loop
-    table driven at another joint than its last, its rows are the simulated input states).
+    table driven at another joint than its last, its rows are the simulated input states) or ``"exudyn"``
+    (the Exudyn judge of the case's joint table; a loop table driven at its first joint).
 
     Raises
     ------

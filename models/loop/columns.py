@@ -106,12 +106,13 @@ def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndar
         Engine facts (e.g. ``iterations``, ``messages``).
     not_given : tuple of str
         Columns the engine does not compute at all (NaN at every row, no row's word claims them: the
-        simulation has no least-squares ``dynamics_residual``).
+        simulation has no least-squares ``dynamics_residual``; a closure alone gives no rates or reactions).
     """
     spec = loop_spec(mechanism)
     d = mechanism.drive
     key = np.degrees(d.positions) if d.coordinate == "theta" else d.positions
     cols = {c: np.array(key if c == spec.key else columns[c], dtype=float) for c in spec.columns}
     reactions = tuple(c for c in spec.reactions if c not in not_given)
-    settled = settle(cols, np.asarray(status, dtype=object), reactions, pose=spec.pose, rates=spec.rates)
+    rates = tuple(c for c in spec.rates if c not in not_given)
+    settled = settle(cols, np.asarray(status, dtype=object), reactions, pose=spec.pose, rates=rates)
     return LinkageTable(engine, mechanism.name, cols, settled, meta)

@@ -173,7 +173,12 @@ def loop_table_of(case: Any) -> LoopMechanism:
     if isinstance(case, LoopMechanism):
         return case
     table, start = {RssrCase: (rssr_table, rssr_start), RcccCase: (rccc_table, rccc_start)}[type(case)]
-    mechanism, state = table(case), start(case)
+    return started(table(case), start(case))
+
+
+def started(mechanism: LoopMechanism, state: LoopState) -> LoopMechanism:
+    """``mechanism`` with every joint's ``start`` the pose ``state`` (one position: its scalars in the
+    loop's unknowns' order, its rotations the S joints', each a rotation vector)."""
     values = dict(zip(to_loop(mechanism).unknowns, state.scalars[0]))
     rotations = list(state.rotations[0])
     joints = []

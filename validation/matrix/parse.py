@@ -212,11 +212,6 @@ def _engines(data: dict) -> tuple[tuple[str, ...], str]:
     reference = data.get("reference", "dualmech")
     engines_t = tuple(dict.fromkeys(engines))
     check_engines(engines_t, reference)
-    valid = engines_for(SLIDER_CRANK)
-    for e in engines_t:
-        if e not in valid:
-            raise MatrixError(f"engines: {show(e)} does not solve a slider crank (valid: {', '.join(valid)}; "
-                              f"it judges loop tables: docs/matrix-format.md, \"Linkage matrices\")")
     return engines_t, reference
 
 

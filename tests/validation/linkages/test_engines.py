@@ -10,7 +10,7 @@ from dualmech.models.inputs import CaseError
 from dualmech.models.linkages import CASES, linkage_case, summary
 from dualmech.models.linkages import solve_linkage as in_house
 from dualmech.validation.engines import ENGINES, solve_linkage
-from dualmech.validation.judges.presets import simulate_case
+from dualmech.validation.judges.presets.engines import simulate_case
 from tests.models.linkages.cases import bundled
 
 pytest.importorskip("pinocchio")
@@ -30,7 +30,7 @@ def test_every_engine_by_name(tmp_path) -> None:
 @pytest.mark.parametrize("kind", ["rssr", "rccc"])
 def test_the_simulation_is_the_generated_judge(kind: str) -> None:
     """``mujoco-sim`` of an RSSR or RCCC case is the simulated judge generated from its joint table
-    (:func:`~dualmech.validation.judges.presets.simulate_case`), at the case's rows."""
+    (:func:`~dualmech.validation.judges.presets.engines.simulate_case`), at the case's rows."""
     table = solve_linkage(kind, engine="mujoco-sim")
     again = simulate_case(linkage_case(kind))
     assert table.engine == again.engine == "mujoco-sim" and (table.status == "ok").all()

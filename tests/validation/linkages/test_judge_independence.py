@@ -32,9 +32,10 @@ from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
 
-from dualmech.validation.judges import presets  # noqa: E402
+from dualmech.models.loop.presets import rssr_table  # noqa: E402
 from dualmech.validation.judges.mujoco_loop.table import solve_table as mujoco_loop  # noqa: E402
 from dualmech.validation.judges.pinocchio_loop.table import solve_table as pinocchio_loop  # noqa: E402
+from dualmech.validation.judges.presets import readback, run, starts  # noqa: E402
 
 #: How far (rad) the patched in-house start functions put their answer: a wrong start, not a nudge.
 GARBAGE = 1.0
@@ -169,22 +170,22 @@ def _from_in_house(kind: str) -> Callable:
 @pytest.mark.parametrize("judge", ["pinocchio", "mujoco-sim"])
 def test_a_judge_seeded_with_the_in_house_start_is_seen(kind: str, case, judge: str,
                                                          monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(presets, f"{kind}_start_angles", _from_in_house(kind))
+    monkeypatch.setattr(starts, f"{kind}_start_angles", _from_in_house(kind))
     if judge == "pinocchio":
         _agrees(kind, case, get_engine(judge, kind)(case))  # it still agrees: only the start moved
     assert not _untouched_by_garbage(kind, judge, case)
 
 
 def _run(kind: str, judge: str, case):
-    """The judge's table of ``case`` (:func:`~dualmech.validation.judges.presets.judge_case`) and the number
-    of runs of the generated judge it took."""
+    """The judge's table of ``case`` (:func:`~dualmech.validation.judges.presets.run.judge_case`) and the
+    number of runs of the generated judge it took."""
     calls = [0]
 
     def counted(mechanism):
         calls[0] += 1
         return LOOP_JUDGES[judge](mechanism)
 
-    return presets.judge_case(case, judge, counted), calls[0]
+    return run.judge_case(case, judge, counted), calls[0]
 
 
 @pytest.mark.parametrize("kind, make", [("rssr", _rssr), ("rccc", _rccc)])
@@ -204,8 +205,8 @@ def test_the_crude_start_closes_each_branch_at_the_first_attempt(kind: str, make
 
 def test_a_crude_start_on_the_wrong_side_is_seen(monkeypatch: pytest.MonkeyPatch) -> None:
     """Deliberate fault: the scan's brackets ordered for the other branch; the first probe lands on it."""
-    real = presets.scan_starts
-    monkeypatch.setattr(presets, "scan_starts", lambda mismatch, slope: real(mismatch, -slope))
+    real = starts.scan_starts
+    monkeypatch.setattr(starts, "scan_starts", lambda mismatch, slope: real(mismatch, -slope))
     table, runs = _run("rssr", "pinocchio", _rssr())
     assert runs > 2 * len(table.meta["restarts"])
 
@@ -237,9 +238,9 @@ def test_a_driver_without_restarts_is_seen() -> None:
     branch, and the check sees it."""
     kind, case = GAP_CASES["rssr-11"]
     theta1 = float(np.radians(case.motion.angles_deg[0]))
-    start = presets.rssr_start(case, theta1, presets.rssr_start_angles(case, theta1)[0])
-    mechanism = presets.rssr_table(case)
-    table = presets.rssr_columns(case, pinocchio_loop(presets.with_start(mechanism, start)))
+    start = starts.rssr_start(case, theta1, starts.rssr_start_angles(case, theta1)[0])
+    mechanism = rssr_table(case)
+    table = readback.rssr_columns(case, pinocchio_loop(starts.with_start(mechanism, start)))
     with pytest.raises(AssertionError):
         _agrees(kind, case, table)
 
@@ -252,7 +253,7 @@ def test_a_start_between_close_roots_is_seen(name: str, monkeypatch: pytest.Monk
         m = mismatch.shape[0]
         return [float(2.0 * np.pi * np.argmin(np.abs(mismatch)) / m)]
 
-    monkeypatch.setattr(presets, "scan_starts", nearest)
+    monkeypatch.setattr(starts, "scan_starts", nearest)
     kind, case = GAP_CASES[name]
     with pytest.raises(AssertionError):
         _agrees(kind, case, get_engine("pinocchio", kind)(case))
@@ -273,6 +274,6 @@ def test_a_judge_that_fails_everywhere_costs_a_few_solves_a_row() -> None:
     data = bundled()
     data["motion"]["angles_deg"] = {"start": 0.0, "stop": 360.0, "step": 10.0}
     case = rssr_from_dict(data)
-    table = presets.judge_case(case, "pinocchio", failing)
+    table = run.judge_case(case, "pinocchio", failing)
     assert (np.asarray(table.status, dtype=str) == Status.NOT_CONVERGED.value).all()
-    assert solved[0] <= presets.MAX_CRUDE_STARTS * len(table)
+    assert solved[0] <= run.MAX_CRUDE_STARTS * len(table)

@@ -26,16 +26,18 @@ def _mujoco_free_run() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     started rigidly closed at the case's first angle and speed (the judge's own crude start), the drive
     servo's gains zeroed, :data:`TORQUE` applied about the drive axis, the output torque by its motor."""
     from dualmech.models.loop.presets import rssr_table
-    from dualmech.validation.judges import presets
     from dualmech.validation.judges.mujoco_loop.closure import build
     from dualmech.validation.judges.mujoco_loop.sim_plan import settings, survey
     from dualmech.validation.judges.mujoco_loop.simulation import compile_sim, reference, run_start
+    from dualmech.validation.judges.mujoco_loop.table import solve_table as mujoco_table
+    from dualmech.validation.judges.presets.run import crude_start
+    from dualmech.validation.judges.presets.starts import with_start
 
     case = linkage_case("rssr")
     mech = rssr_table(case)
-    starts, on_branch, _ = presets.crude_start(case, mech, 0, presets.mujoco_table)
+    starts, on_branch, _ = crude_start(case, mech, 0, mujoco_table)
     assert on_branch
-    mech = presets.with_start(mech, starts)
+    mech = with_start(mech, starts)
     sv = survey(mech)
     sim = compile_sim(mech, settings(mech, STEP, sv))
     m, d = sim.lp.model, sim.lp.data

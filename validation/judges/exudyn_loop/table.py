@@ -8,8 +8,9 @@ from __future__ import annotations
 import numpy as np
 
 from dualmech.models.linkages.table import LinkageTable
-from dualmech.models.loop.columns import RESIDUALS, column_names, loop_table
+from dualmech.models.loop.columns import RESIDUALS, column_names, loop_spec, loop_table
 from dualmech.models.loop.description import LoopMechanism
+from dualmech.validation.judges.exudyn_loop.closure import continuation
 from dualmech.validation.judges.exudyn_loop.engine import ExudynLoopTable, solve_loop
 
 #: The registry name of this judge.
@@ -34,3 +35,20 @@ def solve_table(mechanism: LoopMechanism) -> LinkageTable:
     return loop_table(ENGINE, mechanism, judge_columns(mine), mine.status,
                       {"richardson": {k: np.asarray(v) for k, v in mine.errors.items()}},
                       not_given=(RESIDUALS[1],))
+
+
+def close_table(mechanism: LoopMechanism) -> LinkageTable:
+    """The judge's own closure alone at every drive position of ``mechanism``
+    (:func:`~dualmech.validation.judges.exudyn_loop.closure.continuation`), as a table: the coordinates,
+    the closure's words and residual; no rates or reactions (not given: NaN at every row, claimed by no
+    word).  What a crude start is probed with on one row, where a run has no rows to integrate through
+    (:mod:`dualmech.validation.judges.presets.run`)."""
+    poses, status, residual = continuation(mechanism)
+    n = status.shape[0]
+    cols = {name: np.full(n, np.nan) for name in column_names(mechanism)}
+    for i, pose in enumerate(poses):
+        for name, value in ({} if pose is None else pose.named()).items():
+            cols[name][i] = value
+    cols.update({RESIDUALS[0]: residual, RESIDUALS[1]: np.full(n, np.nan)})
+    spec = loop_spec(mechanism)
+    return loop_table(ENGINE, mechanism, cols, status, {}, not_given=spec.rates + spec.reactions)

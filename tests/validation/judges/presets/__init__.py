@@ -1,0 +1,1 @@
+"""Tests of the generated judges on the preset mechanisms (validation/judges/presets/)."""
