@@ -57,8 +57,8 @@ def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") ->
         the RCCC and loop tables (``"rssr"``, ``"rccc"``, ``"rscr"``, or a case whose ``[mechanism] kind``
         names one) give their :class:`~dualmech.models.linkages.table.LinkageTable`.
     engine : str
-        ``"dualmech"`` (the in-house solver), ``"pinocchio"``, ``"mujoco"`` (rigid), ``"mujoco-sim"`` (a driven
-        simulation) or ``"exudyn"`` (hard constraints, integrated); each judge imports its library at first use.
+        ``"dualmech"`` (in-house), ``"pinocchio"``, ``"mujoco"`` (rigid), ``"mujoco-sim"`` (a driven
+        simulation) or ``"exudyn"`` (hard constraints); each judge imports its library at first use.
 
     Returns
     -------
