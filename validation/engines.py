@@ -69,7 +69,7 @@ SIM_REFUSALS: dict[str, str] = {
     "loop-closes": "; its drive is servo-driven through every position of the table: its loop must close "
                    "(ok) at all of them",
     "exudyn": "; the Exudyn judge drives the first joint only (it prescribes the first link's own "
-              "coordinate): put the driven joint first",
+              "coordinate, against the ground; the other judges drive any joint)",
 }
 
 #: Engines run in a thread of the running process beside a pool's workers (under their registered function
