@@ -7,7 +7,8 @@ rates and accelerations
 (:func:`~dualmech.core.kernel.wrenches_nb.joint_wrenches`), written to the position's rows of the
 outputs.  The estimate (:func:`_estimate`): on a fine, even grid of the drive, the state extrapolated from
 the two positions before it in its :data:`SEGMENT` where both closed on the branch (a neighbour a step away
-is far nearer than a station: one Newton step instead of three); else, as the numpy solver's, the state
+is far nearer than a station: one or two Newton steps instead of three; an S-S link's spin, which the
+gauge leaves as estimated, follows the positions before); else, as the numpy solver's, the state
 interpolated between the good stations around it, which is also tried where an extrapolated estimate does
 not close on the branch.  A segment's answers depend on its first position and the stations only, so every
 position's answer is the same whatever the blocks.  :mod:`dualmech.core.kernel.loop_engine` closes the
