@@ -183,7 +183,8 @@ LOOP_REACTIONS_ROUNDING = 1e-14
 LOOP_EDGE_ROUNDING = 5e-15
 #: The compiled loop engine (core/kernel/loop_engine.py) against the numpy solver, relative to each column's
 #: peak: the same algorithm per position from the same stations, both closed to the rounding level; only the
-#: order of sums differs (measured <= 1.1e-14 on the presets).
+#: order of sums and, on a fine grid, the kernel's start estimates differ (measured <= 1.1e-14 on the
+#: presets).
 KERNEL_VS_NUMPY_LOOP = 1e-12
 #: A column that is nil in theory (a force along an axis the loads never load, the ground link's twist) is
 #: rounding noise in both: compared against this fraction of its group's peak instead of its own.

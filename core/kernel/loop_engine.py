@@ -4,12 +4,15 @@
 :func:`~dualmech.core.rates.solve_rates` and :func:`~dualmech.core.loop_reactions.solve_joint_wrenches`
 give, by the same algorithm: the start pose and the stations closed in turn, walking the positions between
 two stations where Newton cannot reach the next (one position at a time on the kernel,
-:func:`~dualmech.core.kernel.continuation_nb.close_one`), then every position on its own from the estimate
-interpolated between the good stations around it, closed, refined, its rates and its joint wrenches
-(:func:`~dualmech.core.kernel.loop_engine_nb.analyze_block`), in blocks of positions on the kernel's
-threads (:mod:`~dualmech.core.kernel.pool`), then the positions that missed the branch closed again one
-after the other from their closed neighbour (the numpy solver's repair).  Every position's answer is the
-same whatever the blocks: it depends on the stations only.
+:func:`~dualmech.core.kernel.continuation_nb.close_one`), then every position from its estimate, closed,
+refined, its rates and its joint wrenches (:func:`~dualmech.core.kernel.loop_engine_nb.analyze_block`), in
+blocks of whole segments of positions on the kernel's threads (:mod:`~dualmech.core.kernel.pool`), then the
+positions that missed the branch closed again one after the other from their closed neighbour (the numpy
+solver's repair).  One difference from the numpy solver, for speed: within a segment a position's estimate
+is extrapolated from the two closed before it, where the numpy solver interpolates between the stations
+(:mod:`~dualmech.core.kernel.loop_engine_nb`); both refine to the rounding level, so the answers differ by
+rounding.  Every position's answer is the same whatever the blocks: it depends on the stations and its
+segment only.
 
 The table becomes data here: :func:`~dualmech.core.kernel.loop_nb.flatten` and a
 :class:`~dualmech.core.kernel.wrenches_nb.WrenchSpec` (the wrench columns in the numpy solver's order);
@@ -34,6 +37,7 @@ from dualmech.core.kernel.loop_engine_nb import (
     DYNAMICS_RESIDUAL,
     ITERATIONS,
     RESIDUAL,
+    SEGMENT,
     SIGN,
     TRANSMISSION,
     analyze_block,
@@ -241,14 +245,15 @@ def solve_loop(loop: Loop, inputs: dict[str, np.ndarray], input_rates: dict[str,
     closer = _Closer(fl, vals)
     with compile_session():  # a cold cache compiles every entry point here, as one compile
         good_pos, good_x = _stations(closer, n, start, at, stations)
-        args = (fl, tols, tols._replace(closure=0.0), spec, values, good_pos, good_x, out)
+        args = (fl, tols, tols._replace(closure=0.0), spec, values, good_pos, good_x, closer.branch, out)
         if not _warm():
             analyze_block(0, 0, *args, closer.work, make_wrench_work(rows, len(labels)))
             outputs_at(np.zeros(0, dtype=np.int64), fl, spec, values, out, closer.work,
                        make_wrench_work(rows, len(labels)))
             closer.refine(int(good_pos[0]), good_x[0].copy())  # the repairs' entry point (the start, closed)
     parts = max(1, min(n // BLOCK, threads() * BLOCKS_PER_THREAD))
-    bounds = np.unique(np.linspace(0, n, parts + 1).round().astype(int))
+    segments = -(-n // SEGMENT)  # blocks of whole segments: the answers do not depend on the blocks
+    bounds = np.unique(np.minimum(np.linspace(0, segments, parts + 1).round().astype(int) * SEGMENT, n))
     works = [closer.work] + [make_work(fl) for _ in range(bounds.size - 2)]  # the closer waits meanwhile
     blocks = [kernel_pool().submit(analyze_block, int(a), int(b), *args, work,
                                    make_wrench_work(rows, len(labels)))

@@ -1,13 +1,18 @@
 """Any single loop at a block of positions, compiled: closure, rates and every joint's wrench per position.
 
-Per position of :func:`analyze_block` (one thread runs one block; the positions of a block share nothing
-but the good stations they start from): the estimate interpolated between the stations around it, the
-closure refined to the rounding level and its branch sign
-(:mod:`~dualmech.core.kernel.continuation_nb`), rates and accelerations
+Per position of :func:`analyze_block` (one thread runs one block of whole segments): the estimate, the
+closure refined to the rounding level and its branch sign (:mod:`~dualmech.core.kernel.continuation_nb`),
+rates and accelerations
 (:func:`~dualmech.core.kernel.rates_nb.solve_rates`) and the joint wrenches
 (:func:`~dualmech.core.kernel.wrenches_nb.joint_wrenches`), written to the position's rows of the
-outputs.  :mod:`dualmech.core.kernel.loop_engine` closes the stations, drives the blocks and reads the
-outputs back as the numpy solver's results.
+outputs.  The estimate (:func:`_estimate`): on a fine, even grid of the drive, the state extrapolated from
+the two positions before it in its :data:`SEGMENT` where both closed on the branch (a neighbour a step away
+is far nearer than a station: one or two Newton steps instead of three; an S-S link's spin, which the
+gauge leaves as estimated, follows the positions before); else, as the numpy solver's, the state
+interpolated between the good stations around it, which is also tried where an extrapolated estimate does
+not close on the branch.  A segment's answers depend on its first position and the stations only, so every
+position's answer is the same whatever the blocks.  :mod:`dualmech.core.kernel.loop_engine` closes the
+stations, drives the blocks and reads the outputs back as the numpy solver's results.
 """
 
 from __future__ import annotations
@@ -15,8 +20,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.closure_nb import ClosureTols, Work, residual_at
-from dualmech.core.kernel.continuation_nb import close_position, interpolated_guess
+from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, residual_at
+from dualmech.core.kernel.continuation_nb import close_position, interpolate, interpolated_guess
 from dualmech.core.kernel.dual_nb import INLINE, JIT
 from dualmech.core.kernel.loop_nb import FlatLoop
 from dualmech.core.kernel.rates_nb import solve_rates
@@ -26,6 +31,17 @@ from dualmech.core.kernel.wrenches_nb import WrenchSpec, WrenchWork, joint_wrenc
 CODE, ITERATIONS, SIGN = 0, 1, 2
 #: Columns of the real output: the closure residual, the Newton-Euler residual, the transmission.
 RESIDUAL, DYNAMICS_RESIDUAL, TRANSMISSION = 0, 1, 2
+#: Positions of a segment: a segment's third position on is estimated from the two before it
+#: (:func:`_estimate`); blocks are whole segments.  Long enough that the interpolated estimates of its first
+#: two positions cost little, short enough to spread a 360-position turn over two threads.
+SEGMENT = 60
+#: Largest change of a value's step from one position to the next, relative to the step, where a position is
+#: extrapolated from the two before it (:func:`_steady`): an evenly spaced or smoothly moving drive.
+STEADY = 0.1
+#: Fewest positions between the good stations around a position where it is extrapolated: the line through
+#: two neighbours a step ``h`` apart misses by about ``h^2 |x''|``, the interpolation between stations ``H``
+#: apart by ``H^2 |x''| / 8``: the line is nearer from ``H / h`` = 3 on.
+STATION_GAP = 3
 
 
 @njit(**JIT)
@@ -39,15 +55,17 @@ def analyze_block(
     values: tuple,
     good_pos: np.ndarray,
     good_x: np.ndarray,
+    branch: int,
     out: tuple,
     w: Work,
     ww: WrenchWork,
 ) -> None:
-    """Positions ``lo`` to ``hi`` (module docstring).
+    """Positions ``lo`` to ``hi`` (module docstring; ``lo`` the first of a :data:`SEGMENT`).
 
     ``values``: ``vals``, their rates and accelerations ``(n, V)`` each (indexed as
     :func:`~dualmech.core.kernel.loop_nb.value_names`, parameters' rates 0) and the given efforts ``(n, g)``;
-    ``good_pos`` ``(m,)``, ``good_x`` ``(m, S)``: the good stations' positions (sorted) and states.
+    ``good_pos`` ``(m,)``, ``good_x`` ``(m, S)``: the good stations' positions (sorted) and states; ``branch``
+    the start's branch sign.
     ``out``: the states ``(n, S)``; rates and accelerations ``(n, 2, K)``; link twists and accelerations
     ``(n, 2, R, 2, 3)``; joint forces, moments and points ``(n, 3, R, 3)``; the wrench unknowns ``(n, k)``;
     the integers ``(n, 3)`` (:data:`CODE` ...) and reals ``(n, 3)`` (:data:`RESIDUAL` ...).
@@ -56,11 +74,53 @@ def analyze_block(
     xs, ints, reals = out[0], out[5], out[6]
     for i in range(lo, hi):
         x = xs[i]
-        interpolated_guess(fl.n_scalar, i, good_pos, good_x, x)
+        extrapolated = _estimate(i, lo, fl.n_scalar, vals, good_pos, good_x, branch, xs, ints, x)
         code, iters, res, sign = close_position(fl, tols, refine_tols, vals[i], x, w)
+        if extrapolated and (code != OK or sign != branch):  # as the numpy solver, from the stations
+            interpolated_guess(fl.n_scalar, i, good_pos, good_x, x)
+            code, more, res, sign = close_position(fl, tols, refine_tols, vals[i], x, w)
+            iters += more
         ints[i, CODE], ints[i, ITERATIONS], ints[i, SIGN] = code, iters, sign
         reals[i, RESIDUAL] = res
         _outputs(i, fl, spec, values, out, w, ww)
+
+
+@njit(**INLINE)
+def _on_branch(ints: np.ndarray, i: int, branch: int) -> bool:
+    """Whether position ``i`` closed on the ``branch``."""
+    return ints[i, CODE] == OK and ints[i, SIGN] == branch
+
+
+@njit(**INLINE)
+def _steady(vals: np.ndarray, i: int) -> bool:
+    """Whether every value (input or parameter) moves evenly through positions ``i - 2``, ``i - 1``,
+    ``i``: its step changes by at most :data:`STEADY` of itself (a grid of the drive, not a jump or a turn
+    back)."""
+    for k in range(vals.shape[1]):
+        step = vals[i - 1, k] - vals[i - 2, k]
+        if abs(vals[i, k] - vals[i - 1, k] - step) > STEADY * abs(step):
+            return False
+    return True
+
+
+@njit(**INLINE)
+def _estimate(i: int, lo: int, n_scalar: int, vals: np.ndarray, good_pos: np.ndarray, good_x: np.ndarray,
+              branch: int, xs: np.ndarray, ints: np.ndarray, out: np.ndarray) -> bool:
+    """Position ``i``'s start estimate into ``out`` (module docstring): the line through the states of
+    positions ``i - 2`` and ``i - 1`` (:func:`~dualmech.core.kernel.continuation_nb.interpolate` at ``t`` = 2)
+    where both are in ``i``'s segment, at or after the block's first position ``lo``, closed on the
+    ``branch``, the values move evenly (:func:`_steady`), and ``i`` lies between good stations at least
+    :data:`STATION_GAP` positions apart (nearer stations interpolate as well; a station is its own
+    estimate); else :func:`~dualmech.core.kernel.continuation_nb.interpolated_guess`.  Whether
+    extrapolated."""
+    right = min(np.searchsorted(good_pos, i), good_pos.size - 1)
+    gap = good_pos[right] - good_pos[max(right - 1, 0)]
+    if (i % SEGMENT >= 2 and i - 2 >= lo and good_pos[right] != i and gap >= STATION_GAP
+            and _on_branch(ints, i - 1, branch) and _on_branch(ints, i - 2, branch) and _steady(vals, i)):
+        interpolate(n_scalar, xs[i - 2], xs[i - 1], 2.0, out)
+        return True
+    interpolated_guess(n_scalar, i, good_pos, good_x, out)
+    return False
 
 
 @njit(**JIT)

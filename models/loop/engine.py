@@ -139,11 +139,11 @@ def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: i
 
     ``start`` ``(1,)`` positions: a pose at drive position ``at`` (0-based; assembled or nearly), whose
     branch is followed; default :func:`find_start`.  ``compiled``: by the compiled kernel
-    (:func:`dualmech.core.kernel.loop_engine.solve_loop`, the same algorithm per position), else by the
-    numpy solver (the reference the kernel is tested against).  ``drive``: the prescribed coordinates with
-    their own rate and acceleration at each position, e.g. a simulated motion's (default
-    :func:`~dualmech.models.loop.translate.drive_state` of the mechanism's drive: one speed and acceleration
-    at every position).
+    (:func:`dualmech.core.kernel.loop_engine.solve_loop`, the same algorithm per position but for the start
+    estimates on a fine grid), else by the numpy solver (the reference the kernel is tested against).
+    ``drive``: the prescribed coordinates with their own rate and acceleration at each position, e.g. a
+    simulated motion's (default :func:`~dualmech.models.loop.translate.drive_state` of the mechanism's drive:
+    one speed and acceleration at every position).
     """
     check_mobility(mechanism)
     loop = to_loop(mechanism)
