@@ -268,6 +268,15 @@ EXUDYN_KINEMATICS = Tolerance(2e-8, "Richardson estimate E <= 8.0e-9 of the grou
                                     "(accelerations; coordinates <= 7e-12, rates <= 1.3e-9); measured "
                                     "<= 6.6e-9 (the RCCC's angle accelerations), <= 1.5e-10 on two slider "
                                     "cranks with the drive torque given")
+#: tau of the dead-centre law for the Exudyn judge (validation/compare/conditioning.py): in drive-torque mode
+#: it solves the slider load from two runs, divided by the transmission its integrated multipliers give.
+EXUDYN_TRANSMISSION = Tolerance(1e-11, "the Exudyn judge's transmission from its integrated multipliers "
+                                       "is good to ~4e-12: the thesis's spatial case at 110-130 deg, 1 deg "
+                                       "steps, drive torque given: reactions up to 1.3e-7 r off (j1's "
+                                       "moment) at 119 deg, |t| = 2.9e-5: delta t = 3.8e-12; 2.6x margin")
+#: tau of the dead-centre law per engine: the rounding of a rigid engine's t (TRANSMISSION_ROUNDING) unless
+#: its t carries a larger error of its own.
+TRANSMISSION_ERROR: dict[str, Tolerance] = {"exudyn": EXUDYN_TRANSMISSION}
 #: Exudyn vs in-house: every effort and joint wrench column (forces, moments).
 EXUDYN_REACTIONS = Tolerance(2e-8, "Richardson estimate E <= 4.4e-9 of the group peak on the five presets "
                                    "(the 7r's wrenches), measured <= 4.4e-9; with the drive torque given "

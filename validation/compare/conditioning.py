@@ -22,8 +22,10 @@ constants and their evidence in :mod:`dualmech.validation.tolerances`):
   a lever arm of order 1 computed to an absolute rounding ``tau``, so :math:`\\delta R = \\hat R\\,
   \\delta t / t^2`.  With ``s_g >= |R hat|`` and ``r_i`` already divided by ``s_g / |t|``, the row's
   allowance is ``tau / |t_i|``: the rounding grows as ``1/t^2``, one power of ``1/|t|`` faster than the
-  condition factor.  Compared rows have ``|t| >= DEAD_CENTRE_TRANSMISSION`` (below it every engine says
-  ``dead_centre``), so this never exceeds ``tau / 1e-9``.
+  condition factor.  ``tau`` is the larger of the two engines' (:func:`transmission_error`): the rigid
+  engines' rounding, or the Exudyn judge's integration error of its transmission.  Compared rows have
+  ``|t| >= DEAD_CENTRE_TRANSMISSION`` (below it every engine says ``dead_centre``), so this never exceeds
+  ``tau / 1e-9``.
 * **Aspect ratio** (every column).  The judges close the loop and solve for the rates relative to the
   loop's length scale ``L = a1 + a2 + |a4| + max|S1|``, so a quantity of the small link ``a = min(a1, a2)``
   carries ``~eps A`` of its scale, ``A = L / a`` (the condition number of a Jacobian whose columns are of
@@ -45,6 +47,7 @@ from dualmech.validation.tolerances import (
     ASPECT_REACTIONS,
     CLOSURE_PRECISION,
     CONDITIONING_CAP,
+    TRANSMISSION_ERROR,
     TRANSMISSION_ROUNDING,
 )
 
@@ -87,6 +90,13 @@ def edge_allowance(reference: ResultTable, judge: ResultTable, rod_length: float
     return np.where(np.isfinite(c), 2.0 * rod_length * edge_error(low), 0.0)
 
 
+def transmission_error(engine: str) -> float:
+    """``tau`` of the dead-centre law for ``engine``'s transmission: the rigid engines' rounding
+    (``TRANSMISSION_ROUNDING``), or the larger error of an engine's own (``TRANSMISSION_ERROR``: the Exudyn
+    judge's, from its integrated multipliers)."""
+    return TRANSMISSION_ERROR.get(engine, TRANSMISSION_ROUNDING).value
+
+
 def aspect_allowance(quantity: str, aspect: float) -> float:
     """``K eps A`` (kinematics) or ``K' eps A^2`` (reactions), at most ``CONDITIONING_CAP``."""
     law = ASPECT_REACTIONS.value * _EPS * aspect**2 if quantity in REACTION_COLUMNS else \
@@ -106,8 +116,9 @@ def allowances(quantity: str, mode: str, reference: ResultTable, judge: ResultTa
         out[EDGE] = edge_allowance(reference, judge, conditioning.rod_length) / scale
     if mode == "torque" and quantity in REACTION_COLUMNS:
         t = np.abs(reference["transmission"])
+        tau = max(transmission_error(reference.engine), transmission_error(judge.engine))
         with np.errstate(divide="ignore", invalid="ignore"):
-            out[DEAD_CENTRE] = np.where(t > 0, TRANSMISSION_ROUNDING.value / t, 0.0)
+            out[DEAD_CENTRE] = np.where(t > 0, tau / t, 0.0)
     return out
 
 
