@@ -21,7 +21,7 @@ from typing import Any
 
 #: Distributions whose versions a run records (engines and the libraries the report uses).
 LIBRARIES: tuple[str, ...] = (
-    "dualmech", "numpy", "scipy", "pin", "mujoco", "matplotlib", "jinja2", "rich", "click", "dask",
+    "dualmech", "numpy", "scipy", "pin", "mujoco", "exudyn", "matplotlib", "jinja2", "rich", "click", "dask",
     "distributed",
 )
 #: The versions every result names (the issue's minimum: the suite and the judges' libraries).
@@ -32,6 +32,7 @@ ENGINE_LIBRARIES: dict[str, tuple[str, ...]] = {
     "pinocchio": ("numpy", "pin"),
     "mujoco": ("numpy", "mujoco"),
     "mujoco-sim": ("numpy", "mujoco"),
+    "exudyn": ("numpy", "exudyn"),
 }
 #: The package folders whose source makes up "the dualmech code" (relative to the repository).
 SOURCE_PACKAGES: tuple[str, ...] = ("core", "models", "validation")

@@ -23,6 +23,7 @@ from dualmech.validation.compare import STATUS, Verdict, compare_case, compare_r
 from dualmech.validation.compare.baseline import baseline_summary, compare_baseline
 from dualmech.validation.compare.conditioning import Conditioning, edge_error
 from dualmech.validation.compare.junit import junit_tree
+from dualmech.validation.engines import ENGINES
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.report import derived, render
 from dualmech.validation.run.runner import case_file, load_results, run_matrix
@@ -222,6 +223,17 @@ def test_engine_library_version_is_part_of_the_fingerprint(monkeypatch):
     before = provenance.result_fingerprint({"a": 1}, "pinocchio", "m:f")
     monkeypatch.setattr(provenance, "version_of", lambda name: "0.0-other")
     assert provenance.result_fingerprint({"a": 1}, "pinocchio", "m:f") != before
+
+
+@pytest.mark.parametrize("engine, library", [("pinocchio", "pin"), ("mujoco", "mujoco"),
+                                             ("mujoco-sim", "mujoco"), ("exudyn", "exudyn")])
+def test_every_judge_names_its_own_library_in_the_fingerprint(engine: str, library: str) -> None:
+    """A stored result is re-run when its judge's library changes version (``--resume``, the baseline's
+    provenance): every registered judge's fingerprint names its library.  The Exudyn judge's did not (its
+    results named numpy alone)."""
+    assert set(provenance.ENGINE_LIBRARIES) == set(ENGINES)
+    names = provenance.result_fingerprint({"a": 1}, engine, "m:f")["libraries"]
+    assert f"{library} {provenance.version_of(library)}" in names.split(", ")
 
 
 def test_crashed_engine_keeps_its_traceback_in_the_log(small, tmp_path):

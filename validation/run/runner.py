@@ -58,7 +58,7 @@ LOG_FILE = "run.log"
 
 #: Rough cost of one case per engine (thesis cases, CPU s x 10): tasks go to the workers longest first, so
 #: that a run does not end with one worker on a long task and the other idle (an engine not listed: 1).
-ENGINE_COST = {"mujoco-sim": 5.0, "mujoco": 1.0, "pinocchio": 0.3, "dualmech": 0.3}
+ENGINE_COST = {"exudyn": 120.0, "mujoco-sim": 5.0, "mujoco": 1.0, "pinocchio": 0.3, "dualmech": 0.3}
 
 #: What a run takes as its engines: engine -> ``"module:function"`` for cases of every kind (a test's fake),
 #: or engine -> ``[mechanism] kind`` -> ``"module:function"`` (:data:`~dualmech.validation.engines.ENGINES`).
