@@ -105,9 +105,10 @@ def linkage_summary(run: LinkageRun, matrix: Matrix, stored: dict) -> dict:
     comparison_summary`: verdict, every check, errors, dead centres, the run), each case's kind, source, key
     and engines, and per judge its worst check (the input value of its worst row as ``at``)."""
     keys = {e.id: table_spec(e.kind, e.case).key_label for e in run.matrix.cases}
+    refused = run.matrix.not_applicable()  # once: the simulation's applicability solves each case in-house
     cases = [{"id": e.id, "kind": e.kind, "source": e.source, "key": table_spec(e.kind, e.case).key,
-              "engines": list(run.matrix.engines_of(e)),
-              "not_applicable": run.matrix.not_applicable().get(e.id, {})} for e in run.matrix.cases]
+              "engines": [n for n in run.matrix.engines if n not in refused.get(e.id, {})],
+              "not_applicable": refused.get(e.id, {})} for e in run.matrix.cases]
     worst = {judge: {"case": c.case, "quantity": c.quantity, "ratio": c.ratio, "max_rel": c.max_rel,
                      "tolerance": c.tolerance.name, "passed": c.passed, "input": keys[c.case][0],
                      "input_unit": keys[c.case][1], "at": c.worst_theta_deg}
