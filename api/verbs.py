@@ -39,7 +39,6 @@ if TYPE_CHECKING:
 
     from dualmech.models.tolerance.spec import Spec
     from dualmech.validation.compare import Comparison, Verdict
-    from dualmech.validation.linkages.validate import LinkageValidation
     from dualmech.validation.matrix import Matrix
     from dualmech.validation.progress import ProgressCallback, ProgressTasks
     from dualmech.validation.report.render import ReportFiles
@@ -164,21 +163,18 @@ class ValidationRun:
         title = (f"{m.name}: {len(m.cases)} cases, engines {', '.join(m.engines)} — "
                  f"solved in {o.seconds:.1f} s ({how}; {o.ran} run, {o.skipped} resumed)")
         return [summary_table(m, self.comparison, title), *design_lines(m, self.results),
-                *verdict_lines(self.comparison, markdown)]
+                *verdict_lines(m, self.comparison, markdown)]
 
 
 def open_run(source: str | Path | Case | None, outdir: str | Path | None,
              engines: Sequence[str] = ()) -> tuple[Matrix, Path]:
     """The matrix of ``source`` (on ``engines`` if given) and its checked output folder.
 
-    ``source``: a matrix file or bundled name (``None``: the thesis's study), a case file or a
-    case preset (a one-design matrix), of any kind: a linkage source (an RSSR, RCCC or loop-table case, a
-    linkage matrix or a matrix whose base is one, ``docs/matrix-format.md``, "Linkage matrices") gives
-    the runner's matrix of its cases
-    (:func:`~dualmech.validation.linkages.run.as_run_matrix`).  ``outdir`` defaults to
-    ``runs/<matrix name>``.  Raises a one-line ``ValueError`` on a bad source, engine or folder.
+    ``source``: a matrix file or bundled name (``None``: the thesis's study), a case file or a bundled case
+    of any kind (a one-design matrix), as :func:`~dualmech.validation.matrix.sources.load_matrix` reads it
+    (``docs/matrix-format.md``).  ``outdir`` defaults to ``runs/<matrix name>``.  Raises a one-line
+    ``ValueError`` on a bad source, engine or folder.
     """
-    from dualmech.validation.linkages.matrix import is_linkage_source, load_linkage_matrix
     from dualmech.validation.matrix import load_matrix
     from dualmech.validation.rundir import check_output_folder
 
@@ -187,38 +183,23 @@ def open_run(source: str | Path | Case | None, outdir: str | Path | None,
                         f"got {show(source)}")
     if outdir is not None and not isinstance(outdir, (str, os.PathLike)):
         raise TypeError(f"outdir: expected a folder path, got {show(outdir)}")
-    if isinstance(source, (str, os.PathLike)) and is_linkage_source(source):
-        from dualmech.validation.linkages.run import as_run_matrix  # with scipy: only for a linkage
-
-        linkages = load_linkage_matrix(source)
-        matrix = as_run_matrix(linkages.with_engines(tuple(engines)) if engines else linkages)
-    else:
-        matrix = load_matrix(source)
-        matrix = matrix.with_engines(tuple(engines)) if engines else matrix
+    matrix = load_matrix(source)
+    matrix = matrix.with_engines(tuple(engines)) if engines else matrix
     return matrix, check_output_folder(Path(outdir) if outdir else Path("runs") / matrix.name)
 
 
 def run_and_compare(matrix: Matrix, outdir: Path, *, jobs: int | None = None, resume: bool = False,
-                    scheduler: str | None = None, progress: ProgressCallback | None = None
-                    ) -> ValidationRun | LinkageValidation:
-    """Run every case of ``matrix`` on its engines into ``outdir``; the run compares the judges with the
-    reference at the first use of its :attr:`~ValidationRun.comparison`.  A matrix of linkage cases gives
-    a :class:`~dualmech.validation.linkages.validate.LinkageValidation` (compared by the linkage gate),
-    which has the same face.
+                    scheduler: str | None = None, progress: ProgressCallback | None = None) -> ValidationRun:
+    """Run every case of ``matrix`` (of any kinds) on its engines into ``outdir``; the run compares the
+    judges with the reference, each case by its kind's gate, at the first use of its
+    :attr:`~ValidationRun.comparison`.
 
     The arguments are those of :func:`~dualmech.validation.run.runner.run_matrix`.
     """
-    from dualmech.validation.run.runner import default_jobs, run_matrix
+    from dualmech.validation.run.runner import run_matrix
 
-    if any(kind_of(mc.raw) != SLIDER_CRANK for mc in matrix.cases):  # the linkage gate, scipy: for them only
-        from dualmech.validation.linkages.run import stored_linkage_matrix
-        from dualmech.validation.linkages.validate import validate_linkage_matrix
-
-        return validate_linkage_matrix(stored_linkage_matrix(matrix), outdir, jobs=jobs or default_jobs(),
-                                       resume=resume, scheduler=scheduler, progress=progress)
     outcome = run_matrix(matrix, outdir, jobs=jobs, resume=resume, scheduler=scheduler, progress=progress)
     return ValidationRun(matrix, outdir, outcome)
-
 
 
 def simulate(case: Any, duration: float, **options: Any) -> Any:
@@ -280,11 +261,10 @@ def validate(source: str | Path | Case | None = None, outdir: str | Path | None 
 
     Returns
     -------
-    ValidationRun or LinkageValidation
+    ValidationRun
         ``.verdict`` (``PASS``/``FAIL``/``INCOMPLETE``), ``.comparison``, ``.results``;
-        ``.write_report()`` renders it, ``.baseline()``, ``.write_junit()``.  A linkage source
-        (``"linkages"``, ``"rssr"``, ``"rccc"``, a loop table, a linkage case or matrix file) gives a
-        :class:`~dualmech.validation.linkages.validate.LinkageValidation`, with the same face.
+        ``.write_report()`` renders it, ``.baseline()``, ``.write_junit()``; a run of any kinds
+        (``"linkages"``, ``"rssr"``, a loop table, a matrix mixing kinds) alike.
     """
     if jobs is not None:
         whole_number("jobs", jobs, 1, MAX_JOBS)
@@ -294,17 +274,13 @@ def validate(source: str | Path | Case | None = None, outdir: str | Path | None 
     return run_and_compare(matrix, folder, jobs=jobs, resume=resume, scheduler=scheduler)
 
 
-def report_run(rundir: str | Path, outdir: str | Path | None = None, *, jobs: int = 1) -> Any:
+def report_run(rundir: str | Path, outdir: str | Path | None = None, *, jobs: int = 1) -> ReportFiles:
     """Write the report of the run stored in ``rundir`` (into ``outdir``, default the run folder), as
-    ``dualmech report`` does: a linkage run's by the linkage report
-    (:func:`~dualmech.validation.linkages.validate.report_linkage_run`, a result missing from the folder
-    solved now), else the slider crank's (``jobs`` processes draw the figures).  Returns the files
-    written (``.html``, ``.markdown``, ``.figures``, ``.verdict``, ``.seconds``)."""
-    from dualmech.validation.linkages.validate import report_linkage_run
+    ``dualmech report`` does, for a run of any kinds (``jobs`` processes draw the figures).  Returns the
+    files written (``.html``, ``.markdown``, ``.figures``, ``.verdict``, ``.seconds``)."""
     from dualmech.validation.report.render import write_report
 
-    linkages = report_linkage_run(rundir, outdir)
-    return linkages if linkages is not None else write_report(rundir, outdir, jobs=jobs)
+    return write_report(rundir, outdir, jobs=jobs)
 
 
 @dataclass(frozen=True)

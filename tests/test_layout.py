@@ -80,8 +80,8 @@ def test_the_command_line_is_the_top_floor() -> None:
 #: What a command would import to ask a case "is this a linkage?": the linkages' packages, and the names
 #: that single out a kind.  The command line reads a case of any kind (models/catalogue/) and does the
 #: rest by the kind table (models/kinds.py: KIND_HOMES) and the engine registry (issue 32).
-KIND_QUESTIONS = ("dualmech.models.linkages", "dualmech.validation.linkages", "SLIDER_CRANK", "LINKAGE_KINDS",
-                  "is_linkage", "is_linkage_source")
+KIND_QUESTIONS = ("dualmech.models.linkages", "SLIDER_CRANK", "LINKAGE_KINDS", "is_linkage",
+                  "is_listed_source")
 
 
 def kind_questions(path: Path, source: str) -> list[str]:

@@ -217,14 +217,14 @@ def test_importing_the_face_imports_no_engine() -> None:
 
 
 def test_validating_a_slider_crank_loads_no_linkage_machinery(tmp_path: Path) -> None:
-    """In a fresh interpreter: validating a slider-crank design imports neither the linkage gate nor scipy's
-    splines (its forward dynamics: ~1 s of the main job's start).  Seen failing before the fix: ``open_run``
-    and ``run_and_compare`` imported ``dualmech.validation.linkages.run`` for every source."""
+    """In a fresh interpreter: validating a slider-crank design imports neither the other kinds' forward
+    dynamics nor scipy's splines (~1 s of the main job's start).  Seen failing before the fix: ``open_run``
+    and ``run_and_compare`` imported the linkages' run (and with it scipy) for every source."""
     code = ("import sys, dualmech\n"
             f"run = dualmech.validate('thesis/ideal', {str(tmp_path / 'run')!r},"
             " engines='dualmech,pinocchio', jobs=1)\n"
             "assert str(run.verdict) == 'PASS'\n"
-            "print(' '.join(m for m in ('dualmech.validation.linkages.run', 'scipy.interpolate')"
+            "print(' '.join(m for m in ('dualmech.models.linkages.forward_dynamics', 'scipy.interpolate')"
             " if m in sys.modules))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.splitlines()[-1] == ""
@@ -272,11 +272,11 @@ def test_a_missing_dataframe_library_is_named_in_one_line(table: ResultTable, mo
         getattr(table, method)()
 
 
-def test_validate_of_a_linkage_is_the_linkage_gate(tmp_path, monkeypatch) -> None:
+def test_validate_of_a_linkage_is_its_kinds_gate(tmp_path, monkeypatch) -> None:
     run = dualmech.validate("rssr", tmp_path / "run", engines=["dualmech", "pinocchio"])
     assert run.verdict == "PASS" and run.write_report().verdict == "PASS"
     assert (tmp_path / "run" / "summary.json").is_file()
-    assert set(run.tables["rssr-crank-rocker"]) == {"dualmech", "pinocchio"}
+    assert set(run.results["rssr-crank-rocker"]) == {"dualmech", "pinocchio"}
     # the same gate fails when the judge's answer is off (a deliberate fault: the output angle 1e-6 deg off)
     from tests.validation.engine_faults import fault_engine
 

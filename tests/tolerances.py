@@ -124,7 +124,7 @@ IFTOMM_GONZALEZ_OVER_5S = 1e-4
 # A comparison of a column is ``|a - b| <= tol * peak`` with ``peak`` the largest magnitude over the case of
 # the column's unit group (the output angle, its rates, the transmissions, every force, every moment column;
 # :meth:`~dualmech.models.linkages.table.TableSpec.unit_group`), so that a tolerance means the same in any
-# unit system (``dualmech.validation.linkages.gate.worst``; ``dualmech validate linkages`` holds the
+# unit system (``dualmech.validation.compare.tables.worst``; ``dualmech validate linkages`` holds the
 # judges to the slider crank's tolerances instead).
 # The suite's gates for the slider crank (``validation/tolerances.py``: ``MATRIX_KINEMATICS`` 1e-9,
 # ``MATRIX_REACTIONS`` 1e-8) are looser; these are what the RSSR and the RCCC are held to.  Measured on the

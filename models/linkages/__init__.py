@@ -3,7 +3,8 @@
 :func:`solve_linkage` reads a case (a path, a bundled case ``"rssr"`` or a parsed
 dict) whose ``[mechanism] kind`` names the linkage, and returns the in-house engine's
 :class:`~dualmech.models.linkages.table.LinkageTable` (``docs/conventions.md``, "RSSR", "RCCC").
-The judges of these linkages (Pinocchio, MuJoCo) live in :mod:`dualmech.validation.linkages`.
+Every engine (the judges: :mod:`dualmech.validation.judges`) solves them through
+:func:`dualmech.validation.engines.solve_checked`.
 """
 
 from __future__ import annotations

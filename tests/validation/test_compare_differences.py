@@ -26,7 +26,7 @@ def test_memoized_status_masks_give_the_same_comparison(matrix, results, monkeyp
     assert differences._MEMO is None  # gone with the comparison: tables changed later are asked again
 
     monkeypatch.setattr(differences, "status_memo", _no_memo)
-    monkeypatch.setattr("dualmech.validation.compare.checks.status_memo", _no_memo)
+    monkeypatch.setattr("dualmech.validation.compare.run.status_memo", _no_memo)
     afresh = compare_run(matrix, results)
     assert not afresh.passed
     assert _checks_text(memoized) == _checks_text(afresh)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from dualmech.models.kinds import kind_of
 from dualmech.validation.matrix import load_matrix
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "matrix-format.md"
@@ -45,8 +46,6 @@ def test_the_examples_expand_to_the_cases_the_page_shows(tmp_path):
 
 
 def test_the_linkage_base_example_expands_to_the_cases_the_page_shows(tmp_path):
-    from dualmech.validation.linkages.matrix import load_linkage_matrix
-
-    matrix = load_linkage_matrix(_example_files(tmp_path)["rscr-study.toml"])
+    matrix = load_matrix(_example_files(tmp_path)["rscr-study.toml"])
     assert [c.id for c in matrix.cases] == _printed_ids("rscr-study.toml")
-    assert matrix.engines == ("dualmech", "pinocchio") and {c.kind for c in matrix.cases} == {"loop"}
+    assert matrix.engines == ("dualmech", "pinocchio") and {kind_of(c.raw) for c in matrix.cases} == {"loop"}

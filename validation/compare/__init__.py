@@ -65,7 +65,7 @@ from dualmech.validation.compare.checks import (
     STATUS_RULES,
     StatusRule,
     compare_case,
-    compare_run,
+    compare_slider_crank,
     first_line,
     quantity_check,
     reference_check,
@@ -98,11 +98,13 @@ from dualmech.validation.compare.results import (
     Pair,
     Verdict,
 )
+from dualmech.validation.compare.run import compare_run
 
 __all__ = [
     "ENGINE", "EXPECT_NO_ASSEMBLY", "NEAR_JOINT_LOCK", "POSE_COLUMNS", "RATE_COLUMNS", "STATUS",
     "STATUS_RULES", "STROKE", "STROKE_PROXY", "UNIT_GROUP", "VERDICTS", "Check", "Comparison", "Pair",
-    "StatusRule", "Verdict", "compare_case", "compare_run", "condition_factor", "engine_failures",
+    "StatusRule", "Verdict", "compare_case", "compare_run", "compare_slider_crank", "condition_factor",
+    "engine_failures",
     "first_line", "given_under", "lock_factor", "lock_rate", "quantity_check", "reference_check",
     "relative_differences", "rows_given", "status_check", "stroke", "stroke_check", "unit_scales",
 ]

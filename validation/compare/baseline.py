@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dualmech.core.table import ResultTable
+from dualmech.core.table import ColumnTable, ResultTable
 from dualmech.validation import tolerances as tol
-from dualmech.validation.compare import UNIT_GROUP, Comparison, condition_factor, stroke, unit_scales
+from dualmech.validation.compare import UNIT_GROUP, Comparison, condition_factor, stroke, tables, unit_scales
 from dualmech.validation.durable import NotAFileError, read_regular, write_json_atomic
 from dualmech.validation.matrix import Matrix
 from dualmech.validation.rundir import NUMBER, MapOf, Nullable, RunDirError, conform
@@ -79,15 +79,20 @@ def reference_values(table: ResultTable, mode: str, quantities: tuple[str, ...])
 
 
 def baseline_summary(
-    matrix: Matrix, comparison: Comparison, results: dict[str, dict[str, ResultTable | str]]
+    matrix: Matrix, comparison: Comparison, results: dict[str, dict[str, ColumnTable | str]]
 ) -> dict:
-    """The baseline of a slider-crank run (JSON-ready): :func:`run_summary` with the in-house stroke and
-    scales of each case (:func:`reference_values`)."""
-    references = {}
+    """The baseline of a run of any kinds (JSON-ready): :func:`run_summary` with the reference's values of
+    each case: a slider crank's stroke and scales (:func:`reference_values`), another kind's peaks and scales
+    by its table spec (:func:`~dualmech.validation.compare.tables.reference_values`)."""
+    references: dict[str, dict | None] = {}
     for mc in matrix.cases:
         ref = results.get(mc.id, {}).get(matrix.reference)
-        references[mc.id] = (reference_values(ref, mc.mode, matrix.quantities) if isinstance(ref, ResultTable)
-                             else None)
+        if not isinstance(ref, ColumnTable):
+            references[mc.id] = None
+        elif mc.mode:  # a slider crank (another kind has no load mode)
+            references[mc.id] = reference_values(ref, mc.mode, matrix.quantities)
+        else:
+            references[mc.id] = tables.reference_values(ref, tables.case_spec(mc))
     return run_summary(matrix.name, matrix.reference, matrix.engines, references, comparison)
 
 

@@ -1,6 +1,7 @@
-"""Per case: the reference's own check, then each judge's statuses, quantities and stroke; then the run.
+"""A slider-crank case: the reference's own check, then each judge's statuses, quantities and stroke.
 
-:func:`compare_run` is the gate of ``dualmech validate`` (rules in the package docstring of
+:func:`compare_slider_crank` is the gate of a slider-crank case in a run
+(:func:`~dualmech.validation.compare.run.compare_run`; rules in the package docstring of
 :mod:`~dualmech.validation.compare`).
 """
 
@@ -15,14 +16,15 @@ from dualmech.core.table import ResultTable
 from dualmech.models.case import case_from_dict
 from dualmech.validation.compare.conditioning import Conditioning, allowances, stroke_allowance, within
 from dualmech.validation.compare.differences import (
+    column_notes,
     compared_rows,
     engine_failures,
     relative_differences,
     row_differences,
     rows_given,
-    status_memo,
     stroke,
     unit_scales,
+    worst_row,
 )
 from dualmech.validation.compare.joint_lock import (
     JOINT_LOCK_CAP,
@@ -31,9 +33,8 @@ from dualmech.validation.compare.joint_lock import (
     widened,
 )
 from dualmech.validation.compare.odd_one_out import name_odd_one_out
-from dualmech.validation.compare.pairs import case_pairs, looser, pair_table, slider_crank_group
+from dualmech.validation.compare.pairs import case_pairs, looser, slider_crank_group
 from dualmech.validation.compare.results import (
-    ENGINE,
     EXPECT_NO_ASSEMBLY,
     NEAR_JOINT_LOCK,
     STATUS,
@@ -41,10 +42,9 @@ from dualmech.validation.compare.results import (
     STROKE_PROXY,
     UNIT_GROUP,
     Check,
-    Comparison,
     RowDifferences,
 )
-from dualmech.validation.matrix import Matrix, ResolvedTolerance
+from dualmech.validation.matrix import Matrix, MatrixCase, ResolvedTolerance
 from dualmech.validation.tolerances import (
     ASSEMBLY_LIMIT_CONDITION,
     DEAD_CENTRE_TRANSMISSION,
@@ -52,8 +52,9 @@ from dualmech.validation.tolerances import (
 )
 
 
-def _fail(case: str, engine: str, quantity: str, tol: ResolvedTolerance, detail: str,
-          incomplete: bool = False) -> Check:
+def fail(case: str, engine: str, quantity: str, tol: ResolvedTolerance, detail: str,
+         incomplete: bool = False) -> Check:
+    """A failing check with no number: ``detail`` says why (``incomplete``: the work was not done)."""
     nan = float("nan")
     return Check(case, engine, quantity, nan, nan, nan, tol, nan, 0, 0, 0, False, detail, incomplete)
 
@@ -214,16 +215,11 @@ def quantity_check(case_id: str, mode: str, reference: ResultTable, judge: Resul
         notes += [f"{phrase} at theta1 = {_angles(needed, theta)} deg"] if phrase else []
     infinite = rows & np.isinf(rel)
     finite = rows & np.isfinite(rel)
-    max_rel = float(rel[finite].max()) if finite.any() else float("nan")
-    worst = float(theta[np.flatnonzero(finite)[np.argmax(rel[finite])]]) if finite.any() else float("nan")
+    max_rel, worst = worst_row(rel, finite, theta)
     diff = np.abs(judge[quantity] - reference[quantity])[finite]
     n_dead = int((rows_given(reference, STROKE_PROXY) & rows_given(judge, STROKE_PROXY) & ~rows).sum())
-    if not rows.any():
-        notes.append("no row compared: no position where both engines give it")
-    if infinite.any():
-        notes.append(f"non-finite value at theta1 = {_angles(infinite, theta)} deg")
-    if np.isfinite(max_rel) and max_rel > tol.value:
-        notes.append(f"max rel {max_rel:.3g} > {tol.value:.3g} ({tol.name}) at theta1 = {worst:g} deg")
+    one_sided = f"non-finite value at theta1 = {_angles(infinite, theta)} deg" if infinite.any() else None
+    notes += column_notes(bool(rows.any()), one_sided, max_rel, tol, f"at theta1 = {worst:g} deg")
     if n_dead:
         notes.append(f"{n_dead} assembled rows without it (dead centres, assembly limits) excluded")
     passed = bool(rows.any()) and not infinite.any() and max_rel <= tol.value
@@ -293,7 +289,7 @@ def compare_case(
     theta = reference["theta1_deg"]
     if len(judge) != len(reference) or not np.allclose(judge["theta1_deg"], theta, rtol=0, atol=1e-9):
         detail = f"rows differ: {len(judge)} crank angles against the reference's {len(reference)}"
-        return [_fail(case_id, engine, STATUS, _EXACT, detail)]
+        return [fail(case_id, engine, STATUS, _EXACT, detail)]
     checks = [status_check(case_id, reference, judge, quantities, tolerances, mode)]
     if expect == EXPECT_NO_ASSEMBLY:
         return checks
@@ -312,79 +308,35 @@ def compare_case(
     return checks
 
 
-def compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> Comparison:
-    """All checks of a run.
-
-    Parameters
-    ----------
-    matrix : Matrix
-    results : dict
-        Case id -> engine -> its :class:`ResultTable`, or the error message (str) when the
-        engine raised.  A case or engine missing from ``results`` gives failing
-        ``incomplete`` checks (an unfinished run is never a pass).
-    """
-    with status_memo():  # each table's status masks computed once, not once per quantity
-        return _compare_run(matrix, results)
-
-
-def _compare_run(matrix: Matrix, results: dict[str, dict[str, ResultTable | str]]) -> Comparison:
-    """:func:`compare_run`'s work."""
-    checks: list[Check] = []
-    strokes: dict[str, dict[str, float]] = {}
-    dead: dict[str, dict[str, int]] = {}
-    errors: dict[str, dict[str, str]] = {}
-    rows: dict[str, dict[str, RowDifferences]] = {}
-    pairs: dict[tuple[str, str], list[tuple[str, Check]]] = {}
-    engine_tol = ResolvedTolerance("exact", 0.0, "the engine must run")
-    for mc in matrix.cases:
-        per_engine = results.get(mc.id, {})
-        errors[mc.id] = {e: v for e, v in per_engine.items() if isinstance(v, str)}
-        tables = {e: per_engine[e] for e in matrix.engines if isinstance(per_engine.get(e), ResultTable)}
-        strokes[mc.id] = {e: stroke(t) for e, t in tables.items()}
-        dead[mc.id] = {e: int(np.sum(is_status(t.status, Status.DEAD_CENTRE))) for e, t in tables.items()}
-        for e in matrix.engines:
-            if e not in per_engine:
-                checks.append(_fail(mc.id, e, ENGINE, engine_tol, "not run (the run is "
-                                                                  "unfinished)", incomplete=True))
-            elif e in errors[mc.id]:
-                checks.append(_fail(mc.id, e, ENGINE, engine_tol, first_line(errors[mc.id][e])))
-        ref = tables.get(matrix.reference)
-        if ref is None:
-            why = "did not run" if matrix.reference not in per_engine else "failed"
-            checks += [_fail(mc.id, e, ENGINE, engine_tol, f"not compared: the reference {why}",
-                             incomplete=why == "did not run") for e in matrix.judges if e in tables]
-            continue
-        own = reference_check(mc.id, ref, matrix.quantities, mc.expect)
-        case = case_from_dict(mc.raw)
-        lock, conditioning = lock_rate(case, ref), Conditioning.of(case, ref)
-        judged: list[Check] = []
-        for e in matrix.judges:
-            if e in tables:
-                rel = _relative_rows(mc.id, e, mc.mode, ref, tables[e], matrix.quantities, rows)
-                judged += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities,
-                                       matrix.tolerances[e], mc.expect, rel, lock, conditioning)
-        same_rows = {e: t for e, t in tables.items() if e in matrix.judges and len(t) == len(ref)}
-        gate = [own, *name_odd_one_out(judged, ref, same_rows, mc.mode, matrix.tolerances, conditioning)]
-        checks += gate
-        case_pairs(list(tables), matrix.reference, gate, lambda a, b: [
-            reference_check(mc.id, tables[a], matrix.quantities, mc.expect),
-            *compare_case(mc.id, mc.mode, tables[a], tables[b], matrix.quantities, looser(
-                matrix.tolerances[a], matrix.tolerances[b]), mc.expect, None, lock, conditioning)],
-            slider_crank_group, pairs)
-    return Comparison(tuple(checks), strokes, dead, errors, rows, pair_table(pairs, matrix.engines,
-                                                                             matrix.reference))
-
-
-def _relative_rows(case_id: str, engine: str, mode: str, reference: ResultTable, judge: ResultTable,
-                   quantities: tuple[str, ...], rows: dict[str, dict[str, RowDifferences]]
-                   ) -> dict[str, np.ndarray] | None:
-    """The judge's ``r_i`` when it gives as many rows as the reference (else ``None``), kept per row in
-    ``rows[case_id][engine]`` (:func:`row_differences`) for the report."""
-    if len(judge) != len(reference):
-        return None
-    rel = relative_differences(reference, judge, mode, quantities)
-    rows.setdefault(case_id, {})[engine] = row_differences(rel, reference["theta1_deg"])
-    return rel
+def compare_slider_crank(matrix: Matrix, mc: MatrixCase, tables: dict[str, ResultTable],
+                         rows: dict[str, RowDifferences],
+                         pairs: dict[tuple[str, str], list[tuple[str, Check]]]
+                         ) -> list[Check]:
+    """The checks of slider-crank case ``mc`` whose reference answered (``tables``: engine -> its table):
+    the reference's own, then each judge's (:func:`compare_case`, the odd one out named); each judge's rows
+    kept in ``rows`` (:func:`row_differences`, for the report), each pair of engines added to ``pairs``
+    (:func:`~dualmech.validation.compare.pairs.case_pairs`)."""
+    ref = tables[matrix.reference]
+    own = reference_check(mc.id, ref, matrix.quantities, mc.expect)
+    case = case_from_dict(mc.raw)
+    lock, conditioning = lock_rate(case, ref), Conditioning.of(case, ref)
+    judged: list[Check] = []
+    for e in matrix.judges:
+        if e in tables:
+            rel = None
+            if len(tables[e]) == len(ref):
+                rel = relative_differences(ref, tables[e], mc.mode, matrix.quantities)
+                rows[e] = row_differences(rel, ref["theta1_deg"])
+            judged += compare_case(mc.id, mc.mode, ref, tables[e], matrix.quantities, matrix.tolerances[e],
+                                   mc.expect, rel, lock, conditioning)
+    same_rows = {e: t for e, t in tables.items() if e in matrix.judges and len(t) == len(ref)}
+    gate = [own, *name_odd_one_out(judged, ref, same_rows, mc.mode, matrix.tolerances, conditioning)]
+    case_pairs(list(tables), matrix.reference, gate, lambda a, b: [
+        reference_check(mc.id, tables[a], matrix.quantities, mc.expect),
+        *compare_case(mc.id, mc.mode, tables[a], tables[b], matrix.quantities, looser(
+            matrix.tolerances[a], matrix.tolerances[b]), mc.expect, None, lock, conditioning)],
+        slider_crank_group, pairs)
+    return gate
 
 
 def first_line(message: str, width: int = 200) -> str:

@@ -20,6 +20,7 @@ from dualmech.validation.compare.results import (
     VERDICTS,
     RowDifferences,
 )
+from dualmech.validation.matrix.data import ResolvedTolerance
 
 
 def condition_factor(reference: ResultTable, mode: str, quantity: str) -> np.ndarray:
@@ -154,3 +155,25 @@ def stroke(table: ResultTable) -> float:
     s4 = table["S4"][is_status(table.status, *ASSEMBLED)]
     s4 = s4[np.isfinite(s4)]
     return float(s4.max() - s4.min()) if s4.size else float("nan")
+
+
+def worst_row(rel: np.ndarray, finite: np.ndarray, key: np.ndarray) -> tuple[float, float]:
+    """The largest ``rel`` over the rows ``finite`` and the ``key`` value (the input) at its row; NaN, NaN
+    where no row is."""
+    if not finite.any():
+        return float("nan"), float("nan")
+    rows = np.flatnonzero(finite)
+    worst = rows[np.argmax(rel[finite])]
+    return float(rel[worst]), float(key[worst])
+
+
+def column_notes(compared: bool, one_sided: str | None, max_rel: float, tol: ResolvedTolerance,
+                 worst_at: str) -> list[str]:
+    """What a column check says of itself: no row ``compared``; the rows where only one engine gives a value
+    (``one_sided``: that phrase, ``None`` if none); its worst ``max_rel`` beyond ``tol``, ``worst_at`` (the
+    input value there)."""
+    notes = [] if compared else ["no row compared: no position where both engines give it"]
+    notes += [one_sided] if one_sided else []
+    if np.isfinite(max_rel) and max_rel > tol.value:
+        notes.append(f"max rel {max_rel:.3g} > {tol.value:.3g} ({tol.name}) {worst_at}")
+    return notes

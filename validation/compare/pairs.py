@@ -5,7 +5,7 @@ The gate holds each judge to the reference.  The pair table shows, per column gr
 *pair* of engines agrees over a run's cases, so that a reader sees formulations that share no code agree
 with each other, not only each with the in-house engine.  A pair of two judges is measured by the gate's own
 checks of its kind (the slider crank's :func:`~dualmech.validation.compare.checks.compare_case`, the
-linkages' :func:`~dualmech.validation.linkages.gate.judge_checks`) with the engine earlier in the matrix's
+other kinds' :func:`~dualmech.validation.compare.tables.judge_checks`) with the engine earlier in the matrix's
 order in the reference's place: its scale ``s_g`` (the case's own peak, as that engine gives it), its
 condition factor, the same row matching, status rules and per-row laws, and the looser of the two judges'
 tolerances (:func:`looser`), beside its own ``status`` check (the reference's, :func:`case_pairs`).  A pair

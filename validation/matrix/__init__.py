@@ -1,8 +1,9 @@
 """Validation matrices: which cases, which engines, which quantities, which tolerances.
 
-:mod:`.parse` reads a matrix file (its format is described there), :mod:`.expand` turns its sweeps
-into concrete cases, :mod:`.tolerances` resolves each judge's tolerances, and :mod:`.data` holds the
-expanded :class:`Matrix` that a run stores.
+:mod:`.sources` reads any matrix source by its format: :mod:`.parse` the slider crank's (its format is
+described there; :mod:`.expand` turns its sweeps into concrete cases), :mod:`.cases` listed cases of any
+kinds, mixed, and a base of another kind; :mod:`.tolerances` resolves each judge's tolerances, and
+:mod:`.data` holds the expanded :class:`Matrix` that a run stores.
 """
 
 from dualmech.validation.matrix.data import (
@@ -16,7 +17,8 @@ from dualmech.validation.matrix.data import (
     check_file_name,
     matrix_from_dict,
 )
-from dualmech.validation.matrix.parse import design_matrix, load_matrix, parse_matrix
+from dualmech.validation.matrix.parse import design_matrix, parse_matrix
+from dualmech.validation.matrix.sources import load_matrix
 from dualmech.validation.matrix.tolerances import GROUPS, resolve_tolerances
 
 __all__ = [

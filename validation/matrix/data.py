@@ -121,7 +121,8 @@ class MatrixCase:
         The declared expectation of its sweep (a key of :data:`EXPECTATIONS`, e.g.
         ``"no_assembly"``), or ``None``: the case is expected to assemble.
     engines : tuple of str
-        The matrix's engines that solve this case (a linkage's simulation solves only some); empty: all.
+        The engines that solve this case (a linkage's simulation solves only some; the matrix runs those of
+        its own, :meth:`Matrix.engines_of`); empty: all.
     """
 
     id: str
@@ -204,14 +205,14 @@ class Matrix:
         raise MatrixError(f"case: {case_id!r} is not in matrix {self.name!r}")
 
     def with_engines(self, engines: tuple[str, ...]) -> "Matrix":
-        """The same matrix run on ``engines`` (must include the reference)."""
+        """The same matrix run on ``engines`` (must include the reference; each judge with its tolerances,
+        which the matrix keeps for every engine it may run: :attr:`tolerances` may hold more)."""
         engines = tuple(dict.fromkeys(engines))
         check_engines(engines, self.reference)
-        tols = {e: self.tolerances.get(e) or {} for e in engines if e != self.reference}
-        missing = [e for e, t in tols.items() if not t]
+        missing = [e for e in engines if e != self.reference and not self.tolerances.get(e)]
         if missing:
             raise MatrixError(f"engines: {missing[0]!r} has no tolerances in matrix {self.name!r}")
-        return replace(self, engines=engines, tolerances=tols)
+        return replace(self, engines=engines)
 
     def to_dict(self) -> dict:
         """JSON-ready form; :func:`matrix_from_dict` reads it back (used by stored runs)."""
@@ -235,7 +236,7 @@ class Matrix:
                     "labels": c.labels,
                     "is_base": c.is_base,
                     "expect": c.expect,
-                    **({"engines": list(c.engines)} if c.engines else {}),
+                    **({"engines": list(self.engines_of(c))} if c.engines else {}),
                 }
                 for c in self.cases
             ],

@@ -286,10 +286,13 @@ def _sweep_specs(sweeps_in: Any, n_modes: int) -> list[SweepSpec]:
     return specs
 
 
-def load_matrix(source: str | Path | Case | None = None) -> Matrix:
-    """Read and expand a matrix file, or a bundled matrix by name (default: ``thesis-1991``).
+def read_matrix(source: str | Path | Case | None = None) -> Matrix:
+    """Read and expand a matrix file of the slider crank's format, or a bundled one by name (default:
+    ``thesis-1991``).
 
-    A case file, a case preset or a :class:`Case` is also accepted: it becomes :func:`design_matrix`.
+    A slider crank's case file, preset or :class:`Case` is also accepted: it becomes :func:`design_matrix`.
+    Every other source is :mod:`~dualmech.validation.matrix.cases`'s (:func:`~dualmech.validation.matrix.
+    sources.load_matrix` decides).
     """
     if isinstance(source, Case) or (source is not None and is_case_source(source)):
         return design_matrix(source)

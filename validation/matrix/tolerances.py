@@ -174,3 +174,15 @@ def _check_keys(general: dict[str, Any], per_engine: dict[str, dict]) -> None:
                 f"tolerances.{key_text(k)}: not a quantity or group "
                 f"({', '.join(sorted(GROUPS))}, or a column)"
             )
+
+
+def group_tolerances(engine: str) -> dict[str, ResolvedTolerance]:
+    """Judge ``engine``'s default ``kinematics`` and ``reactions`` tolerances (:data:`DEFAULT_TOLERANCES`): a
+    kind's whose columns are its own (the RSSR, RCCC and loop tables:
+    :mod:`~dualmech.validation.compare.tables`) is judged per group."""
+    names = DEFAULT_TOLERANCES.get(engine, DEFAULT_TOLERANCES["*"])
+    out = {}
+    for group in ("kinematics", "reactions"):
+        tol = getattr(tolerance_table, names[group])
+        out[group] = ResolvedTolerance(names[group], float(tol.value), tol.reason)
+    return out

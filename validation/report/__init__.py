@@ -2,8 +2,8 @@
 
 Sections return data (:mod:`.sections`), figures are planned (:mod:`.figures`) and drawn as PNG bytes
 (:mod:`.plots`, on the matplotlib figures of :mod:`.canvas`), and :func:`.render.write_report` renders
-them with the Jinja2 templates in ``validation/templates/``; every other kind's report
-(:mod:`dualmech.validation.linkages.report`) is rendered by the same templates (:func:`.render.publish`).
+them with the Jinja2 templates in ``validation/templates/``, for a run of any kinds (the sections of the
+kinds other than the slider crank: :mod:`.tables`).
 
 The package imports none of them: each is imported from its own module, so that no module of the package
 depends on the package itself (no import cycle).

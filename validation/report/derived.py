@@ -45,10 +45,12 @@ class Balancing:
 
 
 def balancing(matrix: Matrix) -> Balancing:
-    """Shaking force before and after force balancing for the base case and each sweep's last case."""
+    """Shaking force before and after force balancing for the base case and each sweep's last case (of the
+    slider-crank cases: ``matrix`` has one at least)."""
     from dualmech.models.balancing import assembled_force, balanced_case, shaking
 
-    base = next((c for c in matrix.cases if c.is_base), matrix.cases[0])
+    sliders = [c for c in matrix.cases if c.mode]  # the slider-crank cases (another kind has no load mode)
+    base = next((c for c in sliders if c.is_base), sliders[0])
     picks = [base] + [
         next(c for c in matrix.cases if c.id == s.case_ids[base.mode][-1])
         for s in matrix.sweeps

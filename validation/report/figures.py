@@ -6,8 +6,8 @@ first, and :meth:`PendingFigures.add_judged` those that need the comparison (:fu
 waits for them).  Every figure is made interactive (:mod:`~dualmech.validation.report.interactive`, for the
 HTML page); those the Markdown report shows (:attr:`FigureSpec.static`: :data:`STATIC_SWEEP_FIGURES`, the heat
 maps, the balancing plot) are also drawn as PNG (:mod:`~dualmech.validation.report.plots`).  Rasterising is
-most of a report's cost, so the others are not drawn at all.  A case without sweeps (a linkage's, planned by
-:mod:`dualmech.validation.linkages.report`) has its engine-overlay figure (kind ``"case"``,
+most of a report's cost, so the others are not drawn at all.  A case without sweeps (of a kind with a table
+spec, planned by :mod:`dualmech.validation.report.tables`) has its engine-overlay figure (kind ``"case"``,
 :mod:`~dualmech.validation.report.overlay`), drawn the same way.
 """
 
@@ -85,7 +85,7 @@ def figure_specs(matrix: Matrix, results: dict, comparison: Comparison) -> list[
 def _sweep_specs(matrix: Matrix, results: dict) -> list[FigureSpec]:
     """The :data:`SWEEP_FIGURES` of every sweep and load mode that has any result."""
     specs = []
-    units = matrix.cases[0].raw.get("units", "consistent") if matrix.cases else "consistent"
+    units = next((mc.raw.get("units", "consistent") for mc in matrix.cases if mc.mode), "consistent")
     for sw in matrix.sweeps:
         for mode, ids in sw.case_ids.items():
             cases = []
@@ -119,7 +119,7 @@ def _difference_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec
         rows: dict[str, list] = {m: [] for m in matrix.modes}
         for mc in matrix.cases:
             differences = comparison.row_differences.get(mc.id, {}).get(e)
-            if differences is not None:
+            if differences is not None and mc.mode:  # a slider crank's (another kind's: its own figure)
                 rows[mc.mode].append((mc.id, *differences))
         rows = {m: r for m, r in rows.items() if r}
         if rows:
@@ -143,18 +143,20 @@ def _heatmap_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec]:
     """Per judge: the heat map of its ratio to tolerance per case and quantity of the matrix."""
     specs: list[FigureSpec] = []
     for e in matrix.judges:
-        ids = [mc.id for mc in matrix.cases if comparison.for_engine(mc.id, e)]
+        ids = [mc.id for mc in matrix.cases if mc.mode and comparison.for_engine(mc.id, e)]  # slider cranks
         if ids:
             specs.append(heatmap_spec(comparison, e, ids, list(matrix.quantities) + [STROKE]))
     return specs
 
 
-def heatmap_spec(comparison: Comparison, engine: str, cases: list[str], quantities: list[str]) -> FigureSpec:
+def heatmap_spec(comparison: Comparison, engine: str, cases: list[str], quantities: list[str],
+                 key: str | None = None) -> FigureSpec:
     """The heat map of judge ``engine``: its ratio to tolerance per case and quantity (with the worst relative
-    difference and the tolerance, for the interactive figure's hover), and its failures."""
+    difference and the tolerance, for the interactive figure's hover), and its failures; its file stem
+    ``key`` (default ``heatmap-<engine>``)."""
     ratios, failed, max_rel, tolerance = heatmap_arrays(comparison, engine, cases, quantities)
     return FigureSpec(
-        _file_key(f"heatmap-{engine}"),
+        _file_key(key or f"heatmap-{engine}"),
         "heatmap",
         engine,
         f"{engine}: agreement per case and quantity",

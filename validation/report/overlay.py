@@ -1,8 +1,8 @@
 """The engine-overlay figure of one case: its output from every engine against the input, and below it each
 judge's worst ratio to tolerance per row (log scale; at most 1 passes).
 
-The report's figure of a case without sweeps (the linkages and loop tables,
-:mod:`dualmech.validation.linkages.report`): :func:`overlay_figure` draws it as PNG (the Markdown report),
+The report's figure of a case without sweeps (the RSSR, RCCC and loop tables,
+:mod:`dualmech.validation.report.tables`): :func:`overlay_figure` draws it as PNG (the Markdown report),
 :func:`overlay_plot` as a plotly.js figure (the HTML page, as :mod:`.interactive`'s); both take the same
 arguments, the planned figure's job (:mod:`.figures`, kind ``"case"``).
 

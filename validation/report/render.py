@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from dualmech.models.design_summary import JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION
+from dualmech.models.linkages.table import TableSpec
 from dualmech.validation.compare import Check, Comparison, compare_run
 from dualmech.validation.durable import json_text
 from dualmech.validation.matrix import Matrix
@@ -35,6 +36,18 @@ from dualmech.validation.report.sections import (
     summary_rows,
     tolerance_rows,
 )
+from dualmech.validation.report.tables import GATE as TABLES_GATE
+from dualmech.validation.report.tables import (
+    OMITTED,
+    design_tables,
+    input_label,
+    not_applicable_lines,
+    summary_cases,
+    table_specs,
+    worst_summary,
+    write_tables,
+)
+from dualmech.validation.report.tables import figure_specs as table_figures
 from dualmech.validation.run import runner
 from dualmech.validation.rundir import locked, record_files, remove_stale, write_file
 
@@ -43,7 +56,7 @@ TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
 
 #: How the slider crank's gate (:mod:`dualmech.validation.compare`) makes a relative difference, for the page.
 GATE = {"differences": "normwise per unit group and, for reactions in drive-torque mode, weighted by the "
-                       "transmission |t|", "source": "validation/compare.py",
+                       "transmission |t|", "source": "validation/compare/checks.py",
         "beside": "Rows beside them are compared with a tolerance scaled by 1/|t|."}
 
 
@@ -111,7 +124,9 @@ def environment(loader_dir: Path, markdown: bool) -> Any:
 
 
 def comparison_summary(matrix: Matrix, comparison: Comparison, run: dict) -> dict:
-    """The JSON summary of a run (``summary.json``): every check, strokes, verdicts."""
+    """The JSON summary of a run (``summary.json``): every check, strokes, verdicts, each case's kind, input
+    and engines (:func:`~dualmech.validation.report.tables.summary_cases`), each judge's worst check."""
+    specs = table_specs(matrix)
     return {
         "format": "dualmech-summary/1",
         "matrix": matrix.name,
@@ -124,10 +139,8 @@ def comparison_summary(matrix: Matrix, comparison: Comparison, run: dict) -> dic
         "n_missing": len(comparison.missing),
         "versions": key_versions(run),
         "run": {k: run.get(k) for k in ("started", "seconds", "jobs", "scheduler", "machine", "versions")},
-        "cases": [
-            {"id": mc.id, "mode": mc.mode, "values": mc.values, "sweeps": list(mc.sweeps)}
-            for mc in matrix.cases
-        ],
+        "cases": summary_cases(matrix, specs),
+        "worst": worst_summary(matrix, comparison, specs),
         "strokes": comparison.strokes,
         "dead_centres": comparison.dead_centres,
         "errors": comparison.errors,
@@ -165,6 +178,7 @@ def write_report(
     if results is None:
         results = runner.load_results(rundir, matrix)
     with locked(outdir if outdir is not None else rundir) as outdir:
+        record_files(outdir, write_tables(outdir, results, table_specs(matrix)))
         pending = _section("figures", start_figures, matrix, results, jobs=jobs)
         try:
             comparison = _compared(matrix, results, comparison)
@@ -182,8 +196,7 @@ def publish(outdir: Path, context: dict, summary: str, templates: tuple[Any, Any
             start: float, verdict: str) -> ReportFiles:
     """Write a report into ``outdir`` (held by :func:`~dualmech.validation.rundir.locked`): the figures'
     PNGs, ``report.html`` and ``report.md`` from the compiled ``templates`` (:func:`compiled_templates`)
-    filled with ``context`` and the ``figures``, and the ``summary`` (``summary.json``'s text); the slider
-    crank's report and every other kind's (:mod:`dualmech.validation.linkages.report`) alike.  ``start``:
+    filled with ``context`` and the ``figures``, and the ``summary`` (``summary.json``'s text).  ``start``:
     the report's :func:`time.perf_counter` at its start."""
     paths = _write_figures(outdir, figures)
     context.update(figures=figures, plotly_js=plotly_js(), report_seconds=time.perf_counter() - start)
@@ -207,12 +220,16 @@ def _while_drawn(matrix: Matrix, run: dict, results: dict, comparison: Compariso
     figure while the workers draw: the template variables but the figures (the findings solved here, with
     the compiled kernel that the run loaded in this process: engines.IN_PROCESS_ENGINES), the summary's
     JSON text and the compiled HTML and Markdown templates."""
-    balance = _section("balancing", derived.balancing, matrix)
-    shaking = _section("balancing", balancing_spec, balance)
-    _section("figures", pending.add_judged, matrix, comparison, extra=(shaking,) if shaking else ())
-    context = _context(matrix, run, results, comparison)
+    sliders = any(mc.mode for mc in matrix.cases)
+    balance = _section("balancing", derived.balancing, matrix) if sliders else None
+    shaking = _section("balancing", balancing_spec, balance) if balance else None
+    specs = table_specs(matrix)
+    others = _section("figures", table_figures, matrix, results, comparison, specs)
+    extra = (*([shaking] if shaking else []), *others)
+    _section("figures", pending.add_judged, matrix, comparison, extra=extra)
+    context = _context(matrix, run, results, comparison, specs)
     context.update(findings=_section("findings", findings) if matrix.of_thesis else None,
-                   balancing=balance.rows)
+                   balancing=balance.rows if balance else None)
     summary = json_text(comparison_summary(matrix, comparison, run), pretty=True)
     return context, summary, compiled_templates()
 
@@ -236,30 +253,50 @@ def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
     return paths
 
 
-def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison) -> dict:
-    """The template variables that summarise a slider crank's run (everything but the figures and the
-    model-package sections)."""
-    columns = [name for _, forces, moments in JOINTS
-               for name in (f"{forces[0][:2]} |f|", *([f"{moments[0][:2]} |m|"] if moments else []))]
-    design = {"title": None, "columns": [*columns, "|drive_torque|", "|slider_load|"],
-              "rows": design_rows(matrix, results), "stroke": True, "near": True}
-    return run_context(matrix, run, results, comparison) | {
-        "strokes": stroke_rows(matrix, comparison),
-        "tolerances": tolerance_rows(matrix.tolerances),
-        "design": [design],
-        "sections": [(s.name, s.label) for s in matrix.sweeps],
-        "differences": True,
-        "gate": GATE,
-    }
+def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison,
+             specs: dict[str, tuple[str, TableSpec]]) -> dict:
+    """The template variables that summarise a run (everything but the figures and the findings): the
+    slider crank's sections where it has slider-crank cases, the other kinds' (``specs``,
+    :mod:`~dualmech.validation.report.tables`) where it has those, each leaving out what the other has not."""
+    sliders = [mc for mc in matrix.cases if mc.mode]
+    keys = {case: spec.key for case, (_, spec) in specs.items()}
+    context = run_context(matrix, run, results, comparison, keys)
+    label = input_label(specs, bool(sliders))
+    kinds = {case: kind for case, (kind, _) in specs.items()}
+    for row in context["summary"]:
+        row["mode"] = kinds.get(row["case"], row["mode"])
+    context.update(mode_label="mode" if not specs else "kind" if not sliders else "kind or mode",
+                   key_label=label, input_name="crank angle" if not specs else f"input ({label})",
+                   not_applicable=not_applicable_lines(matrix), gate=_gate(bool(sliders), bool(specs)),
+                   omitted=[] if sliders else list(OMITTED), design=design_tables(matrix, results, specs),
+                   tolerances=tolerance_rows({e: matrix.tolerances[e] for e in matrix.judges}))
+    if sliders:
+        columns = [name for _, forces, moments in JOINTS
+                   for name in (f"{forces[0][:2]} |f|", *([f"{moments[0][:2]} |m|"] if moments else []))]
+        design = {"title": "slider crank" if specs else None, "columns": [*columns, "|drive_torque|",
+                                                                          "|slider_load|"],
+                  "rows": design_rows(matrix, results), "stroke": True, "near": True}
+        context.update(strokes=stroke_rows(matrix, comparison), design=[design, *context["design"]],
+                       sections=[(s.name, s.label) for s in matrix.sweeps], differences=True)
+    return context
+
+
+def _gate(sliders: bool, others: bool) -> dict[str, str]:
+    """How the run's gates make a relative difference, for the page: the slider crank's, the other kinds', or
+    both, each named."""
+    if not (sliders and others):
+        return GATE if sliders else TABLES_GATE
+    return {"differences": f"for a slider crank {GATE['differences']}; for the other kinds "
+                           f"{TABLES_GATE['differences']}", "source": "validation/compare/",
+            "beside": f"{GATE['beside']} (a slider crank's)"}
 
 
 def run_context(matrix: Matrix, run: dict, results: dict, comparison: Comparison,
                 keys: dict[str, str] | None = None) -> dict:
     """The template variables of any kind's run: verdict, summary, failures, dead centres (at the input
     values of the columns ``keys`` names per case, the crank angle by default), every check, the run's
-    ``run.json``; a kind's sections are added by its report (:func:`_context`, the linkages'
-    :func:`~dualmech.validation.linkages.report.linkage_context`), those it has not stay empty (``None``):
-    the templates leave them out."""
+    ``run.json``; each kind's sections are added by :func:`_context`, those a run has not stay empty
+    (``None``): the templates leave them out."""
     failures: list[Check] = comparison.failures()
     return {
         "matrix": matrix,
@@ -278,7 +315,7 @@ def run_context(matrix: Matrix, run: dict, results: dict, comparison: Comparison
         "mode_label": "mode",
         "input_name": "crank angle",
         "omitted": [],
-        "not_applicable": [],  # "engine on case: why", of a linkage run's engines that do not solve a case
+        "not_applicable": [],  # "engine on case: why", of the engines that do not solve a case
         "dead_centres": dead_centre_rows(matrix, results, keys),
         "key_label": "theta1 [deg]",
         "engine_versions": engine_versions(results),

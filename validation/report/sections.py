@@ -50,7 +50,7 @@ def summary_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
             {
                 "case": mc.id,
                 "mode": mc.mode,
-                "run": bool(comparison.strokes.get(mc.id) or comparison.errors.get(mc.id)),
+                "run": bool(comparison.dead_centres.get(mc.id) or comparison.errors.get(mc.id)),
                 "reference_error": ref_error or ("; ".join(ref_failed) if ref_failed else None),
                 "stroke": strokes.get(matrix.reference, float("nan")),
                 "dead_centre": comparison.dead_centres.get(mc.id, {}).get(matrix.reference, 0),
@@ -61,9 +61,9 @@ def summary_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
 
 
 def stroke_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
-    """Per case: the stroke per engine and each judge's difference from the reference."""
+    """Per slider-crank case: the stroke per engine and each judge's difference from the reference."""
     rows = []
-    for mc in matrix.cases:
+    for mc in (c for c in matrix.cases if c.mode):  # another kind has no slider
         s = comparison.strokes.get(mc.id, {})
         ref = s.get(matrix.reference, float("nan"))
         rows.append(

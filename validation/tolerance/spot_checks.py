@@ -6,7 +6,7 @@ from its table), and compared column by column as ``dualmech validate`` compares
 validation matrix's default tolerances for that judge (``validation/matrix/tolerances.py``,
 ``DEFAULT_TOLERANCES``; each named in ``validation/tolerances.py``): a slider crank by
 :func:`dualmech.validation.compare.compare_case`, another kind by its TableSpec
-(:func:`dualmech.validation.linkages.gate.judge_checks`).  A design is picked among those that assemble at
+(:func:`dualmech.validation.compare.tables.judge_checks`).  A design is picked among those that assemble at
 least in part, by the study's seed (:func:`~dualmech.models.tolerance.sampling.judge_picks`).
 """
 
@@ -25,7 +25,7 @@ from dualmech.models.tolerance.outputs import DesignStatus
 from dualmech.models.tolerance.plan import in_house, plan_of
 from dualmech.validation import engines
 from dualmech.validation.compare import Check, compare_case
-from dualmech.validation.linkages.gate import judge_checks
+from dualmech.validation.compare.tables import judge_checks
 from dualmech.validation.matrix import COMPARABLE, resolve_tolerances
 
 if TYPE_CHECKING:

@@ -29,9 +29,9 @@ from dualmech.models.linkages.table import LinkageTable  # noqa: E402
 from dualmech.models.loop.columns import loop_spec  # noqa: E402
 from dualmech.models.loop.description import LoopMechanism  # noqa: E402
 from dualmech.models.loop.table import solve_loop_table  # noqa: E402
+from dualmech.validation.compare.tables import zero_group_scale  # noqa: E402
 from dualmech.validation.judges.exudyn_loop import closure, engine, readout  # noqa: E402
 from dualmech.validation.judges.exudyn_loop.table import solve_table  # noqa: E402
-from dualmech.validation.linkages.gate import zero_group_scale  # noqa: E402
 from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS  # noqa: E402
 from tests.models.loop.test_random_tables import random_table  # noqa: E402
 from tests.validation.judges.test_pinocchio_loop import IN_HOUSE, _preset  # noqa: E402

@@ -142,7 +142,7 @@ def assert_agrees(mine: LoopTable, an: LoopAnalysis, size: float) -> None:
     there for a pose on the start's branch, found one (its pose closes and has the start's branch sign: seen
     on a random CSSP table); and ``no_assembly`` (its DFP stopped at a local minimum of the closure error,
     0.12 on a random RSCR table) where the judge's pose closes (residual 2.6e-15 there).  A third is the
-    gate's :data:`~dualmech.validation.linkages.gate.BRANCH_GONE`: past the end of the followed branch, the
+    gate's :data:`~dualmech.validation.compare.tables.BRANCH_GONE`: past the end of the followed branch, the
     in-house ``branch_jump`` (closed on another assembly) where the judge found no pose (a random RRRSR).
     """
     mine_status, status = mine.status.astype(str), an.status.astype(str)

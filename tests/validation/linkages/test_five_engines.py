@@ -13,7 +13,6 @@ import pytest
 import dualmech
 from dualmech.models.linkages import linkage_case, read_linkage
 from dualmech.validation.engines import DEFAULT_ENGINES, ENGINES, solves
-from dualmech.validation.linkages.matrix import load_linkage_matrix
 from dualmech.validation.matrix import load_matrix, parse_matrix
 from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS
 from tests.fuzz_harness import toml_text
@@ -27,8 +26,8 @@ pytest.importorskip("mujoco")
 def test_the_exudyn_judge_runs_only_where_a_matrix_names_it() -> None:
     assert "exudyn" in ENGINES and "exudyn" not in DEFAULT_ENGINES
     assert set(ENGINES["exudyn"]) == set(ENGINES["dualmech"])  # every kind
-    assert load_linkage_matrix("rscr").engines == DEFAULT_ENGINES
-    assert "exudyn" in load_linkage_matrix("five-engines").engines
+    assert load_matrix("rscr").engines == DEFAULT_ENGINES
+    assert "exudyn" in load_matrix("five-engines").engines
     assert "exudyn" not in parse_matrix({"name": "m", "base": "thesis/ideal"}).engines
     named = parse_matrix({"name": "m", "base": "thesis/ideal", "engines": ["dualmech", "exudyn"]})
     assert named.engines == ("dualmech", "exudyn")

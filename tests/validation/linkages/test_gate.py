@@ -12,9 +12,8 @@ import pytest
 from dualmech.models.linkages import rssr as rssr_module
 from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
 from dualmech.models.linkages.rssr import SPEC as RSSR_SPEC
-from dualmech.validation.linkages.gate import judge_tolerances
-from dualmech.validation.linkages.matrix import load_linkage_matrix
-from dualmech.validation.linkages.run import run_linkages
+from dualmech.validation.matrix import load_matrix
+from dualmech.validation.matrix.tolerances import group_tolerances
 from dualmech.validation.tolerances import (
     MATRIX_SIM_KINEMATICS,
     MUJOCO_RIGID_KINEMATICS,
@@ -24,6 +23,7 @@ from dualmech.validation.tolerances import (
     SIM_REACTIONS,
 )
 from tests.validation.engine_faults import fault_engine
+from tests.validation.runs import run_cases, worst
 
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
@@ -31,7 +31,7 @@ pytest.importorskip("mujoco")
 
 @pytest.fixture(scope="module")
 def bundled_run():
-    return run_linkages(load_linkage_matrix("linkages"))
+    return run_cases(load_matrix("linkages"))
 
 
 def test_the_bundled_linkages_pass_against_every_judge(bundled_run) -> None:
@@ -44,12 +44,13 @@ def test_the_bundled_linkages_pass_against_every_judge(bundled_run) -> None:
         for judge in ("pinocchio", "mujoco"):
             compared = {c.quantity for c in run.comparison.for_engine(case, judge)}
             assert compared == {"status", *spec.kinematics, *spec.forces, *spec.moments}
-            assert all(c.n_compared == len(run.tables[case]["dualmech"]) for c in
+            assert all(c.n_compared == len(run.results[case]["dualmech"]) for c in
                        run.comparison.for_engine(case, judge))
-    worst = run.worst()
-    assert set(worst) == {"pinocchio", "mujoco", "mujoco-sim"}
-    assert worst["pinocchio"].ratio < 1e-3 and worst["mujoco"].ratio < 1e-3  # measured 3.9e-5, 4.1e-5
-    assert worst["mujoco-sim"].ratio < 1.0  # measured 0.23 (RSSR phi4_dot), 0.20 (RCCC s4_dot): Euler's lag
+    worst_of = worst(run)
+    assert set(worst_of) == {"pinocchio", "mujoco", "mujoco-sim"}
+    assert worst_of["pinocchio"].ratio < 1e-3 and worst_of["mujoco"].ratio < 1e-3  # measured 3.9e-5, 4.1e-5
+    # measured 0.23 (RSSR phi4_dot), 0.20 (RCCC s4_dot): Euler's lag
+    assert worst_of["mujoco-sim"].ratio < 1.0
 
 
 def test_the_tolerances_are_the_slider_cranks_per_judge() -> None:
@@ -57,7 +58,7 @@ def test_the_tolerances_are_the_slider_cranks_per_judge() -> None:
                 "mujoco": (MUJOCO_RIGID_KINEMATICS, MUJOCO_RIGID_REACTIONS),
                 "mujoco-sim": (MATRIX_SIM_KINEMATICS, SIM_REACTIONS)}
     for judge, (kinematics, reactions) in expected.items():
-        tols = judge_tolerances(judge)
+        tols = group_tolerances(judge)
         assert (tols["kinematics"].value, tols["reactions"].value) == (kinematics.value, reactions.value)
 
 
@@ -76,10 +77,10 @@ def test_a_judge_with_a_flipped_reaction_fails(monkeypatch: pytest.MonkeyPatch) 
         return replace(table, columns={**table.columns, "j2_fx": -table.columns["j2_fx"]})
 
     _faulty("mujoco", flip, monkeypatch)
-    run = run_linkages(load_linkage_matrix("linkages").with_engines(("dualmech", "pinocchio", "mujoco")))
+    run = run_cases(load_matrix("linkages").with_engines(("dualmech", "pinocchio", "mujoco")))
     assert str(run.verdict) == "FAIL"
     assert _failed(run) == {("rssr-crank-rocker", "mujoco", "j2_fx"), ("rccc-example", "mujoco", "j2_fx")}
-    assert run.worst()["mujoco"].quantity == "j2_fx" and run.worst()["mujoco"].ratio > 1e6
+    assert worst(run)["mujoco"].quantity == "j2_fx" and worst(run)["mujoco"].ratio > 1e6
 
 
 def test_an_in_house_fault_is_seen_by_the_rigid_judges_only_beyond_their_tolerance(
@@ -93,7 +94,7 @@ def test_an_in_house_fault_is_seen_by_the_rigid_judges_only_beyond_their_toleran
         return replace(table, columns={**table.columns, "phi4_dot": table.columns["phi4_dot"] * (1 + 1e-8)})
 
     monkeypatch.setattr(rssr_module, "solve_rssr", late)
-    run = run_linkages(load_linkage_matrix("rssr"))
+    run = run_cases(load_matrix("rssr"))
     assert str(run.verdict) == "FAIL"
     assert _failed(run) == {("rssr-crank-rocker", "pinocchio", "phi4_dot"),
                             ("rssr-crank-rocker", "mujoco", "phi4_dot")}
@@ -114,12 +115,12 @@ def test_a_status_word_and_a_missing_value_are_seen(monkeypatch: pytest.MonkeyPa
         return replace(table, columns={**table.columns, "j3_fz": j3})
 
     _faulty("pinocchio", dead, monkeypatch)
-    run = run_linkages(load_linkage_matrix("rccc").with_engines(("dualmech", "pinocchio")))
+    run = run_cases(load_matrix("rccc").with_engines(("dualmech", "pinocchio")))
     status = next(c for c in run.comparison.failures() if c.quantity == "status")
     assert "reference ok, judge dead_centre at theta1 = 21 deg" in status.detail and status.n_mismatch == 1
     monkeypatch.undo()
     _faulty("mujoco", hole, monkeypatch)
-    run = run_linkages(load_linkage_matrix("rccc").with_engines(("dualmech", "mujoco")))
+    run = run_cases(load_matrix("rccc").with_engines(("dualmech", "mujoco")))
     assert _failed(run) == {("rccc-example", "mujoco", "status"), ("rccc-example", "mujoco", "j3_fz")}
     assert "non-finite value at theta1 = 33 deg" in run.comparison.failures()[0].detail
 
@@ -129,7 +130,7 @@ def test_an_engine_that_raises_fails_the_gate(monkeypatch: pytest.MonkeyPatch) -
         raise RuntimeError("the judge fell over")
 
     _faulty("pinocchio", boom, monkeypatch)
-    run = run_linkages(load_linkage_matrix("rccc").with_engines(("dualmech", "pinocchio")))
+    run = run_cases(load_matrix("rccc").with_engines(("dualmech", "pinocchio")))
     assert str(run.verdict) == "FAIL"
     [check] = run.comparison.failures()
     assert (check.quantity, check.detail) == ("engine", "RuntimeError: the judge fell over")
@@ -140,7 +141,7 @@ def test_a_pair_of_judges_compares_the_columns_both_give() -> None:
     a pair (:mod:`dualmech.validation.compare.pairs`): the other judge is checked on those columns only,
     not failed on the columns the first leaves out."""
     from dualmech.models.linkages import solve_linkage
-    from dualmech.validation.linkages.gate import judge_checks
+    from dualmech.validation.compare.tables import judge_checks
 
     table = solve_linkage("rssr")
     few = ("phi4_deg", "j2_fx")

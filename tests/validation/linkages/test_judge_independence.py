@@ -24,8 +24,8 @@ from dualmech.core.status import Status
 from dualmech.models.linkages import rccc, read_linkage, rssr
 from dualmech.models.linkages.rccc_case import rccc_from_dict
 from dualmech.models.linkages.rssr_case import rssr_from_dict
+from dualmech.validation.compare.tables import worst
 from dualmech.validation.engines import get_engine
-from dualmech.validation.linkages.gate import worst
 from tests.models.linkages.cases import bundled, random_rccc, random_rssr
 from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
 

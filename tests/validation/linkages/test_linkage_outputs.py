@@ -12,8 +12,9 @@ from numpy.testing import assert_allclose
 
 from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage
 from dualmech.models.loop.presets import rccc_table, rssr_table
+from dualmech.validation.compare.tables import relative_differences
 from dualmech.validation.engines import solve_linkage as solve_linkage_by
-from dualmech.validation.linkages.gate import judge_tolerances, relative_differences
+from dualmech.validation.matrix.tolerances import group_tolerances
 from dualmech.validation.tolerances import SIM_STROKE
 from tests.tolerances import LINKAGE_DYNAMICS_RESIDUAL, S4_VS_CLOSED_FORM, SERVO_LAG
 
@@ -111,7 +112,7 @@ def test_linkage_simulation_tables(kind: str, spec) -> None:
     np.testing.assert_array_equal(table.status, reference.status)
     assert (table.status == "ok").all()
     compared = (*spec.kinematics, *spec.forces, *spec.moments)
-    tolerances = judge_tolerances("mujoco-sim")
+    tolerances = group_tolerances("mujoco-sim")
     for c, r in relative_differences(reference, table, spec, compared).items():
         group = "kinematics" if c in spec.kinematics else "reactions"
         assert np.max(r) <= tolerances[group].value, (c, float(np.max(r)))

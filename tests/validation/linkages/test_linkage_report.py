@@ -20,12 +20,13 @@ from numpy.testing import assert_allclose
 from dualmech.cli import main
 from dualmech.core.thresholds import ROUND_OFF_RELATIVE
 from dualmech.models.linkages import linkage_case, table_spec
+from dualmech.validation.compare.tables import compared_columns, relative_differences
 from dualmech.validation.exit_codes import EXIT_PASS
-from dualmech.validation.linkages.gate import compared_columns, judge_tolerances, relative_differences
-from dualmech.validation.linkages.matrix import load_linkage_matrix
-from dualmech.validation.linkages.report import figure_specs
-from dualmech.validation.linkages.run import run_linkages
+from dualmech.validation.matrix import load_matrix
+from dualmech.validation.matrix.tolerances import group_tolerances
+from dualmech.validation.report.tables import table_specs
 from tests.validation.engine_faults import fault_engine
+from tests.validation.runs import run_cases, table_figures
 
 pytest.importorskip("pinocchio")
 
@@ -182,19 +183,19 @@ def test_the_overlay_figure_is_every_engines_output_and_ratio(tmp_path) -> None:
     """Each case's figure plots every engine's output column against the input, and each judge's worst
     ratio to tolerance per row: the gate's relative differences over its tolerances, recomputed here; the
     HTML page's interactive figure carries the same arrays (float32)."""
-    matrix = load_linkage_matrix("rccc").with_engines(("dualmech", "pinocchio"))
-    run = run_linkages(matrix, jobs=1)
-    (spec,) = [s for s in figure_specs(run) if s.section == "case"]
+    matrix = load_matrix("rccc").with_engines(("dualmech", "pinocchio"))
+    run = run_cases(matrix, jobs=1)
+    (spec,) = [s for s in table_figures(run) if s.section == "case"]
     title, x_label, y_label, curves = spec.job[1]
     entry = matrix.cases[0]
-    table_of = table_spec(entry.kind, entry.case)
+    table_of = table_specs(matrix)[entry.id][1]
     assert (spec.key, x_label, y_label) == (f"linkage-{entry.id}", "theta1 (deg)", "theta4_deg")
-    reference, judge = run.tables[entry.id]["dualmech"], run.tables[entry.id]["pinocchio"]
+    reference, judge = run.results[entry.id]["dualmech"], run.results[entry.id]["pinocchio"]
     assert [c[0] for c in curves] == ["dualmech", "pinocchio"] and curves[0][3] is None
     for (_, x, y, _, _), table in zip(curves, (reference, judge)):
         assert_allclose(x, table["theta1_deg"], rtol=0, atol=0)
         assert_allclose(y, table["theta4_deg"], rtol=0, atol=0)
-    tolerances = judge_tolerances("pinocchio")
+    tolerances = group_tolerances("pinocchio")
     columns = compared_columns(table_of, judge)
     rel = relative_differences(reference, judge, table_of, columns)
     ratio = np.nanmax(np.stack([rel[c] / tolerances["kinematics" if c in table_of.kinematics else

@@ -20,8 +20,9 @@ import pytest
 from dualmech.models.linkages import linkage_case, read_linkage, table_spec
 from dualmech.models.loop.table import solve_loop_table
 from dualmech.models.loop.table_format import loop_from_dict
+from dualmech.validation.compare.tables import judge_checks
 from dualmech.validation.engines import solve_linkage
-from dualmech.validation.linkages.gate import judge_checks, judge_tolerances
+from dualmech.validation.matrix.tolerances import group_tolerances
 from tests.tolerances import LOOP_CLOSED_FORM, LOOP_FINITE_DIFFERENCE
 
 CASES = ("rscr", "rsrc")
@@ -46,7 +47,7 @@ def test_every_engine_agrees_with_the_others(tables, case: str, reference: str, 
     checks, ratios = judge_checks(case, ref, mine, spec)
     failed = [(c.quantity, c.max_rel, c.detail) for c in checks if not c.passed]
     assert not failed and len(checks) == 1 + len(spec.kinematics + spec.forces + spec.moments)
-    tolerance = judge_tolerances(judge)
+    tolerance = group_tolerances(judge)
     assert tolerance["kinematics"].value == pytest.approx(1e-10, rel=0, abs=0)
     assert np.nanmax(ratios[1]) < 1.0 and np.nanmax(ratios[2]) < 1.0
 

@@ -18,7 +18,7 @@ from numpy.testing import assert_allclose
 from dualmech.cli import main
 from dualmech.models.linkages import linkage_case, table_spec
 from dualmech.validation.exit_codes import EXIT_PASS
-from dualmech.validation.linkages.gate import judge_tolerances
+from dualmech.validation.matrix.tolerances import group_tolerances
 
 from .test_linkage_report import _table
 
@@ -29,7 +29,7 @@ ENGINES = ("dualmech", "pinocchio", "mujoco", "mujoco-sim")
 CASE = "rssr-crank-rocker"
 #: Each judge's tolerances, kinematics and reactions (the linkage gate's: test_gate.py holds them to
 #: validation/tolerances.py).
-TOLERANCES = {e: (judge_tolerances(e)["kinematics"].value, judge_tolerances(e)["reactions"].value)
+TOLERANCES = {e: (group_tolerances(e)["kinematics"].value, group_tolerances(e)["reactions"].value)
               for e in ENGINES[1:]}
 
 

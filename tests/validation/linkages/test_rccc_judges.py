@@ -16,8 +16,8 @@ from dualmech.models.linkages import dynamics as dynamics_module
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rccc import SPEC, analyze_rccc, to_table
 from dualmech.models.linkages.rccc_case import RcccCase, rccc_from_dict
+from dualmech.validation.compare.tables import worst
 from dualmech.validation.engines import get_engine
-from dualmech.validation.linkages.gate import worst
 from tests.models.linkages.cases import random_rccc
 from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
 
@@ -80,7 +80,7 @@ def test_the_simulation_follows_a_fast_output(seed: int) -> None:
     simulation steps one degree of the fastest joint and passes the gate (every column within the simulated
     judge's tolerances, statuses equal).  Seen failing before, at one degree of the drive: seed 14 by 19
     times its tolerance in joint 1's force, seed 26 at 1.00 in the output's acceleration."""
-    from dualmech.validation.linkages.gate import judge_checks
+    from dualmech.validation.compare.tables import judge_checks
 
     pytest.importorskip("mujoco")
     case = rccc_from_dict(random_rccc(np.random.default_rng(seed)))

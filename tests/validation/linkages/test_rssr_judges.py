@@ -14,8 +14,8 @@ from dualmech.core.status import Status
 from dualmech.models.linkages import dynamics as dynamics_module
 from dualmech.models.linkages.rssr import SPEC, analyze_rssr, to_table
 from dualmech.models.linkages.rssr_case import RssrCase, rssr_from_dict
+from dualmech.validation.compare.tables import worst
 from dualmech.validation.engines import get_engine
-from dualmech.validation.linkages.gate import worst
 from tests.models.linkages.cases import bundled, random_rssr
 from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
 

@@ -11,9 +11,10 @@ import pytest
 
 from dualmech.models.linkages import CASES, linkage_case
 from dualmech.validation import engines
-from dualmech.validation.linkages import matrix
-from dualmech.validation.linkages.matrix import load_linkage_matrix
-from dualmech.validation.linkages.run import run_linkages
+from dualmech.validation.matrix import cases as matrix
+from dualmech.validation.matrix import load_matrix
+from dualmech.validation.matrix.cases import not_applicable
+from tests.validation.runs import run_cases
 
 pytest.importorskip("mujoco")
 
@@ -38,14 +39,14 @@ def test_the_simulation_solves_only_cases_that_close_at_every_angle(tmp_path) ->
 
 
 def test_a_partly_assembling_case_passes_on_the_rigid_judges(tmp_path, monkeypatch) -> None:
-    run = run_linkages(load_linkage_matrix(_partial(tmp_path)))  # a Path, as the Python API allows
+    run = run_cases(load_matrix(_partial(tmp_path)))  # a Path, as the Python API allows
     assert run.comparison.verdict == "PASS"
     judged = {c.engine for c in run.comparison.checks if c.n_compared}
     assert {"pinocchio", "mujoco"} <= judged and "mujoco-sim" not in judged
     # the fault this rule prevents: the servo pushes the input into the gap, and the simulation's rows
     # there have no in-house counterpart
     monkeypatch.setattr(matrix, "solves", lambda engine, kind, case: kind in engines.ENGINES[engine])
-    assert run_linkages(load_linkage_matrix(str(_partial(tmp_path)))).comparison.verdict == "FAIL"
+    assert run_cases(load_matrix(str(_partial(tmp_path)))).comparison.verdict == "FAIL"
 
 
 def test_each_engine_not_applicable_says_why(tmp_path: Path) -> None:
@@ -69,7 +70,7 @@ def test_each_engine_not_applicable_says_why(tmp_path: Path) -> None:
     assert [(c["id"], c["engines"], c["not_applicable"]) for c in summary["cases"]] == [
         ("rrcrc", ["dualmech", "mujoco"], why)]
     lines = [f"{e} on rrcrc: {w}" for e, w in why.items()]
-    assert run.run.matrix.not_applicable() == {"rrcrc": why}
+    assert not_applicable(run.matrix) == {"rrcrc": why}
     markdown = (tmp_path / "run" / "report.md").read_text()
     assert f"– not applicable: {'; '.join(lines)}." in markdown.replace("\\", "")
     registry = json.loads((tmp_path / "run" / "run.json").read_text())["registry"]
@@ -81,5 +82,5 @@ def test_each_engine_not_applicable_says_why(tmp_path: Path) -> None:
     console = [line for line in run.console_summary("1 job", "report.md") if isinstance(line, str)]
     said = [c for c in console if "not applicable" in c]
     assert said == [f"[dim]– not applicable: {line}[/]" for line in lines]
-    bundled = load_linkage_matrix("rscr")
-    assert bundled.not_applicable() == {}
+    bundled = load_matrix("rscr")
+    assert not_applicable(bundled) == {}

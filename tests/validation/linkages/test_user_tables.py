@@ -18,7 +18,7 @@ import pytest
 import dualmech
 from dualmech.models.linkages import linkage_case, read_linkage, table_spec
 from dualmech.models.loop.table import solve_loop_table
-from dualmech.validation.linkages.gate import unit_scales, zero_group_scale
+from dualmech.validation.compare.tables import unit_scales, zero_group_scale
 from tests.validation.linkages.test_linkage_report import others, row
 
 TABLES = Path(__file__).parent / "tables"
@@ -130,7 +130,7 @@ def test_no_assembly_past_the_end_of_the_branch_is_the_same_verdict(tmp_path: Pa
                                                                      verdict: str) -> None:
     """The MuJoCo judge saying ``no_assembly`` where every engine says ``branch_jump`` (230 deg, row 23: its
     steps found no pose near its branch, which has ended) agrees
-    (:data:`~dualmech.validation.linkages.gate.BRANCH_GONE`); at an ``ok`` row (220 deg) it fails."""
+    (:data:`~dualmech.validation.compare.tables.BRANCH_GONE`); at an ``ok`` row (220 deg) it fails."""
     from tests.validation.engine_faults import fault_engine
 
     def unassembled(table):

@@ -12,13 +12,14 @@ import pytest
 from click.testing import CliRunner
 
 from dualmech.cli import main
+from dualmech.models.kinds import kind_of
 from dualmech.models.linkages import CASES
 from dualmech.validation.exit_codes import EXIT_BAD_INPUT, EXIT_FAIL, EXIT_PASS
-from dualmech.validation.linkages.matrix import MatrixError, is_linkage_source, load_linkage_matrix
-from dualmech.validation.linkages.report import figure_specs
-from dualmech.validation.linkages.run import run_linkages
+from dualmech.validation.matrix import MatrixError, load_matrix
+from dualmech.validation.matrix.cases import is_listed_source
 from dualmech.validation.report.figures import PendingFigures
 from tests.validation.engine_faults import fault_engine
+from tests.validation.runs import run_cases, table_figures
 
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
@@ -32,11 +33,12 @@ def test_which_sources_are_linkage_runs(tmp_path) -> None:
     for source, expected in (("rssr", True), ("rccc", True), ("linkages", True), (str(matrix), True),
                              (str(CASES / "rccc.toml"), True), ("thesis-1991", False), ("joints", False),
                              ("thesis/ideal", False), ("no-such", False), (None, False)):
-        assert is_linkage_source(source) is expected, source
+        assert is_listed_source(source) is expected, source
 
 
 @pytest.mark.parametrize("text, words", [
-    ('name = "m"\nlinkages = ["rssr"]\nsweeps = 1\n', "sweeps: unknown linkage matrix key (valid: name,"),
+    ('name = "m"\nlinkages = ["rssr"]\nsweeps = 1\n',
+     "sweeps: unknown key of a matrix of listed cases (valid: name,"),
     ('name = "m"\nlinkages = ["rssr"]\nsweep = 1\n',
      "sweep: expected [[sweep]] tables (case, key, values), got 1"),
     ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkey = "joint[7].a"\nvalues = [1.0]\n',
@@ -51,8 +53,10 @@ def test_which_sources_are_linkage_runs(tmp_path) -> None:
      "sweep[1].values: expected a list of 1 to 100 values, got []"),
     ('name = "m"\nlinkages = ["rssr"]\n[[sweep]]\ncase = "rscr"\nkeys = "a"\n',
      "sweep[1].keys: unknown key (valid: case, key, values)"),
-    ('name = "m"\nlinkages = []\n', "linkages: expected a list of 1 to 100 linkage cases"),
-    ('name = "m"\nlinkages = ["thesis/ideal"]\n', "linkages[0]: 'thesis/ideal' is not a linkage case"),
+    ('name = "m"\nlinkages = []\n', "linkages: expected a list of 1 to 100 cases"),
+    ('name = "m"\nlinkages = ["nope"]\n', "linkages[0]: 'nope' is not a case (case: 'nope' is neither"),
+    ('name = "m"\ncases = ["rssr"]\nlinkages = ["rssr"]\n',
+     "linkages: the old name of cases; give one of them"),
     ('name = "m"\nlinkages = ["rssr", "rssr"]\n', "linkages: two cases are named 'rssr-crank-rocker'"),
     ('name = "m"\nlinkages = ["rssr"]\nengines = ["dualmech", "adams"]\n', "engines: 'adams' is not an "),
     ('name = "m"\nlinkages = ["rssr"]\nengines = ["dualmech"]\n', "engines: ['dualmech'] has no judge"),
@@ -68,7 +72,7 @@ def _refused_in_one_line(path, words: str) -> None:
     """Matrix file ``path`` is refused with one line holding ``words``, by the reader and by ``validate``
     (exit code 2)."""
     with pytest.raises(MatrixError) as err:
-        load_linkage_matrix(path)
+        load_matrix(path)
     assert words in str(err.value) and "\n" not in str(err.value), str(err.value)
     result = CliRunner().invoke(main, ["validate", str(path), "-o", str(path.parent / "run")])
     assert result.exit_code == EXIT_BAD_INPUT and result.output.count("\n") == 1, result.output
@@ -78,7 +82,7 @@ def test_a_matrix_file_names_cases_beside_it(tmp_path) -> None:
     (tmp_path / "mine.toml").write_text((CASES / "rccc.toml").read_text().replace("rccc-example", "mine"))
     path = tmp_path / "m.toml"
     path.write_text('name = "m"\nlinkages = ["mine.toml", "rssr"]\nengines = ["dualmech", "mujoco"]\n')
-    matrix = load_linkage_matrix(path)
+    matrix = load_matrix(path)
     assert [c.id for c in matrix.cases] == ["mine", "rssr-crank-rocker"] and matrix.judges == ("mujoco",)
 
 
@@ -86,7 +90,8 @@ def test_validate_rssr_passes_and_writes_its_report(tmp_path) -> None:
     out = tmp_path / "run"
     result = CliRunner().invoke(main, ["validate", "rssr", "-o", str(out)])
     assert result.exit_code == EXIT_PASS, result.output
-    assert "PASS: 79 of 79 checks passed; worst ratio (relative difference / tolerance): pinocchio " \
+    assert "PASS: 79 of 79 checks passed (ratio = worst relative difference / tolerance; dead c. = " \
+        "dead-centre rows excluded, counted); worst ratio: pinocchio " \
         in result.output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["verdict"] == "PASS" and set(summary["worst"]) == {"pinocchio", "mujoco", "mujoco-sim"}
@@ -126,8 +131,8 @@ def test_a_judges_heat_map_marks_its_failed_check(tmp_path, monkeypatch: pytest.
         return replace(table, columns={**table.columns, "theta4_deg": table.columns["theta4_deg"] + 1e-6})
 
     fault_engine(monkeypatch, "pinocchio", shifted, ("rccc",))
-    run = run_linkages(load_linkage_matrix("linkages").with_engines(("dualmech", "pinocchio")), jobs=1)
-    (heatmap,) = [spec for spec in figure_specs(run) if spec.section == "heatmap"]
+    run = run_cases(load_matrix("linkages").with_engines(("dualmech", "pinocchio")), jobs=1)
+    (heatmap,) = [spec for spec in table_figures(run) if spec.section == "heatmap"]
     engine, ids, qs, ratios, failed, _, _ = heatmap.job[1]
     assert heatmap.key == "heatmap-pinocchio" and engine == "pinocchio" and heatmap.static
     assert ids == [e.id for e in run.matrix.cases]
@@ -276,8 +281,8 @@ def test_a_matrix_of_the_slider_cranks_format_takes_a_linkage_base(tmp_path) -> 
 
     path = tmp_path / "m.toml"
     path.write_text(BASED)
-    assert is_linkage_source(path) and is_linkage_source(str(path))
-    matrix = load_linkage_matrix(path)
+    assert is_listed_source(path) and is_listed_source(str(path))
+    matrix = load_matrix(path)
     assert [c.id for c in matrix.cases] == [
         "nominal", "nominal-a2=0.1_drive.speed=1.0", "nominal-a2=0.1_drive.speed=2.0",
         "nominal-a2=0.14_drive.speed=1.0", "nominal-a2=0.14_drive.speed=2.0",
@@ -289,15 +294,17 @@ def test_a_matrix_of_the_slider_cranks_format_takes_a_linkage_base(tmp_path) -> 
               {"drive.speed": 3.0, "joint[2].a": 0.12}]
     for case, point in zip(matrix.cases, points):
         expected = _set(base, {"drive.positions": common["drive.positions"], **point})
-        assert {k: v for k, v in case.data.items() if k != "name"} == \
+        assert {k: v for k, v in case.raw.items() if k != "name"} == \
             {k: v for k, v in expected.items() if k != "name"}, case.id
-        assert case.kind == "loop" and case.source == "rscr"
+        assert kind_of(case.raw) == "loop"
 
 
 @pytest.mark.parametrize("extra, words", [
-    ('quantities = ["S4"]\n', "quantities: not a key of a matrix whose base is a linkage case (valid: name,"),
+    ('quantities = ["S4"]\n',
+     "quantities: not a key of a matrix whose base is not a slider crank (valid: name,"),
     ('[load_modes]\ntorque = { "loads.drive_torque" = 1.0 }\n', "load_modes: not a key of a matrix whose"),
-    ('[tolerances]\nkinematics = 1e-9\n', "tolerances: not a key of a matrix whose base is a linkage case"),
+    ('[tolerances]\nkinematics = 1e-9\n',
+     "tolerances: not a key of a matrix whose base is not a slider crank"),
     ('[[sweep]]\nexpect = "no_assembly"\ngrid = { "joint[2].a" = [9.0] }\n',
      "sweep[0].expect: unknown key (valid: cases, fixed, grid, include_base, label, name)"),
     ('[[sweep]]\ngrid = { "joint[9].a" = [0.1] }\n', "sweep[0]: 'joint[9].a': joint has rows 1..4, got 9"),
@@ -307,7 +314,7 @@ def test_a_matrix_of_the_slider_cranks_format_takes_a_linkage_base(tmp_path) -> 
      "sweep[0]: give exactly one of grid (a Cartesian product) or cases (a list)"),
     ('[[sweep]]\ngrid = { "joint[2].a" = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0], '
      '"drive.speed" = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0] }\n',
-     "sweep[0]: more than 100 cases in the matrix (this sweep 100); a linkage matrix runs at most 100"),
+     "sweep[0]: more than 100 cases in the matrix (this sweep 100); a matrix of cases runs at most 100"),
     ('[labels]\n"joint[2].a" = "../a"\n', "labels.'joint[2].a': '../a'"),
 ])
 def test_bad_based_linkage_matrices_are_refused_in_one_line(tmp_path, extra: str, words: str) -> None:
@@ -327,7 +334,7 @@ def test_validate_runs_a_matrix_whose_base_is_a_linkage_case(tmp_path) -> None:
     out = tmp_path / "run"
     result = CliRunner().invoke(main, ["validate", str(path), "-o", str(out)])
     assert result.exit_code == EXIT_PASS, result.output
-    assert "mine-study: 2 linkage cases, engines dualmech, pinocchio" in result.output
+    assert "mine-study: 2 cases, engines dualmech, pinocchio" in result.output
     assert {p.name for p in (out / "tables").iterdir()} == {
         "rssr-crank-rocker", "rssr-crank-rocker-geometry.input_crank=0.09"}
     rows = (out / "tables" / "rssr-crank-rocker-geometry.input_crank=0.09" / "dualmech.csv").read_text()

@@ -11,9 +11,9 @@ import pytest
 
 from dualmech.models.linkages import linkage_case, rccc, read_linkage, rssr
 from dualmech.models.linkages.table import LinkageTable
+from dualmech.validation.compare.tables import worst
 from dualmech.validation.engines import get_engine, run_engine
 from dualmech.validation.judges.exudyn_loop.closure import CLOSURE_TOL
-from dualmech.validation.linkages.gate import worst
 from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS
 from tests.models.linkages.cases import random_rssr
 

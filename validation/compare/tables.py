@@ -37,11 +37,15 @@ from __future__ import annotations
 import numpy as np
 
 from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
+from dualmech.models.kinds import case_from_data, kind_of
+from dualmech.models.linkages import table_spec
 from dualmech.models.linkages.table import LinkageTable, TableSpec
-from dualmech.validation import tolerances as tolerance_table
-from dualmech.validation.compare import ENGINE, STATUS, VERDICTS, Check, first_line
-from dualmech.validation.matrix import ResolvedTolerance
-from dualmech.validation.matrix.tolerances import DEFAULT_TOLERANCES
+from dualmech.validation.compare.checks import first_line
+from dualmech.validation.compare.differences import column_notes, worst_row
+from dualmech.validation.compare.pairs import case_pairs, column_group, looser
+from dualmech.validation.compare.results import ENGINE, STATUS, VERDICTS, Check
+from dualmech.validation.matrix.data import Matrix, MatrixCase, ResolvedTolerance
+from dualmech.validation.matrix.tolerances import group_tolerances
 
 #: The words of a row an engine answered: the slider crank's :data:`VERDICTS`, and ``branch_jump``, where a
 #: loop table's followed branch has ended and the loop closes only on another assembly (a user's RRCRC
@@ -67,16 +71,6 @@ def compared_columns(spec: TableSpec, judge: LinkageTable) -> tuple[str, ...]:
     every = spec.kinematics + spec.forces + spec.moments
     gives = judge.meta.get("gives")
     return every if gives is None else tuple(c for c in every if c in gives)
-
-
-def judge_tolerances(engine: str) -> dict[str, ResolvedTolerance]:
-    """``kinematics`` and ``reactions`` tolerances of judge ``engine``: the slider crank's defaults."""
-    names = DEFAULT_TOLERANCES.get(engine, DEFAULT_TOLERANCES["*"])
-    out = {}
-    for group in ("kinematics", "reactions"):
-        tol = getattr(tolerance_table, names[group])
-        out[group] = ResolvedTolerance(names[group], float(tol.value), tol.reason)
-    return out
 
 
 def unit_scales(reference: LinkageTable, judge: LinkageTable, spec: TableSpec,
@@ -233,15 +227,9 @@ def column_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spe
     ``worst_theta_deg`` is the key's value (``spec.key``) at the worst row."""
     theta = reference[spec.key]
     infinite, finite = np.isinf(rel), np.isfinite(rel)
-    max_rel = float(rel[finite].max()) if finite.any() else float("nan")
-    at = float(theta[np.flatnonzero(finite)[np.argmax(rel[finite])]]) if finite.any() else float("nan")
-    notes = []
-    if not finite.any():
-        notes.append("no row compared: no position where both engines give it")
-    if infinite.any():
-        notes.append(f"given by one engine only {_at(spec, theta[infinite])}")
-    if np.isfinite(max_rel) and max_rel > tol.value:
-        notes.append(f"max rel {max_rel:.3g} > {tol.value:.3g} ({tol.name}) {_at(spec, np.array([at]))}")
+    max_rel, at = worst_row(rel, finite, theta)
+    one_sided = f"given by one engine only {_at(spec, theta[infinite])}" if infinite.any() else None
+    notes = column_notes(bool(finite.any()), one_sided, max_rel, tol, _at(spec, np.array([at])))
     assembled = is_status(reference.status, *ASSEMBLED) & is_status(judge.status, *ASSEMBLED)
     n_excluded = int((assembled & np.isnan(rel)).sum())
     passed = bool(finite.any()) and not infinite.any() and max_rel <= tol.value
@@ -253,28 +241,28 @@ def column_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spe
 def judge_checks(case_id: str, reference: LinkageTable, judge: LinkageTable, spec: TableSpec,
                  tolerances: dict[str, ResolvedTolerance] | None = None
                  ) -> tuple[list[Check], tuple[np.ndarray, ...] | None]:
-    """Every check of one judge on one case, and per row its worst kinematic and reaction ``r_i`` over their
-    tolerance (the key column ``spec.key`` and the two ratios, each ``(n,)``, NaN where nothing was compared;
-    for the report; ``None`` when the rows differ).  ``reference`` is the in-house table at the judge's
+    """Every check of one judge on one case, and per row its worst kinematic and reaction ``r_i`` (the key
+    column ``spec.key`` and the two, each ``(n,)``, NaN where nothing was compared; for the report; ``None``
+    when the rows differ).  ``reference`` is the in-house table at the judge's
     rows, or another judge's (a pair of judges, :mod:`~dualmech.validation.compare.pairs`): the columns
     compared are those both give; ``tolerances`` (``kinematics``, ``reactions``), the judge's own
-    (:func:`judge_tolerances`) by default."""
+    (:func:`~dualmech.validation.matrix.tolerances.group_tolerances`) by default."""
     theta = reference[spec.key]
     if len(judge) != len(reference) or not np.allclose(judge[spec.key], theta, rtol=0, atol=1e-9):
         detail = f"rows differ: {len(judge)} input values against the reference's {len(reference)}"
         nan = float("nan")
         return [Check(case_id, judge.engine, STATUS, nan, nan, nan, EXACT, nan, 0, 0, 0, False, detail)], None
     columns = tuple(c for c in compared_columns(spec, judge) if c in compared_columns(spec, reference))
-    tols = tolerances or judge_tolerances(judge.engine)
+    tols = tolerances or group_tolerances(judge.engine)
     group = {c: "kinematics" if c in spec.kinematics else "reactions" for c in columns}
     rel = relative_differences(reference, judge, spec, columns)
     scales = unit_scales(reference, judge, spec, columns)
     checks = [status_check(case_id, reference, judge, spec, columns)]
     checks += [column_check(case_id, reference, judge, spec, c, rel[c], tols[group[c]],
                             scales[spec.unit_group(c)]) for c in columns]
-    ratios = {g: _row_worst([rel[c] / tols[g].value for c in columns if group[c] == g], len(theta))
-              for g in ("kinematics", "reactions")}
-    return checks, (theta, ratios["kinematics"], ratios["reactions"])
+    worst = {g: _row_worst([rel[c] for c in columns if group[c] == g], len(theta))
+             for g in ("kinematics", "reactions")}
+    return checks, (theta, worst["kinematics"], worst["reactions"])
 
 
 def _row_worst(ratios: list[np.ndarray], n: int) -> np.ndarray:
@@ -284,3 +272,43 @@ def _row_worst(ratios: list[np.ndarray], n: int) -> np.ndarray:
     stacked = np.stack(ratios)
     seen = ~np.isnan(stacked)
     return np.where(seen.any(0), np.max(np.where(seen, stacked, -np.inf), axis=0), np.nan)
+
+
+def case_spec(mc: MatrixCase) -> TableSpec:
+    """The :class:`~dualmech.models.linkages.table.TableSpec` of matrix case ``mc``'s tables, by its kind."""
+    case = case_from_data(mc.raw)
+    return table_spec(kind_of(case), case)
+
+
+def compare_table_case(matrix: Matrix, mc: MatrixCase, tables: dict[str, LinkageTable],
+                       rows: dict[str, tuple[np.ndarray, ...]],
+                       pairs: dict[tuple[str, str], list[tuple[str, Check]]]) -> list[Check]:
+    """The checks of case ``mc`` of a kind with a table spec, whose reference answered (``tables``: engine ->
+    its table): the reference's own, then every judge's (status, columns) at its tolerances of
+    ``matrix.tolerances`` (``kinematics``, ``reactions``; the defaults of
+    :func:`~dualmech.validation.matrix.tolerances.group_tolerances` for a run stored without them); each
+    judge's rows kept in ``rows``, each pair of engines added to ``pairs``
+    (:func:`~dualmech.validation.compare.pairs.case_pairs`: two judges by :func:`judge_checks`, at the
+    looser of their tolerances)."""
+    reference, spec = tables[matrix.reference], case_spec(mc)
+    tols = {e: _groups(matrix, e) for e in tables}
+    checks = [reference_check(mc.id, reference, spec)]
+    for e in matrix.judges:
+        if e in tables:
+            found, worst = judge_checks(mc.id, reference, tables[e], spec, tols[e])
+            checks += found
+            rows.update({e: worst} if worst is not None else {})
+    case_pairs([e for e in matrix.engines if e in tables], matrix.reference, checks,
+               lambda one, other: [reference_check(mc.id, tables[one], spec), *judge_checks(
+                   mc.id, tables[one], tables[other], spec, looser(tols[one], tols[other]))[0]],
+               lambda column: column_group(column, spec.pose, spec.rates), pairs)
+    return checks
+
+
+def _groups(matrix: Matrix, engine: str) -> dict[str, ResolvedTolerance]:
+    """Judge ``engine``'s ``kinematics`` and ``reactions`` tolerances in ``matrix`` (the reference's: the
+    defaults, used only when it is the first of a pair)."""
+    own = matrix.tolerances.get(engine, {})
+    if "reactions" not in own:
+        return group_tolerances(engine)
+    return {g: own[g] for g in ("kinematics", "reactions")}
