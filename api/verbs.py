@@ -54,7 +54,7 @@ def solve(case: Case | str | os.PathLike | dict, *, engine: str = "dualmech") ->
         A :class:`~dualmech.models.case.Case` (lengths in the case's units, angles in degrees), a case
         TOML file, a preset name (:func:`~dualmech.models.case.preset_names`) or a case table; the RSSR,
         the RCCC and loop tables (``"rssr"``, ``"rccc"``, ``"rscr"``, or a case whose ``[mechanism] kind``
-        names one) give their :class:`~dualmech.models.linkages.table.LinkageTable`.
+        names one) give their :class:`~dualmech.models.tables.LinkageTable`.
     engine : str
         ``"dualmech"`` (in-house), ``"pinocchio"``, ``"mujoco"`` (rigid), ``"mujoco-sim"`` (a driven
         simulation) or ``"exudyn"`` (hard constraints); each judge imports its library at first use.

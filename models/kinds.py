@@ -23,7 +23,7 @@ class Kind(NamedTuple):
 
     ``record``: its checked case (a class); ``reader``: parsed case table -> record (one-line
     CaseError); ``solver``: its in-house engine (record -> result table); ``spec``: its table's
-    :class:`~dualmech.models.linkages.table.TableSpec`, or a function of the record (empty for the
+    :class:`~dualmech.models.tables.TableSpec`, or a function of the record (empty for the
     slider crank, whose table is :class:`~dualmech.core.table.ResultTable`); ``simulator``: its forward
     dynamics (record, duration, options -> a simulation); ``summary``: (table, record) -> the few lines
     ``dualmech solve`` prints; ``sim_summary``: simulation -> the lines ``dualmech simulate`` prints;

@@ -123,7 +123,7 @@ IFTOMM_GONZALEZ_OVER_5S = 1e-4
 #
 # A comparison of a column is ``|a - b| <= tol * peak`` with ``peak`` the largest magnitude over the case of
 # the column's unit group (the output angle, its rates, the transmissions, every force, every moment column;
-# :meth:`~dualmech.models.linkages.table.TableSpec.unit_group`), so that a tolerance means the same in any
+# :meth:`~dualmech.models.tables.TableSpec.unit_group`), so that a tolerance means the same in any
 # unit system (``dualmech.validation.compare.tables.worst``; ``dualmech validate linkages`` holds the
 # judges to the slider crank's tolerances instead).
 # The suite's gates for the slider crank (``validation/tolerances.py``: ``MATRIX_KINEMATICS`` 1e-9,

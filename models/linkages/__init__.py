@@ -2,7 +2,7 @@
 
 :func:`solve_linkage` reads a case (a path, a bundled case ``"rssr"`` or a parsed
 dict) whose ``[mechanism] kind`` names the linkage, and returns the in-house engine's
-:class:`~dualmech.models.linkages.table.LinkageTable` (``docs/conventions.md``, "RSSR", "RCCC").
+:class:`~dualmech.models.tables.LinkageTable` (``docs/conventions.md``, "RSSR", "RCCC").
 Every engine (the judges: :mod:`dualmech.validation.judges`) solves them through
 :func:`dualmech.validation.engines.solve_checked`.
 """
@@ -18,7 +18,7 @@ from dualmech.core.status import Status, is_status
 from dualmech.models.design_summary import DesignSummary, peaks_of, status_counts
 from dualmech.models.inputs import CaseError, show
 from dualmech.models.kinds import KIND_HOMES, LINKAGE_KINDS, declared_kind, resolve
-from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.models.tables import LinkageTable, TableSpec
 from dualmech.models.toml_input import read_toml
 from dualmech.models.units import UNIT_SYSTEMS
 
@@ -109,7 +109,7 @@ def solve_linkage(source: str | Path | dict) -> LinkageTable:
 
 
 def table_spec(kind: str, case: Any) -> TableSpec:
-    """The :class:`~dualmech.models.linkages.table.TableSpec` of ``case``'s table (a checked case of
+    """The :class:`~dualmech.models.tables.TableSpec` of ``case``'s table (a checked case of
     ``kind``): the RSSR's and RCCC's are fixed, a loop table's follows its joints."""
     spec = resolve(KIND_HOMES[kind].spec)
     return spec if isinstance(spec, TableSpec) else spec(case)
@@ -118,7 +118,7 @@ def table_spec(kind: str, case: Any) -> TableSpec:
 def table_summary(table: LinkageTable, spec: TableSpec, units: str = "consistent") -> DesignSummary:
     """The slider crank's :class:`~dualmech.models.design_summary.DesignSummary` of a linkage's or loop
     table's ``table`` by its ``spec``: the peak of every load of
-    :attr:`~dualmech.models.linkages.table.TableSpec.loads` over the ``ok`` rows, at the input value (the
+    :attr:`~dualmech.models.tables.TableSpec.loads` over the ``ok`` rows, at the input value (the
     spec's key) where it occurs, and the ``dead_centre`` rows' input values; no stroke (NaN), no
     near-dead-centre warning.  Units of the label ``units`` (none for a label that is not a
     :data:`~dualmech.models.units.UNIT_SYSTEMS` key)."""

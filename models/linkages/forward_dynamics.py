@@ -56,8 +56,8 @@ from dualmech.models.inputs import TORQUE, check_number
 from dualmech.models.linkages import rccc, rssr
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
-from dualmech.models.linkages.table import LinkageTable
 from dualmech.models.simulation_summary import simulation_summary
+from dualmech.models.tables import LinkageTable
 
 #: Input angles of the coefficient table over a turn: a 0.5 deg grid.
 POINTS = 721

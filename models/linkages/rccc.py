@@ -35,7 +35,7 @@ from dualmech.core.status import Status, settle
 from dualmech.models.linkages.dynamics import GivenLoad, Joint, JointReactions, solve_joint_reactions
 from dualmech.models.linkages.rccc_case import RcccCase, RcccGeometry
 from dualmech.models.linkages.rssr import assembles, close, no_assembly_messages, status_words
-from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.models.tables import LinkageTable, TableSpec
 
 LOOP = Loop(
     rows=(

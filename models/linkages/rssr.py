@@ -43,7 +43,7 @@ from dualmech.core.thresholds import (
 from dualmech.models.angle_ranges import format_angle_ranges, no_assembly_ranges
 from dualmech.models.linkages.dynamics import GivenLoad, Joint, JointReactions, solve_joint_reactions
 from dualmech.models.linkages.rssr_case import RssrCase, RssrGeometry
-from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.models.tables import LinkageTable, TableSpec
 
 LOOP = Loop(
     rows=(

@@ -2,7 +2,7 @@
 
 Every engine of a ``[mechanism] kind = "loop"`` case (the in-house :mod:`~dualmech.models.loop.table`, the
 generated judges of :mod:`dualmech.validation.judges`) returns the same
-:class:`~dualmech.models.linkages.table.LinkageTable` of :func:`column_names` (``docs/conventions.md``,
+:class:`~dualmech.models.tables.LinkageTable` of :func:`column_names` (``docs/conventions.md``,
 "Loop tables"), so the linkages' gate compares them column by column with :func:`loop_spec`:
 
 * the **key**: the driven coordinate in the file's units, ``theta<d>_deg`` (degrees) for an angle drive,
@@ -24,8 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 from dualmech.core.status import settle
-from dualmech.models.linkages.table import LinkageTable, TableSpec
 from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.tables import LinkageTable, TableSpec
 
 #: The scalar coordinates of each joint type, in the order of its ``start`` values (an S joint has none).
 COORDINATES: dict[str, tuple[str, ...]] = {"R": ("theta",), "P": ("s",), "C": ("theta", "s"),
@@ -76,7 +76,7 @@ def wrench_columns(force: np.ndarray, moment: np.ndarray) -> dict[str, np.ndarra
 
 
 def loop_spec(mechanism: LoopMechanism) -> TableSpec:
-    """The :class:`~dualmech.models.linkages.table.TableSpec` of ``mechanism``'s table (module docstring)."""
+    """The :class:`~dualmech.models.tables.TableSpec` of ``mechanism``'s table (module docstring)."""
     coordinates = coordinate_names(mechanism)
     compared = column_names(mechanism)
     key = key_column(mechanism)
@@ -90,7 +90,7 @@ def loop_spec(mechanism: LoopMechanism) -> TableSpec:
 
 def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndarray], status: np.ndarray,
                meta: dict, *, not_given: tuple[str, ...] = ()) -> LinkageTable:
-    """The :class:`~dualmech.models.linkages.table.LinkageTable` of one engine's answer, settled.
+    """The :class:`~dualmech.models.tables.LinkageTable` of one engine's answer, settled.
 
     Parameters
     ----------

@@ -64,13 +64,13 @@ from dualmech.models.linkages.forward_dynamics import (
     drive_load,
     interpolation_error,
 )
-from dualmech.models.linkages.table import LinkageTable
 from dualmech.models.loop.columns import key_column, loop_table
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.engine import LoopAnalysis, analyze_loop, find_start
 from dualmech.models.loop.table import ENGINE, analysis_columns
 from dualmech.models.loop.translate import drive_state, to_loop, variable
 from dualmech.models.simulation_summary import simulation_summary
+from dualmech.models.tables import LinkageTable
 
 #: The coefficient table's aim: :func:`~dualmech.models.linkages.forward_dynamics.interpolation_error` at
 #: most this, the grid's step halved until it is (the linkages' tables reach ~1e-13 at 0.5 deg; the 7R's,

@@ -11,10 +11,10 @@ import numpy as np
 
 from dualmech.core.status import Status, is_status
 from dualmech.models.angle_ranges import format_angle_ranges, no_assembly_ranges
-from dualmech.models.linkages.table import LinkageTable, TableSpec
 from dualmech.models.loop.columns import coordinate_names, effort_names, loop_spec, loop_table, wrench_columns
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.engine import LoopAnalysis, analyze_loop
+from dualmech.models.tables import LinkageTable, TableSpec
 
 #: The registry name of the in-house engine.
 ENGINE = "dualmech"

@@ -7,7 +7,7 @@ has, how its derivatives are taken -- is the kind's :class:`TolerancePlan`, name
 kind table (:data:`~dualmech.models.kinds.KIND_HOMES`, ``tolerance``): the slider crank's
 (:mod:`~dualmech.models.tolerance.slider_crank`: its compiled kernel's arrays, complex-step derivatives)
 and the table kinds' (:mod:`~dualmech.models.tolerance.tables`: the RSSR, RCCC and loop tables by their
-:class:`~dualmech.models.linkages.table.TableSpec`).
+:class:`~dualmech.models.tables.TableSpec`).
 
 A study's case is the slider crank's :class:`~dualmech.models.case.Case` (which keeps its case table as
 ``raw``), or a :class:`TableCase`: another kind's checked record with the case table it was read from (a

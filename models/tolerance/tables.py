@@ -8,13 +8,13 @@ inertia tensor, gravity) nor the drive's positions (:data:`POSITIONS`: every des
 ones).  A sampled design is the case table with those keys set, read by the kind's own reader, so its
 ranges are the reader's (a refused design stops the study with one line naming it).
 
-**Outputs** per design, from the kind's :class:`~dualmech.models.linkages.table.TableSpec`:
+**Outputs** per design, from the kind's :class:`~dualmech.models.tables.TableSpec`:
 
 * ``range_<c>`` -- ``max c - min c`` over the assembled positions of the output coordinate ``c``
-  (:attr:`~dualmech.models.linkages.table.TableSpec.shown`: the RSSR's and RCCC's output angle in degrees,
+  (:attr:`~dualmech.models.tables.TableSpec.shown`: the RSSR's and RCCC's output angle in degrees,
   a loop table's last solved coordinate), an angle taken continuous along the positions (unwrapped by its
   period) so that a range across +-180 deg is not a full turn;
-* ``peak_<load>`` -- for every load of :attr:`~dualmech.models.linkages.table.TableSpec.loads` (each
+* ``peak_<load>`` -- for every load of :attr:`~dualmech.models.tables.TableSpec.loads` (each
   joint's force and moment, every scalar effort), the largest magnitude over the ``ok`` positions:
   ``peak_j1_force`` (``|(j1_fx, j1_fy, j1_fz)|``), ``peak_joint2_moment``, ``peak_drive_torque``,
   ``peak_effort_s4``; the given efforts among them are constant (the summary says so);
@@ -52,7 +52,7 @@ from dualmech.core.status import STATUSES, Status
 from dualmech.models.inputs import CaseError
 from dualmech.models.kinds import KIND_HOMES, kind_of, resolve
 from dualmech.models.linkages import table_spec
-from dualmech.models.linkages.table import TableSpec
+from dualmech.models.tables import TableSpec
 from dualmech.models.tolerance.designs import design_name
 from dualmech.models.tolerance.differences import central_differences
 from dualmech.models.tolerance.outputs import (
@@ -136,7 +136,7 @@ def _spec(record: Any) -> TableSpec:
 
 
 def peak_name(label: str) -> str:
-    """The output of a load of :attr:`~dualmech.models.linkages.table.TableSpec.loads`: ``"j1 |f|"`` ->
+    """The output of a load of :attr:`~dualmech.models.tables.TableSpec.loads`: ``"j1 |f|"`` ->
     ``"peak_j1_force"``, ``"|drive_torque|"`` -> ``"peak_drive_torque"``."""
     joint, _, vector = label.partition(" ")
     if vector:

@@ -92,7 +92,7 @@ def test_a_table_summary_reads_every_joint_of_its_spec():
     case's moments shown as 0 with its round-off, a constant effort as constant, the dead-centre rows by their
     key, no stroke; units of the label (none for a label not in the unit systems)."""
     from dualmech.models.linkages import table_summary
-    from dualmech.models.linkages.table import LinkageTable, TableSpec
+    from dualmech.models.tables import LinkageTable, TableSpec
 
     rng = np.random.default_rng(7)
     n = 9

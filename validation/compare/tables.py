@@ -1,7 +1,7 @@
 """The linkages' gate: every judge against the in-house reference, row by row and column by column.
 
 The rules of the slider crank's gate (:mod:`dualmech.validation.compare`), on a linkage's own columns
-(:class:`~dualmech.models.linkages.table.TableSpec`), one :class:`~dualmech.validation.compare.Check` each:
+(:class:`~dualmech.models.tables.TableSpec`), one :class:`~dualmech.validation.compare.Check` each:
 
 * ``engine`` -- the judge ran (else a failing check with the first line of its error);
 * ``status`` -- the judge's word equals the reference's at every row, and the judge neither says an
@@ -17,12 +17,12 @@ The rules of the slider crank's gate (:mod:`dualmech.validation.compare`), on a 
   .. math:: r_i = |J_i - R_i| / s_g, \\qquad \\text{pass} \\iff n > 0,\\ \\max_i r_i \\le \\text{tol}
 
   with ``s_g`` the reference's largest ``|R|`` over those rows of every compared column of ``q``'s unit
-  group (:meth:`~dualmech.models.linkages.table.TableSpec.unit_group`: forces, moments, the output angle,
+  group (:meth:`~dualmech.models.tables.TableSpec.unit_group`: forces, moments, the output angle,
   its rates, ...), so no verdict depends on the unit system; angles differ modulo their period
-  (:meth:`~dualmech.models.linkages.table.TableSpec.period`: 360 in degrees, 2 pi for a loop table's in rad);
+  (:meth:`~dualmech.models.tables.TableSpec.period`: 360 in degrees, 2 pi for a loop table's in rad);
   a row where only one engine gives the value fails the column (``inf``).
 
-Rows are matched on the spec's key (:attr:`~dualmech.models.linkages.table.TableSpec.key`: the crank angle
+Rows are matched on the spec's key (:attr:`~dualmech.models.tables.TableSpec.key`: the crank angle
 in degrees, or a loop table's driven coordinate), which every message names.
 
 Tolerances are the slider crank's defaults per judge and group (``kinematics``, ``reactions``) of
@@ -39,7 +39,7 @@ import numpy as np
 from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
 from dualmech.models.kinds import case_from_data, kind_of
 from dualmech.models.linkages import table_spec
-from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.models.tables import LinkageTable, TableSpec
 from dualmech.validation.compare.checks import first_line
 from dualmech.validation.compare.differences import column_notes, worst_row
 from dualmech.validation.compare.pairs import case_pairs, column_group, looser
@@ -275,7 +275,7 @@ def _row_worst(ratios: list[np.ndarray], n: int) -> np.ndarray:
 
 
 def case_spec(mc: MatrixCase) -> TableSpec:
-    """The :class:`~dualmech.models.linkages.table.TableSpec` of matrix case ``mc``'s tables, by its kind."""
+    """The :class:`~dualmech.models.tables.TableSpec` of matrix case ``mc``'s tables, by its kind."""
     case = case_from_data(mc.raw)
     return table_spec(kind_of(case), case)
 

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from dualmech.models.design_summary import JOINTS, NEAR_DEAD_CENTRE_TRANSMISSION
-from dualmech.models.linkages.table import TableSpec
+from dualmech.models.tables import TableSpec
 from dualmech.validation.compare import Check, Comparison, compare_run
 from dualmech.validation.durable import json_text
 from dualmech.validation.matrix import Matrix

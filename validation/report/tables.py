@@ -4,7 +4,7 @@ engine's table of those cases (``tables/<case>/<engine>.csv``) in the run folder
 
 What differs from the slider crank's is data, never a template of its own: the summary's second column is the
 case's kind; the peak joint loads are those of every joint of the case's
-:class:`~dualmech.models.linkages.table.TableSpec` (:func:`~dualmech.models.linkages.table_summary`), one
+:class:`~dualmech.models.tables.TableSpec` (:func:`~dualmech.models.linkages.table_summary`), one
 table per kind and set of joints; dead centres are listed by the spec's key (the input value); the tolerances
 are per group (``kinematics``, ``reactions``); each case has the engine-overlay figure
 (:mod:`~dualmech.validation.report.overlay`: its output from every engine, each judge's worst ratio per row)
@@ -23,7 +23,7 @@ import numpy as np
 
 from dualmech.models.kinds import SLIDER_CRANK, case_from_data, kind_of
 from dualmech.models.linkages import table_spec, table_summary
-from dualmech.models.linkages.table import TableSpec
+from dualmech.models.tables import TableSpec
 from dualmech.validation.compare import ENGINE, STATUS, Check, Comparison
 from dualmech.validation.matrix import Matrix, MatrixCase
 from dualmech.validation.matrix.cases import not_applicable
@@ -103,7 +103,7 @@ def worst_checks(matrix: Matrix, comparison: Comparison) -> dict[str, Check]:
 def case_figure(matrix: Matrix, results: dict, comparison: Comparison, mc: MatrixCase, spec: TableSpec
                 ) -> FigureSpec:
     """The plan of one case's engine-overlay figure (:mod:`~dualmech.validation.report.overlay`): its output
-    (:attr:`~dualmech.models.linkages.table.TableSpec.shown`: the output angle, or a loop table's last free
+    (:attr:`~dualmech.models.tables.TableSpec.shown`: the output angle, or a loop table's last free
     coordinate) from every engine against the input, and each judge's worst ratio to tolerance per row (its
     worst ``r_i`` of :attr:`Comparison.row_differences` over its group's tolerance)."""
     column, key, reference = spec.shown, spec.key, matrix.reference

@@ -9,7 +9,7 @@ import numpy as np
 
 from dualmech.core.table import NUMERIC_COLUMNS, ColumnTable, ResultTable
 from dualmech.models.kinds import SLIDER_CRANK
-from dualmech.models.linkages.table import LinkageTable
+from dualmech.models.tables import LinkageTable
 from dualmech.validation.durable import json_text
 
 

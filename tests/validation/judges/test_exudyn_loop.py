@@ -25,10 +25,10 @@ import pytest
 exudyn = pytest.importorskip("exudyn")
 
 from dualmech.models.linkages import linkage_case, read_linkage  # noqa: E402
-from dualmech.models.linkages.table import LinkageTable  # noqa: E402
 from dualmech.models.loop.columns import loop_spec  # noqa: E402
 from dualmech.models.loop.description import LoopMechanism  # noqa: E402
 from dualmech.models.loop.table import solve_loop_table  # noqa: E402
+from dualmech.models.tables import LinkageTable  # noqa: E402
 from dualmech.validation.compare.tables import zero_group_scale  # noqa: E402
 from dualmech.validation.judges.exudyn_loop import closure, engine, readout  # noqa: E402
 from dualmech.validation.judges.exudyn_loop.table import solve_table  # noqa: E402
@@ -306,12 +306,12 @@ def _loaded(module: str) -> set[str]:
 def test_the_judge_never_imports_the_in_house_engine() -> None:
     """Neither its own imports (read with :mod:`ast`) nor anything they load reach the in-house engine
     (the modules of ``IN_HOUSE``, the Pinocchio judge's list): its engine loads none of them, and its table
-    none beyond those the shared result table loads by itself (``models/linkages/table.py`` reaches
+    none beyond those the shared result table loads by itself (``models/tables.py`` reaches
     ``core/motion.py`` through the case files' plumbing, as the Pinocchio judge's table does)."""
     for path in JUDGE.glob("*.py"):
         assert not {n for n in _imported_modules(path) if n.startswith(IN_HOUSE)}, path.name
     engine = _loaded(f"{PACKAGE}.engine")
     assert f"{PACKAGE}.model" in engine and not engine & set(IN_HOUSE), sorted(engine & set(IN_HOUSE))
-    shared = _loaded("dualmech.models.linkages.table") | _loaded("dualmech.models.loop.columns")
+    shared = _loaded("dualmech.models.tables") | _loaded("dualmech.models.loop.columns")
     added = _loaded(f"{PACKAGE}.table") - shared
     assert f"{PACKAGE}.table" in added and not added & set(IN_HOUSE), sorted(added & set(IN_HOUSE))

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from dualmech.models.linkages.table import LinkageTable
 from dualmech.models.loop.columns import RESIDUALS, column_names, loop_spec, loop_table
 from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.tables import LinkageTable
 from dualmech.validation.judges.exudyn_loop.closure import continuation
 from dualmech.validation.judges.exudyn_loop.engine import ExudynLoopTable, solve_loop
 

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from dualmech.models.linkages.table import LinkageTable
 from dualmech.models.loop.columns import loop_table
 from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.tables import LinkageTable
 from dualmech.validation.judges.mujoco_loop.engine import solve_loop
 from dualmech.validation.judges.mujoco_loop.simulation import solve_loop_sim
 

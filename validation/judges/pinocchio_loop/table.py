@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from dualmech.models.linkages.table import LinkageTable
 from dualmech.models.loop.columns import coordinate_names, effort_names, loop_table, wrench_columns
 from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.tables import LinkageTable
 from dualmech.validation.judges.pinocchio_loop.engine import PinocchioLoopTable, solve_loop
 
 #: The registry name of this judge.

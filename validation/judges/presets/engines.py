@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
-from dualmech.models.linkages.table import LinkageTable
+from dualmech.models.tables import LinkageTable
 from dualmech.validation.judges.exudyn_loop.table import close_table
 from dualmech.validation.judges.exudyn_loop.table import solve_table as exudyn_table
 from dualmech.validation.judges.mujoco_loop.table import solve_sim_table

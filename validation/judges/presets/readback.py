@@ -16,7 +16,7 @@ from dualmech.core.status import Status, is_status, settle
 from dualmech.models.linkages import rccc, rssr
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
-from dualmech.models.linkages.table import LinkageTable, TableSpec
+from dualmech.models.tables import LinkageTable, TableSpec
 from dualmech.validation.judges.presets.starts import rccc_axes
 
 #: The judge's words of a closed pose (the mechanism's rules then name it).

@@ -25,9 +25,9 @@ from dualmech.core.status import Status, is_status
 from dualmech.models.linkages import rccc, rssr
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
-from dualmech.models.linkages.table import LinkageTable, TableSpec
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.presets import rccc_table, rssr_table
+from dualmech.models.tables import LinkageTable, TableSpec
 from dualmech.validation.judges.presets import starts
 from dualmech.validation.judges.presets.readback import rccc_columns, rssr_columns
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from dualmech.models.linkages import linkage_case, rccc, read_linkage, rssr
-from dualmech.models.linkages.table import LinkageTable
+from dualmech.models.tables import LinkageTable
 from dualmech.validation.compare.tables import worst
 from dualmech.validation.engines import get_engine, run_engine
 from dualmech.validation.judges.exudyn_loop.closure import CLOSURE_TOL

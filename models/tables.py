@@ -1,8 +1,11 @@
-"""The result table of a linkage other than the slider crank: named columns, one row per crank position.
+"""The result table of every kind other than the slider crank (the RSSR, the RCCC, any loop table): named
+columns, one row per input position, described by the kind's :class:`TableSpec`.
 
-Like :class:`~dualmech.core.table.ResultTable` (same status words, same CSV writer), but
-with the mechanism's own columns (``docs/conventions.md``, "RSSR"): the slider crank's
-``S4`` or ``slider_load`` mean nothing for a four-bar.
+Like :class:`~dualmech.core.table.ResultTable` (same status words, same CSV writer), but with the
+mechanism's own columns (``docs/conventions.md``, "RSSR", "RCCC", "Loop tables"): the slider crank's
+``S4`` or ``slider_load`` mean nothing for a four-bar.  Each kind's engines, gate
+(:mod:`dualmech.validation.compare.tables`) and report read a table through its spec, never a column name
+of their own.
 """
 
 from __future__ import annotations
