@@ -118,7 +118,7 @@ def benchmark(cases: int, judge_cases: int, big: int, repeats: int, main_job: in
               output: str | None) -> None:
     """Positions per second: in-house, a closed-form yardstick, Pinocchio and MuJoCo, and the main job's time,
     in one run (Markdown)."""
-    from dualmech.validation.benchmark import performance_page, run_benchmark
+    from dualmech.validation.benchmark.rows import performance_page, run_benchmark
 
     table = run_benchmark(cases, judge_cases, big, repeats, main_job)
     if output is None:

@@ -30,7 +30,8 @@ MAX_TIMESTEP = 1e-4
 ACCEL_SPEED_FRACTION = 1.0 / 64.0
 #: Servo natural frequency (for the crank's own inertia) times the time step.
 SERVO_BANDWIDTH = 0.5
-#: Damping ratio of the connect's solref (2: see validation/mujoco_sim.py on implicitfast).
+#: Damping ratio of the connect's solref (2: see validation/judges/mujoco_slider_crank/sim.py on
+#: implicitfast).
 CLOSURE_DAMPRATIO = 2.0
 #: ... with a universal joint at P3, whose connect (at P2) holds the servo-driven crank itself: at 2, 6 of
 #: 24 seeded random cases oscillated (errors up to 4e-2 of the peak, one case of another seed blew up);

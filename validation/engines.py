@@ -23,15 +23,15 @@ from dualmech.models.kinds import KIND_HOMES, SLIDER_CRANK, kind_of
 #: engine -> ``[mechanism] kind`` -> "module:function".
 ENGINES: dict[str, dict[str, str]] = {
     "dualmech": {kind: home.solver for kind, home in KIND_HOMES.items()},  # each kind's own (models/kinds.py)
-    "pinocchio": {SLIDER_CRANK: "dualmech.validation.pinocchio_engine:solve_case",
+    "pinocchio": {SLIDER_CRANK: "dualmech.validation.judges.pinocchio_slider_crank.engine:solve_case",
                   "rssr": "dualmech.validation.judges.presets.engines:solve_pinocchio_rssr",
                   "rccc": "dualmech.validation.judges.presets.engines:solve_pinocchio_rccc",
                   "loop": "dualmech.validation.judges.pinocchio_loop.table:solve_table"},
-    "mujoco": {SLIDER_CRANK: "dualmech.validation.mujoco_engine:solve_case",
+    "mujoco": {SLIDER_CRANK: "dualmech.validation.judges.mujoco_slider_crank.engine:solve_case",
                "rssr": "dualmech.validation.judges.presets.engines:solve_mujoco_rssr",
                "rccc": "dualmech.validation.judges.presets.engines:solve_mujoco_rccc",
                "loop": "dualmech.validation.judges.mujoco_loop.table:solve_table"},
-    "mujoco-sim": {SLIDER_CRANK: "dualmech.validation.mujoco_sim:solve_case",
+    "mujoco-sim": {SLIDER_CRANK: "dualmech.validation.judges.mujoco_slider_crank.sim:solve_case",
                    "rssr": "dualmech.validation.judges.presets.engines:simulate_rssr",
                    "rccc": "dualmech.validation.judges.presets.engines:simulate_rccc",
                    "loop": "dualmech.validation.judges.mujoco_loop.table:solve_sim_table"},

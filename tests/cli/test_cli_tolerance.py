@@ -172,7 +172,7 @@ def test_sensitivities_the_solver_disagrees_with_are_named_and_exit_1(tmp_path, 
 
 
 def test_spot_check_passes_on_the_same_design_and_fails_on_a_perturbed_one():
-    pin = pytest.importorskip("dualmech.validation.pinocchio_engine")
+    pin = pytest.importorskip("dualmech.validation.judges.pinocchio_slider_crank.engine")
     from dualmech.validation.tolerance.spot_checks import spot_check
 
     design = load_case("a4-10-s1-3.5")

@@ -1,4 +1,5 @@
-"""The benchmark's time inside an engine (:func:`dualmech.validation.benchmark.library_time`), the main job's
+"""The benchmark's time inside an engine (:func:`dualmech.validation.benchmark.rows.library_time`), the main
+job's
 timing and the performance page.
 
 No timing of the suite itself: a sleep stands for a library function whose time is known, a fake clock and
@@ -13,8 +14,8 @@ import types
 
 import pytest
 
-from dualmech.validation import benchmark
-from dualmech.validation.benchmark import library_time
+from dualmech.validation.benchmark import rows as benchmark
+from dualmech.validation.benchmark.rows import library_time
 
 
 def test_library_time_counts_the_library_functions_alone_and_restores_them() -> None:

@@ -29,8 +29,10 @@ from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, MATRIX_KINE
 from tests.oracles import assembly_margin
 from tests.tolerances import S4_AT_ASSEMBLY_LIMIT
 
-ENGINES = {"dualmech": "dualmech.models.slider_crank", "pinocchio": "dualmech.validation.pinocchio_engine",
-           "mujoco": "dualmech.validation.mujoco_engine", "mujoco-sim": "dualmech.validation.mujoco_sim"}
+ENGINES = {"dualmech": "dualmech.models.slider_crank", "pinocchio":
+"dualmech.validation.judges.pinocchio_slider_crank.engine",
+           "mujoco": "dualmech.validation.judges.mujoco_slider_crank.engine",
+           "mujoco-sim": "dualmech.validation.judges.mujoco_slider_crank.sim"}
 LIBRARY = {"pinocchio": "pinocchio", "mujoco": "mujoco", "mujoco-sim": "mujoco"}
 A1, A2 = 12.0, 50.0
 

@@ -79,7 +79,7 @@ def near_lock_case(start: float = 150.0, stop: float = 210.0, step: float = 1.0,
 @pytest.fixture(scope="module")
 def judged():
     """The case, the in-house table, the simulation judge's table and the design matrix's tolerances."""
-    from dualmech.validation.mujoco_sim import solve_case as simulate
+    from dualmech.validation.judges.mujoco_slider_crank.sim import solve_case as simulate
 
     case = near_lock_case()
     tolerances = parse.design_matrix("thesis/a4-30-s1-3.5").tolerances

@@ -35,7 +35,10 @@ from dualmech.validation.tolerances import (
 pytest.importorskip("pinocchio")
 pytest.importorskip("mujoco")
 
-from dualmech.validation import mujoco_closure, mujoco_engine, mujoco_sim, pinocchio_engine  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank import closure as mujoco_closure  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank import engine as mujoco_engine  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank import sim as mujoco_sim  # noqa: E402
+from dualmech.validation.judges.pinocchio_slider_crank import engine as pinocchio_engine  # noqa: E402
 from dualmech.verbs import validate  # noqa: E402
 
 PRESETS = ("thesis/a4-30-s1-3.5", "thesis/a4-20-alpha-232")

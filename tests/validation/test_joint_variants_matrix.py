@@ -92,7 +92,7 @@ def test_every_rigid_engine_flags_the_universal_joint_lock(tmp_path) -> None:
 
 
 def test_the_gate_fails_when_a_judge_misses_the_lock(tmp_path, monkeypatch) -> None:
-    from dualmech.validation import mujoco_engine
+    from dualmech.validation.judges.mujoco_slider_crank import engine as mujoco_engine
 
     monkeypatch.setattr(mujoco_engine, "flag_joint_lock", lambda status, condition, universal: status)
     run = _validate_lock(tmp_path)

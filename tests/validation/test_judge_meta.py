@@ -14,7 +14,11 @@ from numpy.testing import assert_allclose
 
 from dualmech.models.case import load_case, with_loads
 from dualmech.validation.engines import run_engine
-from dualmech.validation.mujoco_sim_plan import SIM_RUNIN_STEPS, SIM_RUNIN_TIME_CONSTANTS, prepare
+from dualmech.validation.judges.mujoco_slider_crank.sim_plan import (
+    SIM_RUNIN_STEPS,
+    SIM_RUNIN_TIME_CONSTANTS,
+    prepare,
+)
 from tests.models.newton_euler_oracle import table_violation
 from tests.oracles import assembly_margin
 from tests.tolerances import NEWTON_EULER_ROUND_OFF, SERVO_LAG
@@ -62,14 +66,15 @@ def test_mujoco_iterations() -> None:
     assert np.all(iters[cannot] == 0) and np.all((iters[~cannot] >= 1) & (iters[~cannot] < MUJOCO_MAX_ITER))
 
 
-#: The MuJoCo closure's iteration cap (validation/mujoco_closure.py).
+#: The MuJoCo closure's iteration cap (validation/judges/mujoco_slider_crank/closure.py).
 MUJOCO_MAX_ITER = 60
 
 
 def test_mujoco_sim_settings_and_servo_lag() -> None:
     """Force mode: the servo holds the crank against the drive torque the table reports, so its largest
     lag is ``max |drive_torque| / kp`` (kp the crank servo's gain, the table's own ``servo_kp``); the
-    settings are the plan's (:func:`~dualmech.validation.mujoco_sim_plan.prepare`), the run-in its rule by
+    settings are the plan's (:func:`~dualmech.validation.judges.mujoco_slider_crank.sim_plan.prepare`), the
+    run-in its rule by
     hand; torque mode: ``L_ref`` the pin force of the drive torque, ``|T| / a1``."""
     forced = with_loads(SMALL, drive_torque=None, slider_force=50.0)
     table = run_engine("mujoco-sim", forced)

@@ -27,8 +27,9 @@ from tests.validation.pinocchio_oracles import (
 
 mujoco = pytest.importorskip("mujoco")
 
-from dualmech.validation import mujoco_closure, mujoco_engine  # noqa: E402
-from dualmech.validation.mujoco_engine import benchmark, solve_case  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank import closure as mujoco_closure  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank import engine as mujoco_engine  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank.engine import benchmark, solve_case  # noqa: E402
 
 KINEMATIC_GROUPS = {"length": ("S1", "S4"), "velocity": ("S4_dot",), "acceleration": ("S4_ddot",),
                     "ratio": ("transmission",)}

@@ -30,8 +30,13 @@ from tests.validation.test_mujoco_engine import worst_differences
 
 mujoco = pytest.importorskip("mujoco")
 
-from dualmech.validation.mujoco_sim import benchmark, simulate, solve_case  # noqa: E402
-from dualmech.validation.mujoco_sim_plan import SIM_RUNIN_STEPS, prepare, runin_steps, schedule  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank.sim import benchmark, simulate, solve_case  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank.sim_plan import (  # noqa: E402
+    SIM_RUNIN_STEPS,
+    prepare,
+    runin_steps,
+    schedule,
+)
 
 #: Group of worst_differences -> the tolerance it is held to (velocity: see _check_against_inhouse).
 LIMITS = {"length": SIM_STROKE, "acceleration": SIM_REACTIONS, "ratio": SIM_STROKE,
@@ -243,7 +248,7 @@ TOO_MUCH = {
 def test_a_skip_changes_no_bit(skip, case):
     """Why each skip (TOO_MUCH): without the work it saves the simulation is the same, bit for bit (the fault
     this must see: test_a_skip_that_changes_the_physics_is_seen)."""
-    import dualmech.validation.mujoco_sim as sim
+    import dualmech.validation.judges.mujoco_slider_crank.sim as sim
 
     skipped = _simulated(case)
     with pytest.MonkeyPatch.context() as mp:
@@ -256,7 +261,7 @@ def test_a_skip_changes_no_bit(skip, case):
 @pytest.mark.parametrize("skip", list(TOO_MUCH))
 def test_a_skip_that_changes_the_physics_is_seen(skip, monkeypatch):
     """The fault the test above must see: a skip that switches off more than it may (TOO_MUCH)."""
-    import dualmech.validation.mujoco_sim as sim
+    import dualmech.validation.judges.mujoco_slider_crank.sim as sim
 
     case = _short_case()
     reference = _simulated(case)
@@ -274,7 +279,7 @@ def test_a_skip_that_changes_the_physics_is_seen(skip, monkeypatch):
                                              False),
                                             ('<joint name="b" type="hinge" frictionloss="1"/>', False)])
 def test_islands_stay_on_when_two_constraints_could_be_active(extra, skipped):
-    from dualmech.validation.mujoco_sim import skip_collisions, skip_islands
+    from dualmech.validation.judges.mujoco_slider_crank.sim import skip_collisions, skip_islands
 
     model = mujoco.MjModel.from_xml_string(f"""<mujoco><worldbody>
       <body name="a"><joint type="hinge"/><geom type="sphere" size="1" contype="0" conaffinity="0"/></body>
@@ -295,7 +300,7 @@ def test_islands_stay_on_when_two_constraints_could_be_active(extra, skipped):
 @pytest.mark.parametrize("contype, conaffinity, skipped", [(0, 0, True), (1, 0, True), (0, 1, True),
                                                              (1, 1, False)])
 def test_collisions_stay_on_when_two_geoms_could_touch(contype, conaffinity, skipped):
-    from dualmech.validation.mujoco_sim import skip_collisions
+    from dualmech.validation.judges.mujoco_slider_crank.sim import skip_collisions
 
     model = mujoco.MjModel.from_xml_string(f"""<mujoco><worldbody>
       <geom type="sphere" size="1" contype="{contype}" conaffinity="{conaffinity}"/>
@@ -309,8 +314,8 @@ def test_survey_takes_both_unit_rates_at_one_closed_pose():
     """Why: the survey closed the loop a second time for the axial servo's unit rate; both rates now come from
     one closure.  They are the rigid path's own rates for that crank state (to round-off: its second closure
     may polish the pose once more)."""
-    from dualmech.validation import mujoco_engine as rigid
-    from dualmech.validation.mujoco_sim_plan import _unit_rates
+    from dualmech.validation.judges.mujoco_slider_crank import engine as rigid
+    from dualmech.validation.judges.mujoco_slider_crank.sim_plan import _unit_rates
 
     case = load_case("thesis/a4-30-s1-6")  # a cylindrical crank: two servos
     lp = rigid.build(case)
@@ -329,8 +334,8 @@ def test_survey_flags_the_universal_joint_lock_as_the_rigid_path_does():
     import tomllib
 
     from dualmech.models.case import case_from_dict
-    from dualmech.validation import mujoco_engine as rigid
-    from dualmech.validation.mujoco_sim_plan import survey
+    from dualmech.validation.judges.mujoco_slider_crank import engine as rigid
+    from dualmech.validation.judges.mujoco_slider_crank.sim_plan import survey
     from tests.validation.test_joint_variants_matrix import LOCK_CASE
 
     case = case_from_dict(tomllib.loads(LOCK_CASE))

@@ -1,5 +1,5 @@
 """MuJoCo simulation: the steps between the rows run in ``mujoco.rollout`` and are those of a Python loop of
-``mj_step``, bit for bit (validation/mujoco_sim.py, :func:`stepped`)."""
+``mj_step``, bit for bit (validation/judges/mujoco_slider_crank/sim.py, :func:`stepped`)."""
 
 from __future__ import annotations
 
@@ -13,9 +13,9 @@ mujoco = pytest.importorskip("mujoco")
 from mujoco import rollout  # noqa: E402
 
 from dualmech.models.mjcf import case_to_mjcf  # noqa: E402
-from dualmech.validation import mujoco_engine as rigid  # noqa: E402
-from dualmech.validation.mujoco_sim import skip_collisions, stepped  # noqa: E402
-from dualmech.validation.mujoco_sim_plan import prepare  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank import engine as rigid  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank.sim import skip_collisions, stepped  # noqa: E402
+from dualmech.validation.judges.mujoco_slider_crank.sim_plan import prepare  # noqa: E402
 
 READS = np.array([5, 6, 40, 41, 300])
 STEPS = 350

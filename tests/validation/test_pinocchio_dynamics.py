@@ -28,7 +28,7 @@ from tests.validation.pinocchio_oracles import (
 )
 
 pin = pytest.importorskip("pinocchio")
-from dualmech.validation import pinocchio_engine as pe  # noqa: E402
+from dualmech.validation.judges.pinocchio_slider_crank import engine as pe  # noqa: E402
 
 GRAVITY = np.array([3.0, -50.0, -386.4])
 

@@ -13,8 +13,8 @@ from tests.tolerances import JUDGE_NEAR_EDGE_VS_CLOSED_FORM
 from tests.validation.pinocchio_oracles import random_case
 
 pin = pytest.importorskip("pinocchio")
-from dualmech.validation import pinocchio_closure as pc  # noqa: E402
-from dualmech.validation import pinocchio_engine as pe  # noqa: E402
+from dualmech.validation.judges.pinocchio_slider_crank import closure as pc  # noqa: E402
+from dualmech.validation.judges.pinocchio_slider_crank import engine as pe  # noqa: E402
 
 TOL = PINOCCHIO_VS_CLOSED_FORM.value
 
@@ -176,7 +176,7 @@ def test_near_an_edge_of_assembly_the_closure_goes_on_to_rounding():
 def test_the_tangent_is_minus_a_inverse_b_and_nan_where_a_is_singular():
     """``Closure.tangent`` (the continuation's predictor) on rate equations set by hand: ``-A^{-1} B``, and
     NaN, not an error, for a singular ``A`` (numpy's solve replaced SciPy's LAPACK wrapper here)."""
-    from dualmech.validation.pinocchio_model import build_model
+    from dualmech.validation.judges.pinocchio_slider_crank.model import build_model
 
     case = load_case("a4-30-s1-6")
     closure = pc.Closure(build_model(case), 1.0)

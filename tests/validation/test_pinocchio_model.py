@@ -8,7 +8,7 @@ from dualmech.models.case import load_case, with_loads
 from tests.validation.pinocchio_oracles import random_case
 
 pin = pytest.importorskip("pinocchio")
-from dualmech.validation.pinocchio_model import build_model  # noqa: E402
+from dualmech.validation.judges.pinocchio_slider_crank.model import build_model  # noqa: E402
 
 #: Exact copies and single products of case numbers: only round-off of a few operations.
 EXACT = 1e-14

@@ -26,7 +26,7 @@ if importlib.util.find_spec("dualmech.models.slider_crank") is None:  # skip onl
     pytest.skip("the in-house engine dualmech.models.slider_crank is not there yet", allow_module_level=True)
 
 from dualmech.models.slider_crank import solve_case as inhouse_solve  # noqa: E402
-from dualmech.validation.pinocchio_engine import solve_case as pinocchio_solve  # noqa: E402
+from dualmech.validation.judges.pinocchio_slider_crank.engine import solve_case as pinocchio_solve  # noqa: E402
 
 GRAVITY = np.array([3.0, -50.0, -386.4])
 

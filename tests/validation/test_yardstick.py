@@ -2,13 +2,13 @@
 
 The speed ratio in ``dualmech benchmark`` is only meaningful if the yardstick does the same work to the
 same answer: its closed-form S4 and rates and its own Newton-Euler elimination must agree with the kernel
-(``validation/benchmark.py``, ``agreement``: each group of columns relative to its peak).
+(``validation/benchmark/rows.py``, ``agreement``: each group of columns relative to its peak).
 """
 
 from __future__ import annotations
 
-from dualmech.validation import benchmark
-from dualmech.validation.yardstick import YARDSTICK_COLUMNS
+from dualmech.validation.benchmark import rows as benchmark
+from dualmech.validation.benchmark.yardstick import YARDSTICK_COLUMNS
 from tests.tolerances import KERNEL_VS_NUMPY_REACTIONS
 
 

@@ -6,10 +6,10 @@ what the text needs and only MuJoCo can give without the in-house solver
 
 * **the start state**: the loop closed at the case's first crank angle by the
   rigid path's own Newton from a crude guess
-  (:func:`dualmech.validation.mujoco_engine.assembled_state`), with the loop's
+  (:func:`dualmech.validation.judges.mujoco_slider_crank.engine.assembled_state`), with the loop's
   rates for the case's crank speed (``S1`` held: ``S1_dot = 0``);
 * **the time step**: the soft connect opens by about
-  :math:`16\\,\\Delta t^2\\,|\\dot J\\dot q|` (``validation/mujoco_sim.py``), so the
+  :math:`16\\,\\Delta t^2\\,|\\dot J\\dot q|` (``validation/judges/mujoco_slider_crank/sim.py``), so the
   step is *measured*: the exported model is stepped from its keyframe for one
   revolution (at most :data:`CHECK_STEPS` steps), and the step shrinks by
   :math:`0.9\\sqrt{\\text{target}/\\text{gap}}` until the largest loop gap stays
@@ -42,7 +42,7 @@ from dualmech.validation.judges.mujoco_loop.sim_mjcf import HALF_SITE, SimSettin
 from dualmech.validation.judges.mujoco_loop.sim_plan import Survey, length, plan, survey
 from dualmech.validation.judges.mujoco_loop.sim_plan import settings as sim_settings
 from dualmech.validation.judges.mujoco_loop.simulation import reference, run_start
-from dualmech.validation.mujoco_engine import assembled_state, build
+from dualmech.validation.judges.mujoco_slider_crank.engine import assembled_state, build
 from dualmech.validation.tolerances import MJCF_EXPORT_CRANK_SPEED, MJCF_EXPORT_LOOP_GAP
 
 #: The first step tried: one degree of the crank per step, never longer than this (s; MuJoCo's default: 2e-3).

@@ -46,7 +46,7 @@ from dualmech.models.slider_crank import analyze
 from dualmech.validation.judges.mujoco_loop import loop_mjcf, solve_loop
 from dualmech.validation.judges.mujoco_loop.closure import CLOSURE_TOL
 from dualmech.validation.judges.mujoco_loop.engine import LoopTable, column_names
-from dualmech.validation.mujoco_engine import solve_case
+from dualmech.validation.judges.mujoco_slider_crank.engine import solve_case
 from dualmech.validation.tolerances import MUJOCO_RIGID_KINEMATICS, MUJOCO_RIGID_REACTIONS
 from tests.models.loop.test_random_tables import TOPOLOGIES, random_table
 from tests.tolerances import LOOP_REACTIONS_ROUNDING
@@ -280,7 +280,8 @@ HAND_WRITTEN_AGREEMENT = 1e-12
 
 @pytest.mark.parametrize("preset", preset_names())
 def test_the_hand_written_slider_crank_judge_agrees(preset: str) -> None:
-    """Every slider-crank preset: the generated judge against ``validation/mujoco_engine.py`` (same
+    """Every slider-crank preset: the generated judge against
+    ``validation/judges/mujoco_slider_crank/engine.py`` (same
     statuses; ``S4`` and its rates, every reaction column and the efforts, mapped as in
     ``docs/conventions.md``, "Loop tables": ``j4`` and the slider load are minus joint 4's)."""
     mech, start = _slider_crank(preset)

@@ -39,7 +39,7 @@ from dualmech.validation.judges.pinocchio_loop.closure import (
 )
 from dualmech.validation.judges.pinocchio_loop.engine import PinocchioLoopTable, solve_loop
 from dualmech.validation.judges.pinocchio_loop.model import build_model
-from dualmech.validation.pinocchio_engine import solve as solve_pinocchio_slider_crank
+from dualmech.validation.judges.pinocchio_slider_crank.engine import solve as solve_pinocchio_slider_crank
 from dualmech.validation.tolerances import PINOCCHIO_KINEMATICS, PINOCCHIO_REACTIONS
 from tests.models.loop.test_random_tables import TOPOLOGIES, first_assembly, random_table
 
@@ -279,7 +279,8 @@ def test_a_revolute_cut_with_its_axis_reversed_is_not_accepted() -> None:
 @pytest.mark.parametrize("name", ["thesis/ideal", "thesis/a4-30-s1-3.5", "thesis/a4-20-alpha-232",
                                   "iftomm/spatial-slider-crank"])
 def test_slider_crank_presets_agree_with_the_hand_written_judge(name: str) -> None:
-    """Before the hand-written slider-crank judge (``validation/pinocchio_engine.py``) is retired, the
+    """Before the hand-written slider-crank judge (``validation/judges/pinocchio_slider_crank/engine.py``) is
+    retired, the
     generated one gives its S4, rates, wrenches (about O: ground on crank, crank on rod, ground on slider =
     minus joint 4's) and efforts, within the Pinocchio bars (measured <= 1.2e-11, a4-30-s1-3.5's wrenches)."""
     case = load_case(name)

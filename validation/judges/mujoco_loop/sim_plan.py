@@ -27,7 +27,11 @@ from dualmech.validation.judges.mujoco_loop.closure import MjLoop, build, positi
 from dualmech.validation.judges.mujoco_loop.dynamics import balance, solve_free, velocity_rows
 from dualmech.validation.judges.mujoco_loop.engine import efforts, sweep
 from dualmech.validation.judges.mujoco_loop.sim_mjcf import SimSettings, servoed
-from dualmech.validation.mujoco_sim_plan import SIM_INERTIA_MARGIN, SIM_RUNIN_STEPS, SIM_RUNIN_TIME_CONSTANTS
+from dualmech.validation.judges.mujoco_slider_crank.sim_plan import (
+    SIM_INERTIA_MARGIN,
+    SIM_RUNIN_STEPS,
+    SIM_RUNIN_TIME_CONSTANTS,
+)
 from dualmech.validation.tolerances import DEAD_CENTRE_TRANSMISSION
 
 

@@ -15,19 +15,23 @@ engine.  Rows that do not assemble, or jump branch, keep the rigid word and are 
 step grid); otherwise each row gets its own run along the trajectory through its snapshot.  Each run
 starts ``runin`` steps before its first row.
 
-**Settings** (as the slider crank's simulated judge, ``validation/mujoco_sim.py``, where they are
+**Settings** (as the slider crank's simulated judge, ``validation/judges/mujoco_slider_crank/sim.py``, where
+they are
 measured): ``dt`` = one degree of the drive's fastest phase (a slide: one degree times the table's
 length) over :data:`~dualmech.models.mjcf_settings.STEPS_PER_DEGREE`, at most
 :data:`~dualmech.models.mjcf_settings.MAX_TIMESTEP`, and one degree of the fastest joint where a joint
 turns faster than the drive (:func:`.sim_plan.timestep`, the survey's :attr:`.sim_plan.Survey.fastest`);
 servo ``kp = I_low (0.5/dt)^2`` with ``I_low`` the
 driven link's own inertia about (mass along) the drive axis, ``kv = 2 sqrt(kp I_high)`` with ``I_high``
-the margin :data:`~dualmech.validation.mujoco_sim_plan.SIM_INERTIA_MARGIN` times the largest effective
+the margin :data:`~dualmech.validation.judges.mujoco_slider_crank.sim_plan.SIM_INERTIA_MARGIN` times the
+largest effective
 inertia; weld ``solref = (2 dt, 2)`` (damping ratio 4 with a universal joint), ``solimp`` 0.9999; the run-in
-:data:`~dualmech.validation.mujoco_sim_plan.SIM_RUNIN_TIME_CONSTANTS` time constants of the slower of the
+:data:`~dualmech.validation.judges.mujoco_slider_crank.sim_plan.SIM_RUNIN_TIME_CONSTANTS` time constants of
+the slower of the
 servo's ``kv/kp`` and the weld's slow pole (:func:`.sim_plan.weld_time_constant`: ~63 steps at damping
 ratio 4, whose transient from the rigid start otherwise biased a U joint's accelerations by 2e-3 of
-their peak), at least :data:`~dualmech.validation.mujoco_sim_plan.SIM_RUNIN_STEPS`.  Collision detection
+their peak), at least :data:`~dualmech.validation.judges.mujoco_slider_crank.sim_plan.SIM_RUNIN_STEPS`.
+Collision detection
 and island discovery are switched off (no geoms, one equality).  A run in which MuJoCo warns (it blew up)
 is not trusted: its rows are ``not_converged``.
 
@@ -82,7 +86,12 @@ from dualmech.validation.judges.mujoco_loop.sim_mjcf import (
     loop_sim_mjcf,
 )
 from dualmech.validation.judges.mujoco_loop.sim_plan import Survey, length, load_scale, plan, survey
-from dualmech.validation.mujoco_sim import skip_collisions, skip_islands, stepped, velocity_gains
+from dualmech.validation.judges.mujoco_slider_crank.sim import (
+    skip_collisions,
+    skip_islands,
+    stepped,
+    velocity_gains,
+)
 from dualmech.validation.tolerances import SIM_DEAD_CENTRE_TRANSMISSION
 
 ENGINE = "mujoco-loop-sim"

@@ -1,5 +1,5 @@
 """Pinocchio judge, passes 2-4: rates, ``rnea`` and the closed loop's inverse dynamics
-(thesis method, steps 2-4 of :mod:`~dualmech.validation.pinocchio_engine`).
+(thesis method, steps 2-4 of :mod:`~dualmech.validation.judges.pinocchio_slider_crank.engine`).
 
 Rates solve :math:`[J_c; s^T] \\dot q = 0` and the same with the drift for :math:`\\ddot q`
 (:func:`rates_and_rnea`); ``rnea`` gives :math:`\\tau_0 = M\\ddot q + b`; and
@@ -7,7 +7,7 @@ Rates solve :math:`[J_c; s^T] \\dot q = 0` and the same with the drift for :math
 efforts and the closure force :math:`\\lambda` (:func:`closed_loop_inverse_dynamics`).
 
 With a universal joint at P3, :math:`s^T` is the joint's row :math:`n^T J_\\omega` (``n = a_r x k4``,
-the rate form of ``e·k4 = 0``, :mod:`~dualmech.validation.pinocchio_model`), its drift
+the rate form of ``e·k4 = 0``, :mod:`~dualmech.validation.judges.pinocchio_slider_crank.model`), its drift
 :math:`\\dot\\omega\\cdot n + \\omega\\cdot((\\omega\\times e)\\times k_4)` (the second derivative of
 ``e·k4``), and the inverse dynamics gains its multiplier :math:`\\mu`:
 :math:`\\tau_0 = S^T\\tau + J_c^T\\lambda + (n^T J_\\omega)^T\\mu`, the moment :math:`\\mu n` of the slider
@@ -21,8 +21,8 @@ import pinocchio as pin
 
 from dualmech.core.motion import CrankState
 from dualmech.models.case import Case
-from dualmech.validation.pinocchio_closure import LWA, Closure
-from dualmech.validation.pinocchio_model import PinocchioSliderCrank
+from dualmech.validation.judges.pinocchio_slider_crank.closure import LWA, Closure
+from dualmech.validation.judges.pinocchio_slider_crank.model import PinocchioSliderCrank
 
 
 def rates_and_rnea(closure: Closure, case: Case, pos: dict[str, np.ndarray], state: CrankState,

@@ -1,4 +1,5 @@
-"""The rigid MuJoCo judge's model and loop closure (step 1 of :mod:`~dualmech.validation.mujoco_engine`).
+"""The rigid MuJoCo judge's model and loop closure (step 1 of
+:mod:`~dualmech.validation.judges.mujoco_slider_crank.engine`).
 
 :func:`build` compiles the MJCF of a case into an :class:`MjLoop`; with ``theta1`` (and ``S1``) set, the
 rod's joint coordinates and ``S4`` are found by Newton on the gap of the connect's two sites

@@ -45,7 +45,8 @@ omega_rod (rod frame), S4_dot]``).  Per crank position:
 Generalized forces on the joints: hinge ``crank_angle`` (axis +z) carries the
 drive torque; slide ``slider_stroke`` (axis ``-k4``) carries ``-slider_load``.
 
-Step 1 is :mod:`~dualmech.validation.mujoco_closure`, steps 2-4 :mod:`~dualmech.validation.mujoco_dynamics`;
+Step 1 is :mod:`~dualmech.validation.judges.mujoco_slider_crank.closure`, steps 2-4
+:mod:`~dualmech.validation.judges.mujoco_slider_crank.dynamics`;
 this module runs them position by position and writes the table.
 """
 
@@ -62,7 +63,7 @@ from dualmech.core.assembly import edge_status, foot_s4
 from dualmech.core.status import Status, flag_joint_lock, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
-from dualmech.validation.mujoco_closure import (
+from dualmech.validation.judges.mujoco_slider_crank.closure import (
     MjLoop,
     build,
     close_loop,
@@ -74,7 +75,7 @@ from dualmech.validation.mujoco_closure import (
     set_crank,
     slider_line,
 )
-from dualmech.validation.mujoco_dynamics import (
+from dualmech.validation.judges.mujoco_slider_crank.dynamics import (
     drift,
     efforts,
     rate_rows,

@@ -10,7 +10,7 @@ seeded random cases (the thesis example with random offset, twist and axial shif
 * **dualmech** -- the compiled kernel (:mod:`dualmech.models.slider_crank_kernel`),
   in-process, all cores; and ``dualmech solve`` of one long case streamed into Parquet
   (:func:`dualmech.validation.solve_output.stream_solve`, start-up excluded).
-* **closed-form yardstick** -- :mod:`dualmech.validation.yardstick`, the same outputs in
+* **closed-form yardstick** -- :mod:`dualmech.validation.benchmark.yardstick`, the same outputs in
   closed form, compiled, on the same cores: the machine's limit for this mechanism.  Its inputs
   (crank states, case arrays) are made before the timing: ~80 µs of Python a case, a quarter of
   the closed form's own time on the 1° grid, is not the machine's limit.
@@ -18,9 +18,9 @@ seeded random cases (the thesis example with random offset, twist and axial shif
   on the slider crank's joint table (:func:`dualmech.models.loop.presets.slider_crank_table`): some of the
   cases, and one long case (a tenth of the Parquet row's positions), through ``analyze_loop``.
 * **Pinocchio, MuJoCo, Exudyn** -- best-effort drivers: the model built once per case outside the
-  timing (Pinocchio: :func:`~dualmech.validation.pinocchio_engine.solve` with a prebuilt
+  timing (Pinocchio: :func:`~dualmech.validation.judges.pinocchio_slider_crank.engine.solve` with a prebuilt
   model; MuJoCo rigid: the per-position loop of
-  :func:`~dualmech.validation.mujoco_engine.solve_case` on a prebuilt model).  Beside the
+  :func:`~dualmech.validation.judges.mujoco_slider_crank.engine.solve_case` on a prebuilt model).  Beside the
   driver's total, the time inside the engine: the seconds spent in the library's own
   functions (:func:`library_time`), measured in separate runs so that the timers do not
   slow the total.  The Exudyn judge (:func:`time_exudyn`) has nothing to prebuild: its systems are
@@ -152,7 +152,7 @@ def _positions(cases: list[Case]) -> int:
 def closed_form_inputs(cases: list[Case]) -> list[tuple]:
     """The yardstick's arguments per case (crank states, geometry, bodies, loads, an output array): made
     before the timing, so the yardstick's figure is the compiled closed form alone, the machine's limit."""
-    from dualmech.validation.yardstick import YARDSTICK_COLUMNS
+    from dualmech.validation.benchmark.yardstick import YARDSTICK_COLUMNS
 
     out = []
     for case in cases:
@@ -167,7 +167,7 @@ def closed_form_inputs(cases: list[Case]) -> list[tuple]:
 def run_closed_form(inputs: list[tuple]) -> list[np.ndarray]:
     """The yardstick over prepared ``inputs`` (:func:`closed_form_inputs`), cases spread over the kernel's
     threads; its outputs ``(26, n)`` per case."""
-    from dualmech.validation.yardstick import closed_form_range
+    from dualmech.validation.benchmark.yardstick import closed_form_range
 
     def one(args: tuple) -> np.ndarray:
         closed_form_range(0, args[0].shape[1], *args)
@@ -184,7 +184,7 @@ def closed_form(cases: list[Case]) -> list[np.ndarray]:
 def agreement(cases: list[Case]) -> float:
     """Largest difference of the kernel from the yardstick over ``cases``, relative to each column's peak
     over the case's force (or moment, or kinematic) columns."""
-    from dualmech.validation.yardstick import YARDSTICK_COLUMNS
+    from dualmech.validation.benchmark.yardstick import YARDSTICK_COLUMNS
 
     worst = 0.0
     for case, ref, table in zip(cases, closed_form(cases), solve_cases(cases)):
@@ -200,8 +200,8 @@ def time_pinocchio(cases: list[Case], repeats: int) -> Timing:
     functions."""
     import pinocchio as pin
 
-    from dualmech.validation import pinocchio_engine as pe
-    from dualmech.validation.pinocchio_model import build_model
+    from dualmech.validation.judges.pinocchio_slider_crank import engine as pe
+    from dualmech.validation.judges.pinocchio_slider_crank.model import build_model
 
     models = [build_model(c) for c in cases]
 
@@ -218,7 +218,7 @@ def time_mujoco(cases: list[Case], repeats: int) -> Timing:
     engine = time in MuJoCo's functions."""
     import mujoco
 
-    from dualmech.validation import mujoco_engine as me
+    from dualmech.validation.judges.mujoco_slider_crank import engine as me
 
     loops = [me.build(c) for c in cases]
 
@@ -341,8 +341,8 @@ def performance_page(table: str, command: str) -> str:
     when = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return (f"# Performance\n\nCurrent figures: one run of `{command}` on {when}, written by that "
             "command; run it again to regenerate this page. What each row measures: the module docstring of "
-            "`validation/benchmark.py`; the ratio column is each row's speed over the compiled closed-form "
-            "yardstick's, the machine's limit for the mechanism.\n\n" + table + "\n")
+            "`validation/benchmark/rows.py`; the ratio column is each row's speed over the compiled "
+            "closed-form yardstick's, the machine's limit for the mechanism.\n\n" + table + "\n")
 
 
 def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000, repeats: int = 3,

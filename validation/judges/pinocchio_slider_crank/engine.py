@@ -1,6 +1,6 @@
 """Pinocchio judge: the result table of a case computed by Pinocchio alone.
 
-The model is :func:`~dualmech.validation.pinocchio_model.build_model` (a tree
+The model is :func:`~dualmech.validation.judges.pinocchio_slider_crank.model.build_model` (a tree
 cut at joint 3, closed by a 3-D point constraint).  Nothing here imports or is
 seeded by the in-house solver (``dualmech.models.slider_crank`` / ``dualmech.core``
 solvers); only the case record, the crank motion and the table format are shared.
@@ -61,8 +61,8 @@ Method, per crank position (``docs/conventions.md`` for every symbol):
    (``pinocchio_dynamics``), added to the closure wrench the same way; the
    ``j3_m`` columns are :math:`-\\mu n` (0 with a ball).
 
-Step 1 is :mod:`~dualmech.validation.pinocchio_closure`, steps 2-3 are
-:mod:`~dualmech.validation.pinocchio_dynamics`; this module runs them on a case
+Step 1 is :mod:`~dualmech.validation.judges.pinocchio_slider_crank.closure`, steps 2-3 are
+:mod:`~dualmech.validation.judges.pinocchio_slider_crank.dynamics`; this module runs them on a case
 (:func:`solve`), adds the edges of assembly and dead centres, and writes the table.
 """
 
@@ -80,7 +80,7 @@ from dualmech.core.status import flag_joint_lock, settle
 from dualmech.core.table import REACTION_COLUMNS, STATUSES, ResultTable
 from dualmech.models.case import Case
 from dualmech.validation import tolerances
-from dualmech.validation.pinocchio_closure import (
+from dualmech.validation.judges.pinocchio_slider_crank.closure import (
     DEAD,
     LIMIT,
     NO_ASSEMBLY,
@@ -90,11 +90,11 @@ from dualmech.validation.pinocchio_closure import (
     close_positions,
     length_scale,
 )
-from dualmech.validation.pinocchio_dynamics import (
+from dualmech.validation.judges.pinocchio_slider_crank.dynamics import (
     closed_loop_inverse_dynamics,
     rates_and_rnea,
 )
-from dualmech.validation.pinocchio_model import (
+from dualmech.validation.judges.pinocchio_slider_crank.model import (
     PinocchioSliderCrank,
     build_model,
     slider_axis,

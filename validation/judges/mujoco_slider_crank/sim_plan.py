@@ -2,7 +2,8 @@
 
 :func:`survey` closes the loop rigidly at every row (MuJoCo's own geometry) to find the rows that
 assemble and the largest effective inertias the crank servos see; :func:`schedule` splits the rows
-into runs on a common time grid; :func:`prepare` gives both to :mod:`~dualmech.validation.mujoco_sim`.
+into runs on a common time grid; :func:`prepare` gives both to
+:mod:`~dualmech.validation.judges.mujoco_slider_crank.sim`.
 """
 
 from __future__ import annotations
@@ -21,8 +22,8 @@ from dualmech.models.mjcf import (
     default_timestep,
     simulation_steps,
 )
-from dualmech.validation import mujoco_engine as rigid
-from dualmech.validation.mujoco_dynamics import rate_rows, solve_rates
+from dualmech.validation.judges.mujoco_slider_crank import engine as rigid
+from dualmech.validation.judges.mujoco_slider_crank.dynamics import rate_rows, solve_rates
 
 #: Fewest steps simulated before the first row of a run; more if the servos' slow pole needs them.
 SIM_RUNIN_STEPS = 128
@@ -102,7 +103,8 @@ def schedule(case: Case, steps_per_degree: int | None = None, rows: np.ndarray |
 class Survey:
     """What the rigid path's closure finds at every row before anything is simulated.
 
-    ``status`` (n,) words of :func:`~dualmech.validation.mujoco_engine.assembled_state`; ``s4`` and
+    ``status`` (n,) words of :func:`~dualmech.validation.judges.mujoco_slider_crank.engine.assembled_state`;
+    ``s4`` and
     ``condition`` (n,) its pose's ``S4`` and ``|u·k4|``; ``inertia_high`` the largest effective inertias
     of the crank angle (F·L·s²) and axial (F·s²/L) joints over the rows that assemble.
     """
@@ -150,7 +152,8 @@ def survey(case: Case) -> Survey:
 
 def _unit_rates(lp: rigid.MjLoop) -> list[np.ndarray]:
     """The mechanism's velocity for a unit rate of each crank joint (the other held) at the closed pose, (nv,)
-    each: ``qvel`` as :func:`~dualmech.validation.mujoco_engine.assembled_state` left it for the crank
+    each: ``qvel`` as :func:`~dualmech.validation.judges.mujoco_slider_crank.engine.assembled_state` left it
+    for the crank
     angle, the same rate rows for the axial joint."""
     rates = [lp.data.qvel.copy()]
     if lp.crank_dofs.size == 2:

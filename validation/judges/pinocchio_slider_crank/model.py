@@ -39,7 +39,8 @@ and the velocity ``v = (theta1_dot, S1_dot, omega_rel(rod, 3, rod axes), S4_dot)
   joint's own condition: the rod-side axis ``e`` (the rod frame's y axis) stays normal to the slider's
   axis ``k4``, ``e·k4 = 0`` (holonomic, one equation; its rate form is ``omega_rod·n = 0`` with
   ``n = e x k4``, so its multiplier is a moment along ``n``: the joint's constraint moment).  The rod
-  frame is then x = ``u``, y = ``a_r = u x k4 / |u x k4|`` (:mod:`~dualmech.validation.pinocchio_closure`
+  frame is then x = ``u``, y = ``a_r = u x k4 / |u x k4|``
+  (:mod:`~dualmech.validation.judges.pinocchio_slider_crank.closure`
   turns the rod about ``u`` onto it).  MuJoCo's judge builds the same joint the other way (two hinges in
   the tree, the loop cut at P2), so the two judges share no step of the universal joint.
 """

@@ -1,5 +1,5 @@
 """Pinocchio judge, pass 1: closing the loop at every crank position (thesis method, step 1 of
-:mod:`~dualmech.validation.pinocchio_engine`).
+:mod:`~dualmech.validation.judges.pinocchio_slider_crank.engine`).
 
 The residual is the gap between the rod end and the slider pin, both Pinocchio frames, in world axes,
 
@@ -24,7 +24,7 @@ from dualmech.core.motion import CrankState
 from dualmech.core.status import Status
 from dualmech.core.table import STATUSES
 from dualmech.models.case import Case
-from dualmech.validation.pinocchio_model import PinocchioSliderCrank
+from dualmech.validation.judges.pinocchio_slider_crank.model import PinocchioSliderCrank
 
 #: Closure tolerance on |r|, relative to the mechanism's length scale a1 + a2 + |a4| + max|S1|:
 #: ~50 ulp of the largest coordinate, far below the 1e-10 agreement asked of S4; Newton's quadratic

@@ -8,7 +8,7 @@ load is the ``slider_load`` motor, gravity is the model's.  At each tabulated
 crank angle the state is read after ``mj_forward``: ``S4``/``S4_dot`` from
 ``qpos``/``qvel``, joint 3 from the connect's ``efc_force``, joints 1, 2 and 4
 from ``cfrc_int`` after ``mj_rnePostConstraint`` (mapped as in
-:func:`dualmech.validation.mujoco_engine.joint_wrenches`), ``residual`` = the
+:func:`dualmech.validation.judges.mujoco_slider_crank.engine.joint_wrenches`), ``residual`` = the
 connect's gap / a2.  ``theta1_deg`` is the tabulated angle, ``S1`` the
 simulated one.
 
@@ -77,12 +77,10 @@ the prescribed motion against ``T``).  The kinematic columns are those of the
 ``L = 0`` run: in the rigid model they do not depend on the load, while the
 loaded simulation would deflect under a load that grows like ``1/t`` near the
 dead centres, which is where the stroke's extremes lie (``t = 0`` is
-``dS4/dtheta1 = 0``).  Reaction errors grow like ``1/t²`` there (the
-comparison scales by ``1/|t|``): rows with
-``|transmission| < SIM_DEAD_CENTRE_TRANSMISSION`` are flagged ``dead_centre``
-(reactions NaN, kinematics given).
-
-The plan of a simulation (rows, time grid, servo settings) is :mod:`~dualmech.validation.mujoco_sim_plan`.
+``dS4/dtheta1 = 0``).  Reaction errors grow like ``1/t²`` there (the comparison scales by ``1/|t|``): rows
+with ``|transmission| < SIM_DEAD_CENTRE_TRANSMISSION`` are flagged ``dead_centre`` (reactions NaN,
+kinematics given).  The plan of a simulation (rows, time grid, servo settings) is
+:mod:`~dualmech.validation.judges.mujoco_slider_crank.sim_plan`.
 """
 
 from __future__ import annotations
@@ -100,9 +98,10 @@ from dualmech.core.status import Status, flag_joint_lock, settle
 from dualmech.core.table import NUMERIC_COLUMNS, REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case
 from dualmech.models.mjcf import MjcfSettings, case_to_mjcf, simulation_steps
-from dualmech.validation import mujoco_closure, mujoco_dynamics
-from dualmech.validation import mujoco_engine as rigid
-from dualmech.validation.mujoco_sim_plan import (
+from dualmech.validation.judges.mujoco_slider_crank import closure as mujoco_closure
+from dualmech.validation.judges.mujoco_slider_crank import dynamics as mujoco_dynamics
+from dualmech.validation.judges.mujoco_slider_crank import engine as rigid
+from dualmech.validation.judges.mujoco_slider_crank.sim_plan import (
     Survey,
     checked_settings,
     prepare,

@@ -1,5 +1,5 @@
 """The rigid MuJoCo judge's rates, efforts and joint wrenches (steps 2-4 of
-:mod:`~dualmech.validation.mujoco_engine`).
+:mod:`~dualmech.validation.judges.mujoco_slider_crank.engine`).
 
 Rates from the closure and, with a ball at P3, the rod's zero-spin gauge (drift from ``mj_jacDot``; a
 universal joint's hinges determine the spin: no gauge); efforts by least squares on
@@ -12,7 +12,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from dualmech.validation.mujoco_closure import MjLoop, gap_jacobian, rod_axis
+from dualmech.validation.judges.mujoco_slider_crank.closure import MjLoop, gap_jacobian, rod_axis
 
 
 def rate_rows(lp: MjLoop) -> tuple[np.ndarray, np.ndarray]:
