@@ -208,7 +208,8 @@ def simulate(case: Any, duration: float, **options: Any) -> Any:
     Parameters
     ----------
     case : a case of any kind, str, os.PathLike or dict
-        As :func:`solve` takes it: a slider crank (:func:`dualmech.models.forward_dynamics.simulate`,
+        As :func:`solve` takes it: a slider crank
+        (:func:`dualmech.models.slider_crank.forward_dynamics.simulate`,
         :class:`~dualmech.models.simulation.Simulation`), an RSSR, RCCC
         (:func:`dualmech.models.linkages.forward_dynamics.simulate`) or loop table
         (:func:`dualmech.models.loop.forward_dynamics.simulate`), by its kind

@@ -1,5 +1,5 @@
 """``dualmech simulate``: forward dynamics of a case under a given torque (thin shell over
-:func:`dualmech.models.forward_dynamics.simulate`).
+:func:`dualmech.models.slider_crank.forward_dynamics.simulate`).
 
 Numeric options are read as text and parsed here, so a bad one (``--rtol nan``,
 ``--duration 1e400``, ``--samples abc``) is one line naming the option, the value and
@@ -19,8 +19,8 @@ from dualmech.cli.errors import one_line_errors
 from dualmech.cli.progress import progress
 from dualmech.cli.solve import warn_units
 from dualmech.models.catalogue import load_mechanism
-from dualmech.models.forward_dynamics import MAX_EVALUATIONS, TIME_LIMIT
 from dualmech.models.inputs import ANGLE_DEG, Range, show
+from dualmech.models.integration import MAX_EVALUATIONS, TIME_LIMIT
 from dualmech.models.kinds import KIND_HOMES, kind_of, resolve
 from dualmech.models.plausibility import ImplausibleUnitsWarning
 
@@ -118,7 +118,7 @@ def _settings(duration: str, psidot0: str | None, damping: str, slider_damping: 
               method: str, rtol: str, atol: str, max_evaluations: str, time_limit: str) -> dict:
     """The numeric options parsed in order, as keyword arguments of ``simulate``; a one-line ValueError for
     a bad one."""
-    from dualmech.models import forward_dynamics as fd
+    from dualmech.models import integration as fd
 
     settings = {"duration": parse_number("--duration", duration, fd.DURATION),
                 "psidot0": parse_number("--psidot0", psidot0, fd.CRANK_SPEED),

@@ -32,7 +32,7 @@ power of the applied loads per unit :math:`\\dot\\theta` (eq. 43,
 :math:`\\tau = \\tau^A + \\tau^G + \\tau^D`).
 
 Everything here is numpy on arrays (no mechanism model): the influence
-coefficients come from any velocity analysis (``models/forward_dynamics.py``
+coefficients come from any velocity analysis (``models/slider_crank/forward_dynamics.py``
 takes them from the in-house solver).  Shapes: ``b`` bodies, ``n`` positions.
 """
 

@@ -59,13 +59,13 @@ _TABLE_TOLERANCE = "dualmech.models.tolerance.tables:PLAN"
 #: Every kind dualmech solves.
 KIND_HOMES: dict[str, Kind] = {
     SLIDER_CRANK: Kind("dualmech.models.case:Case", "dualmech.models.case:case_from_dict",
-                       "dualmech.models.slider_crank:solve_case", "",
-                       "dualmech.models.forward_dynamics:simulate",
+                       "dualmech.models.slider_crank.analysis:solve_case", "",
+                       "dualmech.models.slider_crank.forward_dynamics:simulate",
                        "dualmech.models.design_summary:solve_summary",
                        "dualmech.models.simulation_summary:slider_crank_summary",
                        sim_options=("slider_load", "slider_damping"),
                        warnings="dualmech.models.plausibility:implausible",
-                       assembly="dualmech.models.slider_crank:assembly_failure",
+                       assembly="dualmech.models.slider_crank.analysis:assembly_failure",
                        joint_frames="dualmech.models.joint_frames:write_joint_frame_csv",
                        tolerance="dualmech.models.tolerance.slider_crank:PLAN"),
     "rssr": Kind(f"{_LINKAGES}.rssr_case:RssrCase", f"{_LINKAGES}.rssr_case:rssr_from_dict",

@@ -1,6 +1,6 @@
 """The result of a forward-dynamics run: the simulated motion, its energies and joint reactions.
 
-:func:`dualmech.models.forward_dynamics.simulate` returns a :class:`Simulation`; its columns
+:func:`dualmech.models.slider_crank.forward_dynamics.simulate` returns a :class:`Simulation`; its columns
 (:data:`SIMULATION_COLUMNS`, ``docs/conventions.md``) go to CSV through the one writer of
 dualmech's outputs, :func:`dualmech.core.table.write_csv`.
 """

@@ -58,7 +58,7 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     if not getattr(config.option, "numprocesses", None) or hasattr(config, "workerinput"):
         return
     from dualmech.cli.progress import show_kernel_compiles
-    from dualmech.models.slider_crank_kernel import load_kernel
+    from dualmech.models.slider_crank.kernel import load_kernel
     from dualmech.verbs import solve
 
     show_kernel_compiles()
@@ -74,7 +74,7 @@ def pytest_collection_finish(session: pytest.Session) -> None:
     if session.config.option.collectonly or not session.items:
         return
     from dualmech.cli.progress import show_kernel_compiles
-    from dualmech.models.slider_crank_kernel import load_kernel
+    from dualmech.models.slider_crank.kernel import load_kernel
 
     show_kernel_compiles()
     load_kernel()

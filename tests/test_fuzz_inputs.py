@@ -25,7 +25,7 @@ from hypothesis import strategies as st
 
 from dualmech.core.status import Status
 from dualmech.models.case import case_from_dict
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 from dualmech.validation.matrix import check_file_name, matrix_from_dict, parse_matrix
 from tests.hostile_inputs import HOSTILE_NUMBERS, ideal_case, mutate
 

@@ -23,13 +23,14 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
-from dualmech.models import dynamics_coefficients as dc
-from dualmech.models import forward_dynamics as fd
-from dualmech.models import slider_crank, slider_crank_kernel
 from dualmech.models.angle_ranges import format_angle_ranges, no_assembly_ranges
 from dualmech.models.case import Case, load_case, with_loads
 from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage, table_spec
 from dualmech.models.linkages.forward_dynamics import simulate as simulate_linkage
+from dualmech.models.slider_crank import analysis as slider_crank
+from dualmech.models.slider_crank import dynamics_coefficients as dc
+from dualmech.models.slider_crank import forward_dynamics as fd
+from dualmech.models.slider_crank import kernel as slider_crank_kernel
 from dualmech.validation.engines import run_engine
 from dualmech.validation.engines import solve_linkage as solve_linkage_by
 from dualmech.validation.tolerances import SIM_STROKE

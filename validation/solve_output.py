@@ -2,7 +2,7 @@
 
 A case of more than :data:`STREAM_POSITIONS` crank positions solved by the in-house engine
 never exists whole in memory: the compiled kernel analyses it chunk by chunk into three
-buffers used in turn (:func:`~dualmech.models.slider_crank_kernel.iter_chunks`), one chunk ahead,
+buffers used in turn (:func:`~dualmech.models.slider_crank.kernel.iter_chunks`), one chunk ahead,
 and each chunk goes to the file (a Parquet row group, or CSV rows) on a writer thread while the
 kernel computes the next, so memory is bounded by three chunks (and the writer's buffer).  Its summary then
 gives what can be gathered on the way: status counts, stroke, worst closure residual and the
@@ -27,7 +27,7 @@ from dualmech.models.plausibility import masses_line
 from dualmech.models.units import column_unit
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
-    from dualmech.models.slider_crank_kernel import Chunk
+    from dualmech.models.slider_crank.kernel import Chunk
     from dualmech.validation.progress import ProgressCallback
 
 #: Cases longer than this stream to their file (one chunk of the kernel each).
@@ -101,7 +101,7 @@ def _pipelined(chunks: Iterable[Chunk], sink: Callable[[int, Chunk], None]) -> N
     One chunk at most is being written: chunk ``k + 1`` is handed over once chunk ``k`` is written, and
     only then is chunk ``k + 2`` asked for (and chunk ``k + 3`` begun), so with the kernel one chunk
     ahead three buffers used in turn suffice
-    (:func:`~dualmech.models.slider_crank_kernel.iter_chunks` with ``buffers=3, ahead=1``).  An exception of
+    (:func:`~dualmech.models.slider_crank.kernel.iter_chunks` with ``buffers=3, ahead=1``).  An exception of
     ``sink`` is raised here (when the next chunk is ready, or at the end); on any exception, an
     interrupt too, the write in flight is finished first, so the caller may then close the file with
     every finished chunk in it.
@@ -149,7 +149,7 @@ def stream_solve(case: Case, path: str | Path, progress: ProgressCallback | None
     an error, a full disk or Ctrl-C leaves the old file as it was and no partial one.
     """
     from dualmech.models.angle_ranges import no_assembly_message, row_ranges
-    from dualmech.models.slider_crank_kernel import CHUNK_POSITIONS, iter_chunks, to_table
+    from dualmech.models.slider_crank.kernel import CHUNK_POSITIONS, iter_chunks, to_table
 
     parquet = output_format(path) == ".parquet"
     held = _hold_old_file(Path(path))

@@ -5,7 +5,8 @@ internal the user cannot act on.  The library silences the floating-point warnin
 without an answer carry NaN: ``np.errstate`` where they are computed); one that still reaches the
 command line is a defect, shown as one line naming it, once per distinct message::
 
-    dualmech: warning: invalid value encountered in add (numerical, in models/balancing.py; a defect)
+    dualmech: warning: invalid value encountered in add (numerical, in models/slider_crank/balancing.py; a
+    defect)
 
 Other warnings (a library's deprecation, dualmech's own ``UserWarning`` such as an implausible
 mass) keep their message, on one line without the source.

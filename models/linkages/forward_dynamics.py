@@ -18,9 +18,9 @@ bearing :math:`c_1` the motion is
 .. math:: \\ddot\\theta = (\\tau^A - c_1\\dot\\theta - C\\dot\\theta^2 - Q) / I
 
 integrated by ``scipy``'s ``solve_ivp`` on a periodic spline of the coefficients
-(:data:`SPLINE_DEGREE`), by the slider crank's integrator, budget and input checks
-(:mod:`dualmech.models.forward_dynamics`), together with the drive's and the output torque's work and
-the energy dissipated.  Along the result the in-house analysis gives the pose, rates, reactions and
+(:data:`SPLINE_DEGREE`), by every kind's integrator, budget and input checks
+(:mod:`dualmech.models.integration`), together with the drive's and the output torque's work and the energy
+dissipated.  Along the result the in-house analysis gives the pose, rates, reactions and
 energies (``docs/conventions.md``, "Linkages", simulate).
 A linkage whose input does not turn fully is refused.
 """
@@ -41,7 +41,8 @@ from dualmech.core.reactions import kinetic_energy
 from dualmech.core.status import Status
 from dualmech.core.table import write_csv
 from dualmech.models.expressions import LoadFunction
-from dualmech.models.forward_dynamics import (  # the slider crank's integrator, budget and checks, shared
+from dualmech.models.inputs import TORQUE, check_number
+from dualmech.models.integration import (  # every kind's integrator, budget and checks
     CRANK_ANGLE,
     CRANK_SPEED,
     MAX_EVALUATIONS,
@@ -52,7 +53,6 @@ from dualmech.models.forward_dynamics import (  # the slider crank's integrator,
     checked_settings,
     integrate,
 )
-from dualmech.models.inputs import TORQUE, check_number
 from dualmech.models.linkages import rccc, rssr
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
@@ -189,7 +189,7 @@ def interpolation_error(c: Coefficients) -> float:
 class EquationOfMotion:
     """The right-hand side for ``y = (theta, theta_dot, W^A, W^O, D)``: the input angle and rate, the work
     of the drive and of the output torque, and the energy the input bearing dissipated.  ``model(theta)``
-    ``(4, k)`` is the coefficients' interface of :func:`dualmech.models.forward_dynamics.integrate`."""
+    ``(4, k)`` is the coefficients' interface of :func:`dualmech.models.integration.integrate`."""
 
     spline: BSpline
     torque: LoadFunction
@@ -209,7 +209,7 @@ class EquationOfMotion:
 
 def drive_load(torque: float | str | LoadFunction | None, default: float) -> LoadFunction:
     """The drive torque as a function of ``(t, psi, psidot, s4, s4dot)`` (``s4``, ``s4dot`` are NaN: a
-    linkage has no slider): :func:`~dualmech.models.forward_dynamics.as_load`, and an expression that
+    linkage has no slider): :func:`~dualmech.models.integration.as_load`, and an expression that
     names ``s4`` or ``s4dot`` is a one-line ``ValueError``."""
     load = as_load(torque, default, "torque", TORQUE)
     if isinstance(torque, str):
@@ -233,8 +233,8 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
     ``psidot0`` (rad/s): the start, default the case's first angle and ``crank_rpm``; ``damping``: the
     input bearing's viscous coefficient (F·L·s); ``samples`` equally spaced output times; ``method``,
     ``rtol``, ``atol``, ``max_evaluations``, ``time_limit`` as for the slider crank
-    (:func:`dualmech.models.forward_dynamics.simulate`, same ranges, and its ``progress``); ``coeffs`` a
-    table built before.
+    (:func:`dualmech.models.slider_crank.forward_dynamics.simulate`, same ranges, and its ``progress``);
+    ``coeffs`` a table built before.
 
     Raises
     ------

@@ -11,7 +11,7 @@ drive's acceleration and quadratic in its rate:
 where :math:`\\tau` is the drive's *generalized* effort, the power of the driven joint's efforts per unit
 drive rate: its torque, plus, for a C joint under the axial law :math:`S(\\theta)`, its axial force times
 :math:`dS/d\\theta` (the law is a workless cam, as the slider crank's in
-:mod:`dualmech.models.forward_dynamics`).
+:mod:`dualmech.models.slider_crank.forward_dynamics`).
 Three solves per angle (rate 0 and acceleration 0, rate 1, acceleration 1) on a 0.5 deg grid of a turn from
 the first assembled drive position (refined where the pose turns sharply) give :math:`I`,
 :math:`C = \\tfrac12 I'` and :math:`Q` (gravity and the given loads), and the loads' power per unit drive
@@ -46,7 +46,8 @@ from dualmech.core.reactions import body_motion, kinetic_energy
 from dualmech.core.status import Status
 from dualmech.core.table import write_csv
 from dualmech.models.expressions import LoadFunction
-from dualmech.models.forward_dynamics import (
+from dualmech.models.inputs import check_number
+from dualmech.models.integration import (
     CRANK_ANGLE,
     CRANK_SPEED,
     MAX_EVALUATIONS,
@@ -56,7 +57,6 @@ from dualmech.models.forward_dynamics import (
     checked_settings,
     integrate,
 )
-from dualmech.models.inputs import check_number
 from dualmech.models.linkages.forward_dynamics import (
     POINTS,
     Coefficients,

@@ -2,9 +2,9 @@
 
 A chunk of sampled designs (``x`` ``(m, k)``, the varied keys' values) is never turned into a
 table per design.  Its geometry ``(m, 4)``, body and load arrays (the layout of
-:func:`~dualmech.models.slider_crank_kernel.case_arrays`) and crank states go straight to
-:func:`~dualmech.models.slider_crank_kernel.start_positions`, in blocks of whole designs at
-up to :data:`~dualmech.models.slider_crank_kernel.CHUNK_POSITIONS` positions (a design with more
+:func:`~dualmech.models.slider_crank.kernel.case_arrays`) and crank states go straight to
+:func:`~dualmech.models.slider_crank.kernel.start_positions`, in blocks of whole designs at
+up to :data:`~dualmech.models.slider_crank.kernel.CHUNK_POSITIONS` positions (a design with more
 positions than that is split along its positions), one output buffer reused; each block is
 folded into the per-design outputs by :class:`~dualmech.models.tolerance.outputs.DesignReduction`.
 
@@ -35,7 +35,7 @@ import numpy as np
 
 from dualmech.core.motion import CrankState
 from dualmech.models.case import Case, CaseError
-from dualmech.models.slider_crank_kernel import (
+from dualmech.models.slider_crank.kernel import (
     CHUNK_POSITIONS,
     OUT_COLUMNS,
     case_arrays,
@@ -64,7 +64,7 @@ class DesignArrays:
     """``m`` designs as the kernel's arrays.
 
     ``geo`` ``(m, 4)`` (a1, a2, a4, alpha4 [rad]); ``bodies`` the per-design body and load arrays of
-    :func:`~dualmech.models.slider_crank_kernel.case_arrays`; ``angles_deg`` ``(p,)`` the crank
+    :func:`~dualmech.models.slider_crank.kernel.case_arrays`; ``angles_deg`` ``(p,)`` the crank
     angles every design is analysed at; ``crank(designs, lo, hi)`` the crank states ``(6, d (hi - lo))``
     of designs ``designs`` (a slice) at positions ``lo .. hi - 1``, design-major.
     """

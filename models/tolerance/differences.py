@@ -4,7 +4,7 @@ The exact derivatives (:mod:`~dualmech.models.tolerance.sensitivity`) go through
 solver's own code in complex arithmetic; their values are tied to the compiled solver's at the
 nominal design.  This check ties their derivatives to the compiled solver too, on every run: each
 output is evaluated by
-:func:`~dualmech.models.slider_crank_kernel.start_positions` (through
+:func:`~dualmech.models.slider_crank.kernel.start_positions` (through
 :func:`~dualmech.models.tolerance.designs.design_arrays`, the study's own path) at the crank
 angle(s) its derivative is taken at, for the nominal design with one key moved by ``+-h`` and
 ``+-h2`` (``h2 ~ h/2``), the two central differences combined by Richardson's extrapolation:

@@ -2,7 +2,7 @@
 
 Every output is read from the in-house engine's columns (``docs/conventions.md``, "Output
 columns"): a design's rows come as ``(designs, positions)`` blocks, either from the compiled
-kernel (:func:`~dualmech.models.slider_crank_kernel.start_positions`, reduced block by block
+kernel (:func:`~dualmech.models.slider_crank.kernel.start_positions`, reduced block by block
 by :class:`DesignReduction` without building a table per design) or from the engines' common
 :class:`~dualmech.core.table.ResultTable` (:func:`design_outputs`, so the judges are read alike).
 Per design (``docs/conventions.md``, "Tolerance analysis"):

@@ -11,14 +11,15 @@ Method (stated, as the issue asks): **a second nilpotent unit, carried through t
   :math:`\\delta`: the speed from the rpm, the bodies' masses and inertias from their shapes and
   densities carry the derivative by the loader's code.
 * **Through the closure: the implicit function theorem by Newton's step.**  The real nominal
-  positions are closed by the numpy solver (:func:`~dualmech.models.slider_crank_closure.close_loop`,
+  positions are closed by the numpy solver (:func:`~dualmech.models.slider_crank.closure.close_loop`,
   the compiled kernel's oracle); two Newton steps of the solver's own loop equation, screws and
   LU solve in complex arithmetic (:func:`~dualmech.core.closure.polish`) then give the unknowns
   :math:`x + \\delta\\, dx/dp` with :math:`dx/dp = -J_x^{-1} g_p`.
 * **Everything downstream by the same unit**: the solver's rates and accelerations
   (:func:`~dualmech.core.rates.solve_rates`), body motions, dual momentum and D'Alembert reactions
   (:func:`~dualmech.core.reactions.solve_reactions`), the whole of
-  :func:`~dualmech.models.slider_crank.analyze_closed`, whose numpy core is generic in the scalar type
+  :func:`~dualmech.models.slider_crank.analysis.analyze_closed`, whose numpy core is generic in the scalar
+  type
   (:func:`~dualmech.core.dual.scalar_type`).
 * **Peaks.**  The derivative of a peak is the derivative of the output at the crank position of
   the maximum (of ``stroke``: at the positions of max and min ``S4``), the positions being those
@@ -43,9 +44,9 @@ from dualmech.core.loop import LoopState
 from dualmech.core.table import ResultTable
 from dualmech.models.case import Case, case_numbers
 from dualmech.models.inputs import Range, check_number
-from dualmech.models.slider_crank import Analysis, analyze_closed, solve_case
-from dualmech.models.slider_crank_closure import close_loop
-from dualmech.models.slider_crank_loop import LOOP, Batch
+from dualmech.models.slider_crank.analysis import Analysis, analyze_closed, solve_case
+from dualmech.models.slider_crank.closure import close_loop
+from dualmech.models.slider_crank.loop import LOOP, Batch
 from dualmech.models.tolerance.outputs import (
     FORCES,
     LOAD_GROUPS,

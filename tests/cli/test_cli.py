@@ -13,7 +13,7 @@ from dualmech.core.table import COLUMNS, read_csv
 from dualmech.models.case import load_case, preset_names, preset_path
 from dualmech.models.kinds import kind_of
 from dualmech.models.linkages import bundled_names, read_linkage
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 from dualmech.validation import solve_output
 from dualmech.validation.exit_codes import EXIT_BAD_INPUT
 

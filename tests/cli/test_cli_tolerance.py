@@ -10,7 +10,7 @@ import dualmech.models
 from dualmech.cli import main
 from dualmech.models.case import load_case
 from dualmech.models.inputs import key_text
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 
 SPEC = Path(dualmech.models.__file__).parent / "cases/thesis/tolerances/tolerances-thesis.toml"
 CASE = "thesis/a4-20-s1-3.5"

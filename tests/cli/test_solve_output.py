@@ -7,8 +7,8 @@ from click.testing import CliRunner
 
 from dualmech.cli import main
 from dualmech.core.table import NUMERIC_COLUMNS, read_csv, read_parquet
-from dualmech.models import slider_crank_kernel
 from dualmech.models.case import load_case
+from dualmech.models.slider_crank import kernel as slider_crank_kernel
 from dualmech.validation import solve_output
 
 

@@ -5,8 +5,8 @@ from numpy.testing import assert_allclose
 
 from dualmech.core.closure import ClosureStatus, solve_closure
 from dualmech.models.case import load_case
-from dualmech.models.slider_crank_closure import planar_estimate, state_from_slider
-from dualmech.models.slider_crank_loop import LOOP, Batch
+from dualmech.models.slider_crank.closure import planar_estimate, state_from_slider
+from dualmech.models.slider_crank.loop import LOOP, Batch
 from tests.oracles import assembly_margin, exact_slider_motion
 from tests.tolerances import S4_VS_CLOSED_FORM
 

@@ -13,7 +13,7 @@ from dualmech.core.loop import LoopState, closure_residual, evaluate, rodrigues
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rssr import LOOP, closed_form_phi, estimate, loop_values
 from dualmech.models.linkages.rssr_case import rssr_from_dict
-from dualmech.models.slider_crank_loop import LOOP as SLIDER_CRANK
+from dualmech.models.slider_crank.loop import LOOP as SLIDER_CRANK
 from tests.tolerances import LOOP_CLOSURE, LOOP_VS_OWN_ENGINE
 
 GEOMETRY = rssr_from_dict(read_linkage("rssr")).geometry

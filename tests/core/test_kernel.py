@@ -17,8 +17,9 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.core.thresholds import JOINT_LOCK_CONDITION
-from dualmech.models import slider_crank, slider_crank_kernel
 from dualmech.models.case import Case, load_case, preset_names, with_loads
+from dualmech.models.slider_crank import analysis as slider_crank
+from dualmech.models.slider_crank import kernel as slider_crank_kernel
 from dualmech.validation.compare import relative_differences
 from tests.tolerances import (
     KERNEL_VS_NUMPY_AT_LIMIT,
@@ -232,7 +233,8 @@ def test_many_cases_in_chunks_are_each_case_alone() -> None:
 
 
 def test_cases_at_given_crank_states_are_the_numpy_solver_there() -> None:
-    """``solve_cases(..., cranks=)`` (the dead-centre bisection and the stroke's Newton in models/stroke.py):
+    """``solve_cases(..., cranks=)`` (the dead-centre bisection and the stroke's Newton in
+    models/slider_crank/stroke.py):
     each case at its own scattered crank states (no grid: the warm starts meet arbitrary steps), unit speed,
     as the numpy solver gives them there, statuses identical; the case's own motion would be a fault."""
     from dualmech.core.motion import CrankState

@@ -1,7 +1,7 @@
 """The kernel compiles once, for one signature, and says so while it does.
 
 A cold numba cache costs minutes of compiling (the whole per-position chain is inlined into
-:func:`~dualmech.models.slider_crank_position_nb.analyze_range`); every different argument type
+:func:`~dualmech.models.slider_crank.position_nb.analyze_range`); every different argument type
 (an array's layout included) would cost as much again.  These tests hold the kernel to one
 signature and check the compile events :mod:`dualmech.core.kernel` logs for the command line.
 """
@@ -17,8 +17,8 @@ from numba.core import event
 
 from dualmech.core.kernel import compiles as kernel
 from dualmech.core.kernel import dual_nb
-from dualmech.models import slider_crank_kernel
 from dualmech.models.case import load_case
+from dualmech.models.slider_crank import kernel as slider_crank_kernel
 
 
 def _recorded_layouts(monkeypatch: pytest.MonkeyPatch) -> list[set[str]]:
@@ -88,7 +88,8 @@ from dualmech.core.kernel import loop_engine  # the generic loop kernel alone, a
 def stamp(f):
     return _KernelInTreeLocator(f.py_func, f.py_func.__code__.co_filename).get_source_stamp()
 own = stamp(closure_nb.residual_at)
-from dualmech.models import slider_crank_nb, slider_crank_position_nb
+from dualmech.models.slider_crank import kernel_nb as slider_crank_nb
+from dualmech.models.slider_crank import position_nb as slider_crank_position_nb
 mechanism = stamp(slider_crank_position_nb.analyze_range)
 print(own == stamp(closure_nb.residual_at), mechanism == stamp(slider_crank_position_nb.analyze_range))
 """

@@ -2,7 +2,7 @@
 
 The kernel runs without numba's runtime (no allocation), so its pseudo-inverse is its own
 (one-sided Jacobi, :mod:`dualmech.core.kernel.linalg_nb`); positions start from their
-predecessor's state (:func:`dualmech.models.slider_crank_nb.warm_start`) in chains that begin at
+predecessor's state (:func:`dualmech.models.slider_crank.kernel_nb.warm_start`) in chains that begin at
 fixed positions of each case, so every bit of a result is independent of threads and chunks.
 """
 
@@ -13,8 +13,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.core.kernel.linalg_nb import pseudo_inverse
-from dualmech.models import slider_crank_kernel
 from dualmech.models.case import load_case
+from dualmech.models.slider_crank import kernel as slider_crank_kernel
 
 #: The pseudo-inverse against LAPACK's (SVD): both backward stable, so they agree to a few units of
 #: round-off of the matrix's condition (measured 3e-15 of |A+| on these 7x7 matrices).
@@ -107,7 +107,7 @@ def test_remembered_turns_are_fresh_turns() -> None:
     loop evaluates to the same bits as with nothing remembered."""
     from dualmech.core.kernel.closure_nb import make_work
     from dualmech.core.kernel.loop_nb import evaluate, flatten, value_names
-    from dualmech.models.slider_crank_loop import LOOP
+    from dualmech.models.slider_crank.loop import LOOP
 
     fl, names = flatten(LOOP), value_names(LOOP)
     x = np.concatenate([[40.0], np.eye(3).ravel(), np.eye(3).ravel()])

@@ -6,8 +6,8 @@ from numpy.testing import assert_allclose
 from dualmech.core.closure import _objective
 from dualmech.core.loop import LoopState, closure_error, closure_residual, evaluate, rodrigues, screw_jacobian
 from dualmech.models.case import load_case
-from dualmech.models.slider_crank_closure import close_loop, state_from_slider
-from dualmech.models.slider_crank_loop import LOOP, Batch
+from dualmech.models.slider_crank.closure import close_loop, state_from_slider
+from dualmech.models.slider_crank.loop import LOOP, Batch
 from tests.tolerances import FINITE_DIFFERENCE
 
 

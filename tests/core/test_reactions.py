@@ -12,7 +12,7 @@ from dualmech.core.reactions import (
     solve_reactions,
 )
 from dualmech.models.case import load_case, with_loads
-from dualmech.models.slider_crank import analyze
+from dualmech.models.slider_crank.analysis import analyze
 from tests.tolerances import (
     BALANCE,
     ENERGY_RATE_BY_DIFFERENCE,

@@ -13,7 +13,7 @@ from numpy.testing import assert_allclose
 
 from dualmech.core.universal import joint_axes, link_frame
 from dualmech.models.case import load_case
-from dualmech.models.slider_crank import analyze
+from dualmech.models.slider_crank.analysis import analyze
 from tests.tolerances import FINITE_DIFFERENCE
 
 STEP = 1e-4  # rad of crank angle: central differences, truncation ~ STEP^2, round-off ~ 1e-16/STEP

@@ -5,9 +5,9 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.core.reactions import momentum_rate
-from dualmech.models import balancing as bl
 from dualmech.models.case import load_case, with_loads
-from dualmech.models.slider_crank import analyze
+from dualmech.models.slider_crank import balancing as bl
+from dualmech.models.slider_crank.analysis import analyze
 from dualmech.validation.tolerances import BALANCE_SHAKING_FORCE
 from tests.tolerances import BALANCE
 

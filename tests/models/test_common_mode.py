@@ -25,7 +25,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.models.case import case_from_dict
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 from tests.tolerances import COMMON_MODE_INPUT, PRINTED_DIGITS
 
 # ----------------------------------------------------------------------------- thesis section 3.1

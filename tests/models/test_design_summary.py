@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 from dualmech.core.thresholds import ROUND_OFF_RELATIVE
 from dualmech.models.case import load_case, with_loads
 from dualmech.models.design_summary import NEAR_DEAD_CENTRE_TRANSMISSION, PEAK_NAMES, design_summary
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 from dualmech.models.units import axis_label, column_unit
 
 

@@ -15,8 +15,9 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.core.table import ResultTable
-from dualmech.models import slider_crank, slider_crank_kernel
 from dualmech.models.case import Case, load_case, preset_names, with_loads
+from dualmech.models.slider_crank import analysis as slider_crank
+from dualmech.models.slider_crank import kernel as slider_crank_kernel
 from tests.models.newton_euler_oracle import table_violation
 from tests.tolerances import NEWTON_EULER_ROUND_OFF
 

@@ -13,7 +13,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.models.case import load_case
-from dualmech.models.slider_crank import analyze
+from dualmech.models.slider_crank.analysis import analyze
 from tests.models import thesis_oracles as th
 from tests.models.errata_example import GRID, PLANAR, SPATIAL_S1, SPATIAL_TWIST, W1, ry, rz, vee
 from tests.tolerances import (

@@ -1,4 +1,5 @@
-"""The verdicts of models/findings.py against independent computations (closed-form kinematics, a separately
+"""The verdicts of models/slider_crank/findings.py against independent computations (closed-form kinematics,
+a separately
 assembled Newton-Euler system, scipy root finding and minimization)."""
 
 from __future__ import annotations
@@ -11,9 +12,9 @@ from numpy.testing import assert_allclose
 from scipy.optimize import brentq, minimize_scalar
 
 from dualmech.models.case import load_case
-from dualmech.models.findings import FINDING_REGULAR_TRANSMISSION, thesis_cases, thesis_findings
-from dualmech.models.slider_crank import analyze
-from dualmech.models.stroke import (
+from dualmech.models.slider_crank.analysis import analyze
+from dualmech.models.slider_crank.findings import FINDING_REGULAR_TRANSMISSION, thesis_cases, thesis_findings
+from dualmech.models.slider_crank.stroke import (
     STROKE_OFFSETS,
     STROKE_SHIFTS,
     STROKE_TWISTS,

@@ -12,13 +12,14 @@ from scipy.integrate import solve_ivp
 from dualmech.core import planar as P
 from dualmech.core.reactions import kinetic_energy
 from dualmech.core.table import FORCE_COLUMNS, MOMENT_COLUMNS
-from dualmech.models import dynamics_coefficients as dc
-from dualmech.models import forward_dynamics as fd
+from dualmech.models import integration
 from dualmech.models.case import case_from_dict, load_case, with_loads
 from dualmech.models.expressions import load_expression
 from dualmech.models.simulation import SIMULATION_COLUMNS
-from dualmech.models.slider_crank import analyze
-from dualmech.models.slider_crank_kernel import solve_cases
+from dualmech.models.slider_crank import dynamics_coefficients as dc
+from dualmech.models.slider_crank import forward_dynamics as fd
+from dualmech.models.slider_crank.analysis import analyze
+from dualmech.models.slider_crank.kernel import solve_cases
 from dualmech.validation.tolerances import (
     DYN_ENERGY_CONSERVATION,
     DYN_INVERSE_CONSISTENCY,
@@ -36,7 +37,7 @@ def _textbook_case(**loads):
     """A common SI textbook problem: crank 0.2 m / 1 kg, rod 0.5 m / 3 kg (uniform bars), slider 2 kg.
 
     Planar, in line, slider along the textbook's +x: slider_twist_deg = 270 (module docstring of
-    models/forward_dynamics.py), textbook gravity (0, -9.81) is world (9.81, 0, 0).
+    models/slider_crank/forward_dynamics.py), textbook gravity (0, -9.81) is world (9.81, 0, 0).
     """
     return case_from_dict(
         {
@@ -251,9 +252,9 @@ def test_load_expressions():
                        ("x + 1", "unknown name"), ("psi.real", "not allowed"), ("'a'", "not a number")):
         with pytest.raises(ValueError, match=match):
             load_expression(bad)
-    assert fd.as_load(None, 3.0, "torque")(0, 0, 0, 0, 0) == 3.0
+    assert integration.as_load(None, 3.0, "torque")(0, 0, 0, 0, 0) == 3.0
     with pytest.raises(ValueError, match="torque"):
-        fd.as_load(float("nan"), 0.0, "torque")
+        integration.as_load(float("nan"), 0.0, "torque")
 
 
 def test_bad_inputs_are_refused():

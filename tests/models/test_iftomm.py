@@ -21,9 +21,9 @@ from numpy.testing import assert_allclose
 
 from dualmech.core.status import Status
 from dualmech.models.case import Case, load_case
-from dualmech.models.forward_dynamics import simulate
 from dualmech.models.simulation import Simulation
-from dualmech.models.slider_crank import analyze
+from dualmech.models.slider_crank.analysis import analyze
+from dualmech.models.slider_crank.forward_dynamics import simulate
 from tests.models import iftomm_oracle as oracle
 from tests.tolerances import (
     IFTOMM_ACCELERATION_DIGITS,

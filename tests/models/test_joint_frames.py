@@ -6,7 +6,7 @@ from numpy.testing import assert_allclose
 
 from dualmech.models.case import load_case
 from dualmech.models.joint_frames import joint_frame_columns
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 
 
 def test_planar_case_in_thesis_notation():

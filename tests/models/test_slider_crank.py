@@ -12,7 +12,7 @@ from dualmech.core.motion import CrankState
 from dualmech.models.angle_ranges import no_assembly_ranges
 from dualmech.models.case import load_case
 from dualmech.models.kinds import SLIDER_CRANK
-from dualmech.models.slider_crank import analyze, analyze_many, solve_case, to_table
+from dualmech.models.slider_crank.analysis import analyze, analyze_many, solve_case, to_table
 from dualmech.validation.engines import engines_for
 from dualmech.verbs import solve
 from tests.oracles import assembly_margin, assert_slider_motion, exact_slider_motion
@@ -174,9 +174,9 @@ def test_crank_state_is_the_prescribed_motion():
 
 def test_other_branch_is_detected_and_refused(monkeypatch):
     """Seed Newton on the other assembly branch: the jump is detected and the right branch recovered."""
-    import dualmech.models.slider_crank_closure as scc
+    import dualmech.models.slider_crank.closure as scc
     from dualmech.core.closure import ClosureStatus, solve_closure
-    from dualmech.models.slider_crank_loop import LOOP, Batch
+    from dualmech.models.slider_crank.loop import LOOP, Batch
 
     case = BASE.with_values({"motion.angles_deg": {"start": 0.0, "stop": 360.0, "step": 15.0}})
     theta = np.radians(case.motion.angles_deg)
@@ -234,7 +234,7 @@ def test_near_an_edge_of_assembly_the_closure_goes_on_to_rounding():
     CLOSURE_TOL, this case (one of 150 random ones, c = 0.025 at 126 deg) left ``S4_ddot`` 3e-11 of its peak
     off the closed form, in the kernel and the numpy solver alike; Pinocchio and MuJoCo agreed with the closed
     form.  Both engines, refined to rounding (EDGE_REFINE_CONDITION)."""
-    from dualmech.models.slider_crank_kernel import solve_case as solve_compiled
+    from dualmech.models.slider_crank.kernel import solve_case as solve_compiled
 
     case = BASE.with_values({
         "geometry.crank_length": 7.023812004585826, "geometry.rod_length": 14.899560516589998,
@@ -255,7 +255,7 @@ def test_random_geometries_agree_with_the_closed_form_near_their_edges():
     edge of assembly), solved by the kernel: S4 and its rates on every ``ok`` row at closure condition
     >= 0.05, against the closed form.  Why: stopped at CLOSURE_TOL, rows near an edge erred up to 7.6e-12
     of the case's peak there (3.1e-11 closer to the limit); refined to rounding, 3.7e-13."""
-    from dualmech.models.slider_crank_kernel import solve_case as solve_compiled
+    from dualmech.models.slider_crank.kernel import solve_case as solve_compiled
     from tests.validation.pinocchio_oracles import random_case
 
     rng = np.random.default_rng(7)

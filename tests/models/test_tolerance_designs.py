@@ -9,8 +9,8 @@ import pytest
 from numpy.testing import assert_array_equal
 
 from dualmech.models.case import CaseError, case_from_dict, load_case
-from dualmech.models.slider_crank import solve_case
-from dualmech.models.slider_crank_kernel import case_arrays
+from dualmech.models.slider_crank.analysis import solve_case
+from dualmech.models.slider_crank.kernel import case_arrays
 from dualmech.models.tolerance.designs import ARRAY_KEYS, analyse_designs, design_arrays
 from dualmech.models.tolerance.outputs import design_outputs, output_names
 from dualmech.models.tolerance.sampling import sample_chunk

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from dualmech.models.case import case_from_dict, load_case
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 from dualmech.models.tolerance import sensitivity
 from dualmech.models.tolerance.differences import check_sensitivities
 from dualmech.models.tolerance.outputs import design_outputs, output_names

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from dualmech.models.case import case_from_dict, load_case
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 from dualmech.models.tolerance.outputs import DesignStatus, design_outputs, output_names
 from dualmech.models.tolerance.sampling import CHUNK_DESIGNS
 from dualmech.models.tolerance.sensitivity import output_group

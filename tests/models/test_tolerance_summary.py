@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 from scipy.special import ndtri
 
 from dualmech.models.case import case_from_dict, load_case
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 from dualmech.models.tolerance.outputs import design_outputs
 from dualmech.models.tolerance.spec import design_case, nominal_values, spec_from_dict
 from dualmech.models.tolerance.study import StudyInput

@@ -89,7 +89,7 @@ def test_solve_prints_peak_loads_with_units_and_refuses_a_lost_joint_table(desig
 
 def test_a_constant_or_round_off_panel_is_a_line_of_text_with_its_unit():
     from dualmech.models.case import load_case
-    from dualmech.models.slider_crank import solve_case
+    from dualmech.models.slider_crank.analysis import solve_case
     from dualmech.validation.report.plots import flat_note
 
     case = load_case("thesis/ideal")

@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from dualmech.models import dynamics_coefficients as dc
-from dualmech.models import forward_dynamics as fd
 from dualmech.models.case import load_case
 from dualmech.models.mjcf import case_to_mjcf, default_settings
+from dualmech.models.slider_crank import dynamics_coefficients as dc
+from dualmech.models.slider_crank import forward_dynamics as fd
 from dualmech.validation.tolerances import DYN_MUJOCO_INERTIA, DYN_MUJOCO_INERTIA_DERIVATIVE, DYN_MUJOCO_RUNUP
 from tests import oracles
 

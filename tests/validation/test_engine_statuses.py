@@ -29,7 +29,7 @@ from dualmech.validation.tolerances import ASSEMBLY_LIMIT_CONDITION, MATRIX_KINE
 from tests.oracles import assembly_margin
 from tests.tolerances import S4_AT_ASSEMBLY_LIMIT
 
-ENGINES = {"dualmech": "dualmech.models.slider_crank", "pinocchio":
+ENGINES = {"dualmech": "dualmech.models.slider_crank.analysis", "pinocchio":
 "dualmech.validation.judges.pinocchio_slider_crank.engine",
            "mujoco": "dualmech.validation.judges.mujoco_slider_crank.engine",
            "mujoco-sim": "dualmech.validation.judges.mujoco_slider_crank.sim"}

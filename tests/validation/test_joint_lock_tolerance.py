@@ -17,7 +17,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.models.case import case_from_dict
-from dualmech.models.slider_crank import solve_case
+from dualmech.models.slider_crank.analysis import solve_case
 from dualmech.validation.compare import NEAR_JOINT_LOCK, compare_case, lock_factor, lock_rate
 from dualmech.validation.matrix import parse
 from dualmech.validation.tolerances import (

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dualmech.models import slider_crank_kernel
+from dualmech.models.slider_crank import kernel as slider_crank_kernel
 from dualmech.verbs import validate
 
 pytest.importorskip("pinocchio")

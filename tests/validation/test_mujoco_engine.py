@@ -234,7 +234,7 @@ def test_mujoco_facts_behind_the_rigid_path():
 
 def _inhouse():
     """The in-house engine (the judged product); skips if it is not built yet."""
-    return pytest.importorskip("dualmech.models.slider_crank")
+    return pytest.importorskip("dualmech.models.slider_crank.analysis")
 
 
 @pytest.mark.parametrize("case", _bundled() + _random(), ids=lambda c: f"{c.name}-{c.loads.mode}")

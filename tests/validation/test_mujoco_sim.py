@@ -44,7 +44,7 @@ LIMITS = {"length": SIM_STROKE, "acceleration": SIM_REACTIONS, "ratio": SIM_STRO
 
 
 def _inhouse():
-    return pytest.importorskip("dualmech.models.slider_crank")
+    return pytest.importorskip("dualmech.models.slider_crank.analysis")
 
 
 def _stroke(table) -> float:

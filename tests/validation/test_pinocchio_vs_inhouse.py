@@ -22,10 +22,11 @@ from dualmech.validation.tolerances import PINOCCHIO_KINEMATICS, PINOCCHIO_REACT
 from tests.validation.pinocchio_oracles import random_case
 
 pytest.importorskip("pinocchio")
-if importlib.util.find_spec("dualmech.models.slider_crank") is None:  # skip only if truly absent
-    pytest.skip("the in-house engine dualmech.models.slider_crank is not there yet", allow_module_level=True)
+if importlib.util.find_spec("dualmech.models.slider_crank.analysis") is None:  # skip only if truly absent
+    pytest.skip("the in-house engine dualmech.models.slider_crank.analysis is not there yet",
+                allow_module_level=True)
 
-from dualmech.models.slider_crank import solve_case as inhouse_solve  # noqa: E402
+from dualmech.models.slider_crank.analysis import solve_case as inhouse_solve  # noqa: E402
 from dualmech.validation.judges.pinocchio_slider_crank.engine import solve_case as pinocchio_solve  # noqa: E402
 
 GRAVITY = np.array([3.0, -50.0, -386.4])

@@ -21,8 +21,8 @@ import pytest
 
 from dualmech.core import table
 from dualmech.core.table import NUMERIC_COLUMNS, read_csv, read_parquet
-from dualmech.models import slider_crank_kernel
 from dualmech.models.case import load_case
+from dualmech.models.slider_crank import kernel as slider_crank_kernel
 from dualmech.validation import solve_output
 
 #: Positions per chunk (a multiple of WARM_CHAIN) and chunks of :func:`_case` (360 positions).

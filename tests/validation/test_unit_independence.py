@@ -34,7 +34,7 @@ from tests.tolerances import UNIT_CHANGE
 #: Length-unit factors: a length x is written x * s (s = 1e-6: inches -> micro-inches ... as a user would).
 SCALES = (1e-6, 1e-3, 1.0, 1e3)
 CASE_IDS = ("torque_a4=30_S1=3.5", "force_a4=30_S1=3.5")
-ENGINES = {"dualmech": "dualmech.models.slider_crank", "pinocchio":
+ENGINES = {"dualmech": "dualmech.models.slider_crank.analysis", "pinocchio":
 "dualmech.validation.judges.pinocchio_slider_crank.engine",
            "mujoco": "dualmech.validation.judges.mujoco_slider_crank.engine",
            "mujoco-sim": "dualmech.validation.judges.mujoco_slider_crank.sim"}

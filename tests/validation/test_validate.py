@@ -33,7 +33,7 @@ FAKE_REGISTRY = {"dualmech": f"{FAKES}:solve_case", "pinocchio": f"{FAKES}:solve
 
 def perturbed_inhouse(case):
     """A judge that is the in-house engine with one reaction perturbed by 1e-6 of its value."""
-    from dualmech.models.slider_crank import solve_case
+    from dualmech.models.slider_crank.analysis import solve_case
 
     table = solve_case(case)
     table.columns["j3_fy"] = table.columns["j3_fy"] * (1.0 + 1e-6)

@@ -18,9 +18,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def test_a_numerical_warning_is_one_line_naming_the_file_as_a_defect():
     line = warning_line(RuntimeWarning("invalid value\nencountered in add"), RuntimeWarning,
-                        str(ROOT / "models" / "balancing.py"))
+                        str(ROOT / "models" / "slider_crank" / "balancing.py"))
     assert line == ("dualmech: warning: invalid value encountered in add "
-                    "(numerical, in models/balancing.py; a defect, please report it)")
+                    "(numerical, in models/slider_crank/balancing.py; a defect, please report it)")
     assert warning_line(UserWarning("rod mass 1e8 kg"), UserWarning, "/x/y.py") == \
         "dualmech: warning: rod mass 1e8 kg"
 

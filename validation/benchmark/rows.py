@@ -7,7 +7,7 @@ the median of ``repeats`` runs after one warm-up run (compilation, caches), with
 process CPU time (all threads) beside the wall time.  Every engine solves the same
 seeded random cases (the thesis example with random offset, twist and axial shift).
 
-* **dualmech** -- the compiled kernel (:mod:`dualmech.models.slider_crank_kernel`),
+* **dualmech** -- the compiled kernel (:mod:`dualmech.models.slider_crank.kernel`),
   in-process, all cores; and ``dualmech solve`` of one long case streamed into Parquet
   (:func:`dualmech.validation.solve_output.stream_solve`, start-up excluded).
 * **closed-form yardstick** -- :mod:`dualmech.validation.benchmark.yardstick`, the same outputs in
@@ -49,7 +49,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from dualmech.models.case import Case, load_case
-from dualmech.models.slider_crank_kernel import _pool, case_arrays, solve_cases, threads
+from dualmech.models.slider_crank.kernel import _pool, case_arrays, solve_cases, threads
 from dualmech.validation.solve_output import stream_solve
 
 #: Crank-state fields in the kernel's order.

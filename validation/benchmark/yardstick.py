@@ -6,7 +6,7 @@ intersection on the conventions' branch, its rates by differentiating
 :math:`\\omega = u\\times\\dot u` and acceleration :math:`u\\times\\ddot u`, then the same
 dual-momentum and elimination steps as the kernel
 (:func:`~dualmech.core.kernel.dynamics_nb.required_wrench`,
-:func:`~dualmech.models.slider_crank_position_nb._reactions`).  No loop closure, no
+:func:`~dualmech.models.slider_crank.position_nb._reactions`).  No loop closure, no
 statuses: what this mechanism costs at the least on this machine, for the same
 outputs (``S4``, its two rates and the 20 reaction columns).  Valid only where the
 loop assembles away from its edge.
@@ -22,7 +22,7 @@ from numba import njit
 from dualmech.core.kernel.dual_nb import ALLOC, JIT
 from dualmech.core.kernel.dynamics_nb import required_wrench
 from dualmech.core.table import REACTION_COLUMNS
-from dualmech.models.slider_crank_position_nb import _reactions
+from dualmech.models.slider_crank.position_nb import _reactions
 
 #: The yardstick's outputs, in order: the slider's motion and every reaction column of a ball-ball rod.
 YARDSTICK_COLUMNS: tuple[str, ...] = ("S4", "S4_dot", "S4_ddot") + REACTION_COLUMNS

@@ -22,7 +22,7 @@ import numpy as np
 from dualmech.validation.matrix import Matrix
 
 #: The model package's function that lists the thesis's printed findings with verdicts.
-FINDINGS_FUNCTION = "dualmech.models.findings:thesis_findings"
+FINDINGS_FUNCTION = "dualmech.models.slider_crank.findings:thesis_findings"
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,7 @@ class Balancing:
 def balancing(matrix: Matrix) -> Balancing:
     """Shaking force before and after force balancing for the base case and each sweep's last case (of the
     slider-crank cases: ``matrix`` has one at least)."""
-    from dualmech.models.balancing import assembled_force, balanced_case, shaking
+    from dualmech.models.slider_crank.balancing import assembled_force, balanced_case, shaking
 
     sliders = [c for c in matrix.cases if c.mode]  # the slider-crank cases (another kind has no load mode)
     base = next((c for c in sliders if c.is_base), sliders[0])

@@ -34,7 +34,7 @@ from dualmech.models.loop.presets import (
     slider_crank_table,
 )
 from dualmech.models.loop.translate import drive_state, to_loop
-from dualmech.models.slider_crank import analyze
+from dualmech.models.slider_crank.analysis import analyze
 from tests.models.loop.test_engine import VARIANTS as ENGINE_VARIANTS
 from tests.models.loop.test_engine import _case as engine_case
 from tests.models.loop.test_random_tables import TOPOLOGIES, random_table

@@ -13,7 +13,7 @@ from dualmech.models.loop.engine import analyze_loop
 from dualmech.models.loop.presets import slider_crank_start, slider_crank_table
 from dualmech.models.loop.table_format import loop_from_dict
 from dualmech.models.loop.translate import drive_state, to_loop
-from dualmech.models.slider_crank import analyze
+from dualmech.models.slider_crank.analysis import analyze
 from tests.tolerances import (
     BATCH_VS_SINGLE,
     LOOP_CLOSURE,

@@ -16,14 +16,14 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.core.thresholds import Tolerance
-from dualmech.models import forward_dynamics as slider_crank_fd
 from dualmech.models.case import load_case
 from dualmech.models.linkages import forward_dynamics as linkage_fd
 from dualmech.models.linkages import linkage_case
 from dualmech.models.loop import forward_dynamics as fd
 from dualmech.models.loop.description import Drive, Joint, LoopMechanism
 from dualmech.models.loop.presets import loop_table_of, slider_crank_start, slider_crank_table
-from dualmech.models.slider_crank import analyze
+from dualmech.models.slider_crank import forward_dynamics as slider_crank_fd
+from dualmech.models.slider_crank.analysis import analyze
 from dualmech.validation.judges.pinocchio_loop.engine import solve_loop as pinocchio_solve
 
 #: Loop tables of the bundled cases whose drive turns fully (the 7R's has a gap: its range, below).

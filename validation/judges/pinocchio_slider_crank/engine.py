@@ -2,7 +2,7 @@
 
 The model is :func:`~dualmech.validation.judges.pinocchio_slider_crank.model.build_model` (a tree
 cut at joint 3, closed by a 3-D point constraint).  Nothing here imports or is
-seeded by the in-house solver (``dualmech.models.slider_crank`` / ``dualmech.core``
+seeded by the in-house solver (``dualmech.models.slider_crank.analysis`` / ``dualmech.core``
 solvers); only the case record, the crank motion and the table format are shared.
 
 Method, per crank position (``docs/conventions.md`` for every symbol):

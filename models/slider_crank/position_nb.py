@@ -1,14 +1,14 @@
 """The in-house engine at one position, compiled: closure, edges, rates, reactions, status, one output row.
 
 Per position (:func:`analyze_range` runs a block of them on one thread): the closure strategy of
-:mod:`dualmech.models.slider_crank_nb` (a warm start from the previous position where that is
+:mod:`dualmech.models.slider_crank.kernel_nb` (a warm start from the previous position where that is
 safe), the edges of assembly (:func:`dualmech.core.assembly.edge_status`), rates from screws
 (:func:`dualmech.core.kernel.rates_nb.solve_rates`), inverse dynamics by dual momentum and
 D'Alembert (:mod:`dualmech.core.kernel.dynamics_nb` and the closed-form elimination of
 :func:`dualmech.core.reactions.solve_reactions`), dead centres, and the last step of
 :func:`dualmech.core.status.settle` (``not_finite``, and NaN wherever a row's word does not
 give a column).  Status words are integer codes (their positions in
-:data:`dualmech.core.status.STATUSES`); :mod:`dualmech.models.slider_crank_kernel` drives the
+:data:`dualmech.core.status.STATUSES`); :mod:`dualmech.models.slider_crank.kernel` drives the
 blocks and turns codes into words.
 """
 
@@ -25,7 +25,7 @@ from dualmech.core.kernel.dual_nb import INLINE, JIT, cross, dot
 from dualmech.core.kernel.dynamics_nb import required_wrench
 from dualmech.core.kernel.rates_nb import solve_rates
 from dualmech.core.kernel.universal_nb import universal_motion
-from dualmech.models.slider_crank_nb import (
+from dualmech.models.slider_crank.kernel_nb import (
     FINE_SPAN,
     Rules,
     Scratch,
@@ -273,7 +273,8 @@ def _close(
     fl, rules: Rules, crank: np.ndarray, i: int, g: tuple, rho: float, warm: bool, w: Work, sc: Scratch
 ) -> tuple[int, int, float, bool]:
     """Close position ``i`` (reachable; ``rho`` its reach over ``a2``) into ``sc.x[0]``: from position
-    ``i - 1`` where ``warm`` and :func:`~dualmech.models.slider_crank_nb.warm_start` accepts, else by the
+    ``i - 1`` where ``warm`` and :func:`~dualmech.models.slider_crank.kernel_nb.warm_start` accepts, else by
+    the
     cold strategy; closed nearer an edge of assembly than ``rules.refine_condition`` (not at its limit),
     on to the rounding level (:func:`dualmech.core.closure.refine`).  Returns (status code, iterations,
     residual, whether the frames in ``w`` hold the state: an accepted warm start, not refined)."""
@@ -385,8 +386,8 @@ def analyze_range(
     ``(cases,)`` (NaN where not given); ``out`` ``(len(OUT_COLUMNS), n)`` (a column per position, written
     where it is computed: each output is then one contiguous row, what a writer takes as it is), ``status``,
     ``iters``, ``dyn`` ``(n,)``; ``cold`` ``(n,)`` bool: the positions that start cold
-    (:func:`~dualmech.models.slider_crank_kernel.chain_starts`; ``lo`` must be one); ``w``, ``sc``:
-    this thread's scratch (:func:`~dualmech.models.slider_crank_kernel._scratch`).
+    (:func:`~dualmech.models.slider_crank.kernel.chain_starts`; ``lo`` must be one); ``w``, ``sc``:
+    this thread's scratch (:func:`~dualmech.models.slider_crank.kernel._scratch`).
     """
     warm = False
     for i in range(lo, hi):

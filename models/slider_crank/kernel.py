@@ -1,13 +1,13 @@
 """The in-house engine compiled: the positions of a chunk analysed in parallel into preallocated rows.
 
 Positions are split into blocks, each analysed on a thread of a pool with the GIL released
-(:func:`dualmech.models.slider_crank_position_nb.analyze_range`: one position at a time, warm
+(:func:`dualmech.models.slider_crank.position_nb.analyze_range`: one position at a time, warm
 starts along the crank angle in fixed chains, see :data:`WARM_CHAIN`); the scratch of each block
 is allocated here, since the compiled code allocates nothing.  Cases, designs given as arrays,
 and chunks of one long case all go through :func:`start_positions`; status codes become words
 in :class:`Chunk`.
 
-The numpy implementation in :mod:`dualmech.models.slider_crank` is the same algorithm
+The numpy implementation in :mod:`dualmech.models.slider_crank.analysis` is the same algorithm
 batched; ``tests/core/test_kernel.py`` holds the two to 1e-12.
 """
 
@@ -32,12 +32,12 @@ from dualmech.core.status import STATUSES, Status
 from dualmech.core.table import NUMERIC_COLUMNS, ResultTable
 from dualmech.models.angle_ranges import status_messages
 from dualmech.models.case import Case
-from dualmech.models.slider_crank_nb import (
+from dualmech.models.slider_crank.kernel_nb import (
     Rules,
     Scratch,
     make_scratch,
 )
-from dualmech.models.slider_crank_position_nb import OUT_COLUMNS, analyze_range
+from dualmech.models.slider_crank.position_nb import OUT_COLUMNS, analyze_range
 
 #: Positions analysed together at most (about 250 bytes each with the crank states).
 CHUNK_POSITIONS = 100_000
@@ -103,7 +103,7 @@ def load_kernel() -> tuple[FlatLoop, Rules]:
     from dualmech.core.kernel.closure_nb import closure_tols
     from dualmech.core.kernel.loop_nb import value_names
     from dualmech.core.status import Status as S
-    from dualmech.models import slider_crank_loop as sc
+    from dualmech.models.slider_crank import loop as sc
 
     names = value_names(sc.LOOP)
     vidx = np.array([names.index(k) for k in ("theta1", "S1", "a1", "a2", "a4", "alpha4")], dtype=np.int64)

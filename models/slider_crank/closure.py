@@ -1,6 +1,6 @@
 """Loop closure of the generalized slider crank: start estimates, the branch, retries and continuation.
 
-:func:`close_loop` is the displacement analysis of a :class:`~dualmech.models.slider_crank_loop.Batch`:
+:func:`close_loop` is the displacement analysis of a :class:`~dualmech.models.slider_crank.loop.Batch`:
 positions whose crank pin is beyond the rod's reach are ``no_assembly`` by geometry; the others
 are closed by Newton with its DFP fallback (:func:`~dualmech.core.closure.solve_closure`) from the
 plane-geometry estimate, retried from the rod laid along the slider line, then by continuation
@@ -20,7 +20,7 @@ from dualmech.core.loop import LoopState, closure_residual, evaluate
 from dualmech.core.motion import CrankState
 from dualmech.core.status import Status
 from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, EDGE_REFINE_CONDITION
-from dualmech.models.slider_crank_loop import CONTINUATION_STEPS, LOOP, Batch
+from dualmech.models.slider_crank.loop import CONTINUATION_STEPS, LOOP, Batch
 
 
 def _rod_frame(u: np.ndarray) -> np.ndarray:

@@ -1,7 +1,7 @@
 """The slider crank's closure strategy at one position, compiled: start estimates, branch, retries.
 
-The per-position form of the strategy in :mod:`dualmech.models.slider_crank`
-(:func:`~dualmech.models.slider_crank.close_loop`): the plane-geometry estimate of
+The per-position form of the strategy in :mod:`dualmech.models.slider_crank.analysis`
+(:func:`~dualmech.models.slider_crank.analysis.close_loop`): the plane-geometry estimate of
 ``S4`` (thesis section 2.6.2), the branch-seeking estimate with the rod laid along
 the slider line, geometric continuation from the planar mechanism, and the branch
 rule :math:`(P_3 - P_2)\\cdot k_4 < 0` (``docs/conventions.md``).  The loop itself is
@@ -9,7 +9,7 @@ closed by the generic kernel (:func:`dualmech.core.kernel.dfp_nb.solve_closure`)
 
 A position's geometry is the tuple ``g = (theta1, S1, a1, a2, a4, alpha4)``; its
 state ``x`` is ``S4`` then the two ball rotations (row-major), the layout of
-:data:`~dualmech.models.slider_crank.LOOP` flattened by
+:data:`~dualmech.models.slider_crank.analysis.LOOP` flattened by
 :func:`~dualmech.core.kernel.loop_nb.flatten`.
 """
 
@@ -91,7 +91,7 @@ def make_scratch(n_vals: int, n_state: int) -> Scratch:
 
 @njit(**JIT)
 def set_values(vidx: np.ndarray, g: tuple, vals: np.ndarray) -> None:
-    """``vals`` of the loop at geometry ``g`` (:meth:`dualmech.models.slider_crank.Batch.inputs`)."""
+    """``vals`` of the loop at geometry ``g`` (:meth:`dualmech.models.slider_crank.analysis.Batch.inputs`)."""
     for k in range(6):
         vals[vidx[k]] = g[k]
 
@@ -115,7 +115,7 @@ def reach_and_foot(g: tuple) -> tuple[float, float]:
 
 @njit(**JIT)
 def planar_estimate(g: tuple) -> float:
-    """:func:`dualmech.models.slider_crank.planar_estimate` at one position."""
+    """:func:`dualmech.models.slider_crank.analysis.planar_estimate` at one position."""
     th, _, a1, a2, a4, al4 = g
     side = 1.0 if math.sin(al4) < 0 else -1.0
     return side * a1 * math.sin(th) + math.sqrt(max(a2**2 - (a1 * math.cos(th) + a4) ** 2, 0.0))
@@ -123,7 +123,7 @@ def planar_estimate(g: tuple) -> float:
 
 @njit(**JIT)
 def along_slider_estimate(g: tuple) -> float:
-    """:func:`dualmech.models.slider_crank.along_slider_estimate` at one position."""
+    """:func:`dualmech.models.slider_crank.analysis.along_slider_estimate` at one position."""
     f, k4, p2 = slider_line(g)
     return g[3] - ((p2[0] - f[0]) * k4[0] + (p2[1] - f[1]) * k4[1] + (p2[2] - f[2]) * k4[2])
 
@@ -150,7 +150,7 @@ def _cross(a: tuple, b: tuple) -> tuple:
 
 @njit(**JIT)
 def state_from_slider(g: tuple, s4: float, x: np.ndarray) -> None:
-    """:func:`dualmech.models.slider_crank.state_from_slider` at one position, into ``x``."""
+    """:func:`dualmech.models.slider_crank.analysis.state_from_slider` at one position, into ``x``."""
     f, k4, p2 = slider_line(g)
     u = _unit((f[0] - s4 * k4[0] - p2[0], f[1] - s4 * k4[1] - p2[1], f[2] - s4 * k4[2] - p2[2]))
     ref = (1.0, 0.0, 0.0) if abs(u[2]) > 0.9 else (0.0, 0.0, 1.0)
@@ -175,7 +175,7 @@ def state_from_slider(g: tuple, s4: float, x: np.ndarray) -> None:
 @njit(**JIT)
 def _blend(g: tuple, lam: float) -> tuple:
     """Geometry ``lam`` of the way from the planar reference to ``g``
-    (:func:`~dualmech.models.slider_crank._blend`)."""
+    (:func:`~dualmech.models.slider_crank.analysis._blend`)."""
     th, s1, a1, a2, a4, al4 = g
     ref = 1.5 * math.pi if math.sin(al4) < 0 else 0.5 * math.pi
     diff = (al4 - ref + math.pi) % (2 * math.pi) - math.pi
@@ -194,7 +194,7 @@ def _attempt(
 
 @njit(**JIT)
 def continuation(fl: FlatLoop, rules: Rules, g: tuple, x: np.ndarray, vals: np.ndarray, w: Work) -> bool:
-    """:func:`dualmech.models.slider_crank.continuation` at one position: whether every step closed
+    """:func:`dualmech.models.slider_crank.analysis.continuation` at one position: whether every step closed
     on the branch."""
     start = _blend(g, 0.0)
     state_from_slider(start, planar_estimate(start), x)
@@ -249,7 +249,8 @@ def warm_start(
 
 @njit(**JIT)
 def close_reachable(fl: FlatLoop, rules: Rules, g: tuple, w: Work, sc: Scratch) -> tuple[int, int, float]:
-    """:func:`dualmech.models.slider_crank._close_reachable` at one position, the state into ``sc.x[0]``.
+    """:func:`dualmech.models.slider_crank.analysis._close_reachable` at one position, the state into
+    ``sc.x[0]``.
 
     Returns (status code of :class:`Rules`, iterations, closure residual).
     """

@@ -18,8 +18,8 @@ free rotation and the rod's spin is fixed by the zero-spin gauge
 :data:`LOOP` is the table; :class:`Batch` holds the positions of one or more cases with
 their geometry per position (so cases share one batch), and the geometry derived from
 them (``F``, ``k4``, ``P2``: :mod:`dualmech.models.mechanism`).  The in-house engine's
-thresholds are named here too: the numpy solver (:mod:`dualmech.models.slider_crank`) and
-the compiled kernel (:mod:`dualmech.models.slider_crank_kernel`) both read them.
+thresholds are named here too: the numpy solver (:mod:`dualmech.models.slider_crank.analysis`) and
+the compiled kernel (:mod:`dualmech.models.slider_crank.kernel`) both read them.
 """
 
 from __future__ import annotations

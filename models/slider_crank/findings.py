@@ -20,7 +20,7 @@ g       a positive offset a4 reduces the stroke
 
 :func:`thesis_findings` returns one record per finding (``id``, ``finding``,
 ``verdict``, ``evidence``, ``values``); the stroke over a4 x alpha4 x S1 and the dead
-centres come from :mod:`dualmech.models.stroke`.  ``docs/findings.md`` is the written verdict;
+centres come from :mod:`dualmech.models.slider_crank.stroke`.  ``docs/findings.md`` is the written verdict;
 ``docs/errata.md``
 the deviations of the printed equations behind them.
 """
@@ -35,9 +35,9 @@ from dualmech.core.status import RATES_GIVEN, Status, is_status
 from dualmech.core.thresholds import Tolerance
 from dualmech.models.case import Case, load_case, preset_names
 from dualmech.models.joint_frames import joint_frame_columns
-from dualmech.models.slider_crank import Analysis, analyze_many, to_table
-from dualmech.models.slider_crank_kernel import solve_cases
-from dualmech.models.stroke import (
+from dualmech.models.slider_crank.analysis import Analysis, analyze_many, to_table
+from dualmech.models.slider_crank.kernel import solve_cases
+from dualmech.models.slider_crank.stroke import (
     STROKE_OFFSETS,
     STROKE_SHIFTS,
     STROKE_TWISTS,

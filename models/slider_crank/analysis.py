@@ -1,8 +1,8 @@
 """The in-house engine: displacement, velocity, acceleration and inverse dynamics of a case.
 
 :func:`analyze_many` runs the whole analysis for all positions of many cases at once (the
-geometry is a per-position parameter of the loop, :class:`~dualmech.models.slider_crank_loop.Batch`,
-so cases share one batch): the loop closure of :mod:`dualmech.models.slider_crank_closure`,
+geometry is a per-position parameter of the loop, :class:`~dualmech.models.slider_crank.loop.Batch`,
+so cases share one batch): the loop closure of :mod:`dualmech.models.slider_crank.closure`,
 then screws for the rates, dual momentum and D'Alembert for the reactions, the edges of
 assembly and the dead centres.  :func:`to_table` turns the result into the common
 :class:`~dualmech.core.table.ResultTable`; :func:`solve_case` runs the compiled kernel, which
@@ -30,8 +30,8 @@ from dualmech.core.universal import joint_axes, link_frame, universal_motion
 from dualmech.models.angle_ranges import status_messages
 from dualmech.models.case import Case
 from dualmech.models.mechanism import crank_pin
-from dualmech.models.slider_crank_closure import close_loop
-from dualmech.models.slider_crank_loop import DEAD_CENTRE, LOOP, Batch
+from dualmech.models.slider_crank.closure import close_loop
+from dualmech.models.slider_crank.loop import DEAD_CENTRE, LOOP, Batch
 from dualmech.models.units import column_unit
 
 #: Positions analysed together at most: bounds memory (about 9 kB of work arrays per position) and keeps
@@ -50,7 +50,7 @@ class Analysis:
     ``reactions`` the :class:`Reactions` (not masked: see :func:`to_table`); ``moment_axis`` ``(n, 3)``
     the universal joint's moment axis ``n`` the reactions were solved with (zero rows: a ball joint, or a
     universal joint at its lock), for solving them again under other loads
-    (:func:`dualmech.models.forward_dynamics.simulate`).
+    (:func:`dualmech.models.slider_crank.forward_dynamics.simulate`).
     """
 
     case: Case
@@ -106,7 +106,7 @@ def analyze_closed(cases: Sequence[Case], cranks: Sequence[CrankState], batch: B
     """Everything after the loop closure, for the positions of ``batch`` (``Batch.of(cases, cranks)``).
 
     ``closed`` is ``(state, status, iterations, residual)`` as
-    :func:`~dualmech.models.slider_crank_closure.close_loop` returns them.  Every step is numpy over
+    :func:`~dualmech.models.slider_crank.closure.close_loop` returns them.  Every step is numpy over
     the positions, generic in the scalar type (:func:`dualmech.core.dual.scalar_type`): the tolerance
     study passes complex cases and a state polished in complex arithmetic
     (:func:`dualmech.core.closure.polish`) to take derivatives through this code.
@@ -215,11 +215,11 @@ def to_table(an: Analysis) -> ResultTable:
 def solve_case(case: Case) -> ResultTable:
     """In-house engine: every position of ``case`` by the compiled kernel, as the common result table.
 
-    :func:`~dualmech.models.slider_crank_kernel.solve_case` runs the same algorithm as
+    :func:`~dualmech.models.slider_crank.kernel.solve_case` runs the same algorithm as
     :func:`analyze` (which stays: it returns the body motions and rates that forward dynamics,
     balancing and the findings use, and it is the kernel's test oracle).
     """
-    from dualmech.models.slider_crank_kernel import solve_case as solve_compiled  # numba loads on first use
+    from dualmech.models.slider_crank.kernel import solve_case as solve_compiled  # numba loads on first use
 
     return solve_compiled(case)
 

@@ -3,7 +3,7 @@
 The generalized inertia :math:`I(\\psi)`, its derivative :math:`I'`, the gravity force
 :math:`\\tau^G`, :math:`S_4` and :math:`S_4' = dS_4/d\\psi` (``core/generalized_inertia.py``,
 Sinatra–Angeles eq. 39–43, in space) come from the in-house velocity and acceleration
-analysis at :math:`\\dot\\psi = 1`, :math:`\\ddot\\psi = 0` (``models/slider_crank.py``).
+analysis at :math:`\\dot\\psi = 1`, :math:`\\ddot\\psi = 0` (``models/slider_crank/analysis.py``).
 With a universal joint at the slider (``[joints] rod_slider``) the rod's angular velocity there includes
 the spin the joint fixes, so its axial inertia enters :math:`I` (the IFToMM benchmark's energy,
 ``tests/models/test_iftomm.py``); with two ball joints the zero-spin gauge leaves it out.
@@ -13,7 +13,7 @@ interpolant matches fresh in-house values at the ``N`` midpoints to ``interpolat
 (relative), which converges geometrically for these analytic periodic functions (``N`` =
 128–256 for the bundled cases).  A non-periodic axial motion (non-integer ``axial_cycles``)
 falls back to calling the in-house solver at every evaluation (:class:`CoefficientModel`).
-:mod:`dualmech.models.forward_dynamics` integrates the equation.
+:mod:`dualmech.models.slider_crank.forward_dynamics` integrates the equation.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from dualmech.core.status import RATES_GIVEN, is_status
 from dualmech.models.angle_ranges import format_angle_ranges, no_assembly_ranges
 from dualmech.models.case import Case
 from dualmech.models.mechanism import crank_pin
-from dualmech.models.slider_crank import Analysis, analyze
+from dualmech.models.slider_crank.analysis import Analysis, analyze
 
 #: Largest number of samples of the coefficient table before falling back to direct evaluation.
 MAX_TABLE_SIZE = 2**15

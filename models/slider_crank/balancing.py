@@ -56,7 +56,7 @@ import numpy as np
 from dualmech.core.motion import CrankState
 from dualmech.core.status import Status
 from dualmech.models.case import Case, with_loads
-from dualmech.models.slider_crank import analyze
+from dualmech.models.slider_crank.analysis import analyze
 
 
 @dataclass(frozen=True)

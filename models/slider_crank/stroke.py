@@ -5,9 +5,9 @@
 extremes refined by Newton on dS4/dtheta1; :func:`stroke_table` the stroke of the thesis's
 worked example over a4 x alpha4 x S1 (thesis section 3.1, issue 2); :func:`assembly_limit_s1`
 the largest S1 at which the planar-twist mechanism still assembles everywhere.  The thesis
-findings (``models/findings.py``) read them.
+findings (``models/slider_crank/findings.py``) read them.
 
-Every sweep runs the compiled solver (:func:`~dualmech.models.slider_crank_kernel.solve_cases`, its result
+Every sweep runs the compiled solver (:func:`~dualmech.models.slider_crank.kernel.solve_cases`, its result
 tables): the thesis findings of a report solve about 40,000 positions here.
 """
 
@@ -22,7 +22,7 @@ from dualmech.core.motion import CrankState
 from dualmech.core.status import RATES_GIVEN, Status, is_status
 from dualmech.core.table import ResultTable
 from dualmech.models.case import Case, load_case
-from dualmech.models.slider_crank_kernel import solve_cases
+from dualmech.models.slider_crank.kernel import solve_cases
 
 #: Grid of the stroke table (thesis section 3.1 and issue 2).
 STROKE_OFFSETS = (0.0, 10.0, 20.0, 30.0)
