@@ -186,6 +186,11 @@ LOOP_EDGE_ROUNDING = 5e-15
 #: order of sums and, on a fine grid, the kernel's start estimates differ (measured <= 1.1e-14 on the
 #: presets).
 KERNEL_VS_NUMPY_LOOP = 1e-12
+#: The compiled rates solved with the branch sign's LU factors (the closure Jacobian, its dual rows over the
+#: length scale) against the rate equations' own factorization, relative to each output's peak: the same
+#: equations, their rows scaled, so the pivots and the rounding differ (measured 8.7e-15 on the slider crank,
+#: RSSR and RCCC).
+REUSED_FACTORS = 1e-13
 #: A column that is nil in theory (a force along an axis the loads never load, the ground link's twist) is
 #: rounding noise in both: compared against this fraction of its group's peak instead of its own.
 NIL_COLUMN = 1e-2

@@ -10,9 +10,9 @@ blocks of whole segments of positions on the kernel's threads (:mod:`~dualmech.c
 positions that missed the branch closed again one after the other from their closed neighbour (the numpy
 solver's repair).  One difference from the numpy solver, for speed: within a segment a position's estimate
 is extrapolated from the two closed before it, where the numpy solver interpolates between the stations
-(:mod:`~dualmech.core.kernel.loop_engine_nb`); both refine to the rounding level, so the answers differ by
-rounding.  Every position's answer is the same whatever the blocks: it depends on the stations and its
-segment only.
+(:mod:`~dualmech.core.kernel.loop_engine_nb`), and the rates are solved with the LU factors of the branch
+sign's closure Jacobian; both refine to the rounding level, so the answers differ by rounding.  Every
+position's answer is the same whatever the blocks: it depends on the stations and its segment only.
 
 The table becomes data here: :func:`~dualmech.core.kernel.loop_nb.flatten` and a
 :class:`~dualmech.core.kernel.wrenches_nb.WrenchSpec` (the wrench columns in the numpy solver's order);
