@@ -255,14 +255,15 @@ def solve_loop(loop: Loop, inputs: dict[str, np.ndarray], input_rates: dict[str,
     segments = -(-n // SEGMENT)  # blocks of whole segments: the answers do not depend on the blocks
     bounds = np.unique(np.minimum(np.linspace(0, segments, parts + 1).round().astype(int) * SEGMENT, n))
     works = [closer.work] + [make_work(fl) for _ in range(bounds.size - 2)]  # the closer waits meanwhile
-    blocks = [kernel_pool().submit(analyze_block, int(a), int(b), *args, work,
-                                   make_wrench_work(rows, len(labels)))
-              for a, b, work in zip(bounds[:-1], bounds[1:], works)]
+    # every scratch made before the first block starts: made meanwhile, it would wait for a free core
+    wrench_works = [make_wrench_work(rows, len(labels)) for _ in works]
+    blocks = [kernel_pool().submit(analyze_block, int(a), int(b), *args, work, wrench_work)
+              for a, b, work, wrench_work in zip(bounds[:-1], bounds[1:], works, wrench_works)]
     for block in blocks:
         block.result()
     repaired = _repair(closer, out, at)
     if repaired.size:
-        outputs_at(repaired, fl, spec, values, out, closer.work, make_wrench_work(rows, len(labels)))
+        outputs_at(repaired, fl, spec, values, out, closer.work, wrench_works[0])
     branch = closer.branch
     return _results(loop, out, branch, efforts, labels)
 
