@@ -186,6 +186,19 @@ LOOP_EDGE_ROUNDING = 5e-15
 #: order of sums and, on a fine grid, the kernel's start estimates differ (measured <= 1.1e-14 on the
 #: presets).
 KERNEL_VS_NUMPY_LOOP = 1e-12
+#: The compiled rates solved with the branch sign's LU factors (the closure Jacobian, its dual rows over the
+#: length scale) against the rate equations' own factorization, relative to each output's peak: the same
+#: equations, their rows scaled, so the pivots and the rounding differ (measured 8.7e-15 on the slider crank,
+#: RSSR and RCCC).
+REUSED_FACTORS = 1e-13
+#: The compiled square Newton-Euler solve along the chain (core/kernel/wrench_chain_nb.py) against the
+#: Householder QR of the whole system, the unknowns relative to their peak and the transmission relative to
+#: itself: two factorizations of one system, each backward stable (measured 1.3e-14 for the unknowns, 1.1e-14
+#: for the transmission, on the 7R, RSCR, RSRC and RCCC).
+CHAIN_VS_QR = 1e-13
+#: The compiled transposed LU solve (core/kernel/linalg_nb.py) against numpy's solve, relative to the
+#: solution's peak, on well-conditioned random matrices up to 9x9 (measured 7.4e-15).
+KERNEL_LINALG = 1e-13
 #: A column that is nil in theory (a force along an axis the loads never load, the ground link's twist) is
 #: rounding noise in both: compared against this fraction of its group's peak instead of its own.
 NIL_COLUMN = 1e-2

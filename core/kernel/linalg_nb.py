@@ -240,3 +240,24 @@ def determinant_sign(a: np.ndarray, sq: np.ndarray, piv: np.ndarray) -> int:
         if sq[c, c] < 0.0:
             sign = -sign
     return sign
+
+
+@njit(**INLINE)
+def solve_transposed(lu: np.ndarray, piv: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """``a^T out = b`` with the factors of :func:`_lu_factor` of a square ``a`` (``lu``, ``piv``): the
+    elimination left ``T a = U``, ``T`` its row swaps and multipliers in turn, so ``U^T y = b`` forward, then
+    ``out = T^T y``, the steps' transposes in reverse order.  ``b`` is left as it was."""
+    k = lu.shape[0]
+    for c in range(k):
+        s = b[c]
+        for j in range(c):
+            s -= lu[j, c] * out[j]
+        out[c] = s / lu[c, c]
+    for c in range(k - 1, -1, -1):
+        s = out[c]
+        for r in range(c + 1, k):
+            s -= lu[r, c] * out[r]
+        out[c] = s
+        p = piv[c]
+        if p != c:
+            out[c], out[p] = out[p], out[c]

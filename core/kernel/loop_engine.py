@@ -10,9 +10,9 @@ blocks of whole segments of positions on the kernel's threads (:mod:`~dualmech.c
 positions that missed the branch closed again one after the other from their closed neighbour (the numpy
 solver's repair).  One difference from the numpy solver, for speed: within a segment a position's estimate
 is extrapolated from the two closed before it, where the numpy solver interpolates between the stations
-(:mod:`~dualmech.core.kernel.loop_engine_nb`); both refine to the rounding level, so the answers differ by
-rounding.  Every position's answer is the same whatever the blocks: it depends on the stations and its
-segment only.
+(:mod:`~dualmech.core.kernel.loop_engine_nb`), and the rates are solved with the LU factors of the branch
+sign's closure Jacobian; both refine to the rounding level, so the answers differ by rounding.  Every
+position's answer is the same whatever the blocks: it depends on the stations and its segment only.
 
 The table becomes data here: :func:`~dualmech.core.kernel.loop_nb.flatten` and a
 :class:`~dualmech.core.kernel.wrenches_nb.WrenchSpec` (the wrench columns in the numpy solver's order);
@@ -247,22 +247,23 @@ def solve_loop(loop: Loop, inputs: dict[str, np.ndarray], input_rates: dict[str,
         good_pos, good_x = _stations(closer, n, start, at, stations)
         args = (fl, tols, tols._replace(closure=0.0), spec, values, good_pos, good_x, closer.branch, out)
         if not _warm():
-            analyze_block(0, 0, *args, closer.work, make_wrench_work(rows, len(labels)))
+            analyze_block(0, 0, *args, closer.work, make_wrench_work(rows, len(labels), fl.screws.shape[0]))
             outputs_at(np.zeros(0, dtype=np.int64), fl, spec, values, out, closer.work,
-                       make_wrench_work(rows, len(labels)))
+                       make_wrench_work(rows, len(labels), fl.screws.shape[0]))
             closer.refine(int(good_pos[0]), good_x[0].copy())  # the repairs' entry point (the start, closed)
     parts = max(1, min(n // BLOCK, threads() * BLOCKS_PER_THREAD))
     segments = -(-n // SEGMENT)  # blocks of whole segments: the answers do not depend on the blocks
     bounds = np.unique(np.minimum(np.linspace(0, segments, parts + 1).round().astype(int) * SEGMENT, n))
     works = [closer.work] + [make_work(fl) for _ in range(bounds.size - 2)]  # the closer waits meanwhile
-    blocks = [kernel_pool().submit(analyze_block, int(a), int(b), *args, work,
-                                   make_wrench_work(rows, len(labels)))
-              for a, b, work in zip(bounds[:-1], bounds[1:], works)]
+    # every scratch made before the first block starts: made meanwhile, it would wait for a free core
+    wrench_works = [make_wrench_work(rows, len(labels), fl.screws.shape[0]) for _ in works]
+    blocks = [kernel_pool().submit(analyze_block, int(a), int(b), *args, work, wrench_work)
+              for a, b, work, wrench_work in zip(bounds[:-1], bounds[1:], works, wrench_works)]
     for block in blocks:
         block.result()
     repaired = _repair(closer, out, at)
     if repaired.size:
-        outputs_at(repaired, fl, spec, values, out, closer.work, make_wrench_work(rows, len(labels)))
+        outputs_at(repaired, fl, spec, values, out, closer.work, wrench_works[0])
     branch = closer.branch
     return _results(loop, out, branch, efforts, labels)
 

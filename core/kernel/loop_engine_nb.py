@@ -5,14 +5,15 @@ closure refined to the rounding level and its branch sign (:mod:`~dualmech.core.
 rates and accelerations
 (:func:`~dualmech.core.kernel.rates_nb.solve_rates`) and the joint wrenches
 (:func:`~dualmech.core.kernel.wrenches_nb.joint_wrenches`), written to the position's rows of the
-outputs.  The estimate (:func:`_estimate`): on a fine, even grid of the drive, the state extrapolated from
-the two positions before it in its :data:`SEGMENT` where both closed on the branch (a neighbour a step away
-is far nearer than a station: one or two Newton steps instead of three; an S-S link's spin, which the
-gauge leaves as estimated, follows the positions before); else, as the numpy solver's, the state
-interpolated between the good stations around it, which is also tried where an extrapolated estimate does
-not close on the branch.  A segment's answers depend on its first position and the stations only, so every
-position's answer is the same whatever the blocks.  :mod:`dualmech.core.kernel.loop_engine` closes the
-stations, drives the blocks and reads the outputs back as the numpy solver's results.
+outputs; the branch sign's LU factors serve the rates (one factorization of the closure Jacobian at the
+closed state).  The estimate (:func:`_estimate`): on a fine, even grid of the drive, the state
+extrapolated from the two positions before it in its :data:`SEGMENT` where both closed on the branch (a
+neighbour a step away is far nearer than a station: one or two Newton steps instead of three; an S-S link's
+spin, which the gauge leaves as estimated, follows the positions before); else, as the numpy solver's, the
+state interpolated between the good stations around it, which is also tried where an extrapolated estimate
+does not close on the branch.  A segment's answers depend on its first position and the stations only, so
+every position's answer is the same whatever the blocks.  :mod:`dualmech.core.kernel.loop_engine` closes
+the stations, drives the blocks and reads the outputs back as the numpy solver's results.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from numba import njit
 from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, residual_at
 from dualmech.core.kernel.continuation_nb import close_position, interpolate, interpolated_guess
 from dualmech.core.kernel.dual_nb import INLINE, JIT
-from dualmech.core.kernel.loop_nb import FlatLoop
+from dualmech.core.kernel.loop_nb import FlatLoop, length_scale
 from dualmech.core.kernel.rates_nb import solve_rates
 from dualmech.core.kernel.wrenches_nb import WrenchSpec, WrenchWork, joint_wrenches
 
@@ -82,7 +83,8 @@ def analyze_block(
             iters += more
         ints[i, CODE], ints[i, ITERATIONS], ints[i, SIGN] = code, iters, sign
         reals[i, RESIDUAL] = res
-        _outputs(i, fl, spec, values, out, w, ww)
+        # the branch sign's LU factors (none at a zero pivot) serve the rates
+        _outputs(i, fl, spec, values, out, w, ww, length_scale(fl, vals[i]) if sign != 0 else 0.0)
 
 
 @njit(**INLINE)
@@ -131,17 +133,17 @@ def outputs_at(rows: np.ndarray, fl: FlatLoop, spec: WrenchSpec, values: tuple, 
     for k in range(rows.size):
         i = rows[k]
         residual_at(fl, values[0][i], out[0][i], w)
-        _outputs(i, fl, spec, values, out, w, ww)
+        _outputs(i, fl, spec, values, out, w, ww, 0.0)
 
 
 @njit(**INLINE)
 def _outputs(i: int, fl: FlatLoop, spec: WrenchSpec, values: tuple, out: tuple, w: Work,
-             ww: WrenchWork) -> None:
+             ww: WrenchWork, factored: float) -> None:
     """Position ``i``'s rates and joint wrenches into ``out`` (:func:`analyze_block`), the loop evaluated at
-    its state in ``w``."""
+    its state in ``w`` (``factored``: as :func:`~dualmech.core.kernel.rates_nb.solve_rates`')."""
     vals, vdot, vddot, given = values
     xs, q, motion, wrench, unknowns, ints, reals = out
-    solve_rates(fl, vdot[i], vddot[i], w)
+    solve_rates(fl, vdot[i], vddot[i], w, factored)
     dyn, transmission = joint_wrenches(fl, spec, vals[i], xs[i], given[i], w, ww)
     reals[i, DYNAMICS_RESIDUAL], reals[i, TRANSMISSION] = dyn, transmission
     for k in range(fl.n_step):

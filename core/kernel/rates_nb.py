@@ -31,11 +31,13 @@ def _rhs(
     per_screw: np.ndarray,
     transport: np.ndarray,
     with_transport: bool,
+    scale: float,
     err: np.ndarray,
 ) -> None:
     """``per_screw``: each screw's value (inputs' from ``values``, indexed like ``vals``, unknowns' from
     ``unknown``); ``err``: minus the known screws' motion and, ``with_transport``, the carried screws'
-    terms, with the gauge rows (:func:`dualmech.core.rates.solve_rates`)."""
+    terms, with the gauge rows (:func:`dualmech.core.rates.solve_rates`), the dual rows over ``scale``
+    (1: exactly as summed)."""
     for j in range(screws.shape[0]):
         col = screws[j, 2]
         per_screw[j] = values[screws[j, 3]] if col < 0 else unknown[col]
@@ -53,6 +55,8 @@ def _rhs(
                     + axes[g, 1] * transport[j, 0, 1]
                     + axes[g, 2] * transport[j, 0, 2]
                 )
+    for i in range(3, 6):
+        err[i] /= scale
 
 
 @njit(**INLINE)
@@ -80,10 +84,16 @@ def _transport(
 
 
 @njit(**INLINE)
-def solve_rates(fl: FlatLoop, vdot: np.ndarray, vddot: np.ndarray, w: Work) -> None:
+def solve_rates(fl: FlatLoop, vdot: np.ndarray, vddot: np.ndarray, w: Work, factored: float = 0.0) -> None:
     """Rates and accelerations of the loop evaluated in ``w`` (closed), for input rates ``vdot``
     and accelerations ``vddot`` (indexed like ``vals``, parameters 0).  Fills ``w.q_dot``,
-    ``w.q_ddot``, ``w.twists``, ``w.accels``."""
+    ``w.q_ddot``, ``w.twists``, ``w.accels``.
+
+    ``factored``: 0 to factor the screw matrix here; else the length scale of the LU factors that ``w.sq``,
+    ``w.piv`` already hold at this point (the screw matrix with its dual rows over that scale, and
+    ``w.gauge``, ``w.axes``, as :func:`~dualmech.core.kernel.continuation_nb.branch_sign` leaves them): the
+    same equations with their dual rows over the scale, one factorization for the branch and the rates.
+    """
     screws, gauges, lines, mat, gauge, axes, err = (
         fl.screws,
         fl.gauges,
@@ -95,15 +105,17 @@ def solve_rates(fl: FlatLoop, vdot: np.ndarray, vddot: np.ndarray, w: Work) -> N
     )
     rate, acc, transport, q_dot, q_ddot = w.per_screw[0], w.per_screw[1], w.transport, w.q_dot, w.q_ddot
     rows = err[: 6 + gauges.size]
-    screw_matrix(fl, w.frames, lines, 1.0, mat, gauge, axes)
-    _rhs(screws, gauges, lines, gauge, axes, vdot, q_dot, rate, transport, False, err)
-    lu = factorize(mat, w.sq, w.svd, w.piv)  # one factorization for the rates and the accelerations
+    lu, scale = True, factored
+    if factored == 0.0:
+        screw_matrix(fl, w.frames, lines, 1.0, mat, gauge, axes)
+        lu, scale = factorize(mat, w.sq, w.svd, w.piv), 1.0  # one for the rates and the accelerations
+    _rhs(screws, gauges, lines, gauge, axes, vdot, q_dot, rate, transport, False, scale, err)
     solve_factored(mat, rows, q_dot, w.sq, w.rhs, w.svd, w.piv, lu)
     for j in range(screws.shape[0]):
         if screws[j, 2] >= 0:
             rate[j] = q_dot[screws[j, 2]]
     _transport(screws, lines, rate, w.cum, transport)
-    _rhs(screws, gauges, lines, gauge, axes, vddot, q_ddot, acc, transport, True, err)
+    _rhs(screws, gauges, lines, gauge, axes, vddot, q_ddot, acc, transport, True, scale, err)
     solve_factored(mat, rows, q_ddot, w.sq, w.rhs, w.svd, w.piv, lu)
     for j in range(screws.shape[0]):
         if screws[j, 2] >= 0:

@@ -6,8 +6,10 @@ then the solved efforts, the transmission's last), D'Alembert's equation of ever
 momentum rate of :func:`~dualmech.core.kernel.dynamics_nb.required_wrench` less the given efforts), the
 moment rows over the length scale, and one Householder QR factorization (as LAPACK's ``geqrf`` that numpy
 calls) for the least-squares solution, the relative residual and the transmission
-``|R_kk| / |a_k|``.  The structure of the columns is data (:class:`WrenchSpec`), built from the table
-by :mod:`dualmech.core.kernel.loop_engine`.
+``|R_kk| / |a_k|``; a square system (no idle freedom) is solved along the chain instead, by an LU as small as
+the closure Jacobian's (:mod:`~dualmech.core.kernel.wrench_chain_nb`: the same solution and transmission,
+by other rounding), the QR where that one is singular.  The structure of the columns is data
+(:class:`WrenchSpec`), built from the table by :mod:`dualmech.core.kernel.loop_engine`.
 """
 
 from __future__ import annotations
@@ -22,12 +24,8 @@ from dualmech.core.kernel.closure_nb import Work
 from dualmech.core.kernel.dual_nb import INLINE, trotation
 from dualmech.core.kernel.dynamics_nb import required_wrench
 from dualmech.core.kernel.loop_nb import FlatLoop, entry, frame_origin
-
-#: Kinds of a wrench column (:attr:`WrenchSpec.columns`): a force along a joint axis, a moment about one, a
-#: torque about a turning coordinate's screw, a force along a sliding coordinate's screw.
-FORCE, MOMENT, TURN, SLIDE = 0, 1, 2, 3
-#: numpy's smallest normal double (``np.finfo(float).tiny``): the floor of a singular ``R``'s diagonal.
-TINY = 2.2250738585072014e-308
+from dualmech.core.kernel.wrench_chain_nb import ChainWork, chain_solve, make_chain_work
+from dualmech.core.kernel.wrench_system_nb import FORCE, MOMENT, SLIDE, TINY, TURN, first_effort, residual_of
 
 
 class WrenchSpec(NamedTuple):
@@ -68,15 +66,17 @@ class WrenchWork(NamedTuple):
     scratch: np.ndarray  # (8, 3)
     rot: np.ndarray  # (3, 3): a link frame's rotation
     org: np.ndarray  # (3,): its origin
+    chain: ChainWork  # a square system's solve along the chain
 
 
-def make_wrench_work(rows: int, unknowns: int) -> WrenchWork:
-    """Allocate a :class:`WrenchWork` for ``rows`` table rows and ``unknowns`` wrench columns."""
+def make_wrench_work(rows: int, unknowns: int, screws: int) -> WrenchWork:
+    """Allocate a :class:`WrenchWork` for ``rows`` table rows, ``unknowns`` wrench columns and ``screws``
+    screws."""
     m = 6 * (rows - 1)
     z = np.zeros
     return WrenchWork(z((rows, 3, 3)), z((rows, 3)), z((unknowns, 2, 3)), z((rows, 2, 3)), z((m, unknowns)),
                       z((m, unknowns)), z(m), z(m), z(unknowns), z((rows, 3)), z((rows, 3)), z((2, 3)),
-                      z((8, 3)), z((3, 3)), z(3))
+                      z((8, 3)), z((3, 3)), z(3), make_chain_work(screws))
 
 
 @njit(**INLINE)
@@ -213,39 +213,6 @@ def _reflect(qr: np.ndarray, j: int, end: int, tau: float, c0: int, c1: int) -> 
 
 
 @njit(**INLINE)
-def _six_sums(a: np.ndarray, x: np.ndarray, i: int, lo: int, hi: int, s0: float, s1: float, s2: float,
-              s3: float, s4: float, s5: float) -> tuple[float, float, float, float, float, float]:
-    """``s0`` to ``s5`` plus ``a[i + k, j] * x[j]`` over the columns ``lo`` to ``hi - 1``, in order, the six
-    sums interleaved."""
-    for j in range(lo, hi):
-        xj = x[j]
-        s0 += a[i, j] * xj
-        s1 += a[i + 1, j] * xj
-        s2 += a[i + 2, j] * xj
-        s3 += a[i + 3, j] * xj
-        s4 += a[i + 4, j] * xj
-        s5 += a[i + 5, j] * xj
-    return s0, s1, s2, s3, s4, s5
-
-
-@njit(**INLINE)
-def _link_residual(a: np.ndarray, b: np.ndarray, x: np.ndarray, i: int, lo: int, hi: int, efforts: int,
-                   rr: float) -> float:
-    """``rr`` plus the squared residuals of a link's equations ``i`` to ``i + 5``, summed over the columns
-    ``lo`` to ``hi - 1`` and ``efforts`` on, in order (:func:`_six_sums`)."""
-    s0, s1, s2, s3, s4, s5 = _six_sums(a, x, i, lo, hi, -b[i], -b[i + 1], -b[i + 2], -b[i + 3], -b[i + 4],
-                                       -b[i + 5])
-    s0, s1, s2, s3, s4, s5 = _six_sums(a, x, i, efforts, a.shape[1], s0, s1, s2, s3, s4, s5)
-    rr += s0 * s0
-    rr += s1 * s1
-    rr += s2 * s2
-    rr += s3 * s3
-    rr += s4 * s4
-    rr += s5 * s5
-    return rr
-
-
-@njit(**INLINE)
 def _factor_band(a: np.ndarray, b: np.ndarray, columns: np.ndarray, efforts: int, qr: np.ndarray,
                  qb: np.ndarray) -> None:
     """The Householder factors of ``a`` into ``qr`` and ``Q^T b`` into ``qb``, each reflection on the band
@@ -325,23 +292,13 @@ def _householder_solve(a: np.ndarray, b: np.ndarray, columns: np.ndarray, qr: np
     ``l`` and ``l + 1``), unless an unknown is not finite: a zero times it is NaN, as in the dense sums.
     """
     m, k = a.shape
-    efforts = k  # the first solved effort's column
-    for c in range(k - 1, -1, -1):
-        if columns[c, 1] == TURN or columns[c, 1] == SLIDE:
-            efforts = c
+    efforts = first_effort(columns)
     _factor_band(a, b, columns, efforts, qr, qb)
     finite = _back_substitute(columns, k, efforts, qr, qb, x)
-    rr, bb, last, lo, hi = 0.0, 0.0, 0.0, 0, 0
-    for i in range(0, m, 6):  # link i / 6: the columns of its two joints and the efforts
-        while lo < efforts and columns[lo, 0] < i // 6:
-            lo += 1
-        while hi < efforts and columns[hi, 0] < i // 6 + 2:
-            hi += 1
-        rr = _link_residual(a, b, x, i, lo if finite else 0, hi if finite else efforts, efforts, rr)
+    last = 0.0
     for i in range(m):
-        bb += b[i] * b[i]
         last += a[i, k - 1] * a[i, k - 1]
-    return math.sqrt(rr) / max(math.sqrt(bb), TINY), abs(qr[k - 1, k - 1]) / max(math.sqrt(last), TINY)
+    return residual_of(a, b, columns, efforts, x, finite), abs(qr[k - 1, k - 1]) / max(math.sqrt(last), TINY)
 
 
 @njit(**INLINE)
@@ -352,8 +309,16 @@ def joint_wrenches(fl: FlatLoop, spec: WrenchSpec, vals: np.ndarray, x: np.ndarr
     ``ww.force``, ``ww.moment``, its point into ``ww.points``; returns the relative residual and the
     transmission.  ``given`` ``(g,)``: the given efforts."""
     _joints(fl, spec, vals, x, w, ww)
-    _equations(fl, spec, vals, x, given, vals[fl.scale] if fl.scale >= 0 else 1.0, w, ww)
-    residual, transmission = _householder_solve(ww.a, ww.b, spec.columns, ww.qr, ww.qb, ww.x)
+    length = vals[fl.scale] if fl.scale >= 0 else 1.0
+    _equations(fl, spec, vals, x, given, length, w, ww)
+    efforts, transmission = first_effort(spec.columns), math.nan
+    if ww.a.shape[0] == ww.a.shape[1]:  # square: along the chain (wrench_chain_nb), else by QR
+        transmission = chain_solve(fl.screws, spec.columns, efforts, w.lines, ww.a, ww.b, ww.points, ww.axes,
+                                   length, ww.chain, ww.x)
+    if math.isnan(transmission):
+        residual, transmission = _householder_solve(ww.a, ww.b, spec.columns, ww.qr, ww.qb, ww.x)
+    else:
+        residual = residual_of(ww.a, ww.b, spec.columns, efforts, ww.x, True)
     for r in range(fl.table.shape[0]):
         for i in range(3):
             ww.force[r, i] = ww.known[r, 0, i]
