@@ -89,7 +89,7 @@ def baseline_summary(
         ref = results.get(mc.id, {}).get(matrix.reference)
         if not isinstance(ref, ColumnTable):
             references[mc.id] = None
-        elif mc.mode:  # a slider crank (another kind has no load mode)
+        elif mc.is_slider_crank:
             references[mc.id] = reference_values(ref, mc.mode, matrix.quantities)
         else:
             references[mc.id] = tables.reference_values(ref, tables.case_spec(mc))

@@ -15,7 +15,6 @@ import numpy as np
 
 from dualmech.core.status import Status, is_status
 from dualmech.core.table import ColumnTable
-from dualmech.models.kinds import SLIDER_CRANK, kind_of
 from dualmech.validation.compare.checks import compare_slider_crank, fail, first_line
 from dualmech.validation.compare.differences import status_memo, stroke
 from dualmech.validation.compare.pairs import pair_table
@@ -51,7 +50,7 @@ def compare_run(matrix: Matrix, results: dict[str, dict[str, ColumnTable | str]]
             errors[mc.id] = {e: v for e, v in per_engine.items() if isinstance(v, str)}
             tables = {e: per_engine[e] for e in matrix.engines_of(mc)
                       if isinstance(per_engine.get(e), ColumnTable)}
-            slider_crank = kind_of(mc.raw) == SLIDER_CRANK
+            slider_crank = mc.is_slider_crank
             strokes[mc.id] = {e: stroke(t) for e, t in tables.items()} if slider_crank else {}
             dead[mc.id] = {e: int(np.sum(is_status(t.status, Status.DEAD_CENTRE))) for e, t in tables.items()}
             checks += _engine_checks(matrix, mc, per_engine, errors[mc.id], tables)

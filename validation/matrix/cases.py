@@ -104,7 +104,7 @@ def listed_matrix(name: str, description: str, source: str, engines: tuple[str, 
     those of ``engines``), the slider-crank cases' columns, load modes and one sweep, and every judge's
     default tolerances, per column and per group."""
     judges = tuple(e for e in ENGINES if e != reference)  # every one: --engines may name any
-    sliders = [mc for mc in cases if mc.mode]
+    sliders = [mc for mc in cases if mc.is_slider_crank]
     quantities = COMPARABLE if sliders else ()
     columns = resolve_tolerances(None, judges, quantities) if sliders else {e: {} for e in judges}
     tolerances = {e: {**columns[e], **group_tolerances(e)} for e in judges}

@@ -13,6 +13,7 @@ from typing import Any
 from dualmech.core.table import KINEMATIC_COLUMNS, REACTION_COLUMNS
 from dualmech.models.case import Case, case_from_dict
 from dualmech.models.inputs import show
+from dualmech.models.kinds import SLIDER_CRANK, kind_of
 from dualmech.validation.engines import ENGINES
 
 #: Columns a matrix may compare, in report order. ``residual`` is each engine's own
@@ -134,6 +135,12 @@ class MatrixCase:
     is_base: bool
     expect: str | None = None
     engines: tuple[str, ...] = ()
+
+    @property
+    def is_slider_crank(self) -> bool:
+        """Whether the case is a slider crank (:func:`~dualmech.models.kinds.kind_of` of its table), whose
+        gate, columns and report sections are the slider crank's; every other kind's run by its table spec."""
+        return kind_of(self.raw) == SLIDER_CRANK
 
     def case(self) -> Case:
         """Build the :class:`~dualmech.models.case.Case`."""

@@ -69,7 +69,8 @@ def _length_unit(matrix: Matrix) -> str:
     state one, else ``""``."""
     from dualmech.models.units import unit_system
 
-    lengths = {unit_system(c.raw.get("units", "consistent")).length for c in matrix.cases if c.mode}
+    lengths = {unit_system(c.raw.get("units", "consistent")).length
+               for c in matrix.cases if c.is_slider_crank}
     return f" \\[{lengths.pop()}]" if len(lengths) == 1 and "" not in lengths else ""  # \\[: not rich markup
 
 
@@ -104,6 +105,7 @@ def verdict_lines(matrix: Matrix, comparison: Comparison, markdown: str) -> list
     the first failures (the rest: see ``markdown``), the checks passed near a joint lock."""
     from rich.text import Text
 
+    from dualmech.validation.matrix.cases import not_applicable
     from dualmech.validation.report.tables import not_applicable_lines, worst_checks
 
     failures = comparison.failures()
@@ -112,7 +114,8 @@ def verdict_lines(matrix: Matrix, comparison: Comparison, markdown: str) -> list
     missing = f"; {len(comparison.missing)} not run" if comparison.missing else ""
     worst = "; ".join(f"{e} {c.ratio:.2g} ({c.case} {c.quantity})"
                       for e, c in worst_checks(matrix, comparison).items())
-    out: list[Any] = [f"[dim]– not applicable: {line}[/]" for line in not_applicable_lines(matrix)]
+    refused = not_applicable_lines(not_applicable(matrix))
+    out: list[Any] = [f"[dim]– not applicable: {line}[/]" for line in refused]
     out += [f"[{colour}]{comparison.verdict}[/]: {n_ok} of {len(comparison.checks)} checks passed"
             f"{missing} (ratio = worst relative difference / tolerance; "
             "dead c. = dead-centre rows excluded, counted)" + (f"; worst ratio: {worst}" if worst else ""),

@@ -49,7 +49,7 @@ def balancing(matrix: Matrix) -> Balancing:
     slider-crank cases: ``matrix`` has one at least)."""
     from dualmech.models.slider_crank.balancing import assembled_force, balanced_case, shaking
 
-    sliders = [c for c in matrix.cases if c.mode]  # the slider-crank cases (another kind has no load mode)
+    sliders = [c for c in matrix.cases if c.is_slider_crank]
     base = next((c for c in sliders if c.is_base), sliders[0])
     picks = [base] + [
         next(c for c in matrix.cases if c.id == s.case_ids[base.mode][-1])

@@ -85,7 +85,8 @@ def figure_specs(matrix: Matrix, results: dict, comparison: Comparison) -> list[
 def _sweep_specs(matrix: Matrix, results: dict) -> list[FigureSpec]:
     """The :data:`SWEEP_FIGURES` of every sweep and load mode that has any result."""
     specs = []
-    units = next((mc.raw.get("units", "consistent") for mc in matrix.cases if mc.mode), "consistent")
+    units = next((mc.raw.get("units", "consistent") for mc in matrix.cases if mc.is_slider_crank),
+                 "consistent")
     for sw in matrix.sweeps:
         for mode, ids in sw.case_ids.items():
             cases = []
@@ -119,7 +120,7 @@ def _difference_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec
         rows: dict[str, list] = {m: [] for m in matrix.modes}
         for mc in matrix.cases:
             differences = comparison.row_differences.get(mc.id, {}).get(e)
-            if differences is not None and mc.mode:  # a slider crank's (another kind's: its own figure)
+            if differences is not None and mc.is_slider_crank:  # another kind's: its own figure
                 rows[mc.mode].append((mc.id, *differences))
         rows = {m: r for m, r in rows.items() if r}
         if rows:
@@ -143,7 +144,7 @@ def _heatmap_specs(matrix: Matrix, comparison: Comparison) -> list[FigureSpec]:
     """Per judge: the heat map of its ratio to tolerance per case and quantity of the matrix."""
     specs: list[FigureSpec] = []
     for e in matrix.judges:
-        ids = [mc.id for mc in matrix.cases if mc.mode and comparison.for_engine(mc.id, e)]  # slider cranks
+        ids = [mc.id for mc in matrix.cases if mc.is_slider_crank and comparison.for_engine(mc.id, e)]
         if ids:
             specs.append(heatmap_spec(comparison, e, ids, list(matrix.quantities) + [STROKE]))
     return specs

@@ -19,6 +19,7 @@ from dualmech.models.tables import TableSpec
 from dualmech.validation.compare import Check, Comparison, compare_run
 from dualmech.validation.durable import json_text
 from dualmech.validation.matrix import Matrix
+from dualmech.validation.matrix.cases import not_applicable
 from dualmech.validation.progress import ProgressCallback
 from dualmech.validation.provenance import key_versions
 from dualmech.validation.report import derived
@@ -123,10 +124,15 @@ def environment(loader_dir: Path, markdown: bool) -> Any:
     return env
 
 
-def comparison_summary(matrix: Matrix, comparison: Comparison, run: dict) -> dict:
+def comparison_summary(matrix: Matrix, comparison: Comparison, run: dict,
+                       specs: dict[str, tuple[str, TableSpec]] | None = None,
+                       refused: dict[str, dict[str, str]] | None = None) -> dict:
     """The JSON summary of a run (``summary.json``): every check, strokes, verdicts, each case's kind, input
-    and engines (:func:`~dualmech.validation.report.tables.summary_cases`), each judge's worst check."""
-    specs = table_specs(matrix)
+    and engines (:func:`~dualmech.validation.report.tables.summary_cases`), each judge's worst check.
+    ``specs`` (:func:`~dualmech.validation.report.tables.table_specs`) and ``refused``
+    (:func:`~dualmech.validation.matrix.cases.not_applicable`) are the matrix's, made here if not given."""
+    specs = table_specs(matrix) if specs is None else specs
+    refused = not_applicable(matrix) if refused is None else refused
     return {
         "format": "dualmech-summary/1",
         "matrix": matrix.name,
@@ -139,7 +145,7 @@ def comparison_summary(matrix: Matrix, comparison: Comparison, run: dict) -> dic
         "n_missing": len(comparison.missing),
         "versions": key_versions(run),
         "run": {k: run.get(k) for k in ("started", "seconds", "jobs", "scheduler", "machine", "versions")},
-        "cases": summary_cases(matrix, specs),
+        "cases": summary_cases(matrix, specs, refused),
         "worst": worst_summary(matrix, comparison, specs),
         "strokes": comparison.strokes,
         "dead_centres": comparison.dead_centres,
@@ -178,12 +184,13 @@ def write_report(
     if results is None:
         results = runner.load_results(rundir, matrix)
     with locked(outdir if outdir is not None else rundir) as outdir:
-        record_files(outdir, write_tables(outdir, results, table_specs(matrix)))
+        specs = table_specs(matrix)
+        record_files(outdir, write_tables(outdir, results, specs))
         pending = _section("figures", start_figures, matrix, results, jobs=jobs)
         try:
             comparison = _compared(matrix, results, comparison)
             context, summary, templates = _while_drawn(matrix, run, results, comparison, pending,
-                                                       findings or derived.findings)
+                                                       findings or derived.findings, specs)
             figures = _section("figures", pending.collect, progress)
         finally:
             pending.cancel()  # after a failure: the figures not started yet (none left otherwise)
@@ -215,22 +222,24 @@ def compiled_templates() -> tuple[Any, Any]:
 
 
 def _while_drawn(matrix: Matrix, run: dict, results: dict, comparison: Comparison, pending: PendingFigures,
-                 findings: Callable[[], list[dict]]) -> tuple[dict, str, tuple[Any, Any]]:
+                 findings: Callable[[], list[dict]], specs: dict[str, tuple[str, TableSpec]]
+                 ) -> tuple[dict, str, tuple[Any, Any]]:
     """Start the figures that need the comparison (and the balancing section's), then make what needs no
     figure while the workers draw: the template variables but the figures (the findings solved here, with
     the compiled kernel that the run loaded in this process: engines.IN_PROCESS_ENGINES), the summary's
-    JSON text and the compiled HTML and Markdown templates."""
-    sliders = any(mc.mode for mc in matrix.cases)
+    JSON text and the compiled HTML and Markdown templates.  ``specs``: the table specs of the matrix's
+    cases of other kinds (:func:`~dualmech.validation.report.tables.table_specs`)."""
+    sliders = any(mc.is_slider_crank for mc in matrix.cases)
     balance = _section("balancing", derived.balancing, matrix) if sliders else None
     shaking = _section("balancing", balancing_spec, balance) if balance else None
-    specs = table_specs(matrix)
     others = _section("figures", table_figures, matrix, results, comparison, specs)
     extra = (*([shaking] if shaking else []), *others)
     _section("figures", pending.add_judged, matrix, comparison, extra=extra)
-    context = _context(matrix, run, results, comparison, specs)
+    refused = not_applicable(matrix)  # once: the simulation's applicability solves a case in-house
+    context = _context(matrix, run, results, comparison, specs, refused)
     context.update(findings=_section("findings", findings) if matrix.of_thesis else None,
                    balancing=balance.rows if balance else None)
-    summary = json_text(comparison_summary(matrix, comparison, run), pretty=True)
+    summary = json_text(comparison_summary(matrix, comparison, run, specs, refused), pretty=True)
     return context, summary, compiled_templates()
 
 
@@ -254,11 +263,11 @@ def _write_figures(outdir: Path, figures: list[Figure]) -> list[Path]:
 
 
 def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison,
-             specs: dict[str, tuple[str, TableSpec]]) -> dict:
+             specs: dict[str, tuple[str, TableSpec]], refused: dict[str, dict[str, str]]) -> dict:
     """The template variables that summarise a run (everything but the figures and the findings): the
     slider crank's sections where it has slider-crank cases, the other kinds' (``specs``,
     :mod:`~dualmech.validation.report.tables`) where it has those, each leaving out what the other has not."""
-    sliders = [mc for mc in matrix.cases if mc.mode]
+    sliders = [mc for mc in matrix.cases if mc.is_slider_crank]
     keys = {case: spec.key for case, (_, spec) in specs.items()}
     context = run_context(matrix, run, results, comparison, keys)
     label = input_label(specs, bool(sliders))
@@ -267,7 +276,7 @@ def _context(matrix: Matrix, run: dict, results: dict, comparison: Comparison,
         row["mode"] = kinds.get(row["case"], row["mode"])
     context.update(mode_label="mode" if not specs else "kind" if not sliders else "kind or mode",
                    key_label=label, input_name="crank angle" if not specs else f"input ({label})",
-                   not_applicable=not_applicable_lines(matrix), gate=_gate(bool(sliders), bool(specs)),
+                   not_applicable=not_applicable_lines(refused), gate=_gate(bool(sliders), bool(specs)),
                    omitted=[] if sliders else list(OMITTED), design=design_tables(matrix, results, specs),
                    tolerances=tolerance_rows({e: matrix.tolerances[e] for e in matrix.judges}))
     if sliders:

@@ -63,7 +63,7 @@ def summary_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
 def stroke_rows(matrix: Matrix, comparison: Comparison) -> list[dict]:
     """Per slider-crank case: the stroke per engine and each judge's difference from the reference."""
     rows = []
-    for mc in (c for c in matrix.cases if c.mode):  # another kind has no slider
+    for mc in (c for c in matrix.cases if c.is_slider_crank):  # another kind has no slider
         s = comparison.strokes.get(mc.id, {})
         ref = s.get(matrix.reference, float("nan"))
         rows.append(

@@ -26,7 +26,6 @@ from dualmech.models.linkages import table_spec, table_summary
 from dualmech.models.tables import TableSpec
 from dualmech.validation.compare import ENGINE, STATUS, Check, Comparison
 from dualmech.validation.matrix import Matrix, MatrixCase
-from dualmech.validation.matrix.cases import not_applicable
 from dualmech.validation.report.figures import FigureSpec, heatmap_spec
 from dualmech.validation.rundir import write_file
 
@@ -44,7 +43,7 @@ def table_specs(matrix: Matrix) -> dict[str, tuple[str, TableSpec]]:
     """Case id -> its kind and table spec, for every case of ``matrix`` that is not a slider crank."""
     out = {}
     for mc in matrix.cases:
-        if kind_of(mc.raw) != SLIDER_CRANK:
+        if not mc.is_slider_crank:
             case = case_from_data(mc.raw)
             out[mc.id] = (kind_of(case), table_spec(kind_of(case), case))
     return out
@@ -81,10 +80,11 @@ def design_tables(matrix: Matrix, results: dict, specs: dict[str, tuple[str, Tab
     return list(groups.values())
 
 
-def not_applicable_lines(matrix: Matrix) -> list[str]:
-    """One line per case and engine of the matrix that does not solve it (a "–" in the summary), saying why:
+def not_applicable_lines(refused: dict[str, dict[str, str]]) -> list[str]:
+    """One line per case and engine that does not solve it (``refused``:
+    :func:`~dualmech.validation.matrix.cases.not_applicable`; a "–" in the summary), saying why:
     ``"exudyn on rrcrc: the Exudyn judge drives the first joint only (...)"``."""
-    return [f"{engine} on {case}: {why}" for case, engines in not_applicable(matrix).items()
+    return [f"{engine} on {case}: {why}" for case, engines in refused.items()
             for engine, why in engines.items()]
 
 
@@ -150,11 +150,11 @@ def write_tables(outdir: Path, results: dict, specs: dict[str, tuple[str, TableS
             if not isinstance(table, str)]
 
 
-def summary_cases(matrix: Matrix, specs: dict[str, tuple[str, TableSpec]]) -> list[dict]:
+def summary_cases(matrix: Matrix, specs: dict[str, tuple[str, TableSpec]],
+                  refused: dict[str, dict[str, str]]) -> list[dict]:
     """``summary.json``'s ``cases``: per case its id, kind, load mode (a slider crank's), swept values and
     sweeps, input key (the column its rows are keyed on), engines that solve it and those that do not with
-    why."""
-    refused = not_applicable(matrix)
+    why (``refused``: :func:`~dualmech.validation.matrix.cases.not_applicable`)."""
     return [{"id": mc.id, "kind": specs[mc.id][0] if mc.id in specs else SLIDER_CRANK, "mode": mc.mode,
              "values": mc.values, "sweeps": list(mc.sweeps),
              "key": specs[mc.id][1].key if mc.id in specs else "theta1_deg",
