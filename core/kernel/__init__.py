@@ -17,7 +17,7 @@ kernel module             what                                   numpy twin
 ``universal_nb``          a universal joint's link spin          :mod:`dualmech.core.universal`
 ``continuation_nb``       branch sign, stations, estimates       :mod:`dualmech.core.continuation`
 ``wrenches_nb``           every joint's wrench, Householder QR   :mod:`dualmech.core.loop_reactions`
-``wrench_chain_nb``       a square system along the chain, LU    (the same least squares, exact)
+``wrench_chain_nb``       the system along the chain, LU         (the same least squares, exact)
 ``wrench_system_nb``      the system's columns and residual      :mod:`dualmech.core.loop_reactions`
 ``loop_engine_nb``        a block of positions of any table      (the three above in turn)
 ========================  =====================================  ==============================

@@ -6,10 +6,11 @@ then the solved efforts, the transmission's last), D'Alembert's equation of ever
 momentum rate of :func:`~dualmech.core.kernel.dynamics_nb.required_wrench` less the given efforts), the
 moment rows over the length scale, and one Householder QR factorization (as LAPACK's ``geqrf`` that numpy
 calls) for the least-squares solution, the relative residual and the transmission
-``|R_kk| / |a_k|``; a square system (no idle freedom) is solved along the chain instead, by an LU as small as
-the closure Jacobian's (:mod:`~dualmech.core.kernel.wrench_chain_nb`: the same solution and transmission,
-by other rounding), the QR where that one is singular.  The structure of the columns is data
-(:class:`WrenchSpec`), built from the table by :mod:`dualmech.core.kernel.loop_engine`.
+``|R_kk| / |a_k|``; a system square but for the S-S links' idle spins is solved along the chain instead, by an
+LU as small as the closure Jacobian's (:mod:`~dualmech.core.kernel.wrench_chain_nb`: the same solution and
+transmission, by other rounding), the QR where that one is singular or another idle freedom makes it longer.
+The structure of the columns is data (:class:`WrenchSpec`), built from the table by
+:mod:`dualmech.core.kernel.loop_engine`.
 """
 
 from __future__ import annotations
@@ -76,7 +77,7 @@ def make_wrench_work(rows: int, unknowns: int, screws: int) -> WrenchWork:
     z = np.zeros
     return WrenchWork(z((rows, 3, 3)), z((rows, 3)), z((unknowns, 2, 3)), z((rows, 2, 3)), z((m, unknowns)),
                       z((m, unknowns)), z(m), z(m), z(unknowns), z((rows, 3)), z((rows, 3)), z((2, 3)),
-                      z((8, 3)), z((3, 3)), z(3), make_chain_work(screws))
+                      z((8, 3)), z((3, 3)), z(3), make_chain_work(screws, m))
 
 
 @njit(**INLINE)
@@ -312,8 +313,8 @@ def joint_wrenches(fl: FlatLoop, spec: WrenchSpec, vals: np.ndarray, x: np.ndarr
     length = vals[fl.scale] if fl.scale >= 0 else 1.0
     _equations(fl, spec, vals, x, given, length, w, ww)
     efforts, transmission = first_effort(spec.columns), math.nan
-    if ww.a.shape[0] == ww.a.shape[1]:  # square: along the chain (wrench_chain_nb), else by QR
-        transmission = chain_solve(fl.screws, spec.columns, efforts, w.lines, ww.a, ww.b, ww.points, ww.axes,
+    if ww.a.shape[0] == ww.a.shape[1] + fl.gauges.size:  # square but the idle spins: along the chain
+        transmission = chain_solve(fl, spec.columns, efforts, w.lines, w.axes, ww.a, ww.b, ww.points, ww.axes,
                                    length, ww.chain, ww.x)
     if math.isnan(transmission):
         residual, transmission = _householder_solve(ww.a, ww.b, spec.columns, ww.qr, ww.qb, ww.x)
