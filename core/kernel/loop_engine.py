@@ -16,7 +16,8 @@ position's answer is the same whatever the blocks: it depends on the stations an
 
 The table becomes data here: :func:`~dualmech.core.kernel.loop_nb.flatten` and a
 :class:`~dualmech.core.kernel.wrenches_nb.WrenchSpec` (the wrench columns in the numpy solver's order);
-nothing is compiled per table.
+nothing is compiled per table.  The blocks' scratch is the spare scratch of earlier calls on tables of the
+same sizes (:func:`~dualmech.core.kernel.pool.take_scratch`), given back at the end.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import numpy as np
 from dualmech.core.closure import ClosureStatus
 from dualmech.core.continuation import STATIONS, Continuation, start_not_closed, station_positions
 from dualmech.core.dual import Dual
-from dualmech.core.kernel.closure_nb import closure_tols, make_work
+from dualmech.core.kernel.closure_nb import Work, closure_tols, make_work
 from dualmech.core.kernel.compiles import compile_session
 from dualmech.core.kernel.continuation_nb import branch_sign, close_one, close_stations, refine_one
 from dualmech.core.kernel.dfp_nb import solve_closure
@@ -44,8 +45,16 @@ from dualmech.core.kernel.loop_engine_nb import (
     outputs_at,
 )
 from dualmech.core.kernel.loop_nb import COLUMN, VALUE_INDEX, FlatLoop, flatten, state_size, value_names
-from dualmech.core.kernel.pool import kernel_pool, threads
-from dualmech.core.kernel.wrenches_nb import FORCE, MOMENT, SLIDE, TURN, WrenchSpec, make_wrench_work
+from dualmech.core.kernel.pool import give_scratch, kernel_pool, take_scratch, threads
+from dualmech.core.kernel.wrenches_nb import (
+    FORCE,
+    MOMENT,
+    SLIDE,
+    TURN,
+    WrenchSpec,
+    WrenchWork,
+    make_wrench_work,
+)
 from dualmech.core.loop import Loop, LoopState, Var
 from dualmech.core.loop_reactions import JointWrenches, effort_slots, joint_freedoms
 from dualmech.core.rates import Rates
@@ -147,8 +156,8 @@ class _Closer:
     stations and the walks between them, the repairs (``_close_one``, ``_walk``, ``_repair`` of
     :mod:`dualmech.core.continuation`, step for step)."""
 
-    def __init__(self, fl: FlatLoop, vals: np.ndarray) -> None:
-        self.fl, self.vals, self.work, self.tols = fl, vals, make_work(fl), closure_tols()
+    def __init__(self, fl: FlatLoop, vals: np.ndarray, work: Work) -> None:
+        self.fl, self.vals, self.work, self.tols = fl, vals, work, closure_tols()
         self.branch = 0
 
     def start(self, start: LoopState, at: int) -> np.ndarray:
@@ -242,30 +251,35 @@ def solve_loop(loop: Loop, inputs: dict[str, np.ndarray], input_rates: dict[str,
            np.empty((n, 3, rows, 3)), np.empty((n, len(labels))), np.empty((n, 3), np.int64),
            np.empty((n, 3)))
     tols = closure_tols()
-    closer = _Closer(fl, vals)
+    kind = (rows, fl.screws.shape[0], fl.gauges.size, k, state_size(fl), len(labels))  # the scratch's sizes
+
+    def new() -> tuple[Work, WrenchWork]:
+        return make_work(fl), make_wrench_work(rows, len(labels), fl.screws.shape[0])
+
+    scratch = [take_scratch(kind, new)]
+    closer = _Closer(fl, vals, scratch[0][0])
     with compile_session():  # a cold cache compiles every entry point here, as one compile
         good_pos, good_x = _stations(closer, n, start, at, stations)
         args = (fl, tols, tols._replace(closure=0.0), spec, values, good_pos, good_x, closer.branch, out)
         if not _warm():
-            analyze_block(0, 0, *args, closer.work, make_wrench_work(rows, len(labels), fl.screws.shape[0]))
-            outputs_at(np.zeros(0, dtype=np.int64), fl, spec, values, out, closer.work,
-                       make_wrench_work(rows, len(labels), fl.screws.shape[0]))
+            analyze_block(0, 0, *args, *scratch[0])
+            outputs_at(np.zeros(0, dtype=np.int64), fl, spec, values, out, *scratch[0])
             closer.refine(int(good_pos[0]), good_x[0].copy())  # the repairs' entry point (the start, closed)
     parts = max(1, min(n // BLOCK, threads() * BLOCKS_PER_THREAD))
     segments = -(-n // SEGMENT)  # blocks of whole segments: the answers do not depend on the blocks
     bounds = np.unique(np.minimum(np.linspace(0, segments, parts + 1).round().astype(int) * SEGMENT, n))
-    works = [closer.work] + [make_work(fl) for _ in range(bounds.size - 2)]  # the closer waits meanwhile
-    # every scratch made before the first block starts: made meanwhile, it would wait for a free core
-    wrench_works = [make_wrench_work(rows, len(labels), fl.screws.shape[0]) for _ in works]
+    # every scratch taken before the first block starts: made meanwhile, it would wait for a free core; the
+    # first block's is the closer's, which waits meanwhile
+    scratch += [take_scratch(kind, new) for _ in range(bounds.size - 2)]
     blocks = [kernel_pool().submit(analyze_block, int(a), int(b), *args, work, wrench_work)
-              for a, b, work, wrench_work in zip(bounds[:-1], bounds[1:], works, wrench_works)]
+              for a, b, (work, wrench_work) in zip(bounds[:-1], bounds[1:], scratch)]
     for block in blocks:
         block.result()
     repaired = _repair(closer, out, at)
     if repaired.size:
-        outputs_at(repaired, fl, spec, values, out, closer.work, wrench_works[0])
-    branch = closer.branch
-    return _results(loop, out, branch, efforts, labels)
+        outputs_at(repaired, fl, spec, values, out, closer.work, scratch[0][1])
+    give_scratch(kind, scratch)
+    return _results(loop, out, closer.branch, efforts, labels)
 
 
 def _results(loop: Loop, out: tuple, branch: int, efforts: dict[str, np.ndarray | None],

@@ -18,7 +18,7 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from dualmech.core.continuation import closure_jacobian, search_assembly
-from dualmech.core.kernel import loop_engine
+from dualmech.core.kernel import loop_engine, pool
 from dualmech.models.case import load_case, preset_names
 from dualmech.models.linkages import read_linkage
 from dualmech.models.linkages.rccc_case import rccc_from_dict
@@ -250,6 +250,39 @@ def test_answers_do_not_depend_on_the_blocks(monkeypatch: pytest.MonkeyPatch, bl
              "iterations": (many.iterations, one.iterations)}
     for name, (mine, ref) in pairs.items():
         np.testing.assert_array_equal(mine, ref, err_msg=name)
+
+
+def test_scratch_given_back_is_reused_with_the_same_answers(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A case solved on the scratch another case of the same sizes gave back (pool.take_scratch): no scratch
+    made, every output the same to the bit as on fresh scratch, the no-assembly gap's repairs included."""
+    mech, start = _slider_crank("no-assembly-gap")
+    other, other_start = _slider_crank("thesis/a4-20-s1-3.5")
+    monkeypatch.setattr(loop_engine, "BLOCK", 60)  # several blocks: several sets
+    monkeypatch.setattr(pool, "_SPARE", {})
+    fresh = analyze_loop(mech, start)
+    analyze_loop(other, other_start)
+    made = []
+    monkeypatch.setattr(loop_engine, "make_work", lambda fl: made.append(fl))  # would fail if called
+    reused = analyze_loop(mech, start)
+    assert not made
+    assert (reused.status == fresh.status).all()
+    for name in ("state", "rates", "wrenches"):
+        for mine, ref in zip(_arrays(getattr(reused, name)), _arrays(getattr(fresh, name))):
+            np.testing.assert_array_equal(mine, ref, err_msg=name)
+    np.testing.assert_array_equal(reused.iterations, fresh.iterations)
+
+
+def _arrays(record: object) -> list[np.ndarray]:
+    """Every array of a result record (its fields, duals' parts, dicts' values), in order."""
+    if isinstance(record, np.ndarray):
+        return [record]
+    if isinstance(record, dict):
+        return [a for v in record.values() for a in _arrays(v)]
+    if isinstance(record, (list, tuple)):
+        return [a for v in record for a in _arrays(v)]
+    if dataclasses.is_dataclass(record) or hasattr(record, "__dict__"):
+        return [a for v in vars(record).values() for a in _arrays(v)]
+    return []
 
 
 def test_a_fine_grid_is_closed_from_the_positions_before() -> None:
