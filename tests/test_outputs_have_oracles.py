@@ -208,12 +208,14 @@ def _loop_engines() -> dict[str, dict[str, str]]:
     loops = "tests/validation/linkages/test_loop_tables.py::"
     spec = table_spec("loop", linkage_case("rscr"))
     agree = loops + "test_every_engine_agrees_with_the_others"
+    condition = "tests/models/loop/test_condition.py::test_the_condition_of_a_pose_is_the_chains"
     out = {}
     for engine in ("dualmech", "pinocchio", "mujoco"):
         rates = loops + "test_rates_match_finite_differences" if engine == "dualmech" else agree
         out[f"loop-{engine}"] = {
             spec.key: "tests/models/loop/test_columns.py::test_a_table_is_settled_by_its_words",
             **{c: loops + "test_the_pose_is_the_closed_form_of_the_ball_link" for c in spec.pose},
+            "closure_condition": condition,
             **{c: rates for c in spec.rates}, **{c: agree for c in (*spec.forces, *spec.moments, "status")},
             **{c: loops + "test_residuals_and_iterations_are_reported"
                for c in ("residual", "dynamics_residual", "meta:iterations")}}

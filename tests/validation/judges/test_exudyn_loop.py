@@ -75,7 +75,7 @@ def worst_by_group(mine: LinkageTable, reference: LinkageTable, mechanism: LoopM
     assert ok.any()
     groups: dict[str, list[str]] = {}
     for column in spec.kinematics + spec.forces + spec.moments:
-        if column != spec.key:
+        if column != spec.key and (values is None or column in values):  # no estimate of a derived column
             groups.setdefault(spec.unit_group(column), []).append(column)
     out = {}
     for group, columns in groups.items():
