@@ -33,71 +33,66 @@ one rule (:func:`~dualmech.models.loop.columns.loop_table`).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from dualmech.models.loop.description import LoopMechanism
 
+#: Cyclic Jacobi sweeps at most (:func:`_condition_rows`); six or seven reach rounding on a 6 x 6 Gram matrix.
+SWEEPS = 30
 
-def _rotation(axis: int, angle: np.ndarray) -> np.ndarray:
-    """Rotations ``(n, 3, 3)`` by ``angle`` ``(n,)`` about axis 0 (x), 1 (y) or 2 (z)."""
-    c, s = np.cos(angle), np.sin(angle)
-    i, j = [k for k in range(3) if k != axis]
-    out = np.zeros(angle.shape + (3, 3))
-    out[:, axis, axis] = 1.0
-    out[:, i, i], out[:, j, j], out[:, j, i], out[:, i, j] = c, c, s, -s
-    return out
-
-
-def _motion(axis: int, angle: np.ndarray, slide: np.ndarray) -> np.ndarray:
-    """Homogeneous transforms ``(n, 4, 4)``: a turn by ``angle`` about ``axis`` and a slide by ``slide``
-    along it."""
-    out = np.zeros(angle.shape + (4, 4))
-    out[:, :3, :3] = _rotation(axis, angle)
-    out[:, axis, 3] = slide
-    out[:, 3, 3] = 1.0
-    return out
+#: A frame: its rotation ``(n, 3, 3)`` and origin ``(n, 3)``, world.
+Frame = tuple[np.ndarray, np.ndarray]
 
 
 def _value(pose: dict[str, np.ndarray], name: str, constant: float, n: int) -> np.ndarray:
     return np.asarray(pose[name], dtype=float) if name in pose else np.full(n, constant)
 
 
-def row_motions(mechanism: LoopMechanism, pose: dict[str, np.ndarray], k: int, n: int
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Row ``k``'s (not spherical) ``Z(theta + eps s)``, ``Y(eta)`` and ``X(alpha + eps a)``, each
-    ``(n, 4, 4)``, from ``pose`` (the table's coordinate columns ``theta<i>``, ``s<i>``, ``eta<i>``)."""
+def _rx(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def row_motion(mechanism: LoopMechanism, pose: dict[str, np.ndarray], k: int, n: int) -> Frame:
+    """Row ``k``'s (not spherical) motion :math:`Z(\\theta + \\varepsilon s)\\, Y(\\eta)\\,
+    X(\\alpha + \\varepsilon a)` from ``pose`` (the table's coordinate columns ``theta<i>``, ``s<i>``,
+    ``eta<i>``): its rotation ``Rz Ry Rx`` and translation ``s z + a (Rz Ry x)``."""
     j = mechanism.joints[k]
     theta = _value(pose, f"theta{k + 1}", j.theta, n)
-    s = _value(pose, f"s{k + 1}", j.s, n)
     eta = _value(pose, f"eta{k + 1}", 0.0, n)
-    return (_motion(2, theta, s), _motion(1, eta, np.zeros(n)),
-            _motion(0, np.full(n, j.alpha), np.full(n, j.a)))
+    ct, st, ce, se = np.cos(theta), np.sin(theta), np.cos(eta), np.sin(eta)
+    zero = np.zeros(n)
+    turn = np.stack([np.stack([ct * ce, -st, ct * se], -1), np.stack([st * ce, ct, st * se], -1),
+                     np.stack([-se, zero, ce], -1)], 1)  # Rz(theta) Ry(eta)
+    shift = np.stack([zero, zero, _value(pose, f"s{k + 1}", j.s, n)], -1) + j.a * turn[:, :, 0]
+    return turn @ _rx(j.alpha), shift
 
 
-def joint_frames(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> list[np.ndarray | None]:
-    """Each row's frame before its motion ``(n, 4, 4)`` (world), from the ground forward up to the first
-    spherical joint and backward from the loop's end down past the last (module docstring); of a
-    spherical joint only the origin (its centre) is meant; ``None`` for a row between two spherical
-    joints."""
+def joint_frames(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> list[Frame | None]:
+    """Each row's frame before its motion (world), from the ground forward up to the first spherical joint
+    and backward from the loop's end down past the last (module docstring); of a spherical joint only the
+    origin (its centre) is meant; ``None`` for a row between two spherical joints."""
     n = np.asarray(next(iter(pose.values()))).shape[0]
     joints = mechanism.joints
     balls = [k for k, j in enumerate(joints) if j.type == "S"]
     first, last = (balls[0], balls[-1]) if balls else (len(joints), len(joints))
-    frames: list[np.ndarray | None] = [None] * len(joints)
-    frame = np.broadcast_to(np.eye(4), (n, 4, 4)).copy()
+    frames: list[Frame | None] = [None] * len(joints)
+    rot, origin = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
     for k in range(min(first + 1, len(joints))):
-        frames[k] = frame
+        frames[k] = (rot, origin)
         if k < first:
-            z, y, x = row_motions(mechanism, pose, k, n)
-            frame = frame @ z @ y @ x
-    if balls:
-        after = np.broadcast_to(np.eye(4), (n, 4, 4)).copy()  # the frame after the last row: the world
+            turn, shift = row_motion(mechanism, pose, k, n)
+            rot, origin = rot @ turn, origin + (rot @ shift[:, :, None])[:, :, 0]
+    if balls:  # back from the frame after the last row (the world): F_k = F_(k+1) M_k^-1
+        rot, origin = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
         for k in range(len(joints) - 1, last - 1, -1):
             if joints[k].type == "S":  # its centre: the next frame moved back along x by its link's length
-                frames[k] = after @ _motion(0, np.zeros(n), np.full(n, -joints[k].a))  # (twist: moves none)
+                frames[k] = (rot, origin - joints[k].a * rot[:, :, 0])  # (its twist moves no point of x)
                 break
-            z, y, x = row_motions(mechanism, pose, k, n)
-            after = after @ np.linalg.inv(z @ y @ x)
-            frames[k] = after
+            turn, shift = row_motion(mechanism, pose, k, n)
+            rot = rot @ np.swapaxes(turn, 1, 2)
+            origin = origin - (rot @ shift[:, :, None])[:, :, 0]
+            frames[k] = (rot, origin)
     return frames
 
 
@@ -111,17 +106,16 @@ def freedom_twists(mechanism: LoopMechanism, pose: dict[str, np.ndarray]
     nan = np.full((n, 3), np.nan)
     twists, points = [], []
     for k, (joint, frame) in enumerate(zip(mechanism.joints, frames)):
-        rot = frame[:, :3, :3] if frame is not None else np.full((n, 3, 3), np.nan)
-        point = frame[:, :3, 3] if frame is not None else nan
+        rot, point = frame if frame is not None else (np.full((n, 3, 3), np.nan), nan)
         if joint.type == "S":
             twists += [(np.broadcast_to(np.eye(3)[i], (n, 3)), point) for i in range(3)]
             points.append(point)
             continue
         if joint.type == "U":  # the second axis is y after the first turn (and the offset s along z)
             point = point + _value(pose, f"s{k + 1}", joint.s, n)[:, None] * rot[:, :, 2]
-            turned = rot @ row_motions(mechanism, pose, k, n)[0][:, :3, :3]
+            theta = _value(pose, f"theta{k + 1}", 0.0, n)[:, None]
             if (k, "eta") not in prescribed:
-                twists.append((turned[:, :, 1], point))
+                twists.append((np.cos(theta) * rot[:, :, 1] - np.sin(theta) * rot[:, :, 0], point))
         if joint.type in ("R", "C", "U") and (k, "theta") not in prescribed:
             twists.append((rot[:, :, 2], point))
         if joint.type in ("P", "C") and (k, "s") not in prescribed:
@@ -146,7 +140,59 @@ def closure_condition(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> 
     jac = np.stack(columns, axis=2)
     good = np.isfinite(jac).all(axis=(1, 2))
     out = np.full(jac.shape[0], np.nan)
-    if good.any():
-        sigma = np.linalg.svd(jac[good], compute_uv=False)
-        out[good] = sigma[:, 5] / sigma[:, 0]
+    out[good] = _condition_rows(np.ascontiguousarray(jac[good]))
     return out
+
+
+@njit(cache=True, fastmath={"contract", "arcp"})
+def _condition_rows(jac: np.ndarray) -> np.ndarray:
+    """:math:`\\sqrt{\\lambda_{min} / \\lambda_{max}}` of each row's Gram matrix :math:`J J^T` ``(6, 6)``
+    (its eigenvalues are :math:`\\sigma_k^2`), ``jac`` ``(n, 6, m)``, by cyclic Jacobi rotations: numpy's
+    ``eigvalsh`` costs ~5 us a row in LAPACK's call overhead, more than the in-house engine's whole position.
+    The squares keep :math:`c` to ~1e-8 absolute, far below the band."""
+    n, m = jac.shape[0], jac.shape[2]
+    out = np.empty(n)
+    g = np.empty((6, 6))
+    for i in range(n):
+        for r in range(6):
+            for c in range(r, 6):
+                total = 0.0
+                for k in range(m):
+                    total += jac[i, r, k] * jac[i, c, k]
+                g[r, c] = total
+                g[c, r] = total
+        scale = 0.0
+        for r in range(6):
+            scale += g[r, r] * g[r, r]
+        for _ in range(SWEEPS):
+            off = 0.0
+            for r in range(5):
+                for c in range(r + 1, 6):
+                    off += g[r, c] * g[r, c]
+            if off <= 1e-28 * scale:
+                break
+            for p in range(5):
+                for q in range(p + 1, 6):
+                    if g[p, q] != 0.0:
+                        _rotate(g, p, q)
+        low, high = g[0, 0], g[0, 0]
+        for r in range(1, 6):
+            low, high = min(low, g[r, r]), max(high, g[r, r])
+        out[i] = np.sqrt(max(low, 0.0) / high)
+    return out
+
+
+@njit(cache=True, inline="always", fastmath={"contract", "arcp"})
+def _rotate(g: np.ndarray, p: int, q: int) -> None:
+    """One Jacobi rotation of the symmetric ``g`` in place that zeroes ``g[p, q]`` (Golub & Van Loan,
+    Algorithm 8.5.1)."""
+    tau = (g[q, q] - g[p, p]) / (2.0 * g[p, q])
+    t = (1.0 if tau >= 0.0 else -1.0) / (abs(tau) + np.sqrt(1.0 + tau * tau))
+    c = 1.0 / np.sqrt(1.0 + t * t)
+    s = t * c
+    for k in range(6):
+        gkp, gkq = g[k, p], g[k, q]
+        g[k, p], g[k, q] = c * gkp - s * gkq, s * gkp + c * gkq
+    for k in range(6):
+        gpk, gqk = g[p, k], g[q, k]
+        g[p, k], g[q, k] = c * gpk - s * gqk, s * gpk + c * gqk
