@@ -12,6 +12,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from dualmech.core.loop_reactions import joint_points
@@ -23,6 +25,7 @@ from dualmech.models.loop.condition import closure_condition
 from dualmech.models.loop.engine import analyze_loop
 from dualmech.models.loop.presets import loop_table_of, slider_crank_start, slider_crank_table, started
 from dualmech.models.loop.table import analysis_columns, solve_loop_table
+from tests.models.loop.test_random_tables import TOPOLOGIES, first_assembly, random_table
 from tests.oracles import exact_slider_motion
 from tests.validation.test_engine_statuses import A1, A2, _case
 
@@ -38,10 +41,10 @@ def _slider_crank(a4: float, angles: dict, universal: bool = False):
     return case, started(slider_crank_table(case), slider_crank_start(case, float(s4[0]), 0))
 
 
-def _chain_condition(mechanism) -> np.ndarray:
+def _chain_condition(mechanism, start=None) -> np.ndarray:
     """The condition from the in-house engine's chain: its unknowns' elementary screws (a turn's line
     ``(a, p x a)``, a slide's ``(0, a)``) and its joint points."""
-    an = analyze_loop(mechanism)
+    an = analyze_loop(mechanism, start)
     points = joint_points(an.chain, an.loop, an.drive.values)
     centre = points.mean(axis=1)
     size = np.sqrt(np.mean(np.sum((points - centre[:, None]) ** 2, axis=2), axis=1))[:, None]
@@ -68,6 +71,19 @@ def test_the_condition_of_a_pose_is_the_chains(name: str) -> None:
     mine = closure_condition(mechanism, analysis_columns(an))
     assert np.isfinite(mine).all() and (mine > 0.0).all()
     assert_allclose(mine, _chain_condition(mechanism), rtol=0, atol=1e-12)
+
+
+@settings(max_examples=20)
+@given(seed=st.integers(0, 2**32 - 1), topology=st.sampled_from(TOPOLOGIES))
+def test_the_condition_of_a_random_tables_pose_is_the_chains(seed: int, topology: str) -> None:
+    """Any joint types in any order (U, P and C joints, balls at any place): the same as the chain's."""
+    mechanism = random_table(seed, topology)
+    found = first_assembly(mechanism, seed)
+    assume(found is not None)
+    an = analyze_loop(mechanism, found)
+    ok = an.status == "ok"
+    mine = closure_condition(mechanism, analysis_columns(an))
+    assert_allclose(mine[ok], _chain_condition(mechanism, found)[ok], rtol=0, atol=1e-12)
 
 
 def test_the_condition_does_not_depend_on_the_unit_of_length() -> None:
