@@ -13,7 +13,8 @@ word                kinematics  reactions   meaning
 ``dead_centre``     finite      NaN         torque mode, ``|transmission|`` below the band:
                                             the given torque cannot be balanced
 ``assembly_limit``  S1, S4, c   NaN         the rod is (nearly) normal to the slider line:
-                                            the closure is singular, rates are unbounded
+                                            the closure is singular, rates are unbounded (a
+                                            loop table: its closure condition below the band)
 ``branch_jump``     NaN         NaN         the solver converged on the other assembly branch
 ``not_converged``   NaN         NaN         the solver stopped without meeting its tolerance
 ``no_assembly``     NaN         NaN         proven: the rod cannot reach the slider line

@@ -29,6 +29,12 @@ DEAD_CENTRE_TRANSMISSION = Tolerance(
 ASSEMBLY_LIMIT_CONDITION = Tolerance(
     1e-2, "S4 carries the closure error times 1/c, S4_ddot and reactions ~1/c^3: rigid engines measured "
     "2.8e-10 apart (row-relative) at c = 1.4e-3, ~1/c^2, so 1e-2 keeps 100x under MATRIX_KINEMATICS")
+#: Assembly limit of a loop table, every engine: the closure condition c of its pose (the smallest over the
+#: largest singular value of the solved freedoms' twists, ``models/loop/condition.py``) below this.
+LOOP_LIMIT_CONDITION = Tolerance(
+    1e-3, "the rates grow as 1/c, accelerations as 1/c^3: on the slider crank's table 1e-6 a2 inside its "
+    "edge (c = 6.3e-4) the compiled and numpy engines' s4 rates stay within 4e-11 of the closed form's peak; "
+    "the bundled 7R's closest approach, c = 8.9e-3 with every rate at most 1.7x the drive's, stays ok")
 #: Universal-joint lock, every engine: with a universal joint at the slider, a closure_condition |u·k4| at
 #: or above this makes a row ``joint_lock`` (pose and rates given, reactions not).
 JOINT_LOCK_CONDITION = Tolerance(

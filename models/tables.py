@@ -81,14 +81,15 @@ class TableSpec(NamedTuple):
     def unit_group(self, column: str) -> str:
         """The unit group of a compared column (its differences share the group's scale, as the slider
         crank's ``UNIT_GROUP``): ``force`` (``*_f*``, a loop table's ``effort_s*``), ``moment`` (``*_m*``,
-        ``*torque``, ``effort_theta*``, ``effort_eta*``), ``ratio`` (transmissions), else an angle
+        ``*torque``, ``effort_theta*``, ``effort_eta*``), ``ratio`` (transmissions, a loop table's
+        ``closure_condition``), else an angle
         (``theta*``, ``phi*``, ``eta*``) or slide (``s*``) and its derivative order (``angle``,
         ``angle_dot``, ``angle_ddot``, ``length``, ``length_dot``, ``length_ddot``)."""
         if column in self.forces:
             return "force"
         if column in self.moments:
             return "moment"
-        if column.startswith("transmission"):
+        if column.startswith("transmission") or column == "closure_condition":
             return "ratio"
         base = "angle" if column.startswith(("theta", "phi", "eta")) else "length"
         for order in ("_ddot", "_dot"):

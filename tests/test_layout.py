@@ -1,5 +1,6 @@
 """The package layout: imports go downwards only (core < models < validation < api, cli; architecture.md);
-and the house's size limits (issue 16): no module over 400 lines, no function over 60.
+the house's size limits (issue 16): no module over 400 lines, no function over 60; and the tests' folders
+mirror the package folders they test.
 
 Every ``import`` statement of ``core/``, ``models/`` and ``validation/`` is read with :mod:`ast`,
 those inside functions included (a lazy import is still a dependency).  ``cli/``, the top floor,
@@ -293,3 +294,78 @@ def test_the_size_walk_measures_every_module_but_the_environment(tmp_path: Path)
     (tmp_path / "core" / "small.py").write_text(_module(400, 60))
     assert oversize_in(tmp_path, "core") == ["core/big.py: 401 lines (a module has at most 400)",
                                              "core/deep/big.py: 401 lines (a module has at most 400)"]
+
+
+# ----------------------------------------------------------------------------- the tests mirror the packages
+
+#: The name of a folder of test data (files the tests beside it read): it holds no Python.
+DATA = "data"
+
+
+def is_package_folder(root: Path, rel: Path) -> bool:
+    """Whether folder ``rel`` of the project at ``root`` is a package folder (its ``__init__.py``); the root
+    itself is one too: its tests (``tests/*.py``) are those of the project as a whole."""
+    return rel == Path(".") or (root / rel / "__init__.py").is_file()
+
+
+def unmirrored(root: Path) -> list[str]:
+    """A message per folder under ``root / "tests"`` out of the packages' layout.
+
+    A folder holding Python is the test package of the package folder at the same path without ``tests/``
+    (``tests/validation/compare/`` tests ``validation/compare/``): that folder must exist, and the test
+    folder must have its ``__init__.py`` (the tests import each other as packages).  A folder holding other
+    files only is test data: it is named :data:`DATA` and sits in such a test folder.  Byte-code caches are
+    skipped, so a folder a move left with caches only is no folder.
+    """
+    tests = root / "tests"
+    bad = []
+    for folder in sorted(p for p in (tests, *tests.rglob("*")) if p.is_dir()):
+        rel = folder.relative_to(tests)
+        files = [p for p in folder.iterdir() if p.is_file()]
+        hidden = any(part.startswith(".") for part in rel.parts)
+        if not files or hidden or not NOT_SIZED.isdisjoint(rel.parts):
+            continue
+        where = folder.relative_to(root).as_posix()
+        if any(p.suffix == ".py" for p in files):
+            if not is_package_folder(root, rel):
+                bad.append(f"{where}/ holds tests of {rel.as_posix()}/, which is no package folder")
+            if not (folder / "__init__.py").is_file():
+                bad.append(f"{where}/ holds tests but no __init__.py")
+        elif folder.name != DATA or not is_package_folder(root, rel.parent):
+            bad.append(f"{where}/ holds no test module and is no {DATA}/ folder of tests of a package folder")
+    return bad
+
+
+def test_the_tests_mirror_the_packages() -> None:
+    """Each test module sits in the folder of ``tests/`` that mirrors the package folder it tests.  Seen
+    failing with a test module in ``tests/validation/linkages/`` (``validation/linkages/`` was removed)."""
+    bad = unmirrored(ROOT)
+    assert not bad, "\n".join(bad)
+
+
+def test_the_mirror_check_sees_tests_and_data_out_of_the_layout(tmp_path: Path) -> None:
+    """Tests of a removed package or of a package's data folder, a test folder without ``__init__.py`` and
+    stray data are reported; test data beside its tests, caches and a folder left with caches only are
+    not."""
+    for where in ("validation/__init__.py", "validation/compare/__init__.py", "tests/__init__.py",
+                  "tests/test_top.py", "tests/validation/__init__.py", "tests/validation/compare/__init__.py",
+                  "tests/validation/compare/test_tables.py", "tests/validation/data/rssp.toml",
+                  "tests/validation/__pycache__/runs.pyc", "tests/validation/old/__pycache__/test_x.pyc",
+                  "tests/validation/linkages/__init__.py", "tests/validation/linkages/test_gate.py",
+                  "tests/validation/linkages/tables/rssp.toml", "tests/validation/compare/deep/test_y.py",
+                  "tests/validation/compare/tables/rusr.toml", "tests/validation/linkages/data/rrcrc.toml",
+                  "validation/templates/report.html", "tests/validation/templates/__init__.py",
+                  "tests/validation/templates/test_page.py"):
+        (tmp_path / where).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / where).write_text("")
+    assert unmirrored(tmp_path) == [
+        "tests/validation/compare/deep/ holds tests of validation/compare/deep/, which is no package folder",
+        "tests/validation/compare/deep/ holds tests but no __init__.py",
+        "tests/validation/compare/tables/ holds no test module and is no data/ folder of tests of a package "
+        "folder",
+        "tests/validation/linkages/ holds tests of validation/linkages/, which is no package folder",
+        "tests/validation/linkages/data/ holds no test module and is no data/ folder of tests of a package "
+        "folder",
+        "tests/validation/linkages/tables/ holds no test module and is no data/ folder of tests of a package "
+        "folder",
+        "tests/validation/templates/ holds tests of validation/templates/, which is no package folder"]

@@ -2,11 +2,11 @@
 
 :data:`ORACLES` lists, per engine, each output it produces (a column, ``meta:<key>`` of its table, or
 ``info:<key>`` of a simulation) and the test that compares it with an oracle: a closed form
-(``tests/oracles.py``, ``tests/models/newton_euler_oracle.py``), finite differences, another engine, or a
+(``tests/oracles.py``, ``tests/newton_euler_oracle.py``), finite differences, another engine, or a
 physical identity (power balance, Newton-Euler).  :func:`test_every_output_is_listed` fails when an engine
 gains or loses an output (list it here with its oracle test), :func:`test_every_listed_test_exists` when a
 listed test is renamed or removed.  The oracle tests below (and those of
-``tests/validation/test_judge_meta.py`` and ``tests/validation/linkages/test_linkage_outputs.py``) are
+``tests/validation/judges/test_judge_meta.py`` and ``tests/validation/test_linkage_outputs.py``) are
 those of outputs no other test read (issue 30: the compiled engine's ``meta["dynamics_residual"]`` was wrong
 on every case and no test read it).
 
@@ -43,15 +43,16 @@ ROOT = Path(__file__).resolve().parent.parent
 
 HERE = "tests/test_outputs_have_oracles.py::"
 KERNEL = "tests/core/test_kernel.py::test_every_preset"
-CLOSED_FORM = "tests/models/test_slider_crank.py::test_every_bundled_case_matches_closed_form"
+SLIDER_CRANK = "tests/models/slider_crank/test_slider_crank.py::"
+CLOSED_FORM = SLIDER_CRANK + "test_every_bundled_case_matches_closed_form"
 CRANK = HERE + "test_crank_columns_are_the_prescribed_motion"
 POSE = HERE + "test_transmission_and_residual_are_the_tables_own_pose"
 CONDITION = "tests/validation/test_engine_statuses.py::test_closure_condition_matches_the_closed_form"
 STATUSES = "tests/validation/test_engine_statuses.py::test_planar_edge_of_assembly"
-CLASSIFIED = "tests/models/test_slider_crank.py::test_wild_random_geometries_are_classified_right"
+CLASSIFIED = SLIDER_CRANK + "test_wild_random_geometries_are_classified_right"
 MESSAGES = HERE + "test_messages_count_the_closed_form_no_assembly_rows"
-NEWTON_EULER = "tests/models/test_dynamics_residual.py::test_reported_residual_is_the_oracles"
-JUDGE_META = "tests/validation/test_judge_meta.py::"
+NEWTON_EULER = "tests/models/slider_crank/test_dynamics_residual.py::test_reported_residual_is_the_oracles"
+JUDGE_META = "tests/validation/judges/test_judge_meta.py::"
 VERSIONS = JUDGE_META + "test_library_versions_are_the_loaded_libraries"
 ITERATIONS = HERE + "test_in_house_iterations_are_the_other_implementations"
 
@@ -64,24 +65,26 @@ def _columns(kinematics: str, reactions: str, loads: str, transmission: str, **m
     return out | more
 
 
-PINOCCHIO_VS_INHOUSE = ("tests/validation/test_pinocchio_vs_inhouse.py::"
+PINOCCHIO_VS_INHOUSE = ("tests/validation/judges/pinocchio_slider_crank/test_vs_inhouse.py::"
                         "test_pinocchio_agrees_with_the_inhouse_solver")
-PINOCCHIO = "tests/validation/test_pinocchio_dynamics.py::"
+PINOCCHIO = "tests/validation/judges/pinocchio_slider_crank/test_dynamics.py::"
 POWER = "tests/core/test_reactions.py::test_power_balance"
-SIM_STEP = "tests/validation/test_mujoco_sim.py::test_a_case_sets_the_simulation_step"
-MUJOCO = "tests/validation/test_mujoco_engine.py::"
-MUJOCO_SIM = "tests/validation/test_mujoco_sim.py::test_simulation_agrees_with_the_inhouse_solver"
+MUJOCO_JUDGE = "tests/validation/judges/mujoco_slider_crank/"
+SIM_STEP = MUJOCO_JUDGE + "test_sim.py::test_a_case_sets_the_simulation_step"
+MUJOCO = MUJOCO_JUDGE + "test_engine.py::"
+MUJOCO_SIM = MUJOCO_JUDGE + "test_sim.py::test_simulation_agrees_with_the_inhouse_solver"
 SIM_SETTINGS = JUDGE_META + "test_mujoco_sim_settings_and_servo_lag"
-FORWARD = "tests/models/test_forward_dynamics.py::"
+FORWARD = "tests/models/slider_crank/test_forward_dynamics.py::"
+IFTOMM = "tests/models/slider_crank/test_iftomm.py::"
 ALONG = FORWARD + "test_outputs_along_the_trajectory_are_the_solvers_at_the_simulated_states"
 INFO = HERE + "test_simulation_info_is_what_ran"
 LINKAGE_SIM = "tests/models/linkages/test_forward_dynamics.py::"
 RSSR = "tests/models/linkages/test_rssr.py::"
 RCCC = "tests/models/linkages/test_rccc.py::"
-LINKAGE_OUTPUTS = "tests/validation/linkages/test_linkage_outputs.py::"
+LINKAGE_OUTPUTS = "tests/validation/test_linkage_outputs.py::"
 LINKAGE_META = LINKAGE_OUTPUTS + "test_linkage_meta"
 LINKAGE_RESIDUALS = LINKAGE_OUTPUTS + "test_linkage_residuals_of_every_rigid_engine"
-INDEPENDENCE = "tests/validation/linkages/test_judge_independence.py::"
+INDEPENDENCE = "tests/validation/judges/presets/test_judge_independence.py::"
 LINKAGE_SIM_TABLE = LINKAGE_OUTPUTS + "test_linkage_simulation_tables"
 
 #: The in-house engines' meta.
@@ -113,11 +116,11 @@ ORACLES: dict[str, dict[str, str]] = {
                               "meta:servo_kv": SIM_SETTINGS, "meta:L_ref": SIM_SETTINGS,
                               "meta:max_theta_lag": SIM_SETTINGS}),
     "simulate": {
-        "t": "tests/models/test_iftomm.py::test_simulation_agrees_with_the_independent_oracle",
-        "psi": "tests/models/test_iftomm.py::test_simulation_agrees_with_the_independent_oracle",
-        "theta1_deg": "tests/models/test_iftomm.py::test_simulation_agrees_with_the_independent_oracle",
-        "psi_dot": "tests/models/test_iftomm.py::test_total_energy_stays_the_published_value_for_5_s",
-        "psi_ddot": "tests/models/test_iftomm.py::test_initial_crank_acceleration_is_the_published_one",
+        "t": IFTOMM + "test_simulation_agrees_with_the_independent_oracle",
+        "psi": IFTOMM + "test_simulation_agrees_with_the_independent_oracle",
+        "theta1_deg": IFTOMM + "test_simulation_agrees_with_the_independent_oracle",
+        "psi_dot": IFTOMM + "test_total_energy_stays_the_published_value_for_5_s",
+        "psi_ddot": IFTOMM + "test_initial_crank_acceleration_is_the_published_one",
         **{c: ALONG for c in ("S1", "S4", "S4_dot", "S4_ddot", "transmission", *REACTION_COLUMNS)},
         "torque_applied": FORWARD + "test_inverse_dynamics_along_the_trajectory_reproduces_the_loads",
         "slider_load_applied": FORWARD + "test_inverse_dynamics_along_the_trajectory_reproduces_the_loads",
@@ -160,9 +163,9 @@ def _rigid_linkage_judges() -> dict[str, dict[str, str]]:
     """The RSSR's and RCCC's rigid judges (Pinocchio, MuJoCo): their compared columns and statuses against
     the in-house engine through the gate, their residuals and starts by tests of their own."""
     out = {}
-    for kind, spec, verdict in (("rssr", rssr.SPEC, "tests/validation/linkages/test_rssr_judges.py::"
+    for kind, spec, verdict in (("rssr", rssr.SPEC, "tests/validation/judges/presets/test_rssr_judges.py::"
                                  "test_bundled_case_agrees"),
-                                ("rccc", rccc.SPEC, "tests/validation/linkages/test_rccc_judges.py::"
+                                ("rccc", rccc.SPEC, "tests/validation/judges/presets/test_rccc_judges.py::"
                                  "test_judges_agree")):
         for judge in ("pinocchio", "mujoco"):
             out[f"{kind}-{judge}"] = {
@@ -205,15 +208,17 @@ def _loop_engines() -> dict[str, dict[str, str]]:
     of its ball link, the in-house rates against finite differences and its drive torque against virtual
     work, every column and status of each engine against the others through the gate, the key by the table's
     settling."""
-    loops = "tests/validation/linkages/test_loop_tables.py::"
+    loops = "tests/validation/test_loop_tables.py::"
     spec = table_spec("loop", linkage_case("rscr"))
     agree = loops + "test_every_engine_agrees_with_the_others"
+    condition = "tests/models/loop/test_condition.py::test_the_condition_of_a_pose_is_the_chains"
     out = {}
     for engine in ("dualmech", "pinocchio", "mujoco"):
         rates = loops + "test_rates_match_finite_differences" if engine == "dualmech" else agree
         out[f"loop-{engine}"] = {
             spec.key: "tests/models/loop/test_columns.py::test_a_table_is_settled_by_its_words",
             **{c: loops + "test_the_pose_is_the_closed_form_of_the_ball_link" for c in spec.pose},
+            "closure_condition": condition,
             **{c: rates for c in spec.rates}, **{c: agree for c in (*spec.forces, *spec.moments, "status")},
             **{c: loops + "test_residuals_and_iterations_are_reported"
                for c in ("residual", "dynamics_residual", "meta:iterations")}}

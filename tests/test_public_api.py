@@ -278,7 +278,7 @@ def test_validate_of_a_linkage_is_its_kinds_gate(tmp_path, monkeypatch) -> None:
     assert (tmp_path / "run" / "summary.json").is_file()
     assert set(run.results["rssr-crank-rocker"]) == {"dualmech", "pinocchio"}
     # the same gate fails when the judge's answer is off (a deliberate fault: the output angle 1e-6 deg off)
-    from tests.validation.engine_faults import fault_engine
+    from tests.engine_faults import fault_engine
 
     def shifted(table):
         table.columns["phi4_deg"] += 1e-6

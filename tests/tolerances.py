@@ -48,7 +48,7 @@ KERNEL_VS_NUMPY_KINEMATICS = 1e-12
 #: 3x3 products summed in another order; measured <= 5.1e-14.
 KERNEL_VS_NUMPY_REACTIONS = 1e-11
 #: Newton-Euler residual of a table's reactions (the engines' ``meta["dynamics_residual"]``, and the 18
-#: equations of tests/models/newton_euler_oracle.py evaluated on the table's columns), relative to the
+#: equations of tests/newton_euler_oracle.py evaluated on the table's columns), relative to the
 #: position's force scale: a closed-form elimination, round-off only; measured <= 3.5e-16 (the engines' own),
 #: <= 2.9e-14 (the oracle's equations, whose closed-form kinematics differ from the engine's by round-off) on
 #: the presets.
@@ -97,9 +97,9 @@ MODE_ROUND_TRIP = 1e-10
 #: Reactions of a rotated copy of every input vector, rotated back, relative to each reaction's scale:
 #: round-off of the rotation; measured <= 5.4e-16 (components), 3.2e-15 (norms).
 FRAME_ROTATION = 1e-12
-#: IFToMM benchmark (tests/models/test_iftomm.py), total energy, J: the published 0.76643568 has 8
-#: decimals, so half a unit of the last one; dualmech's drift over 5 s at the default rtol = 1e-12 measured
-#: 1.5e-11.
+#: IFToMM benchmark (tests/models/slider_crank/test_iftomm.py), total energy, J: the published 0.76643568
+#: has 8 decimals, so half a unit of the last one; dualmech's drift over 5 s at the default rtol = 1e-12
+#: measured 1.5e-11.
 IFTOMM_ENERGY_DIGITS = 5e-9
 #: Its initial crank acceleration, rad/s^2: half a unit of the published -25.684's last digit (measured
 #: -25.68419; a ball joint instead of the universal joint gives -25.77794).
@@ -109,9 +109,9 @@ IFTOMM_ACCELERATION_DIGITS = 5e-4
 #: dualmech - González 1.8e-6, 4.0e-6 (both published solutions lag, docs/findings.md); a ball joint instead
 #: of the universal joint moves X by 7.5e-6, 1.9e-5.
 IFTOMM_SLIDER_VS_PUBLISHED = 1e-5
-#: dualmech's simulated motion against the independent oracle (tests/models/iftomm_oracle.py) over 5 s, m of
-#: slider travel (crank angle: this over the crank length): both integrate at rtol 1e-12 / 1e-13; measured
-#: 2e-11.
+#: dualmech's simulated motion against the independent oracle (tests/models/slider_crank/iftomm_oracle.py)
+#: over 5 s, m of slider travel (crank angle: this over the crank length): both integrate at rtol 1e-12 /
+#: 1e-13; measured 2e-11.
 IFTOMM_VS_ORACLE = 1e-9
 #: González's published slider X against dualmech's over 5 s (every 0.1 s), m: measured 7.0e-5 (3.3e-5 at
 #: 1 s); Masarati's departs by up to 1.1e-2 (docs/findings.md).

@@ -10,6 +10,11 @@ generated judges of :mod:`dualmech.validation.judges`) returns the same
 * the **pose**: every scalar joint coordinate ``theta<i>``, ``s<i>``, ``eta<i>`` (rad, length); the
   report plots the last one that is not prescribed (the output) against the key;
 * the **rates**: each one's ``_dot`` and ``_ddot`` (per s, per s²);
+* ``closure_condition``: how far the pose is from an assembly limit
+  (:func:`~dualmech.models.loop.condition.closure_condition` of the engine's own pose; 0 at the limit), given
+  with the pose; where it is below :data:`~dualmech.core.thresholds.LOOP_LIMIT_CONDITION` an ``ok`` or
+  ``dead_centre`` row becomes ``assembly_limit`` (pose given, rates and reactions not): one rule for every
+  engine, made here;
 * the **reactions**: the given and solved efforts ``effort_<coordinate><i>`` (torque about / force along
   joint ``i``'s axis on link ``i`` from link ``i-1``) and every joint's wrench ``joint<i>_f{x,y,z}``,
   ``joint<i>_m{x,y,z}`` (world axes, moment about the joint's point);
@@ -23,13 +28,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from dualmech.core.status import settle
+from dualmech.core.status import ASSEMBLED, Status, is_status, settle
+from dualmech.core.thresholds import LOOP_LIMIT_CONDITION
+from dualmech.models.loop.condition import closure_condition
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.tables import LinkageTable, TableSpec
 
 #: The scalar coordinates of each joint type, in the order of its ``start`` values (an S joint has none).
 COORDINATES: dict[str, tuple[str, ...]] = {"R": ("theta",), "P": ("s",), "C": ("theta", "s"),
                                            "U": ("theta", "eta"), "S": ()}
+#: The closure condition's column (module docstring), compared with the pose.
+CONDITION = "closure_condition"
 #: The engine-fact columns after the compared ones (closure and dynamics residuals).
 RESIDUALS: tuple[str, ...] = ("residual", "dynamics_residual")
 
@@ -82,10 +91,27 @@ def loop_spec(mechanism: LoopMechanism) -> TableSpec:
     key = key_column(mechanism)
     rates = tuple(f"{c}{suffix}" for c in coordinates for suffix in ("_dot", "_ddot"))
     reactions = tuple(c for c in compared if c.startswith(("effort_", "joint"))) + ("dynamics_residual",)
-    columns = tuple(dict.fromkeys([key, *compared, *RESIDUALS]))
+    columns = tuple(dict.fromkeys([key, *compared, CONDITION, *RESIDUALS]))
     prescribed = {f"{c}{j + 1}" for j, c in mechanism.prescribed}
     output = [c for c in coordinates if c not in prescribed][-1]
-    return TableSpec(columns, tuple(coordinates), rates, reactions, key=key, output=output)
+    return TableSpec(columns, (*coordinates, CONDITION), rates, reactions, key=key, output=output)
+
+
+def limit_words(mechanism: LoopMechanism, columns: dict[str, np.ndarray], status: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The closure condition ``(n,)`` of the pose ``columns`` (NaN where the row's word gives no pose) and
+    ``status`` with every ``ok`` or ``dead_centre`` row whose condition is below
+    :data:`~dualmech.core.thresholds.LOOP_LIMIT_CONDITION` set to ``assembly_limit`` (a new array), unless
+    the mechanism has its own rule (``mechanism.limits`` false: the words stay)."""
+    status = np.array(status, dtype=object)
+    posed = is_status(status, *ASSEMBLED)
+    pose = {c: np.where(posed, np.asarray(columns[c], dtype=float), np.nan)
+            for c in coordinate_names(mechanism)}
+    with np.errstate(invalid="ignore"):
+        condition = closure_condition(mechanism, pose)
+        limit = (condition < LOOP_LIMIT_CONDITION.value) & mechanism.limits
+    status[is_status(status, Status.OK, Status.DEAD_CENTRE) & limit] = Status.ASSEMBLY_LIMIT.value
+    return condition, status
 
 
 def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndarray], status: np.ndarray,
@@ -100,8 +126,10 @@ def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndar
     columns : dict of str -> numpy.ndarray, shape (n,)
         At least :func:`column_names` and :data:`RESIDUALS` (the key is made here from the drive).
     status : numpy.ndarray of str, shape (n,)
-        The engine's words; a row giving a non-finite value its word claims becomes ``not_finite``, and
-        every value a row's word does not give becomes NaN (:func:`~dualmech.core.status.settle`).
+        The engine's words; an ``ok`` or ``dead_centre`` row at an assembly limit becomes
+        ``assembly_limit`` (:func:`limit_words`), a row giving a non-finite value its word claims
+        ``not_finite``, and every value a row's word does not give becomes NaN
+        (:func:`~dualmech.core.status.settle`).
     meta : dict
         Engine facts (e.g. ``iterations``, ``messages``).
     not_given : tuple of str
@@ -111,8 +139,10 @@ def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndar
     spec = loop_spec(mechanism)
     d = mechanism.drive
     key = np.degrees(d.positions) if d.coordinate == "theta" else d.positions
-    cols = {c: np.array(key if c == spec.key else columns[c], dtype=float) for c in spec.columns}
+    condition, status = limit_words(mechanism, columns, status)
+    columns = {**columns, spec.key: key, CONDITION: condition}
+    cols = {c: np.array(columns[c], dtype=float) for c in spec.columns}
     reactions = tuple(c for c in spec.reactions if c not in not_given)
     rates = tuple(c for c in spec.rates if c not in not_given)
-    settled = settle(cols, np.asarray(status, dtype=object), reactions, pose=spec.pose, rates=rates)
+    settled = settle(cols, status, reactions, pose=spec.pose, rates=rates)
     return LinkageTable(engine, mechanism.name, cols, settled, meta)

@@ -177,6 +177,10 @@ class LoopMechanism:
     loads : tuple of Load
     gravity : numpy.ndarray, shape (3,)
         Gravitational acceleration, world axes.
+    limits : bool
+        Whether the loop table's assembly-limit rule names its rows
+        (:func:`~dualmech.models.loop.columns.limit_words`); ``False`` for a preset whose mechanism has its
+        own rule (the RSSR's and RCCC's transmissions, :mod:`dualmech.models.loop.presets`).
     """
 
     name: str
@@ -185,6 +189,7 @@ class LoopMechanism:
     bodies: tuple[BodyInertia, ...]
     loads: tuple[Load, ...] = ()
     gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    limits: bool = True
 
     def __post_init__(self) -> None:
         n = len(self.joints)
@@ -232,6 +237,13 @@ class LoopMechanism:
     def driven_coordinate(self) -> tuple[int, str]:
         """``(joint, coordinate)`` of the drive."""
         return self.drive.joint, self.drive.coordinate
+
+    @property
+    def length(self) -> float:
+        """The table's length: its largest constant length (``a``, ``s``), or 1 if it has none (the scale
+        of its closure residuals and of a slide's rates against an angle's)."""
+        size = max(max(abs(j.a), abs(j.s)) for j in self.joints)
+        return size if size > 0.0 else 1.0
 
     @property
     def prescribed(self) -> tuple[tuple[int, str], ...]:

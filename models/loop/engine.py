@@ -35,7 +35,6 @@ from dualmech.models.loop.translate import (
     SCALE,
     DriveState,
     drive_state,
-    length_scale,
     start_state,
     to_loop,
     variable,
@@ -122,7 +121,7 @@ def find_start(mechanism: LoopMechanism, loop: Loop, drive: DriveState,
     n = drive.values[variable(*mechanism.driven_coordinate)].shape[0]
     for at in np.unique(np.linspace(0, n - 1, min(n, SEARCH_POSITIONS)).round().astype(int)):
         values = drive.take(slice(at, at + 1)).values
-        found = search_assembly(loop, values, seed, size=length_scale(mechanism))
+        found = search_assembly(loop, values, seed, size=mechanism.length)
         if found.scalars.shape[0]:
             poses = [wrapped(dict(zip(loop.unknowns, row))) for row in found.scalars]
             k = nearest_to_zero(poses)

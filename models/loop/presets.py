@@ -15,6 +15,9 @@ The RSSR (``docs/conventions.md``, "RSSR") is R, S, S, R with the output axis's 
 ball 3 (origin ``P3``, x toward ``Q4``) turned by pi about z and moved by ``a3``.  The RCCC (``"RCCC"``) is
 its own table, R, C, C, C, with the link frames as body frames.  Each output torque (the ground's moment on
 the output link about the last axis ``z4``) is minus joint 4's effort (on the ground, from the output link).
+The RSSR's and RCCC's tables keep their mechanisms' status rules (their transmissions, applied to a judge's
+table by ``validation/judges/presets/readback.py``), not the loop table's closure condition: ``limits``
+false.
 """
 
 from __future__ import annotations
@@ -140,7 +143,8 @@ def rssr_table(case: RssrCase) -> LoopMechanism:
     crank, coupler, out = case.bodies
     output = BodyInertia(out.mass, FLIP @ out.com + np.array([g.a3, 0.0, 0.0]), FLIP @ out.inertia @ FLIP)
     return LoopMechanism(case.name, joints, _crank_drive(case.motion, case.drive_torque),
-                         (crank, coupler, output), (_output_load(case.output_torque),), case.gravity)
+                         (crank, coupler, output), (_output_load(case.output_torque),), case.gravity,
+                         limits=False)
 
 
 def rssr_start(case: RssrCase) -> LoopState:
@@ -156,7 +160,7 @@ def rccc_table(case: RcccCase) -> LoopMechanism:
     joints = tuple(Joint("R" if i == 0 else "C", alpha=g.alpha[i], a=g.a[i], s=g.s1 if i == 0 else 0.0)
                    for i in range(4))
     return LoopMechanism(case.name, joints, _crank_drive(case.motion, None), case.bodies,
-                         (_output_load(case.output_torque),), case.gravity)
+                         (_output_load(case.output_torque),), case.gravity, limits=False)
 
 
 def rccc_start(case: RcccCase) -> LoopState:

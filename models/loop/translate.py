@@ -52,12 +52,6 @@ def to_loop(mechanism: LoopMechanism) -> Loop:
     return Loop(tuple(rows), spin_gauges=idle_spins(mechanism.joints), length_scale=SCALE)
 
 
-def length_scale(mechanism: LoopMechanism) -> float:
-    """The loop's length: its largest constant length (``a``, ``s``), or 1 if it has none."""
-    sizes = [abs(v) for j in mechanism.joints for v in (j.a, j.s)]
-    return max(sizes) if max(sizes, default=0.0) > 0.0 else 1.0
-
-
 @dataclass(frozen=True)
 class DriveState:
     """The prescribed coordinates at ``n`` positions: per input name of :func:`to_loop`, its value, rate and
@@ -94,7 +88,7 @@ def drive_state(mechanism: LoopMechanism, positions: np.ndarray | None = None,
         crank = law.at(d.axial_shift, x, speed, accel)
         slide = variable(d.joint, "s")
         values[slide], rates_[slide], accels_[slide] = crank.s, crank.s_dot, crank.s_ddot
-    values[SCALE] = np.full(n, length_scale(mechanism))
+    values[SCALE] = np.full(n, mechanism.length)
     return DriveState(values, rates_, accels_)
 
 
@@ -116,4 +110,4 @@ def start_state(mechanism: LoopMechanism, loop: Loop) -> LoopState:
                      np.array(rotations, dtype=float).reshape(1, len(rotations), 3, 3))
 
 
-__all__ = ["SCALE", "variable", "to_loop", "length_scale", "DriveState", "drive_state", "start_state"]
+__all__ = ["SCALE", "variable", "to_loop", "DriveState", "drive_state", "start_state"]

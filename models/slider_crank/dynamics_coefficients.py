@@ -6,7 +6,7 @@ Sinatra–Angeles eq. 39–43, in space) come from the in-house velocity and acc
 analysis at :math:`\\dot\\psi = 1`, :math:`\\ddot\\psi = 0` (``models/slider_crank/analysis.py``).
 With a universal joint at the slider (``[joints] rod_slider``) the rod's angular velocity there includes
 the spin the joint fixes, so its axial inertia enters :math:`I` (the IFToMM benchmark's energy,
-``tests/models/test_iftomm.py``); with two ball joints the zero-spin gauge leaves it out.
+``tests/models/slider_crank/test_iftomm.py``); with two ball joints the zero-spin gauge leaves it out.
 One in-house call costs milliseconds, so for a periodic mechanism they are sampled at ``N``
 crank angles and evaluated by their trigonometric interpolant; ``N`` doubles until the
 interpolant matches fresh in-house values at the ``N`` midpoints to ``interpolation_tol``

@@ -28,7 +28,7 @@ Method (stated, as the issue asks): **a second nilpotent unit, carried through t
   ``assembled_fraction`` is piecewise constant: not differentiated.
 * **Tied to the solver.**  The real parts must reproduce the compiled solver's outputs at those
   positions to :data:`VALUE_AGREEMENT`, with the same position statuses (else
-  :class:`SensitivityError`).  ``tests/models/test_tolerance_sensitivity.py`` holds the derivatives to
+  :class:`SensitivityError`).  ``tests/models/tolerance/test_sensitivity.py`` holds the derivatives to
   central differences of the solver's outputs.
 """
 

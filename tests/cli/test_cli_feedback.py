@@ -62,7 +62,7 @@ def test_validate_of_one_case_names_masses_and_peaks(tmp_path, monkeypatch) -> N
     from dualmech.models.case import preset_path
     from dualmech.validation import engines
 
-    fakes = "tests.validation.matrix_fakes"
+    fakes = "tests.matrix_fakes"
     monkeypatch.setitem(engines.ENGINES, "dualmech", {"slider-crank": f"{fakes}:solve_case"})
     monkeypatch.setitem(engines.ENGINES, "pinocchio", {"slider-crank": f"{fakes}:solve_case_judge"})
     result = _run("validate", preset_path("iftomm/spatial-slider-crank"), "-o", tmp_path / "run", "--jobs", 1,

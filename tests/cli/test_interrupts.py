@@ -24,9 +24,9 @@ from click.testing import CliRunner
 from dualmech.cli import COMMANDS
 from dualmech.validation.exit_codes import EXIT_INTERRUPTED
 
+from ..validation.run.test_worker_faults import LONG_MATRIX
 from ..validation.test_hostile_writers import OLD, SPEC, _case_file, _grown
 from ..validation.test_validate import ROOT
-from ..validation.test_worker_faults import LONG_MATRIX
 
 #: Seconds a command may take to start working (imports, a numba cache load, a spawned pool) on a busy
 #: shared machine, and to end once interrupted.

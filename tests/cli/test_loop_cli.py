@@ -18,7 +18,7 @@ from dualmech.cli import main
 from dualmech.models.linkages import linkage_case, table_spec
 from dualmech.models.loop.table import solve_loop_table
 from dualmech.validation.exit_codes import EXIT_BAD_INPUT
-from tests.validation.engine_faults import fault_engine
+from tests.engine_faults import fault_engine
 
 #: The bundled loop tables and their files' folder.
 LOOPS = ("rscr", "rsrc", "7r")

@@ -15,7 +15,7 @@ from dualmech.cli import main
 from dualmech.models.case import load_case, preset_names
 from dualmech.models.mjcf import case_to_mjcf, default_settings, slider_axis
 from tests.oracles import exact_slider_motion
-from tests.validation.pinocchio_oracles import random_case
+from tests.pinocchio_oracles import random_case
 
 mujoco = pytest.importorskip("mujoco")
 

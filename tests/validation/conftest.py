@@ -13,7 +13,7 @@ import pytest
 from dualmech.core.table import ResultTable
 from dualmech.validation.matrix import Matrix, load_matrix
 
-from . import matrix_fakes
+from .. import matrix_fakes
 
 SMALL = """
 name = "small"

@@ -25,7 +25,7 @@ from dualmech.validation.compare import compare_run
 from dualmech.validation.compare.baseline import baseline_summary, compare_baseline, read_baseline
 from dualmech.validation.tolerance.study import run_study
 
-from ..models.test_tolerance_study import _study
+from ..models.tolerance.test_study import _study
 from .conftest import fake_results
 from .test_validate import ROOT
 

@@ -27,7 +27,7 @@ from dualmech.validation.run import runner
 from dualmech.validation.run.runner import load_entries, load_results, run_matrix
 
 ROOT = Path(__file__).resolve().parents[2]
-FAKES = "tests.validation.matrix_fakes"
+FAKES = "tests.matrix_fakes"
 FAKE_REGISTRY = {"dualmech": f"{FAKES}:solve_case", "pinocchio": f"{FAKES}:solve_case_judge",
                  "mujoco": f"{FAKES}:solve_case_judge_b"}
 

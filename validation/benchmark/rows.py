@@ -16,7 +16,9 @@ seeded random cases (the thesis example with random offset, twist and axial shif
   the closed form's own time on the 1° grid, is not the machine's limit.
 * **dualmech loop kernel** -- the generic loop engine compiled (:mod:`dualmech.core.kernel.loop_engine`)
   on the slider crank's joint table (:func:`dualmech.models.loop.presets.slider_crank_table`): some of the
-  cases, and one long case (a tenth of the Parquet row's positions), through ``analyze_loop``.
+  cases, and one long case (a tenth of the Parquet row's positions), through ``analyze_loop``; and that
+  case as ``dualmech solve`` of a loop table does it: its table (every engine's columns, the closure
+  condition and the status rule of :func:`~dualmech.models.loop.columns.loop_table`) written to Parquet.
 * **Pinocchio, MuJoCo, Exudyn** -- best-effort drivers: the model built once per case outside the
   timing (Pinocchio: :func:`~dualmech.validation.judges.pinocchio_slider_crank.engine.solve` with a prebuilt
   model; MuJoCo rigid: the per-position loop of
@@ -50,7 +52,7 @@ import numpy as np
 
 from dualmech.models.case import Case, load_case
 from dualmech.models.slider_crank.kernel import _pool, case_arrays, solve_cases, threads
-from dualmech.validation.solve_output import stream_solve
+from dualmech.validation.solve_output import stream_solve, write_table
 
 #: Crank-state fields in the kernel's order.
 CRANK_FIELDS = ("theta", "s", "theta_dot", "s_dot", "theta_ddot", "s_ddot")
@@ -267,7 +269,8 @@ def time_loop_kernel(cases: list[Case], positions: int, repeats: int) -> list[Ti
     crank as a joint table: ``cases`` one call each, and one case of ``positions`` crank angles; each
     start pose from the slider crank kernel's ``S4`` at the first angle (outside the timing)."""
     from dualmech.models.loop.engine import analyze_loop
-    from dualmech.models.loop.presets import slider_crank_start, slider_crank_table
+    from dualmech.models.loop.presets import slider_crank_start, slider_crank_table, started
+    from dualmech.models.loop.table import solve_loop_table
 
     long = random_cases(1, step_deg=360.0 / positions, seed=2)
     prepared, one_angle = {}, {"motion.angles_deg": {"start": 0.0, "stop": 1.0, "step": 1.0}}
@@ -280,9 +283,13 @@ def time_loop_kernel(cases: list[Case], positions: int, repeats: int) -> list[Ti
         return lambda: [analyze_loop(mech, start) for mech, start in prepared[label]]
 
     n = len(long[0].motion.angles_deg)
-    return [measure(f"dualmech loop kernel, the slider crank as a joint table ({len(cases)} cases)",
-                    _positions(cases), run("cases"), repeats),
-            measure(f"dualmech loop kernel, one case ({n:,} positions)", n, run("long"), repeats)]
+    table = started(*prepared["long"][0])
+    with tempfile.TemporaryDirectory() as tmp:
+        return [measure(f"dualmech loop kernel, the slider crank as a joint table ({len(cases)} cases)",
+                        _positions(cases), run("cases"), repeats),
+                measure(f"dualmech loop kernel, one case ({n:,} positions)", n, run("long"), repeats),
+                measure(f"dualmech solve, that case's joint table into Parquet ({n:,} positions)", n,
+                        lambda: write_table(solve_loop_table(table), Path(tmp) / "out.parquet"), repeats)]
 
 
 def time_solve_parquet(positions: int, repeats: int) -> Timing:

@@ -1,6 +1,6 @@
 """The in-house RCCC (Yang 1971): the dual-number Newton finds the slides from the spherical estimate, rates
 match finite differences, the reactions balance power, statuses are honest (its judges:
-``tests/validation/linkages/test_rccc_judges.py``)."""
+``tests/validation/judges/presets/test_rccc_judges.py``)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from dualmech.models.inputs import CaseError
 from dualmech.models.linkages import read_linkage, solve_linkage
 from dualmech.models.linkages.rccc import SPEC, analyze_rccc, estimate, spherical_estimate, to_table
 from dualmech.models.linkages.rccc_case import RcccCase, rccc_from_dict
-from tests.models.linkages.cases import random_rccc
+from tests.linkage_cases import random_rccc
 from tests.tolerances import (
     LINKAGE_CLOSED_FORM,
     LINKAGE_FINITE_DIFFERENCE,

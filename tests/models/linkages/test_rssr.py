@@ -16,7 +16,7 @@ from dualmech.models.linkages import dynamics as dynamics_module
 from dualmech.models.linkages import rssr as rssr_module
 from dualmech.models.linkages.rssr import analyze_rssr, closed_form_phi, crank_pin, output_pin, to_table
 from dualmech.models.linkages.rssr_case import RssrCase, rssr_from_dict
-from tests.models.linkages.cases import bundled, random_rssr
+from tests.linkage_cases import bundled, random_rssr
 from tests.tolerances import (
     LINKAGE_CLOSED_FORM,
     LINKAGE_DYNAMICS_RESIDUAL,

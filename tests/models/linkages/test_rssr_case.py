@@ -7,7 +7,7 @@ import pytest
 from dualmech.models.inputs import CaseError
 from dualmech.models.linkages import solve_linkage
 from dualmech.models.linkages.rssr_case import rssr_from_dict
-from tests.models.linkages.cases import bundled
+from tests.linkage_cases import bundled
 
 
 def _set(data: dict, path: str, value: object) -> dict:
@@ -72,7 +72,7 @@ def test_the_bundled_case_reads_as_written() -> None:
 
 def test_entry_points_for_the_command_line(tmp_path) -> None:
     """is_linkage never raises (a slider-crank preset is simply not one); solve_linkage is the in-house engine
-    (the judges: tests/validation/linkages/test_engines.py)."""
+    (the judges: tests/validation/test_engines.py)."""
     from dualmech.models.linkages import CASES, is_linkage, summary
 
     assert is_linkage("rssr") and is_linkage("rccc") and is_linkage(bundled())

@@ -12,7 +12,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from dualmech.models.linkages import solve_linkage
 from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
 from dualmech.models.linkages.rssr import SPEC as RSSR_SPEC
-from tests.models.linkages.cases import random_rccc, random_rssr
+from tests.linkage_cases import random_rccc, random_rssr
 from tests.tolerances import LINKAGE_UNIT_CHANGE
 
 LENGTH_KEYS = {"input_crank", "input_offset", "coupler", "output_crank", "output_offset", "frame_offset",

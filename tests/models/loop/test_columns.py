@@ -18,7 +18,7 @@ from dualmech.models.loop.table_format import loop_from_dict
 def test_the_rscr_spec_names_every_column_and_its_group() -> None:
     spec = table_spec("loop", linkage_case("rscr"))
     assert spec.key == "theta1_deg" and spec.key_label == ("theta1", "deg") and spec.output == "theta4"
-    assert spec.pose == ("theta1", "theta3", "s3", "theta4")
+    assert spec.pose == ("theta1", "theta3", "s3", "theta4", "closure_condition")
     assert spec.rates == ("theta1_dot", "theta1_ddot", "theta3_dot", "theta3_ddot", "s3_dot", "s3_ddot",
                           "theta4_dot", "theta4_ddot")
     # the loads (joint 4's torque, joint 3's axial force) are given, the drive torque is solved
@@ -27,7 +27,7 @@ def test_the_rscr_spec_names_every_column_and_its_group() -> None:
     assert spec.reactions == efforts + wrenches + ("dynamics_residual",)
     assert spec.columns == ("theta1_deg", *spec.pose[:1], "theta1_dot", "theta1_ddot", "theta3", "theta3_dot",
                             "theta3_ddot", "s3", "s3_dot", "s3_ddot", "theta4", "theta4_dot", "theta4_ddot",
-                            *efforts, *wrenches, "residual", "dynamics_residual")
+                            *efforts, *wrenches, "closure_condition", "residual", "dynamics_residual")
     assert spec.forces == ("effort_s3",) + tuple(c for c in wrenches if "_f" in c)
     assert spec.moments == ("effort_theta4", "effort_theta1") + tuple(c for c in wrenches if "_m" in c)
     groups = {c: spec.unit_group(c) for c in spec.kinematics + spec.forces + spec.moments}
@@ -36,6 +36,7 @@ def test_the_rscr_spec_names_every_column_and_its_group() -> None:
     assert groups["s3_dot"] == "length_dot" and groups["s3_ddot"] == "length_ddot"
     assert groups["effort_s3"] == "force" and groups["effort_theta1"] == "moment"
     assert groups["joint2_fz"] == "force" and groups["joint4_my"] == "moment"
+    assert groups["closure_condition"] == "ratio" and spec.period("closure_condition") is None
     assert spec.period("theta4") == pytest.approx(2 * np.pi, rel=1e-15, abs=0)
     assert spec.period("theta1_deg") == 360.0
     assert spec.period("s3") is None and spec.period("theta4_dot") is None

@@ -11,7 +11,7 @@ import pytest
 from dualmech.core.continuation import search_assembly
 from dualmech.models.loop.engine import analyze_loop, find_start
 from dualmech.models.loop.start import nearest_to_zero, wrapped, zero_distance
-from dualmech.models.loop.translate import drive_state, length_scale, to_loop
+from dualmech.models.loop.translate import drive_state, to_loop
 from tests.models.loop.test_random_tables import random_table
 
 #: Angles compared after a wrap: ~100 ulps of pi.
@@ -60,7 +60,7 @@ def test_the_engine_starts_on_the_searched_assembly_nearest_zero(seed: int, topo
     mech = random_table(seed, topology)
     loop, drive = to_loop(mech), drive_state(mech)
     start, at = find_start(mech, loop, drive)
-    found = search_assembly(loop, drive.take(slice(at, at + 1)).values, size=length_scale(mech))
+    found = search_assembly(loop, drive.take(slice(at, at + 1)).values, size=mech.length)
     angles = np.array([name.rstrip("0123456789") in ("theta", "eta") for name in loop.unknowns])
     sums = (np.remainder(found.scalars[:, angles] + np.pi, 2 * np.pi) - np.pi) ** 2
     best = found.scalars[np.argmin(sums.sum(axis=1))]

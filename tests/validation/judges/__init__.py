@@ -1,1 +1,1 @@
-"""Tests of the judges generated from loop tables (validation/judges/)."""
+"""Tests of the judges (validation/judges/): each judge's own in its folder, those of several here."""

@@ -39,7 +39,7 @@ from scipy.spatial.transform import Rotation
 from dualmech.core.status import Status
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.start import nearest_to_zero
-from dualmech.validation.judges.exudyn_loop.frames import COORDINATES, chain, ground_frame, table_length
+from dualmech.validation.judges.exudyn_loop.frames import COORDINATES, chain, ground_frame
 
 #: Closure tolerance on the scaled residual's norm (two orders above rounding).
 CLOSURE_TOL = 1e-13
@@ -80,7 +80,7 @@ def residual(mechanism: LoopMechanism, pose: Pose) -> tuple[np.ndarray, list, li
     joint_frames, link_frames = chain(mechanism, pose.values, pose.rotations)
     end, ground = link_frames[-1], ground_frame(mechanism)
     turn = Rotation.from_matrix(ground[:3, :3].T @ end[:3, :3]).as_rotvec()
-    return np.r_[(end[:3, 3] - ground[:3, 3]) / table_length(mechanism), ground[:3, :3] @ turn], \
+    return np.r_[(end[:3, 3] - ground[:3, 3]) / mechanism.length, ground[:3, :3] @ turn], \
         joint_frames, link_frames
 
 
@@ -88,7 +88,7 @@ def _columns(mechanism: LoopMechanism, pose: Pose, joint_frames: list, end: np.n
              held: tuple[int, ...] = ()) -> list:
     """``[(key, column (6,))]`` of every free variable: ``(k, name)`` or ``(k, axis)`` of an S joint (none of
     the joints ``held``)."""
-    length, p = table_length(mechanism), end[:3, 3]
+    length, p = mechanism.length, end[:3, 3]
     prescribed = set(mechanism.prescribed)
     out = []
     for k, joint in enumerate(mechanism.joints):
@@ -189,7 +189,7 @@ def close_along(mechanism: LoopMechanism, pose: Pose, start: float, end: float,
     slide drive: times the table's length), each closed from the last: the pose and its status word
     (``branch_jump`` where a step closes on another branch, :func:`branch_sign`)."""
     if mechanism.drive.coordinate == "s":
-        step *= table_length(mechanism)
+        step *= mechanism.length
     word, branch = Status.OK.value, branch_sign(mechanism, pose)
     for x in np.linspace(start, end, max(1, math.ceil(abs(end - start) / step)) + 1)[1:]:
         pose, word, _ = close_at(mechanism, pose, x)
@@ -213,7 +213,7 @@ def start_guess(mechanism: LoopMechanism) -> Pose:
 
 
 def _random_pose(mechanism: LoopMechanism, rng: np.random.Generator) -> Pose:
-    length = table_length(mechanism)
+    length = mechanism.length
     guess = start_guess(mechanism)
     values = {key: rng.uniform(-2.0, 2.0) * length if key[1] == "s" else rng.uniform(-np.pi, np.pi)
               for key in guess.values}

@@ -52,7 +52,6 @@ from dualmech.core.status import Status
 from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.validation.judges.exudyn_loop.closure import Pose, close_along, continuation
-from dualmech.validation.judges.exudyn_loop.frames import table_length
 from dualmech.validation.judges.exudyn_loop.given import combine, solved_load, variants
 from dualmech.validation.judges.exudyn_loop.law import RUN_IN, axial, drive_law, row_time
 from dualmech.validation.judges.exudyn_loop.model import build_system, check_table
@@ -206,7 +205,7 @@ def swing(mechanism: LoopMechanism, poses: list) -> float:
     """The largest travel of any coordinate per unit drive travel between two consecutive closed rows
     (angles in rad, slides over the table's length; at least 1): a loop whose pose swings faster than its
     drive (the ``7r``: ~10 degrees per degree near 120) needs steps as much shorter."""
-    x, length = mechanism.drive.positions, table_length(mechanism)
+    x, length = mechanism.drive.positions, mechanism.length
     scale = length if mechanism.drive.coordinate == "s" else 1.0
     out = 1.0
     for i in range(len(poses) - 1):
@@ -224,7 +223,7 @@ def run_in_rows(mechanism: LoopMechanism) -> int:
     table's length) or :data:`~.law.RUN_IN` rows, whichever is longer."""
     positions = mechanism.drive.positions
     spacing = float(np.median(np.abs(np.diff(positions)))) if positions.size > 1 else 0.0
-    scale = table_length(mechanism) if mechanism.drive.coordinate == "s" else 1.0
+    scale = mechanism.length if mechanism.drive.coordinate == "s" else 1.0
     return max(RUN_IN, math.ceil(RUN_IN_TRAVEL * scale / spacing)) if spacing > 0.0 else RUN_IN
 
 
@@ -233,7 +232,7 @@ def steps_per_row(mechanism: LoopMechanism, poses: list, travel: float | None = 
     (:data:`STEP_TRAVEL`), at least :data:`MIN_STEPS_ACCEL` when the drive accelerates (module docstring)."""
     positions = mechanism.drive.positions
     spacing = float(np.median(np.abs(np.diff(positions)))) if positions.size > 1 else 0.0
-    scale = table_length(mechanism) if mechanism.drive.coordinate == "s" else 1.0
+    scale = mechanism.length if mechanism.drive.coordinate == "s" else 1.0
     steps = math.ceil(spacing * swing(mechanism, poses) / ((travel or STEP_TRAVEL) * scale) - 1e-9)
     return max(1, steps, MIN_STEPS_ACCEL if mechanism.drive.accel else 1)
 

@@ -140,7 +140,3 @@ def relative_rates(kind: str, relative: np.ndarray, omega: np.ndarray, omega_dot
     return out
 
 
-def table_length(mechanism: LoopMechanism) -> float:
-    """The table's largest constant length (``a``, ``s``), or 1 if it has none."""
-    size = max(max(abs(j.a), abs(j.s)) for j in mechanism.joints)
-    return size if size > 0.0 else 1.0

@@ -6,7 +6,9 @@ evenly spread positions; of the poses closed at the first position where any clo
 zero pose: :func:`~dualmech.models.loop.start.nearest_to_zero`).  From there the loop is
 closed position by position, forward then backward, each from its neighbour's pose (continuation; a
 position that fails leaves the last closed pose as the next start), and the branch is followed by the
-sign of :func:`~.closure.branch`: a position closed on the other branch is a branch jump, except right
+sign of :func:`~.closure.branch`: a position closed on the other branch is walked to again from its
+neighbour in ever smaller drive steps (:func:`_walk`: near an assembly limit the two branches are close, so
+one whole step may land on the other), and is a branch jump if none ends on the start's branch; except right
 after positions that did not close (a gap of no assembly, where continuity is lost): there, and at every
 position after such a gap that continuation does not close at all (a random RRSRR re-assembles five
 positions past its gap, too far for Newton from the last closed pose), it is searched again from random
@@ -15,7 +17,8 @@ Nothing of the in-house engine is used (independence).
 
 Statuses (:mod:`dualmech.core.status`): ``no_assembly`` / ``not_converged`` from Newton
 (:func:`~.closure.close`), ``branch_jump`` where the branch sign differs from the start pose's,
-``dead_centre`` where the transmission is below
+``assembly_limit`` by the loop table's rule on the judge's own pose
+(:func:`~dualmech.models.loop.columns.limit_words`), ``dead_centre`` where the transmission is below
 :data:`~dualmech.core.thresholds.DEAD_CENTRE_TRANSMISSION` (its efforts and reactions are NaN), else ``ok``.
 """
 
@@ -59,6 +62,9 @@ ENGINE = "mujoco-loop"
 SEARCH_POSITIONS = 8
 #: Random poses tried at each of them.
 SEARCH_TRIES = 64
+#: Halvings of a drive step tried where continuation closes on the other branch (:func:`_walk`): up to 32
+#: steps.
+SUBSTEPS = 5
 
 
 @dataclass(frozen=True)
@@ -183,6 +189,27 @@ def _branch_search(lp: MjLoop, k: int, sign: float, rng: np.random.Generator) ->
     return None
 
 
+def _walk(lp: MjLoop, last: tuple[np.ndarray, np.ndarray, dict[str, float]], values: dict[str, float],
+          sign: float) -> tuple[int, float] | None:
+    """Continuation from the closed pose ``last`` (its ``qpos``, cut coordinates and drive values) to the
+    drive ``values`` in 2, 4, ... ``2**SUBSTEPS`` equal steps, where one step closed on the other branch
+    (near an assembly limit the two branches are close): the last close's iterations and gap if it ends on
+    branch ``sign`` (then the current pose), else ``None``."""
+    for halvings in range(1, SUBSTEPS + 1):
+        lp.data.qpos[:], lp.q_cut = last[0], last[1].copy()
+        steps = 2 ** halvings
+        for j in range(1, steps + 1):
+            t = j / steps
+            prescribe(lp, {name: (1.0 - t) * last[2][name] + t * value for name, value in values.items()})
+            outcome, iterations, gap = close(lp)
+            if outcome != Status.OK:
+                break
+        else:
+            if branch(lp) == sign:
+                return iterations, gap
+    return None
+
+
 def dynamics_at(lp: MjLoop, k: int, given: dict[str, float],
                 solved: list[str]) -> tuple[np.ndarray, np.ndarray, Balance]:
     """Rates ``u_dot``, accelerations ``u_ddot`` ``(n_u,)`` and the balance at drive position ``k``, at the
@@ -230,13 +257,14 @@ def sweep(lp: MjLoop, seed: int = 0) -> Iterator[tuple[int, str, int, float]]:
     n = mechanism.drive.positions.shape[0]
     at = find_start(lp, seed)
     rng = np.random.default_rng(seed)
-    anchor = (lp.data.qpos.copy(), lp.q_cut.copy())  # the start estimate, then the pose closed from it
-    start_branch = None
+    anchor = (lp.data.qpos.copy(), lp.q_cut.copy(), drive_values(mechanism, at)[0])  # the start estimate,
+    start_branch = None                                                              # then the closed pose
     for order in (range(at, n), range(at - 1, -1, -1)):
         last, gap_before = anchor, False
         for k in order:
+            values = drive_values(mechanism, k)[0]
             lp.data.qpos[:], lp.q_cut = last[0], last[1].copy()
-            prescribe(lp, drive_values(mechanism, k)[0])
+            prescribe(lp, values)
             outcome, iterations, gap = close(lp)
             if outcome != Status.OK:
                 found = _branch_search(lp, k, start_branch, rng) if gap_before and start_branch else None
@@ -247,14 +275,17 @@ def sweep(lp: MjLoop, seed: int = 0) -> Iterator[tuple[int, str, int, float]]:
                 iterations, gap = found
             sign = branch(lp)
             if start_branch is None:
-                start_branch, anchor = sign, (lp.data.qpos.copy(), lp.q_cut.copy())
-            found = _branch_search(lp, k, start_branch, rng) if gap_before and sign != start_branch else None
+                start_branch, anchor = sign, (lp.data.qpos.copy(), lp.q_cut.copy(), values)
+            found = None
+            if sign != start_branch:
+                found = _branch_search(lp, k, start_branch, rng) if gap_before else _walk(
+                    lp, last, values, start_branch)
             gap_before = False
             if sign != start_branch and found is None:
                 yield k, Status.BRANCH_JUMP.value, iterations, gap
                 continue
             iterations, gap = found or (iterations, gap)
-            last = (lp.data.qpos.copy(), lp.q_cut.copy())
+            last = (lp.data.qpos.copy(), lp.q_cut.copy(), values)
             yield k, Status.OK.value, iterations, gap
 
 

@@ -156,12 +156,6 @@ def _frame(model: pin.Model, name: str, parent: int, placement: pin.SE3) -> int:
     return model.addFrame(pin.Frame(name, parent, placement, pin.FrameType.OP_FRAME), False)
 
 
-def table_length(mechanism: LoopMechanism) -> float:
-    """The table's largest constant length (``a``, ``s``), or 1 if it has none."""
-    size = max(max(abs(j.a), abs(j.s)) for j in mechanism.joints)
-    return size if size > 0.0 else 1.0
-
-
 def build_model(mechanism: LoopMechanism) -> LoopModel:
     """The Pinocchio tree of ``mechanism`` cut at its last joint (module docstring).
 
@@ -197,4 +191,4 @@ def build_model(mechanism: LoopMechanism) -> LoopModel:
     free = tuple(v for v in range(model.nv) if v not in prescribed)
     return LoopModel(mechanism, model, model.createData(), tuple(links), coordinates, tuple(points), cut,
                      link_step(last.alpha, last.a).inverse(), CUT_ROWS[last.type], spins, prescribed, free,
-                     table_length(mechanism))
+                     mechanism.length)

@@ -37,7 +37,6 @@ from dualmech.core.thresholds import ASSEMBLY_LIMIT_CONDITION, ASSEMBLY_REACH, D
 from dualmech.models.angle_ranges import status_messages
 from dualmech.models.case import Case
 from dualmech.models.loop.presets import slider_crank_start, slider_crank_table, started
-from dualmech.validation.judges.exudyn_loop.frames import table_length
 from dualmech.validation.judges.exudyn_loop.table import ENGINE, solve_table
 
 #: The judge's words of a closed, answered row.
@@ -83,7 +82,7 @@ def solve_case(case: Case) -> ResultTable:
         for name in got:
             got[name][take] = run[name][take - k]
         words[take] = run.status[take - k]
-    got["residual"] *= table_length(mechanism)
+    got["residual"] *= mechanism.length
     return _table(case, got, words, p2, origin, np.array(restarts, dtype=int))
 
 

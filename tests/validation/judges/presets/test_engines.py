@@ -15,7 +15,7 @@ from dualmech.validation.compare.tables import worst
 from dualmech.validation.engines import get_engine, run_engine
 from dualmech.validation.judges.exudyn_loop.closure import CLOSURE_TOL
 from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS
-from tests.models.linkages.cases import random_rssr
+from tests.linkage_cases import random_rssr
 
 pytest.importorskip("exudyn")
 

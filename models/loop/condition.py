@@ -1,0 +1,198 @@
+"""How far a loop's pose is from an assembly limit: the closure condition of its solved joint freedoms.
+
+The closure's linearization maps the joint rates to the loop's relative twist,
+:math:`\\sum_k \\dot q_k \\hat\\$_k = 0` (the derivative of the loop equation, thesis eq. 3.6, with the
+joint screws :math:`\\hat\\$_k`).  The prescribed coordinates' screws go to the right-hand side; the solved
+freedoms' screws are the columns of :math:`J` (6 rows).  Where :math:`J` loses rank the rates are unbounded:
+the loop is at an *assembly limit* (or a joint locks).  The scale-free measure (``docs/conventions.md``,
+"Loop tables"):
+
+.. math:: c = \\sigma_6(\\bar J) / \\sigma_1(\\bar J), \\qquad
+          \\bar J_{:,k} = (\\omega_k,\\ v_{O,k} / L)
+
+with each freedom's unit twist (a turn about axis :math:`a` through :math:`p`: :math:`\\omega = a`,
+:math:`v_O = (p - O) \\times a`; a slide along :math:`a`: :math:`\\omega = 0`, :math:`v_O = a`), ``O`` the
+centroid of the joint points, ``L`` their root-mean-square distance from it (the pose's own size: a
+table's constant lengths would not do, as a C joint's slides can carry its points far beyond them) and
+:math:`\\sigma_1 \\ge \\dots \\ge \\sigma_6` its singular values.  A spherical joint's three turns about
+any orthonormal axes give the same singular values (its three columns change by an orthogonal matrix; so
+the columns are not scaled one by one), and an S-S
+link's idle spin is a null combination of its two balls' columns, so with it :math:`\\bar J` has seven
+columns and rank six: :math:`\\sigma_6` is then the smallest that matters.  :math:`c` is invariant to the
+world frame and the units.
+
+The screws come from a pose's scalar joint coordinates (a loop table's pose columns) by the table's own
+forward kinematics, written here apart from the in-house engine's: every row's
+:math:`Z(\\theta + \\varepsilon s)\\, Y(\\eta)\\, X(\\alpha + \\varepsilon a)`, walked from the ground up to
+the first spherical joint and down from the ground's other side to the last (a ball's rotation is not a
+column, and no joint's axis needs it: a mobile single loop has no joint between two balls but a driven one,
+whose screw is not a column; there :math:`c` is NaN).  So every engine's words follow from its own pose by
+one rule (:func:`~dualmech.models.loop.columns.loop_table`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from dualmech.models.loop.description import LoopMechanism
+
+#: Cyclic Jacobi sweeps at most (:func:`_condition_rows`); six or seven reach rounding on a 6 x 6 Gram matrix.
+SWEEPS = 30
+
+#: A frame: its rotation ``(n, 3, 3)`` and origin ``(n, 3)``, world.
+Frame = tuple[np.ndarray, np.ndarray]
+
+
+def _value(pose: dict[str, np.ndarray], name: str, constant: float, n: int) -> np.ndarray:
+    return np.asarray(pose[name], dtype=float) if name in pose else np.full(n, constant)
+
+
+def _rx(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def row_motion(mechanism: LoopMechanism, pose: dict[str, np.ndarray], k: int, n: int) -> Frame:
+    """Row ``k``'s (not spherical) motion :math:`Z(\\theta + \\varepsilon s)\\, Y(\\eta)\\,
+    X(\\alpha + \\varepsilon a)` from ``pose`` (the table's coordinate columns ``theta<i>``, ``s<i>``,
+    ``eta<i>``): its rotation ``Rz Ry Rx`` and translation ``s z + a (Rz Ry x)``."""
+    j = mechanism.joints[k]
+    theta = _value(pose, f"theta{k + 1}", j.theta, n)
+    eta = _value(pose, f"eta{k + 1}", 0.0, n)
+    ct, st, ce, se = np.cos(theta), np.sin(theta), np.cos(eta), np.sin(eta)
+    zero = np.zeros(n)
+    turn = np.stack([np.stack([ct * ce, -st, ct * se], -1), np.stack([st * ce, ct, st * se], -1),
+                     np.stack([-se, zero, ce], -1)], 1)  # Rz(theta) Ry(eta)
+    shift = np.stack([zero, zero, _value(pose, f"s{k + 1}", j.s, n)], -1) + j.a * turn[:, :, 0]
+    return turn @ _rx(j.alpha), shift
+
+
+def joint_frames(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> list[Frame | None]:
+    """Each row's frame before its motion (world), from the ground forward up to the first spherical joint
+    and backward from the loop's end down past the last (module docstring); of a spherical joint only the
+    origin (its centre) is meant; ``None`` for a row between two spherical joints."""
+    n = np.asarray(next(iter(pose.values()))).shape[0]
+    joints = mechanism.joints
+    balls = [k for k, j in enumerate(joints) if j.type == "S"]
+    first, last = (balls[0], balls[-1]) if balls else (len(joints), len(joints))
+    frames: list[Frame | None] = [None] * len(joints)
+    rot, origin = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
+    for k in range(min(first + 1, len(joints))):
+        frames[k] = (rot, origin)
+        if k < first:
+            turn, shift = row_motion(mechanism, pose, k, n)
+            rot, origin = rot @ turn, origin + (rot @ shift[:, :, None])[:, :, 0]
+    if balls:  # back from the frame after the last row (the world): F_k = F_(k+1) M_k^-1
+        rot, origin = np.broadcast_to(np.eye(3), (n, 3, 3)), np.zeros((n, 3))
+        for k in range(len(joints) - 1, last - 1, -1):
+            if joints[k].type == "S":  # its centre: the next frame moved back along x by its link's length
+                frames[k] = (rot, origin - joints[k].a * rot[:, :, 0])  # (its twist moves no point of x)
+                break
+            turn, shift = row_motion(mechanism, pose, k, n)
+            rot = rot @ np.swapaxes(turn, 1, 2)
+            origin = origin - (rot @ shift[:, :, None])[:, :, 0]
+            frames[k] = (rot, origin)
+    return frames
+
+
+def freedom_twists(mechanism: LoopMechanism, pose: dict[str, np.ndarray]
+                   ) -> tuple[list[tuple[np.ndarray, np.ndarray | None]], np.ndarray]:
+    """The solved freedoms' ``(axis, point)`` pairs, each ``(n, 3)`` world (``point`` ``None``: a slide),
+    and every joint's point ``(n, J, 3)`` (an S joint's centre; a U joint's where its two axes meet)."""
+    frames = joint_frames(mechanism, pose)
+    prescribed = set(mechanism.prescribed)
+    n = np.asarray(next(iter(pose.values()))).shape[0]
+    nan = np.full((n, 3), np.nan)
+    twists, points = [], []
+    for k, (joint, frame) in enumerate(zip(mechanism.joints, frames)):
+        rot, point = frame if frame is not None else (np.full((n, 3, 3), np.nan), nan)
+        if joint.type == "S":
+            twists += [(np.broadcast_to(np.eye(3)[i], (n, 3)), point) for i in range(3)]
+            points.append(point)
+            continue
+        if joint.type == "U":  # the second axis is y after the first turn (and the offset s along z)
+            point = point + _value(pose, f"s{k + 1}", joint.s, n)[:, None] * rot[:, :, 2]
+            theta = _value(pose, f"theta{k + 1}", 0.0, n)[:, None]
+            if (k, "eta") not in prescribed:
+                twists.append((np.cos(theta) * rot[:, :, 1] - np.sin(theta) * rot[:, :, 0], point))
+        if joint.type in ("R", "C", "U") and (k, "theta") not in prescribed:
+            twists.append((rot[:, :, 2], point))
+        if joint.type in ("P", "C") and (k, "s") not in prescribed:
+            twists.append((rot[:, :, 2], None))
+        points.append(point)
+    return twists, np.stack(points, axis=1)
+
+
+def closure_condition(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> np.ndarray:
+    """The closure condition :math:`c` ``(n,)`` of ``mechanism`` at ``pose`` (module docstring): 1 for a
+    well-conditioned closure, 0 at an assembly limit; NaN where a pose value is not finite."""
+    twists, points = freedom_twists(mechanism, pose)
+    centre = points.mean(axis=1)
+    spread = np.sqrt(np.mean(np.sum((points - centre[:, None]) ** 2, axis=2), axis=1))
+    length = np.where(spread > 0.0, spread, 1.0)[:, None]
+    columns = []
+    for axis, point in twists:
+        if point is None:
+            columns.append(np.concatenate([np.zeros_like(axis), axis], axis=1))
+        else:
+            columns.append(np.concatenate([axis, np.cross(point - centre, axis) / length], axis=1))
+    jac = np.stack(columns, axis=2)
+    good = np.isfinite(jac).all(axis=(1, 2))
+    out = np.full(jac.shape[0], np.nan)
+    out[good] = _condition_rows(np.ascontiguousarray(jac[good]))
+    return out
+
+
+@njit(cache=True, fastmath={"contract", "arcp"})
+def _condition_rows(jac: np.ndarray) -> np.ndarray:
+    """:math:`\\sqrt{\\lambda_{min} / \\lambda_{max}}` of each row's Gram matrix :math:`J J^T` ``(6, 6)``
+    (its eigenvalues are :math:`\\sigma_k^2`), ``jac`` ``(n, 6, m)``, by cyclic Jacobi rotations: numpy's
+    ``eigvalsh`` costs ~5 us a row in LAPACK's call overhead, more than the in-house engine's whole position.
+    The squares keep :math:`c` to ~1e-8 absolute, far below the band."""
+    n, m = jac.shape[0], jac.shape[2]
+    out = np.empty(n)
+    g = np.empty((6, 6))
+    for i in range(n):
+        for r in range(6):
+            for c in range(r, 6):
+                total = 0.0
+                for k in range(m):
+                    total += jac[i, r, k] * jac[i, c, k]
+                g[r, c] = total
+                g[c, r] = total
+        scale = 0.0
+        for r in range(6):
+            scale += g[r, r] * g[r, r]
+        for _ in range(SWEEPS):
+            off = 0.0
+            for r in range(5):
+                for c in range(r + 1, 6):
+                    off += g[r, c] * g[r, c]
+            if off <= 1e-28 * scale:
+                break
+            for p in range(5):
+                for q in range(p + 1, 6):
+                    if g[p, q] != 0.0:
+                        _rotate(g, p, q)
+        low, high = g[0, 0], g[0, 0]
+        for r in range(1, 6):
+            low, high = min(low, g[r, r]), max(high, g[r, r])
+        out[i] = np.sqrt(max(low, 0.0) / high)
+    return out
+
+
+@njit(cache=True, inline="always", fastmath={"contract", "arcp"})
+def _rotate(g: np.ndarray, p: int, q: int) -> None:
+    """One Jacobi rotation of the symmetric ``g`` in place that zeroes ``g[p, q]`` (Golub & Van Loan,
+    Algorithm 8.5.1)."""
+    tau = (g[q, q] - g[p, p]) / (2.0 * g[p, q])
+    t = (1.0 if tau >= 0.0 else -1.0) / (abs(tau) + np.sqrt(1.0 + tau * tau))
+    c = 1.0 / np.sqrt(1.0 + t * t)
+    s = t * c
+    for k in range(6):
+        gkp, gkq = g[k, p], g[k, q]
+        g[k, p], g[k, q] = c * gkp - s * gkq, s * gkp + c * gkq
+    for k in range(6):
+        gpk, gqk = g[p, k], g[q, k]
+        g[p, k], g[q, k] = c * gpk - s * gqk, s * gpk + c * gqk
