@@ -17,8 +17,7 @@ seeded random cases (the thesis example with random offset, twist and axial shif
 * **dualmech loop kernel** -- the generic loop engine compiled (:mod:`dualmech.core.kernel.loop_engine`)
   on the slider crank's joint table (:func:`dualmech.models.loop.presets.slider_crank_table`): some of the
   cases, and one long case (a tenth of the Parquet row's positions), through ``analyze_loop``; and that
-  case as ``dualmech solve`` of a loop table does it: its table (every engine's columns, the closure
-  condition and the status rule of :func:`~dualmech.models.loop.columns.loop_table`) written to Parquet.
+  case's table (``loop_table``: the closure condition, the status rule) into Parquet, as ``solve`` does.
 * **Pinocchio, MuJoCo, Exudyn** -- best-effort drivers: the model built once per case outside the
   timing (Pinocchio: :func:`~dualmech.validation.judges.pinocchio_slider_crank.engine.solve` with a prebuilt
   model; MuJoCo rigid: the per-position loop of
@@ -264,10 +263,11 @@ def _inside(module: ModuleType, like: Callable, run: Callable[[], None]) -> Call
     return timed_run
 
 
-def time_loop_kernel(cases: list[Case], positions: int, repeats: int) -> list[Timing]:
+def time_loop_kernel(cases: list[Case], positions: int, repeats: int, parquet: bool) -> list[Timing]:
     """The generic loop engine, compiled (:func:`dualmech.models.loop.engine.analyze_loop`), on the slider
-    crank as a joint table: ``cases`` one call each, and one case of ``positions`` crank angles; each
-    start pose from the slider crank kernel's ``S4`` at the first angle (outside the timing)."""
+    crank as a joint table: ``cases`` one call each, and one case of ``positions`` crank angles (and, with
+    ``parquet``, its table into Parquet); each start pose from the slider crank kernel's ``S4`` at the first
+    angle (outside the timing)."""
     from dualmech.models.loop.engine import analyze_loop
     from dualmech.models.loop.presets import slider_crank_start, slider_crank_table, started
     from dualmech.models.loop.table import solve_loop_table
@@ -283,13 +283,14 @@ def time_loop_kernel(cases: list[Case], positions: int, repeats: int) -> list[Ti
         return lambda: [analyze_loop(mech, start) for mech, start in prepared[label]]
 
     n = len(long[0].motion.angles_deg)
+    rows = [measure(f"dualmech loop kernel, the slider crank as a joint table ({len(cases)} cases)",
+                    _positions(cases), run("cases"), repeats),
+            measure(f"dualmech loop kernel, one case ({n:,} positions)", n, run("long"), repeats)]
     table = started(*prepared["long"][0])
     with tempfile.TemporaryDirectory() as tmp:
-        return [measure(f"dualmech loop kernel, the slider crank as a joint table ({len(cases)} cases)",
-                        _positions(cases), run("cases"), repeats),
-                measure(f"dualmech loop kernel, one case ({n:,} positions)", n, run("long"), repeats),
-                measure(f"dualmech solve, that case's joint table into Parquet ({n:,} positions)", n,
-                        lambda: write_table(solve_loop_table(table), Path(tmp) / "out.parquet"), repeats)]
+        return rows + ([measure(f"dualmech solve, that case's joint table into Parquet ({n:,} positions)", n,
+                                lambda: write_table(solve_loop_table(table), Path(tmp) / "out.parquet"),
+                                repeats)] if parquet else [])
 
 
 def time_solve_parquet(positions: int, repeats: int) -> Timing:
@@ -297,12 +298,8 @@ def time_solve_parquet(positions: int, repeats: int) -> Timing:
     case = random_cases(1, step_deg=360.0 / positions, seed=2)[0]
     n = len(case.motion.angles_deg)
     with tempfile.TemporaryDirectory() as tmp:
-        return measure(
-            f"dualmech solve, one case into Parquet ({n:,} positions)",
-            n,
-            lambda: stream_solve(case, Path(tmp) / "out.parquet"),
-            repeats,
-        )
+        return measure(f"dualmech solve, one case into Parquet ({n:,} positions)", n,
+                       lambda: stream_solve(case, Path(tmp) / "out.parquet"), repeats)
 
 
 @dataclass(frozen=True)
@@ -374,7 +371,7 @@ def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000,
     if big:
         rows.append(time_solve_parquet(big, repeats))
     if loop_cases:
-        rows += time_loop_kernel(bench[:loop_cases], max(big // 10, 360), repeats)
+        rows += time_loop_kernel(bench[:loop_cases], max(big // 10, 360), repeats, bool(big))
     judges = bench[:judge_cases]
     timers = ((time_pinocchio, judges), (time_mujoco, judges), (time_exudyn, judges[:exudyn_cases]))
     for timer, chosen in timers:
