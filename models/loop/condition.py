@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from dualmech.core.kernel.pool import kernel_pool, threads
 from dualmech.models.loop.description import LoopMechanism
 
 #: Cyclic Jacobi sweeps at most (:func:`_condition_rows`); six or seven reach rounding on a 6 x 6 Gram matrix.
@@ -140,11 +141,12 @@ def closure_condition(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> 
     jac = np.stack(columns, axis=2)
     good = np.isfinite(jac).all(axis=(1, 2))
     out = np.full(jac.shape[0], np.nan)
-    out[good] = _condition_rows(np.ascontiguousarray(jac[good]))
+    blocks = np.array_split(np.ascontiguousarray(jac[good]), threads())  # the kernel's threads: nogil
+    out[good] = np.concatenate(list(kernel_pool().map(_condition_rows, blocks)))
     return out
 
 
-@njit(cache=True, fastmath={"contract", "arcp"})
+@njit(cache=True, nogil=True, fastmath={"contract", "arcp"})
 def _condition_rows(jac: np.ndarray) -> np.ndarray:
     """:math:`\\sqrt{\\lambda_{min} / \\lambda_{max}}` of each row's Gram matrix :math:`J J^T` ``(6, 6)``
     (its eigenvalues are :math:`\\sigma_k^2`), ``jac`` ``(n, 6, m)``, by cyclic Jacobi rotations: numpy's
