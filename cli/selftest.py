@@ -28,7 +28,7 @@ from dualmech.validation.selftest import (
 @click.option("--catalogue", type=click.Path(dir_okay=False), help=f"Fault catalogue [default: {CATALOGUE}].")
 @click.option("--jobs", type=click.IntRange(1, MAX_JOBS), default=2, show_default=True,
               help="Mutants gated side by side.")
-@click.option("--timeout", type=float, default=300.0, show_default=True,
+@click.option("--timeout", type=float, default=600.0, show_default=True,
               help="Seconds each gate step may take (a step that outlives it counts as killed by timeout).")
 @click.option("--only", multiple=True, metavar="ID", help="Run only these mutants (repeatable).")
 @click.option("--source", type=click.Path(file_okay=False, exists=True),

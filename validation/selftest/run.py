@@ -56,7 +56,7 @@ def run_selftest(
     root: Path | None = None,
     *,
     jobs: int = 2,
-    timeout: float = 300.0,
+    timeout: float = 600.0,
     only: tuple[str, ...] = (),
     progress: Callable[[Outcome], None] | None = None,
     keep: Path | None = None,
