@@ -69,11 +69,11 @@ def row_motion(mechanism: LoopMechanism, pose: dict[str, np.ndarray], k: int, n:
     return turn @ _rx(j.alpha), shift
 
 
-def joint_frames(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> list[Frame | None]:
-    """Each row's frame before its motion (world), from the ground forward up to the first spherical joint
-    and backward from the loop's end down past the last (module docstring); of a spherical joint only the
-    origin (its centre) is meant; ``None`` for a row between two spherical joints."""
-    n = np.asarray(next(iter(pose.values()))).shape[0]
+def joint_frames(mechanism: LoopMechanism, pose: dict[str, np.ndarray], n: int) -> list[Frame | None]:
+    """Each row's frame before its motion (world) at the ``n`` rows of ``pose``, from the ground forward up
+    to the first spherical joint and backward from the loop's end down past the last (module docstring); of
+    a spherical joint only the origin (its centre) is meant; ``None`` for a row between two spherical
+    joints."""
     joints = mechanism.joints
     balls = [k for k, j in enumerate(joints) if j.type == "S"]
     first, last = (balls[0], balls[-1]) if balls else (len(joints), len(joints))
@@ -101,9 +101,9 @@ def freedom_twists(mechanism: LoopMechanism, pose: dict[str, np.ndarray]
                    ) -> tuple[list[tuple[np.ndarray, np.ndarray | None]], np.ndarray]:
     """The solved freedoms' ``(axis, point)`` pairs, each ``(n, 3)`` world (``point`` ``None``: a slide),
     and every joint's point ``(n, J, 3)`` (an S joint's centre; a U joint's where its two axes meet)."""
-    frames = joint_frames(mechanism, pose)
-    prescribed = set(mechanism.prescribed)
     n = np.asarray(next(iter(pose.values()))).shape[0]
+    frames = joint_frames(mechanism, pose, n)
+    prescribed = set(mechanism.prescribed)
     nan = np.full((n, 3), np.nan)
     twists, points = [], []
     for k, (joint, frame) in enumerate(zip(mechanism.joints, frames)):
