@@ -16,6 +16,16 @@ which a loop with more than two assemblies (a general 7R has up to sixteen) does
 (:func:`closure_jacobian`); its determinant changes sign only through a singular pose (an edge of
 assembly), so its sign labels the assembly branch.  A position closed with the other sign than the start
 pose's is a *branch jump*: reported, never followed (a station past it is not used as a start).
+
+**Joint locks.** The determinant also changes sign where the loop passes smoothly through a singular pose
+that the drive still moves: a *joint lock* (a universal joint whose axis lines up with a ball's, the rod of a
+slider crank along its slider line), where the solution curve crosses another and a passive joint's rate is
+not determined, but the curve followed goes on with bounded rates.  :func:`cross_lock` tells the two apart
+between two neighbouring positions: it walks the drive from one to the other in ``LOCK_SUBSTEPS``
+steps (``core/thresholds.py``), each closed from the secant through the two before it, and accepts the walk
+only where every closure's correction is at most ``LOCK_CORRECTION`` of the step before it (a smooth curve:
+the secant's error is second order in the step).  At an edge of assembly the branch ends, and the walk fails
+to close or lands on another assembly with a correction of the order of the pose itself.
 """
 
 from __future__ import annotations
@@ -26,7 +36,17 @@ import numpy as np
 
 from dualmech.core.closure import ClosureResult, ClosureStatus, gauge_block, refine, solve_closure
 from dualmech.core.dual import vee
-from dualmech.core.loop import Loop, LoopState, Var, evaluate, rodrigues, screw_jacobian
+from dualmech.core.loop import (
+    Loop,
+    LoopState,
+    Var,
+    closure_error,
+    closure_residual,
+    evaluate,
+    rodrigues,
+    screw_jacobian,
+)
+from dualmech.core.thresholds import LOCK_CORRECTION, LOCK_SUBSTEPS
 
 #: Stations closed one after the other (at most; fewer positions: every position is a station).
 STATIONS = 24
@@ -227,3 +247,62 @@ def _repair(loop, inputs, state: LoopState, status: np.ndarray, jump: np.ndarray
                 iterations[j] = res.iterations[0] + more[0]
                 j += step
     return state
+
+
+def pose_distance(loop: Loop, inputs: dict[str, np.ndarray], a: LoopState, b: LoopState) -> np.ndarray:
+    """Distance ``(n,)`` between poses ``a`` and ``b``: the largest change of a scalar unknown (an angle in
+    rad, a slide over the loop's length scale) or turn of a spherical joint (rad)."""
+    scale = np.asarray(inputs[loop.length_scale]) if loop.length_scale else np.ones(a.scalars.shape[0])
+    change = np.abs(b.scalars - a.scalars)
+    change[:, _slides(loop)] /= scale[:, None]
+    turns = np.linalg.norm(_log(b.rotations @ np.swapaxes(a.rotations, -1, -2)), axis=-1)
+    return np.maximum(change.max(axis=1, initial=0.0), turns.max(axis=1, initial=0.0))
+
+
+def cross_lock(loop: Loop, inputs: dict[str, np.ndarray], i: int, j: int, pose: LoopState,
+               substeps: int = LOCK_SUBSTEPS) -> LoopState | None:
+    """The pose at position ``j`` reached from ``pose``, closed at position ``i``, by a smooth walk of the
+    inputs (module docstring, "Joint locks"): ``substeps`` steps along the straight line between the two
+    positions' inputs, each closed from the secant through the two poses before it (the first from
+    ``pose``); ``None`` where a step does not close, or its correction exceeds ``LOCK_CORRECTION`` of the
+    step before it (a first step that lands on another assembly fails the second's: its secant overshoots
+    by the jump)."""
+    before, here = None, pose
+    for k in range(1, substeps + 1):
+        t = k / substeps
+        at = {name: (1.0 - t) * v[i:i + 1] + t * v[j:j + 1] for name, v in inputs.items()}
+        guess = here if before is None else interpolate(before, here, np.array([2.0]))
+        res = solve_closure(loop, at, guess)
+        if res.status[0] != ClosureStatus.OK:
+            return None
+        if before is not None:
+            step = pose_distance(loop, at, before, here)[0]
+            if pose_distance(loop, at, guess, res.state)[0] > LOCK_CORRECTION.value * step + 1e-12:
+                return None
+        before, here = here, res.state
+    return here
+
+
+#: Pseudo-inverse cut-off of :func:`close_min_norm`: singular values below this fraction of the largest are
+#: the lock's own directions, which its steps leave alone.
+MIN_NORM_RCOND = 1e-8
+#: Gauss-Newton steps of :func:`close_min_norm`.
+MIN_NORM_STEPS = 12
+
+
+def close_min_norm(loop: Loop, inputs: dict[str, np.ndarray],
+                   guess: LoopState) -> tuple[LoopState, np.ndarray]:
+    """The poses nearest ``guess`` that close (``n`` positions): Gauss-Newton with minimum-norm steps (the
+    pseudo-inverse of the closure Jacobian with its gauge rows, cut off at :data:`MIN_NORM_RCOND`).  At a
+    lock a singular direction is a motion the loop may make without the drive; Newton's full step would
+    run along it, the minimum-norm step does not.  Returns the poses and their closure residuals."""
+    state = guess
+    for _ in range(MIN_NORM_STEPS):
+        chain = evaluate(loop, inputs, state)
+        jac, err = screw_jacobian(chain, loop), closure_error(chain, loop)
+        if loop.spin_gauges:
+            jac = np.concatenate([jac, gauge_block(chain, loop)], axis=1)
+            err = np.concatenate([err, np.zeros((err.shape[0], len(loop.spin_gauges)))], axis=1)
+        step = -np.einsum("nkm,nm->nk", np.linalg.pinv(jac, rcond=MIN_NORM_RCOND), err)
+        state = state.retract(step, loop)
+    return state, closure_residual(evaluate(loop, inputs, state), loop)

@@ -32,9 +32,33 @@ ASSEMBLY_LIMIT_CONDITION = Tolerance(
 #: Assembly limit of a loop table, every engine: the closure condition c of its pose (the smallest over the
 #: largest singular value of the solved freedoms' twists, ``models/loop/condition.py``) below this.
 LOOP_LIMIT_CONDITION = Tolerance(
-    1e-3, "the rates grow as 1/c, accelerations as 1/c^3: on the slider crank's table 1e-6 a2 inside its "
-    "edge (c = 6.3e-4) the compiled and numpy engines' s4 rates stay within 4e-11 of the closed form's peak; "
+    1e-3, "the rates grow as 1/c, accelerations as 1/c^3: on the slider crank's table 1e-6 a2 inside a "
+    "turning point of its drive (c = 6.5e-4) the compiled and numpy engines' s4 rates and accelerations stay "
+    "within 9e-11 of the closed form's peak; "
     "the bundled 7R's closest approach, c = 8.9e-3 with every rate at most 1.7x the drive's, stays ok")
+#: Joint lock of a loop table, every engine: a row at an assembly limit by LOOP_LIMIT_CONDITION whose closure
+#: condition with the drive's twist as one more column (models/loop/condition.py, drive_condition) is below
+#: this is ``joint_lock``: the drive still moves the loop there.
+LOOP_LOCK_CONDITION = Tolerance(
+    1e-2, "at a lock the drive's twist stays in the span of the solved freedoms: c_d = 0.85 c on the "
+    "slider crank's table with a universal joint at the slider whose rod passes along the slider line; at an "
+    "edge of assembly it leaves it: c_d = 0.14 at the planar slider crank table's edge (c = 1.8e-3)")
+#: Walk through a joint lock, every engine of a loop table (the in-house engine's
+#: ``dualmech.core.continuation.cross_lock``, each judge's own walk): the drive walked from the last row
+#: closed on the branch to a row past the lock in this many steps per row, each closed from the secant
+#: through the two before it; the walk is smooth when no closure corrects the secant by more than
+#: LOCK_CORRECTION of the step before it.
+LOCK_SUBSTEPS = 8
+LOCK_CORRECTION = Tolerance(
+    0.5, "on a smooth curve the secant's error over the step is about the step times the curve's turn per "
+    "step (a few % at 8 steps a row on the slider crank's table through its universal joint's lock); a "
+    "closure that lands on another assembly corrects by the whole jump")
+#: Rows past the last row closed on the branch that a walk through a lock tries to reach in turn (a row at
+#: the lock itself has a singular pose: the walk goes on to the next).
+LOCK_ROWS = 3
+#: A pose is regular (off a lock or limit) when the smallest singular value of its square closure Jacobian
+#: is at least this fraction of the largest; a walk through a lock starts and ends on regular poses.
+REGULAR_POSE = Tolerance(1e-8, "eight orders above rounding: the sign of the determinant is then certain")
 #: Universal-joint lock, every engine: with a universal joint at the slider, a closure_condition |u·k4| at
 #: or above this makes a row ``joint_lock`` (pose and rates given, reactions not).
 JOINT_LOCK_CONDITION = Tolerance(

@@ -16,6 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from dualmech.core.status import ASSEMBLED
 from dualmech.core.table import ColumnTable, write_csv
 
 
@@ -24,7 +25,7 @@ class TableSpec(NamedTuple):
     (assembled words), the ``rates`` (``ok``, ``dead_centre``), the ``reactions`` (``ok``); ``key`` the
     column of each row's input value (the crank angle in degrees, or a loop table's driven coordinate), on
     which two engines' rows are matched; ``output`` the column the report plots against it (default the
-    first pose column)."""
+    first pose column); ``posed`` the words that give the pose (a loop table's ``joint_lock`` gives none)."""
 
     columns: tuple[str, ...]
     pose: tuple[str, ...]
@@ -32,6 +33,7 @@ class TableSpec(NamedTuple):
     reactions: tuple[str, ...]
     key: str = "theta1_deg"
     output: str = ""
+    posed: frozenset[str] = ASSEMBLED
 
     @property
     def shown(self) -> str:

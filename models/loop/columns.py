@@ -13,8 +13,11 @@ generated judges of :mod:`dualmech.validation.judges`) returns the same
 * ``closure_condition``: how far the pose is from an assembly limit
   (:func:`~dualmech.models.loop.condition.closure_condition` of the engine's own pose; 0 at the limit), given
   with the pose; where it is below :data:`~dualmech.core.thresholds.LOOP_LIMIT_CONDITION` an ``ok`` or
-  ``dead_centre`` row becomes ``assembly_limit`` (pose given, rates and reactions not): one rule for every
-  engine, made here;
+  ``dead_centre`` row becomes ``assembly_limit`` (pose given, rates and reactions not), or ``joint_lock``
+  where the drive still moves the loop there (:func:`~dualmech.models.loop.condition.drive_condition` below
+  :data:`~dualmech.core.thresholds.LOOP_LOCK_CONDITION`; it gives no value: at the lock a passive joint's
+  coordinate is not determined, and near it every coordinate carries the closure's rounding over ``c``): one
+  rule for every engine, made here;
 * the **reactions**: the given and solved efforts ``effort_<coordinate><i>`` (torque about / force along
   joint ``i``'s axis on link ``i`` from link ``i-1``) and every joint's wrench ``joint<i>_f{x,y,z}``,
   ``joint<i>_m{x,y,z}`` (world axes, moment about the joint's point);
@@ -29,8 +32,8 @@ from __future__ import annotations
 import numpy as np
 
 from dualmech.core.status import ASSEMBLED, Status, is_status, settle
-from dualmech.core.thresholds import LOOP_LIMIT_CONDITION
-from dualmech.models.loop.condition import closure_condition
+from dualmech.core.thresholds import LOOP_LIMIT_CONDITION, LOOP_LOCK_CONDITION
+from dualmech.models.loop.condition import closure_condition, drive_condition
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.tables import LinkageTable, TableSpec
 
@@ -94,7 +97,8 @@ def loop_spec(mechanism: LoopMechanism) -> TableSpec:
     columns = tuple(dict.fromkeys([key, *compared, CONDITION, *RESIDUALS]))
     prescribed = {f"{c}{j + 1}" for j, c in mechanism.prescribed}
     output = [c for c in coordinates if c not in prescribed][-1]
-    return TableSpec(columns, (*coordinates, CONDITION), rates, reactions, key=key, output=output)
+    return TableSpec(columns, (*coordinates, CONDITION), rates, reactions, key=key, output=output,
+                     posed=ASSEMBLED - {Status.JOINT_LOCK})
 
 
 def limit_words(mechanism: LoopMechanism, columns: dict[str, np.ndarray], status: np.ndarray
@@ -109,8 +113,13 @@ def limit_words(mechanism: LoopMechanism, columns: dict[str, np.ndarray], status
             for c in coordinate_names(mechanism)}
     with np.errstate(invalid="ignore"):
         condition = closure_condition(mechanism, pose)
-        limit = (condition < LOOP_LIMIT_CONDITION.value) & mechanism.limits
-    status[is_status(status, Status.OK, Status.DEAD_CENTRE) & limit] = Status.ASSEMBLY_LIMIT.value
+        limit = is_status(status, Status.OK, Status.DEAD_CENTRE) & (condition < LOOP_LIMIT_CONDITION.value) \
+            & mechanism.limits
+        locked = np.zeros_like(limit)
+        if limit.any():
+            locked[limit] = drive_condition(mechanism, {c: v[limit] for c, v in pose.items()}) \
+                < LOOP_LOCK_CONDITION.value
+    status[limit] = np.where(locked[limit], Status.JOINT_LOCK.value, Status.ASSEMBLY_LIMIT.value)
     return condition, status
 
 
@@ -145,4 +154,7 @@ def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndar
     reactions = tuple(c for c in spec.reactions if c not in not_given)
     rates = tuple(c for c in spec.rates if c not in not_given)
     settled = settle(cols, status, reactions, pose=spec.pose, rates=rates)
+    unposed = ~is_status(settled, *spec.posed)
+    for name in spec.pose:  # a loop table's joint_lock gives no value (module docstring)
+        cols[name][unposed] = np.nan
     return LinkageTable(engine, mechanism.name, cols, settled, meta)

@@ -28,6 +28,15 @@ the first spherical joint and down from the ground's other side to the last (a b
 column, and no joint's axis needs it: a mobile single loop has no joint between two balls but a driven one,
 whose screw is not a column; there :math:`c` is NaN).  So every engine's words follow from its own pose by
 one rule (:func:`~dualmech.models.loop.columns.loop_table`).
+
+**Joint locks.** :math:`J` also loses rank where the drive still moves the loop but a passive joint's rate is
+not determined (a universal joint whose axis lines up with a ball's: the slider crank's rod along its
+slider line): a *joint lock*.  The two differ in the drive's twist :math:`\\hat\\$_d` (the prescribed
+coordinates' unit twists, each times its rate per unit drive rate): at an assembly limit it leaves the span
+of :math:`J`'s columns (the drive cannot move on: the rates are unbounded), at a lock it stays in it (the
+drive moves the loop with bounded rates; the singular direction is a motion of the passive joints alone).
+So the condition of :math:`[\\bar J\\ \\bar\\$_d]`, :math:`c_d` (:func:`drive_condition`), stays of the
+order of :math:`c` at a lock and does not go to zero at an assembly limit.
 """
 
 from __future__ import annotations
@@ -37,12 +46,15 @@ from numba import njit
 
 from dualmech.core.kernel.pool import kernel_pool, threads
 from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.loop.translate import drive_state, variable
 
 #: Cyclic Jacobi sweeps at most (:func:`_condition_rows`); six or seven reach rounding on a 6 x 6 Gram matrix.
 SWEEPS = 30
 
 #: A frame: its rotation ``(n, 3, 3)`` and origin ``(n, 3)``, world.
 Frame = tuple[np.ndarray, np.ndarray]
+#: A unit twist: its axis ``(n, 3)`` and a point of it ``(n, 3)`` (``None``: a slide), world.
+Twist = tuple[np.ndarray, np.ndarray | None]
 
 
 def _value(pose: dict[str, np.ndarray], name: str, constant: float, n: int) -> np.ndarray:
@@ -97,38 +109,47 @@ def joint_frames(mechanism: LoopMechanism, pose: dict[str, np.ndarray], n: int) 
     return frames
 
 
-def freedom_twists(mechanism: LoopMechanism, pose: dict[str, np.ndarray]
-                   ) -> tuple[list[tuple[np.ndarray, np.ndarray | None]], np.ndarray]:
-    """The solved freedoms' ``(axis, point)`` pairs, each ``(n, 3)`` world (``point`` ``None``: a slide),
-    and every joint's point ``(n, J, 3)`` (an S joint's centre; a U joint's where its two axes meet)."""
+def coordinate_twists(mechanism: LoopMechanism, pose: dict[str, np.ndarray]
+                      ) -> tuple[dict[tuple[int, str], Twist], np.ndarray]:
+    """Every joint coordinate's unit twist by ``(joint, coordinate)`` (0-based joint; ``theta``, ``s``,
+    ``eta``, or ``ball0`` ... ``ball2`` for an S joint's three turns): its ``(axis, point)`` pair, each
+    ``(n, 3)`` world (``point`` ``None``: a slide); and every joint's point ``(n, J, 3)`` (an S joint's
+    centre; a U joint's where its two axes meet)."""
     n = np.asarray(next(iter(pose.values()))).shape[0]
     frames = joint_frames(mechanism, pose, n)
-    prescribed = set(mechanism.prescribed)
     nan = np.full((n, 3), np.nan)
-    twists, points = [], []
+    twists: dict[tuple[int, str], Twist] = {}
+    points = []
     for k, (joint, frame) in enumerate(zip(mechanism.joints, frames)):
         rot, point = frame if frame is not None else (np.full((n, 3, 3), np.nan), nan)
         if joint.type == "S":
-            twists += [(np.broadcast_to(np.eye(3)[i], (n, 3)), point) for i in range(3)]
+            twists.update({(k, f"ball{i}"): (np.broadcast_to(np.eye(3)[i], (n, 3)), point) for i in range(3)})
             points.append(point)
             continue
         if joint.type == "U":  # the second axis is y after the first turn (and the offset s along z)
             point = point + _value(pose, f"s{k + 1}", joint.s, n)[:, None] * rot[:, :, 2]
             theta = _value(pose, f"theta{k + 1}", 0.0, n)[:, None]
-            if (k, "eta") not in prescribed:
-                twists.append((np.cos(theta) * rot[:, :, 1] - np.sin(theta) * rot[:, :, 0], point))
-        if joint.type in ("R", "C", "U") and (k, "theta") not in prescribed:
-            twists.append((rot[:, :, 2], point))
-        if joint.type in ("P", "C") and (k, "s") not in prescribed:
-            twists.append((rot[:, :, 2], None))
+            twists[(k, "eta")] = (np.cos(theta) * rot[:, :, 1] - np.sin(theta) * rot[:, :, 0], point)
+        if joint.type in ("R", "C", "U"):
+            twists[(k, "theta")] = (rot[:, :, 2], point)
+        if joint.type in ("P", "C"):
+            twists[(k, "s")] = (rot[:, :, 2], None)
         points.append(point)
     return twists, np.stack(points, axis=1)
 
 
-def closure_condition(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> np.ndarray:
-    """The closure condition :math:`c` ``(n,)`` of ``mechanism`` at ``pose`` (module docstring): 1 for a
-    well-conditioned closure, 0 at an assembly limit; NaN where a pose value is not finite."""
-    twists, points = freedom_twists(mechanism, pose)
+def freedom_twists(mechanism: LoopMechanism, pose: dict[str, np.ndarray]
+                   ) -> tuple[list[Twist], np.ndarray]:
+    """The solved freedoms' ``(axis, point)`` pairs and every joint's point (:func:`coordinate_twists`
+    without the prescribed coordinates)."""
+    twists, points = coordinate_twists(mechanism, pose)
+    prescribed = set(mechanism.prescribed)
+    return [twist for key, twist in twists.items() if key not in prescribed], points
+
+
+def _columns(twists: list[Twist], points: np.ndarray) -> np.ndarray:
+    """The columns :math:`\\bar J_{:,k} = (\\omega_k, v_{O,k} / L)` ``(n, 6, m)`` of ``twists`` (module
+    docstring: ``O`` the centroid of ``points``, ``L`` their RMS distance from it)."""
     centre = points.mean(axis=1)
     spread = np.sqrt(np.mean(np.sum((points - centre[:, None]) ** 2, axis=2), axis=1))
     length = np.where(spread > 0.0, spread, 1.0)[:, None]
@@ -138,12 +159,39 @@ def closure_condition(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> 
             columns.append(np.concatenate([np.zeros_like(axis), axis], axis=1))
         else:
             columns.append(np.concatenate([axis, np.cross(point - centre, axis) / length], axis=1))
-    jac = np.stack(columns, axis=2)
+    return np.stack(columns, axis=2)
+
+
+def _condition(jac: np.ndarray) -> np.ndarray:
+    """:math:`\\sigma_6 / \\sigma_1` ``(n,)`` of the columns ``jac`` ``(n, 6, m)``; NaN where one is not
+    finite."""
     good = np.isfinite(jac).all(axis=(1, 2))
     out = np.full(jac.shape[0], np.nan)
     blocks = np.array_split(np.ascontiguousarray(jac[good]), threads())  # the kernel's threads: nogil
     out[good] = np.concatenate(list(kernel_pool().map(_condition_rows, blocks)))
     return out
+
+
+def closure_condition(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> np.ndarray:
+    """The closure condition :math:`c` ``(n,)`` of ``mechanism`` at ``pose`` (module docstring): 1 for a
+    well-conditioned closure, 0 at an assembly limit; NaN where a pose value is not finite."""
+    return _condition(_columns(*freedom_twists(mechanism, pose)))
+
+
+def drive_condition(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> np.ndarray:
+    """The closure condition with the drive's twist as one more column, :math:`c_d` ``(n,)`` (module
+    docstring, "Joint locks"): the prescribed coordinates' unit twists, each times its rate per unit rate of
+    the drive (a C joint's slide: the axial law's :math:`ds/d\\theta`)."""
+    twists, points = coordinate_twists(mechanism, pose)
+    prescribed = set(mechanism.prescribed)
+    solved = [twist for key, twist in twists.items() if key not in prescribed]
+    driven = variable(*mechanism.driven_coordinate)
+    rates = drive_state(mechanism, np.asarray(pose[driven], dtype=float),
+                        np.ones_like(np.asarray(pose[driven], dtype=float)),
+                        np.zeros_like(np.asarray(pose[driven], dtype=float))).rates
+    cols = _columns([twists[key] for key in mechanism.prescribed] + solved, points)
+    drive = sum(rates[variable(*key)][:, None] * cols[:, :, i] for i, key in enumerate(mechanism.prescribed))
+    return _condition(np.concatenate([cols[:, :, len(prescribed):], drive[:, :, None]], axis=2))
 
 
 @njit(cache=True, nogil=True, fastmath={"contract", "arcp"})

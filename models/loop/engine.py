@@ -15,19 +15,28 @@ branch than the start pose's, ``dead_centre`` where the solved effort's transmis
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 from functools import cached_property
 
 import numpy as np
 
-from dualmech.core.closure import ClosureStatus
-from dualmech.core.continuation import SEARCH_STARTS, continue_closure, search_assembly
+from dualmech.core.closure import ROUNDING_TOL, ClosureStatus
+from dualmech.core.continuation import (
+    SEARCH_STARTS,
+    branch_sign,
+    close_min_norm,
+    closure_jacobian,
+    continue_closure,
+    cross_lock,
+    interpolate,
+    search_assembly,
+)
 from dualmech.core.kernel.loop_engine import solve_loop
 from dualmech.core.loop import Chain, Loop, LoopState, evaluate
 from dualmech.core.loop_reactions import JointWrenches, solve_joint_wrenches
 from dualmech.core.rates import Rates, solve_rates
-from dualmech.core.status import Status
-from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
+from dualmech.core.status import Status, is_status
+from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION, LOCK_ROWS, LOCK_SUBSTEPS, REGULAR_POSE
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.mobility import check_mobility
 from dualmech.models.loop.start import nearest_to_zero, wrapped
@@ -169,4 +178,98 @@ def analyze_loop(mechanism: LoopMechanism, start: LoopState | None = None, at: i
                             closed.iterations)
     if not compiled:  # the numpy path evaluated the chain already: it is the cached one, not evaluated again
         analysis.__dict__["chain"] = chain
-    return analysis
+    return through_locks(analysis, at, compiled)
+
+
+def through_locks(an: LoopAnalysis, at: int, compiled: bool) -> LoopAnalysis:
+    """``an`` (closed from position ``at``) with its branch followed through every joint lock
+    (:func:`~dualmech.core.continuation.cross_lock`): where the rows closed on the branch end before a branch
+    jump, the lock test walks from the last of them whose pose is regular (:func:`regular`) to each of the
+    next ``LOCK_ROWS`` rows (``core/thresholds.py``) in turn; the first it reaches smoothly on a regular pose
+    with the determinant's sign turned starts the rest of the rows that way (:func:`analyze_loop` of them
+    from there, which follows later locks the same way).  A row between whose pose is singular (at the lock
+    itself: its determinant's sign is rounding) is closed again (:func:`_at_lock`)."""
+    n = an.status.shape[0]
+    for step in (1, -1):
+        good = is_status(an.status, Status.OK, Status.DEAD_CENTRE)
+        end = at
+        while 0 <= end + step < n and good[end + step]:
+            end += step
+        if not (0 <= end + step < n and an.status[end + step] == Status.BRANCH_JUMP.value):
+            continue
+        i = end
+        while i != at and not regular(an, i):
+            i -= step
+        sign = branch_sign(an.loop, an.drive.take(slice(i, i + 1)).values, an.state.take(slice(i, i + 1)))[0]
+        for j in range(end + step, end + step * (LOCK_ROWS + 1), step):
+            if not 0 <= j < n:
+                break
+            pose = cross_lock(an.loop, an.drive.values, i, j, an.state.take(slice(i, i + 1)),
+                              LOCK_SUBSTEPS * abs(j - i) + 1)
+            here = an.drive.take(slice(j, j + 1)).values
+            if pose is None or branch_sign(an.loop, here, pose)[0] != -sign \
+                    or not _regular(an.loop, here, pose)[0]:
+                continue
+            rows = np.arange(j, n) if step == 1 else np.arange(0, j + 1)
+            rest = analyze_loop(an.mechanism, pose, 0 if step == 1 else j, compiled=compiled,
+                                drive=an.drive.take(rows))
+            an = _with_rows(an, rows, rest)
+            an = _at_lock(an, i, j)
+            break
+    return an
+
+
+def _at_lock(an: LoopAnalysis, i: int, j: int) -> LoopAnalysis:
+    """``an`` with its closed rows strictly between ``i`` and ``j`` whose poses are singular (at the lock
+    itself, on any branch by the rounding of the determinant's sign, anywhere along the lock's own motion)
+    closed again, from the interpolation between the poses at ``i`` and ``j``, with minimum-norm steps
+    (:func:`~dualmech.core.continuation.close_min_norm`: the lock's own motion left alone) and called ``ok``:
+    on no branch, the limit rule names them."""
+    step = 1 if j > i else -1
+    closed = (Status.OK.value, Status.DEAD_CENTRE.value, Status.BRANCH_JUMP.value)
+    rows = np.array([k for k in range(i + step, j, step) if an.status[k] in closed and not regular(an, k)],
+                    dtype=int)
+    if not rows.size:
+        return an
+    t = (rows - i) / (j - i)
+    guess = interpolate(an.state.take(np.full(rows.size, i)), an.state.take(np.full(rows.size, j)), t)
+    values = an.drive.take(rows).values
+    pose, residual = close_min_norm(an.loop, values, guess)
+    closed = (residual <= ROUNDING_TOL) & ~_regular(an.loop, values, pose)  # at the lock: no rates given
+    rows, status = rows[closed], an.status.copy()
+    status[rows] = Status.OK.value
+    return replace(an, state=an.state.put(rows, pose.take(np.flatnonzero(closed))), status=status,
+                   residual=_rows_put(an.residual, rows, residual[closed]))
+
+
+def _regular(loop: Loop, inputs: dict[str, np.ndarray], pose: LoopState) -> np.ndarray:
+    """Whether each of the ``n`` positions' ``pose`` is regular ``(n,)``: its closure Jacobian's singular
+    values' ratio at least ``REGULAR_POSE`` (``core/thresholds.py``)."""
+    sv = np.linalg.svd(closure_jacobian(loop, inputs, pose), compute_uv=False)
+    return sv[:, -1] >= REGULAR_POSE.value * sv[:, 0]
+
+
+def regular(an: LoopAnalysis, i: int) -> bool:
+    """Whether ``an``'s pose at position ``i`` is regular (:func:`_regular`)."""
+    return bool(_regular(an.loop, an.drive.take(slice(i, i + 1)).values, an.state.take(slice(i, i + 1)))[0])
+
+
+def _rows_put(mine: object, rows: np.ndarray, theirs: object) -> object:
+    """``mine`` with its rows ``rows`` (the leading axis of every array in it) taken from ``theirs``, of the
+    same structure (arrays, dicts, lists, tuples and dataclasses of them)."""
+    if isinstance(mine, np.ndarray):
+        out = mine.copy()
+        out[rows] = theirs
+        return out
+    if isinstance(mine, dict):
+        return {k: _rows_put(v, rows, theirs[k]) for k, v in mine.items()}
+    if isinstance(mine, (list, tuple)):
+        return type(mine)(_rows_put(a, rows, b) for a, b in zip(mine, theirs))
+    return replace(mine, **{f.name: _rows_put(getattr(mine, f.name), rows, getattr(theirs, f.name))
+                            for f in fields(mine)})
+
+
+def _with_rows(an: LoopAnalysis, rows: np.ndarray, rest: LoopAnalysis) -> LoopAnalysis:
+    """``an`` with the answer at positions ``rows`` taken from ``rest`` (an analysis of those rows)."""
+    parts = ("state", "rates", "wrenches", "status", "residual", "iterations")
+    return replace(an, **{name: _rows_put(getattr(an, name), rows, getattr(rest, name)) for name in parts})

@@ -95,3 +95,55 @@ def test_search_scales_the_slides_whatever_their_names() -> None:
     in, not by its name (the slider crank's own table calls its slide ``S4``)."""
     assert continuation._slides(SLIDER_CRANK).tolist() == [True]
     assert continuation._slides(LOOP).tolist() == [False]  # the RSSR's theta4
+
+
+def test_the_walk_crosses_a_lock_but_not_an_edge_of_assembly() -> None:
+    """:func:`~dualmech.core.continuation.cross_lock` on the slider crank's table: through a universal
+    joint's lock (180 deg, a4 = a1) it reaches the next row smoothly, on the determinant's other sign; by a
+    turning point of the drive (1e-6 a2 inside -60 deg) it walks between rows well inside, but not past the
+    edge, where the loop does not close."""
+    from dualmech.models.loop.engine import analyze_loop
+    from tests.models.loop.test_condition import TURNING_A4, _slider_crank
+    from tests.models.loop.test_engine import LOCK_A4, LOCK_TWIST
+
+    _, lock = _slider_crank(LOCK_A4, {"start": 178.0, "stop": 182.5, "step": 2.0}, universal=True,
+                            twist=LOCK_TWIST)
+    an = analyze_loop(lock)
+    values, first = an.drive.values, an.state.take(slice(0, 1))
+    crossed = continuation.cross_lock(an.loop, values, 0, 2, first, 17)
+    assert crossed is not None
+    at, start = ({k: v[r:r + 1] for k, v in values.items()} for r in (2, 0))
+    assert branch_sign(an.loop, at, crossed)[0] == -branch_sign(an.loop, start, first)[0]
+    assert closure_residual(evaluate(an.loop, at, crossed), an.loop)[0] < LOOP_CLOSURE
+    _, edge = _slider_crank(TURNING_A4, {"start": -62.0, "stop": -58.5, "step": 1.0})
+    an = analyze_loop(edge)
+    assert list(an.status[:3]) == ["ok"] * 3
+    assert continuation.cross_lock(an.loop, an.drive.values, 0, 1, an.state.take(slice(0, 1))) is not None
+    assert continuation.cross_lock(an.loop, an.drive.values, 1, 3, an.state.take(slice(1, 2))) is None
+
+
+@pytest.mark.parametrize("jump", [0.0, 0.3])
+def test_the_walk_refuses_a_step_off_its_secant(monkeypatch, jump: float) -> None:
+    """The smoothness rule alone, on closures scripted along a straight path of the slider crank table's
+    unknown (``s4`` = the walk's fraction): a smooth walk is taken; one whose fifth closure lands ``jump``
+    (30 % of the path; each step is 1/9 of it) off the path (another assembly) is refused."""
+    from dualmech.core.closure import ClosureResult
+    from dualmech.models.loop.translate import drive_state, to_loop
+    from tests.models.loop.test_condition import _slider_crank
+
+    _, mechanism = _slider_crank(30.0, {"start": 0.0, "stop": 10.5, "step": 10.0})
+    loop, values = to_loop(mechanism), drive_state(mechanism).values
+    rotations = np.broadcast_to(np.eye(3), (1, len(loop.spherical_rows), 3, 3)).copy()
+    calls, length = [], values["length_scale"][0]
+
+    def scripted(loop_, at, guess):
+        calls.append(at)
+        s = (len(calls) / 9 + (jump if len(calls) == 5 else 0.0)) * length
+        state = LoopState(np.array([[s]]), rotations)
+        return ClosureResult(state, np.array([ClosureStatus.OK]), np.zeros(1, int), np.zeros(1),
+                             np.zeros(1, bool))
+
+    monkeypatch.setattr(continuation, "solve_closure", scripted)
+    start = LoopState(np.zeros((1, 1)), rotations)
+    walked = continuation.cross_lock(loop, values, 0, 1, start, 9)
+    assert (walked is None) == (jump > 0.0)

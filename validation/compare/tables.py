@@ -48,11 +48,10 @@ from dualmech.validation.matrix.data import Matrix, MatrixCase, ResolvedToleranc
 from dualmech.validation.matrix.tolerances import group_tolerances
 
 #: The words of a row an engine answered: the slider crank's :data:`VERDICTS`, and ``branch_jump``, where a
-#: loop table's followed branch has ended and the loop closes only on another assembly (a user's RRCRC
-#: followed from 125 deg: its branch ends between 228 and 229 deg, and every engine, each by its own
-#: continuation, says ``branch_jump`` from 229 deg, its other assembly closing there until 237 deg).  The
-#: judges' words must still equal the reference's at every row, so a reference that jumps where its branch
-#: goes on fails its status check against every judge that goes on.
+#: loop table's followed branch has ended and the loop closes only on another assembly (a random RRRSR, seed
+#: 5894, past its fold).  The judges' words must still equal the reference's at every row, so a reference
+#: that jumps where its branch goes on fails its status check against every judge that goes on (a user's
+#: RRCRC through its joint lock at 228.2 deg: ``tests/validation/test_user_tables.py``).
 LINKAGE_VERDICTS: frozenset[str] = VERDICTS | {Status.BRANCH_JUMP}
 #: Two words the status check takes as one: past the end of a loop table's followed branch, an engine that
 #: closes the loop on another assembly says ``branch_jump``, one whose steps find no pose near its branch
@@ -149,7 +148,7 @@ def worst(a: LinkageTable, b: LinkageTable, spec: TableSpec) -> dict[str, float]
 def _given_under(column: str, spec: TableSpec) -> frozenset[str]:
     """The status words under which an engine gives ``column`` (pose, rates, reactions)."""
     if column in spec.pose:
-        return ASSEMBLED
+        return spec.posed
     return RATES_GIVEN if column in spec.rates else frozenset({Status.OK})
 
 

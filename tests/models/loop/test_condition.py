@@ -18,10 +18,10 @@ from numpy.testing import assert_allclose
 
 from dualmech.core.loop_reactions import joint_points
 from dualmech.core.status import Status
-from dualmech.core.thresholds import LOOP_LIMIT_CONDITION
+from dualmech.core.thresholds import LOOP_LIMIT_CONDITION, LOOP_LOCK_CONDITION
 from dualmech.models.linkages import linkage_case, read_linkage
-from dualmech.models.loop.columns import limit_words
-from dualmech.models.loop.condition import closure_condition
+from dualmech.models.loop.columns import limit_words, loop_spec
+from dualmech.models.loop.condition import closure_condition, drive_condition
 from dualmech.models.loop.engine import analyze_loop
 from dualmech.models.loop.presets import loop_table_of, slider_crank_start, slider_crank_table, started
 from dualmech.models.loop.table import analysis_columns, solve_loop_table
@@ -32,9 +32,9 @@ from tests.validation.test_engine_statuses import A1, A2, _case
 PRESETS = ("rscr", "rsrc", "7r", "rssr", "rccc")
 
 
-def _slider_crank(a4: float, angles: dict, universal: bool = False):
-    """The slider crank's table (planar: twist 270 deg, S1 = 0) started at its closed-form pose."""
-    case = _case(a4, angles)
+def _slider_crank(a4: float, angles: dict, universal: bool = False, twist: float = 270.0):
+    """The slider crank's table (S1 = 0; planar at the default twist) started at its closed-form pose."""
+    case = _case(a4, angles, twist=twist)
     if universal:
         case = case.with_values({"joints.rod_slider": "universal"})
     s4 = exact_slider_motion(case, np.radians(case.motion.angles_deg[:1]))[0]
@@ -114,29 +114,72 @@ def test_the_condition_vanishes_at_the_slider_cranks_edge_of_assembly() -> None:
     assert_allclose(ratio, ratio[0], rtol=0.05, atol=0)
 
 
+#: ``a4`` of the slider crank whose edge of assembly is 1e-6 a2 beyond theta1 = -60 deg: the reach
+#: ``rho = a1 cos(theta) + a4`` is ``a2 (1 - 1e-6)`` there and grows toward -55 deg (no assembly), with a
+#: non-zero slope: a turning point of the drive.
+TURNING_A4 = A2 * (1.0 - 1e-6) - A1 * np.cos(np.radians(60.0))
+#: ``a4`` of the slider crank whose reach touches 1e-6 a2 short of a2 at theta1 = 0, where it is greatest
+#: (zero slope): the drive moves on through the rod's normal pose, with bounded rates.
+TOUCHING_A4 = A2 - A1 - 1e-6 * A2
+
+
 def test_rows_below_the_band_are_assembly_limits_of_every_word_that_gives_rates() -> None:
     """``ok`` and ``dead_centre`` rows below the band become ``assembly_limit``; other words stay; a
     mechanism with its own rule (``limits`` false) keeps its words but still gives its condition."""
-    _, mechanism = _slider_crank(A2 - A1 - 1e-6 * A2, {"start": -2.0, "stop": 2.1, "step": 1.0})
+    _, mechanism = _slider_crank(TURNING_A4, {"start": -64.0, "stop": -59.5, "step": 1.0})
     table = solve_loop_table(mechanism)
     cols = {c: table[c] for c in table.columns}
     words = np.array(["ok", "dead_centre", "ok", "branch_jump", "ok"], dtype=object)
     condition, status = limit_words(mechanism, cols, words)
-    assert condition[2] < LOOP_LIMIT_CONDITION.value < condition[[0, 1, 4]].min()
-    assert list(status) == ["ok", "dead_centre", "assembly_limit", "branch_jump", "ok"]
+    assert condition[4] < LOOP_LIMIT_CONDITION.value < condition[:3].min()
+    assert list(status) == ["ok", "dead_centre", "ok", "branch_jump", "assembly_limit"]
     below = np.full(5, Status.DEAD_CENTRE.value, dtype=object)
-    assert limit_words(mechanism, cols, below)[1][2] == Status.ASSEMBLY_LIMIT
+    assert limit_words(mechanism, cols, below)[1][4] == Status.ASSEMBLY_LIMIT
     own_condition, own = limit_words(replace(mechanism, limits=False), cols, words)
     assert list(own) == list(words)
     assert_allclose(own_condition[[0, 1, 2, 4]], condition[[0, 1, 2, 4]], rtol=0, atol=0)
 
 
 def test_the_in_house_table_flags_the_limit_and_gives_no_rates_there() -> None:
-    """1e-6 a2 inside the edge: the row at theta1 = 0 is ``assembly_limit`` with its pose and condition and
-    no rates or reactions; its neighbours are ``ok``."""
-    _, mechanism = _slider_crank(A2 - A1 - 1e-6 * A2, {"start": -2.0, "stop": 2.1, "step": 1.0})
+    """1e-6 a2 inside a turning point of the drive: the row at theta1 = -60 deg is ``assembly_limit`` with
+    its pose and condition and no rates or reactions; the rows before are ``ok``; past it the loop does not
+    close."""
+    _, mechanism = _slider_crank(TURNING_A4, {"start": -64.0, "stop": -54.5, "step": 1.0})
     table = solve_loop_table(mechanism)
-    assert list(table.status) == ["ok", "ok", "assembly_limit", "ok", "ok"]
-    assert np.isfinite(table["s4"]).all() and table["closure_condition"][2] < LOOP_LIMIT_CONDITION.value
-    assert np.isnan(table["s4_dot"][2]) and np.isnan(table["effort_theta1"][2])
-    assert np.isfinite(table["s4_dot"][[0, 1, 3, 4]]).all()
+    assert list(table.status) == ["ok"] * 4 + ["assembly_limit"] + ["no_assembly"] * 5
+    assert np.isfinite(table["s4"][:5]).all() and table["closure_condition"][4] < LOOP_LIMIT_CONDITION.value
+    assert np.isnan(table["s4_dot"][4]) and np.isnan(table["effort_theta1"][4])
+    assert np.isfinite(table["s4_dot"][:4]).all()
+
+
+def test_the_drive_condition_tells_a_lock_from_an_assembly_limit() -> None:
+    """Oracle: the closed form's slider rate ``dS4/dtheta1``.  At a turning point of the drive it is
+    unbounded (the drive's twist leaves the solved freedoms' span: ``c_d`` stays far above the band while
+    ``c`` vanishes); where the reach touches its greatest value (zero slope) it stays bounded (the drive
+    moves on: ``c_d`` vanishes with ``c``)."""
+    for a4, angle, bounded in ((TURNING_A4, -60.0, False), (TOUCHING_A4, 0.0, True)):
+        case, mechanism = _slider_crank(a4, {"start": angle, "stop": angle + 0.5, "step": 1.0})
+        theta = np.radians([angle])
+        s4, s4_dot, _ = exact_slider_motion(case, theta)
+        pose = {"theta1": theta, "s4": s4}
+        rate = abs(s4_dot[0] / case.motion.speed) / A2  # dS4/dtheta1 over a2
+        c, c_d = closure_condition(mechanism, pose)[0], drive_condition(mechanism, pose)[0]
+        assert c < LOOP_LIMIT_CONDITION.value
+        if bounded:
+            assert rate < 1.0 and c_d < LOOP_LOCK_CONDITION.value
+        else:
+            assert rate > 100.0 and c_d > 10 * LOOP_LOCK_CONDITION.value
+
+
+def test_a_touching_edge_is_a_joint_lock_and_gives_no_value() -> None:
+    """Where the drive moves on through the rod's normal pose (``TOUCHING_A4``), the row is ``joint_lock``:
+    no pose, condition, rate or reaction (at a lock a coordinate is not determined, near it each carries the
+    closure's rounding over ``c``); its neighbours are ``ok`` on the same branch (the closed form's S4)."""
+    case, mechanism = _slider_crank(TOUCHING_A4, {"start": -2.0, "stop": 2.1, "step": 1.0})
+    table = solve_loop_table(mechanism)
+    assert list(table.status) == ["ok", "ok", "joint_lock", "ok", "ok"]
+    spec = loop_spec(mechanism)
+    assert all(np.isnan(table[c][2]) for c in spec.pose + spec.rates + spec.reactions)
+    ok = np.array([0, 1, 3, 4])
+    s4 = exact_slider_motion(case, np.radians(table["theta1_deg"]))[0]
+    assert_allclose(table["s4"][ok], s4[ok], rtol=0, atol=1e-9 * A2)

@@ -189,3 +189,33 @@ def test_the_slider_crank_start_is_an_assembled_pose(name: str, rod_slider: str)
     start = slider_crank_start(case, analyze(case).s4[0])
     inputs = drive_state(mech).take(slice(0, 1)).values
     assert closure_residual(evaluate(loop, inputs, start), loop)[0] <= LOOP_CLOSURE
+
+
+#: The slider crank's table with a universal joint at the slider whose rod passes along the slider line at
+#: theta1 = 180 deg (a4 = a1, a skew slider): the joint locks there, and the drive moves on.
+LOCK_A4, LOCK_TWIST = 12.0, 199.0
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_the_branch_is_followed_through_a_universal_joints_lock(compiled: bool) -> None:
+    """Oracle: the closed form's S4, one branch through the lock.  The closure Jacobian's determinant
+    changes sign at the lock (the premise), yet every row after it is ``ok`` on the closed form's branch
+    (before the walk through locks, every row after it was ``branch_jump``); the row at the lock itself is
+    ``joint_lock`` and gives no value."""
+    from dualmech.core.continuation import branch_sign
+    from dualmech.models.loop.table import analysis_table
+    from tests.models.loop.test_condition import _slider_crank
+    from tests.oracles import exact_slider_motion
+
+    case, mechanism = _slider_crank(LOCK_A4, {"start": 170.0, "stop": 191.0, "step": 2.0}, universal=True,
+                                    twist=LOCK_TWIST)
+    an = analyze_loop(mechanism, compiled=compiled)
+    table = analysis_table(an)
+    assert list(table.status) == ["ok"] * 5 + ["joint_lock"] + ["ok"] * 5
+    signs = branch_sign(an.loop, an.drive.values, an.state)
+    assert (signs[:5] == signs[0]).all() and (signs[6:] == -signs[0]).all()
+    ok = np.flatnonzero(table.status == "ok")
+    s4, s4_dot, _ = exact_slider_motion(case, np.radians(table["theta1_deg"]))
+    np.testing.assert_allclose(table["s4"][ok], s4[ok], rtol=0, atol=LOOP_VS_OWN_ENGINE * np.abs(s4).max())
+    np.testing.assert_allclose(table["s4_dot"][ok], s4_dot[ok], rtol=0,
+                               atol=LOOP_VS_OWN_ENGINE * np.abs(s4_dot).max())

@@ -17,15 +17,9 @@ rotation vector in the joint frame's axes; the last joint's held while the other
 that its start picks the branch), else of :data:`SEARCH_TRIES` random poses closed at each of up
 to :data:`SEARCH_POSITIONS` evenly spread positions, at the first where any closes, the one nearest the zero
 pose (:func:`~dualmech.models.loop.start.nearest_to_zero`, the rule every engine shares).  From it the loop
-is closed position by position, forward then backward (each from the previous closed pose, through
-:data:`SUBSTEPS` intermediate positions), which gives every row's status word and the closed pose where each
-run of assembled rows starts.  The rows past a gap are walked to from its edge as well, so they stay
-``no_assembly``: the judge does not re-close the loop on an assembly its continuation cannot reach (a
-direct Newton step from the edge closed the bundled ``7r`` on another of its assemblies there).  A row, or
-an intermediate position, that closes with another sign of the square Jacobian's determinant than the
-start pose's (:func:`branch_sign`) is ``branch_jump`` and not followed: the ``rrcrc``'s branch ends at
-228 degrees, and from 220 Levenberg-Marquardt closed 230 on another assembly, which the run then tried to
-reach through the fold.
+is closed position by position (:mod:`.continuation`), which gives every row's status word and the closed
+pose where each run of assembled rows starts; the branch is the sign of the square Jacobian's determinant
+(:func:`branch_sign`).
 """
 
 from __future__ import annotations
@@ -162,10 +156,17 @@ def close_at(mechanism: LoopMechanism, pose: Pose, position: float, max_iter: in
 
 
 def branch_sign(mechanism: LoopMechanism, pose: Pose) -> int:
-    """The sign of the determinant of the closure's Jacobian over the free variables (:func:`_columns`)
-    made square by one gauge row per idle spin (an S-S link: its spin about the line through the two centres
-    at the first S joint's columns): it changes only through a singular pose (an edge of assembly), so it
-    labels the branch; 0 where the Jacobian is not square (a loop of other mobility)."""
+    """The sign of the determinant of :func:`square_jacobian`: it changes only through a singular pose (an
+    edge of assembly, a joint lock), so it labels the branch; 0 where the Jacobian is not square (a loop of
+    other mobility)."""
+    square = square_jacobian(mechanism, pose)
+    return 0 if square is None else int(np.sign(np.linalg.det(square)))
+
+
+def square_jacobian(mechanism: LoopMechanism, pose: Pose) -> np.ndarray | None:
+    """The closure's Jacobian over the free variables (:func:`_columns`) made square by one gauge row per
+    idle spin (an S-S link: its spin about the line through the two centres at the first S joint's
+    columns); ``None`` where it is not square (a loop of other mobility)."""
     joint_frames, link_frames = chain(mechanism, pose.values, pose.rotations)
     columns = _columns(mechanism, pose, joint_frames, link_frames[-1])
     keys, jac = [key for key, _ in columns], np.array([col for _, col in columns])
@@ -178,9 +179,7 @@ def branch_sign(mechanism: LoopMechanism, pose: Pose) -> int:
             u /= np.linalg.norm(u)
             gauges.append([u[key[1]] if key[0] == k and not isinstance(key[1], str) else 0.0 for key in keys])
     square = np.vstack([jac.T, *gauges]) if gauges else jac.T
-    if square.shape[0] != square.shape[1]:
-        return 0
-    return int(np.sign(np.linalg.det(square)))
+    return square if square.shape[0] == square.shape[1] else None
 
 
 def close_along(mechanism: LoopMechanism, pose: Pose, start: float, end: float,
@@ -249,33 +248,3 @@ def search_start(mechanism: LoopMechanism, seed: int = 0) -> tuple[Pose, int]:
             return Pose(values, pose.rotations), int(at)
     raise ValueError(f"start: the Exudyn judge found no assembled pose at {min(n, SEARCH_POSITIONS)} drive "
                      "positions; give the joints' start values")
-
-
-def continuation(mechanism: LoopMechanism) -> tuple[list[Pose | None], np.ndarray, np.ndarray]:
-    """Every row's closed pose (``None`` where it does not close), status word and scaled residual, from the
-    start pose forward then backward (module docstring)."""
-    positions = mechanism.drive.positions
-    n = positions.size
-    start, at = search_start(mechanism)
-    poses: list[Pose | None] = [None] * n
-    status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
-    res = np.full(n, np.nan)
-    poses[at], status[at], res[at] = close_at(mechanism, start, positions[at])
-    if status[at] != Status.OK.value:
-        poses[at] = None
-        return poses, status, res
-    branch = branch_sign(mechanism, poses[at])
-    for order in (range(at + 1, n), range(at - 1, -1, -1)):
-        last, last_position = poses[at], positions[at]
-        for i in order:
-            pose, word = last, Status.OK.value
-            for x in np.linspace(last_position, positions[i], SUBSTEPS + 1)[1:]:
-                pose, word, res[i] = close_at(mechanism, pose, x)
-                if word == Status.OK.value and branch_sign(mechanism, pose) != branch:
-                    word = Status.BRANCH_JUMP.value
-                if word != Status.OK.value:
-                    break
-            status[i] = word
-            if word == Status.OK.value:
-                poses[i], last, last_position = pose, pose, positions[i]
-    return poses, status, res

@@ -51,7 +51,8 @@ import numpy as np
 from dualmech.core.status import Status
 from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
 from dualmech.models.loop.description import LoopMechanism
-from dualmech.validation.judges.exudyn_loop.closure import Pose, close_along, continuation
+from dualmech.validation.judges.exudyn_loop.closure import Pose, close_along
+from dualmech.validation.judges.exudyn_loop.continuation import continuation
 from dualmech.validation.judges.exudyn_loop.given import combine, solved_load, variants
 from dualmech.validation.judges.exudyn_loop.law import RUN_IN, axial, drive_law, row_time
 from dualmech.validation.judges.exudyn_loop.model import build_system, check_table
@@ -134,8 +135,7 @@ def silent() -> Iterator[None]:
     """Exudyn's console output off while a run solves, as it was after: ``verboseMode = 0`` does not stop
     ``SolveDynamic`` printing its "DYNAMIC SOLVER FAILED" banner through ``exudyn.Print`` before it raises;
     the global ``exudyn.config.printToConsole`` does.  A failed run is its rows' ``not_converged``."""
-    before = exu.config.printToConsole
-    exu.config.printToConsole = False
+    before, exu.config.printToConsole = exu.config.printToConsole, False
     try:
         yield
     finally:
@@ -195,10 +195,11 @@ def _prescribed(mechanism: LoopMechanism) -> dict[str, tuple[np.ndarray, np.ndar
     return out
 
 
-def _segments(ok: np.ndarray) -> list[np.ndarray]:
-    """Maximal runs of consecutive ``True`` rows, as index arrays."""
-    edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(int), 0]))
-    return [np.arange(a, b) for a, b in zip(edges[::2], edges[1::2])]
+def _segments(ok: np.ndarray, turns: list[int] = ()) -> list[np.ndarray]:
+    """Maximal runs of consecutive ``True`` rows, as index arrays, split before each row of ``turns`` (past a
+    joint lock, where a run's Newton iteration fails at the singular pose: each side gets runs of its own)."""
+    labels = np.cumsum(ok & (np.r_[True, ~ok[:-1]] | np.isin(np.arange(ok.size), list(turns))))
+    return [np.flatnonzero(ok & (labels == k)) for k in np.unique(labels[ok])]
 
 
 def swing(mechanism: LoopMechanism, poses: list) -> float:
@@ -241,17 +242,17 @@ def solve_loop(mechanism: LoopMechanism, travel: float | None = None) -> ExudynL
     """Every drive position of ``mechanism`` judged by Exudyn (module docstring); ``travel``: the drive's
     travel per coarse step."""
     check_table(mechanism)
-    poses, status, residual = continuation(mechanism)
+    poses, status, residual, turns = continuation(mechanism)
     positions = mechanism.drive.positions
     n = positions.size
     per_row = steps_per_row(mechanism, poses, travel)
     row = row_time(positions, mechanism.drive.speed, mechanism.drive.accel)
     prescribed = _prescribed(mechanism)
-    judged = _judge_rows(mechanism, poses, status, per_row, row)
+    judged = _judge_rows(mechanism, poses, status, per_row, row, turns)
     worst = worst_estimate(judged[0], prescribed, _dead_centre(mechanism, *judged[1:3]))
     if worst > ESTIMATE_LIMIT:
         per_row = 2 * math.ceil(min(per_row * (worst / ESTIMATE_TARGET) ** 0.25, MAX_REFINE * per_row) / 2)
-        judged = _judge_rows(mechanism, poses, status, per_row, row)
+        judged = _judge_rows(mechanism, poses, status, per_row, row, turns)
     rows_out, transmission, transmission_error, status = judged
     status[_dead_centre(mechanism, transmission, transmission_error)] = Status.DEAD_CENTRE.value
     names = list(next((r[0] for r in rows_out if r is not None), {}))
@@ -278,16 +279,16 @@ def _dead_centre(mechanism: LoopMechanism, transmission: np.ndarray, error: np.n
     return np.abs(transmission) <= bar
 
 
-def _judge_rows(mechanism: LoopMechanism, poses: list, status: np.ndarray, per_row: int, row: float
-                ) -> tuple[list, np.ndarray, np.ndarray, np.ndarray]:
-    """Every segment's rows at ``per_row`` coarse steps between rows (:func:`_judge_segment`): the rows,
-    the transmission and its estimate, and the status words (``not_converged`` where no run reached a
-    closed row)."""
+def _judge_rows(mechanism: LoopMechanism, poses: list, status: np.ndarray, per_row: int, row: float,
+                turns: list[int]) -> tuple[list, np.ndarray, np.ndarray, np.ndarray]:
+    """Every segment's rows (split at the locks before ``turns``) at ``per_row`` coarse steps between rows
+    (:func:`_judge_segment`): the rows, the transmission and its estimate, and the status words
+    (``not_converged`` where no run reached a closed row)."""
     n = status.shape[0]
     status = status.copy()
     rows_out: list[tuple[dict, dict] | None] = [None] * n
     transmission, transmission_error = np.full(n, np.nan), np.full(n, np.nan)
-    for segment in _segments(status == Status.OK.value):
+    for segment in _segments(status == Status.OK.value, turns):
         for i, answer in _judge_segment(mechanism, poses, segment, per_row, row).items():
             if answer is None:
                 status[i] = Status.NOT_CONVERGED.value

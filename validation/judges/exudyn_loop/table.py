@@ -10,7 +10,7 @@ import numpy as np
 from dualmech.models.loop.columns import RESIDUALS, column_names, loop_spec, loop_table
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.tables import LinkageTable
-from dualmech.validation.judges.exudyn_loop.closure import continuation
+from dualmech.validation.judges.exudyn_loop.continuation import continuation
 from dualmech.validation.judges.exudyn_loop.engine import ExudynLoopTable, solve_loop
 
 #: The registry name of this judge.
@@ -39,11 +39,11 @@ def solve_table(mechanism: LoopMechanism) -> LinkageTable:
 
 def close_table(mechanism: LoopMechanism) -> LinkageTable:
     """The judge's own closure alone at every drive position of ``mechanism``
-    (:func:`~dualmech.validation.judges.exudyn_loop.closure.continuation`), as a table: the coordinates,
+    (:func:`~dualmech.validation.judges.exudyn_loop.continuation.continuation`), as a table: the coordinates,
     the closure's words and residual; no rates or reactions (not given: NaN at every row, claimed by no
     word).  What a crude start is probed with on one row, where a run has no rows to integrate through
     (:mod:`dualmech.validation.judges.presets.run`)."""
-    poses, status, residual = continuation(mechanism)
+    poses, status, residual, _ = continuation(mechanism)
     n = status.shape[0]
     cols = {name: np.full(n, np.nan) for name in column_names(mechanism)}
     for i, pose in enumerate(poses):

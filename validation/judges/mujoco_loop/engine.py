@@ -12,7 +12,11 @@ one whole step may land on the other), and is a branch jump if none ends on the 
 after positions that did not close (a gap of no assembly, where continuity is lost): there, and at every
 position after such a gap that continuation does not close at all (a random RRSRR re-assembles five
 positions past its gap, too far for Newton from the last closed pose), it is searched again from random
-poses for one on the start's branch, and is a branch jump or unclosed only if none is found.
+poses for one on the start's branch, and is a branch jump or unclosed only if none is found.  Where the
+loop passes a joint lock the sign changes on the curve followed (``docs/conventions.md``, "Loop tables"):
+a position whose walk from the last good regular pose (:func:`~.lock.cross_lock`) is smooth and ends on a
+regular pose of the other sign turns the branch; a singular pose at the lock itself is held until then
+(``ok``, named by the limit rule, if a walk past it turns the branch; else ``branch_jump``).
 Nothing of the in-house engine is used (independence).
 
 Statuses (:mod:`dualmech.core.status`): ``no_assembly`` / ``not_converged`` from Newton
@@ -30,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dualmech.core.status import Status
-from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
+from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION, LOCK_ROWS, LOCK_SUBSTEPS
 from dualmech.models.loop.columns import column_names, coordinate_names
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.mobility import check_mobility
@@ -56,6 +60,7 @@ from dualmech.validation.judges.mujoco_loop.dynamics import (
     solve_free,
     velocity_rows,
 )
+from dualmech.validation.judges.mujoco_loop.lock import Pose, cross_lock, regular
 
 ENGINE = "mujoco-loop"
 #: Drive positions tried, evenly spread, when no joint gives a start value.
@@ -260,14 +265,15 @@ def sweep(lp: MjLoop, seed: int = 0) -> Iterator[tuple[int, str, int, float]]:
     anchor = (lp.data.qpos.copy(), lp.q_cut.copy(), drive_values(mechanism, at)[0])  # the start estimate,
     start_branch = None                                                              # then the closed pose
     for order in (range(at, n), range(at - 1, -1, -1)):
-        last, gap_before = anchor, False
+        last, gap_before, now, pending = anchor, False, start_branch, []
+        steady, steady_row = anchor, at  # the last good regular pose: a walk through a lock starts there
         for k in order:
             values = drive_values(mechanism, k)[0]
             lp.data.qpos[:], lp.q_cut = last[0], last[1].copy()
             prescribe(lp, values)
             outcome, iterations, gap = close(lp)
             if outcome != Status.OK:
-                found = _branch_search(lp, k, start_branch, rng) if gap_before and start_branch else None
+                found = _branch_search(lp, k, now, rng) if gap_before and now else None
                 if found is None:
                     gap_before = True
                     yield k, outcome, iterations, gap
@@ -275,18 +281,59 @@ def sweep(lp: MjLoop, seed: int = 0) -> Iterator[tuple[int, str, int, float]]:
                 iterations, gap = found
             sign = branch(lp)
             if start_branch is None:
-                start_branch, anchor = sign, (lp.data.qpos.copy(), lp.q_cut.copy(), values)
-            found = None
-            if sign != start_branch:
-                found = _branch_search(lp, k, start_branch, rng) if gap_before else _walk(
-                    lp, last, values, start_branch)
+                start_branch = now = sign
+                anchor = (lp.data.qpos.copy(), lp.q_cut.copy(), values)
+            jumped, found = sign != now, None
+            if jumped:
+                held = (lp.data.qpos.copy(), lp.q_cut.copy(), values, iterations, gap)
+                singular = not regular(lp)
+                found = _branch_search(lp, k, now, rng) if gap_before else _walk(lp, last, values, now)
+                if found is None and not gap_before:
+                    if singular:  # at a lock itself, or an edge: on no branch, named once a walk passes it
+                        pending.append((k, held))
+                        continue
+                    found = _through_lock(lp, steady, values, abs(k - steady_row), now)
+                    if found is not None:
+                        now = -now
+                        yield from _release(lp, pending, Status.OK.value)
             gap_before = False
-            if sign != start_branch and found is None:
+            if jumped and found is None:
+                yield from _release(lp, pending, Status.BRANCH_JUMP.value)
                 yield k, Status.BRANCH_JUMP.value, iterations, gap
                 continue
+            yield from _release(lp, pending, Status.BRANCH_JUMP.value)
             iterations, gap = found or (iterations, gap)
             last = (lp.data.qpos.copy(), lp.q_cut.copy(), values)
+            if regular(lp):
+                steady, steady_row = last, k
             yield k, Status.OK.value, iterations, gap
+        yield from _release(lp, pending, Status.BRANCH_JUMP.value)
+
+
+def _through_lock(lp: MjLoop, last: Pose, values: dict[str, float], rows: int,
+                  sign: float) -> tuple[int, float] | None:
+    """The walk from ``last`` (``rows`` drive positions back) to ``values`` through a joint lock
+    (:func:`~.lock.cross_lock`, at most ``LOCK_ROWS`` rows): its iterations and gap where it is smooth and
+    ends on a regular pose of the other sign than ``sign`` (then ``lp`` holds that pose), else ``None``."""
+    if rows > LOCK_ROWS:
+        return None
+    found = cross_lock(lp, last, values, LOCK_SUBSTEPS * rows + 1)
+    return found if found is not None and branch(lp) == -sign and regular(lp) else None
+
+
+def _release(lp: MjLoop, pending: list, word: str) -> Iterator[tuple[int, str, int, float]]:
+    """Yield the rows held at a lock (``pending``, emptied) with ``word``, each with its own pose in ``lp``
+    while it is yielded; the current pose is restored after."""
+    if not pending:
+        return
+    current = (lp.data.qpos.copy(), lp.q_cut.copy())
+    for k, (qpos, q_cut, _, iterations, gap) in pending:
+        lp.data.qpos[:], lp.q_cut = qpos, q_cut.copy()
+        positions(lp)
+        yield k, word, iterations, gap
+    pending.clear()
+    lp.data.qpos[:], lp.q_cut = current[0], current[1].copy()
+    positions(lp)
 
 
 def solve_loop(mechanism: LoopMechanism, *, seed: int = 0, xml: str | None = None) -> LoopTable:

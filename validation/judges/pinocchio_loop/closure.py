@@ -10,10 +10,8 @@ gives them (the last joint's, which are no coordinates of the tree, through a le
 six relative motions that picks the branch: :func:`_fit_cut`), else, of the poses this module's own random
 search closes at the first of up to :data:`SEARCH_POSITIONS` evenly spread positions where any closes, the
 one nearest the zero pose (:func:`~dualmech.models.loop.start.nearest_to_zero`). From there the loop is closed
-position by position, forward then backward, each from the last good pose moved by the tangent (an Euler
-predictor along the drive). The branch is the sign of the determinant of the square rate matrix (the cut's
-rows and the gauge rows over the free coordinates): it changes only through a singular pose, so a pose with
-another sign than the start's is ``branch_jump`` and not continued from. Statuses
+position by position (:mod:`.continuation`). The branch is the sign of the determinant of the square rate
+matrix (the cut's rows and the gauge rows over the free coordinates: :func:`branch`). Statuses
 (:mod:`dualmech.core.status`'s words): ``no_assembly`` where the steps stall at a non-zero residual (the
 gradient vanishes, a Gauss-Newton step barely lowers it: :data:`STALL`, or the iterations run out with
 the damped steps creeping: :data:`CREEP`), ``not_converged`` where the iterations run out otherwise or the
@@ -320,42 +318,3 @@ def search_start(lm: LoopModel, values: np.ndarray, seed: int = 0) -> tuple[np.n
             return closed[nearest_to_zero([pose_values(lm, q) for q in closed])], int(at)
     raise ValueError(f"start: the Pinocchio judge found no assembled pose at {min(n, SEARCH_POSITIONS)} "
                      "drive positions; give the joints' start values")
-
-
-def _predict(lm: LoopModel, q: np.ndarray, change: np.ndarray) -> np.ndarray:
-    """``q`` moved along the loop's tangent by a change ``change`` of the prescribed coordinates."""
-    _, jac, _ = cut_rows(lm, q)
-    rows = rate_matrix(lm, jac)
-    step = np.zeros(lm.model.nv)
-    step[list(lm.prescribed)] = change
-    step[list(lm.free)] = -np.linalg.lstsq(rows[:, list(lm.free)], rows @ step, rcond=None)[0]
-    return pin.integrate(lm.model, q, step)
-
-
-def close_loop(lm: LoopModel) -> Closure:
-    """The loop closed at every drive position, its branch followed from the start pose (module
-    docstring)."""
-    values, _, _ = prescribed_motion(lm)
-    n = values.shape[0]
-    q0, at = search_start(lm, values)
-    qs = np.full((n, lm.model.nq), np.nan)
-    status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
-    residual, iterations = np.full(n, np.nan), np.zeros(n, dtype=int)
-    q, status[at], residual[at], iterations[at] = close_at(lm, q0, values[at])
-    qs[at] = q
-    if status[at] != Status.OK.value:
-        return Closure(qs, status, residual, iterations)
-    sign = branch(lm, q)
-    for order in (range(at + 1, n), range(at - 1, -1, -1)):
-        last, last_values = qs[at], values[at]
-        for i in order:
-            guess = _predict(lm, last, values[i] - last_values)
-            q, status[i], residual[i], iterations[i] = close_at(lm, guess, values[i])
-            qs[i] = q
-            if status[i] != Status.OK.value:
-                continue
-            if branch(lm, q) != sign:
-                status[i] = Status.BRANCH_JUMP.value
-                continue
-            last, last_values = q, values[i]
-    return Closure(qs, status, residual, iterations)

@@ -1,7 +1,7 @@
 """The Pinocchio judge of any loop table: :func:`solve_loop` gives the in-house engine's columns.
 
 Built from the table alone (:func:`~.model.build_model`), closed by its own search and continuation
-(:func:`~.closure.close_loop`), then per closed position the rates and the constrained inverse dynamics
+(:func:`~.continuation.close_loop`), then per closed position the rates and the constrained inverse dynamics
 (:mod:`~.dynamics`); ``dead_centre`` where the solved effort's transmission is below
 :data:`~dualmech.core.thresholds.DEAD_CENTRE_TRANSMISSION` (its efforts and reactions NaN).  A Python
 loop over the positions: a judge may be slow, it must be independent.
@@ -16,7 +16,8 @@ import numpy as np
 from dualmech.core.status import Status
 from dualmech.core.thresholds import DEAD_CENTRE_TRANSMISSION
 from dualmech.models.loop.description import LoopMechanism
-from dualmech.validation.judges.pinocchio_loop.closure import close_loop, prescribed_motion
+from dualmech.validation.judges.pinocchio_loop.closure import prescribed_motion
+from dualmech.validation.judges.pinocchio_loop.continuation import close_loop
 from dualmech.validation.judges.pinocchio_loop.dynamics import (
     PoseDynamics,
     effort_name,

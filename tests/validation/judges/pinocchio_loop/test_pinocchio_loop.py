@@ -31,12 +31,8 @@ from dualmech.models.linkages.rssr_case import rssr_from_dict
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.engine import LoopAnalysis, analyze_loop
 from dualmech.models.loop.presets import rccc_table, rssr_table, slider_crank_table
-from dualmech.validation.judges.pinocchio_loop.closure import (
-    CLOSURE_TOL,
-    close_at,
-    close_loop,
-    prescribed_motion,
-)
+from dualmech.validation.judges.pinocchio_loop.closure import CLOSURE_TOL, close_at, prescribed_motion
+from dualmech.validation.judges.pinocchio_loop.continuation import close_loop
 from dualmech.validation.judges.pinocchio_loop.engine import PinocchioLoopTable, solve_loop
 from dualmech.validation.judges.pinocchio_loop.model import build_model
 from dualmech.validation.judges.pinocchio_slider_crank.engine import solve as solve_pinocchio_slider_crank
