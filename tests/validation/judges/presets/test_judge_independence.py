@@ -21,7 +21,7 @@ import pytest
 from numpy.testing import assert_array_equal
 
 from dualmech.core.status import Status
-from dualmech.models.linkages import rccc, read_linkage, rssr
+from dualmech.models.linkages import rccc, read_linkage, readback, rssr
 from dualmech.models.linkages.rccc_case import rccc_from_dict
 from dualmech.models.linkages.rssr_case import rssr_from_dict
 from dualmech.validation.compare.tables import worst
@@ -35,7 +35,7 @@ pytest.importorskip("mujoco")
 from dualmech.models.loop.presets import rssr_table  # noqa: E402
 from dualmech.validation.judges.mujoco_loop.table import solve_table as mujoco_loop  # noqa: E402
 from dualmech.validation.judges.pinocchio_loop.table import solve_table as pinocchio_loop  # noqa: E402
-from dualmech.validation.judges.presets import readback, run, starts  # noqa: E402
+from dualmech.validation.judges.presets import run, starts  # noqa: E402
 
 #: How far (rad) the patched in-house start functions put their answer: a wrong start, not a nudge.
 GARBAGE = 1.0
