@@ -221,7 +221,3 @@ def to_table(an: RcccAnalysis) -> LinkageTable:
     return LinkageTable("dualmech", an.case.name, cols, status,
                         {"iterations": an.iterations, "messages": messages, "branch": an.case.branch})
 
-
-def solve_rccc(case: RcccCase) -> LinkageTable:
-    """The in-house engine's table of an RCCC case (:func:`analyze_rccc`, :func:`to_table`)."""
-    return to_table(analyze_rccc(case))

@@ -292,9 +292,3 @@ def no_assembly_messages(theta_deg: np.ndarray, status: np.ndarray, why: str) ->
     ``(n,)`` (``theta_deg`` ``(n,)``), or ``[]``."""
     ranges = no_assembly_ranges(theta_deg, is_status(status, Status.NO_ASSEMBLY))
     return [f"no_assembly: {why} at crank angles {format_angle_ranges(ranges)} deg"] if ranges else []
-
-
-
-def solve_rssr(case: RssrCase) -> LinkageTable:
-    """The in-house engine's table of an RSSR case (:func:`analyze_rssr`, :func:`to_table`)."""
-    return to_table(analyze_rssr(case))

@@ -24,6 +24,7 @@ from dualmech.core.status import Status
 from dualmech.models.linkages import rccc, read_linkage, readback, rssr
 from dualmech.models.linkages.rccc_case import rccc_from_dict
 from dualmech.models.linkages.rssr_case import rssr_from_dict
+from dualmech.models.loop import preset_engine
 from dualmech.validation.compare.tables import worst
 from dualmech.validation.engines import get_engine
 from tests.linkage_cases import bundled, random_rccc, random_rssr
@@ -57,9 +58,7 @@ def _rccc(branch: int | None = None, seed: int | None = None, step: float = 10.0
 
 
 def _in_house(kind: str, case):
-    if kind == "rssr":
-        return rssr.to_table(rssr.analyze_rssr(case))
-    return rccc.to_table(rccc.analyze_rccc(case))
+    return preset_engine.solve_rssr(case) if kind == "rssr" else preset_engine.solve_rccc(case)
 
 
 def _spec(kind: str):
