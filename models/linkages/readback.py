@@ -14,7 +14,6 @@ reaction of a closure alone, a crude start's probe) is NaN at every row and clai
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from dualmech.core.status import Status, is_status, settle
 from dualmech.models.linkages import rccc, rssr
@@ -28,18 +27,18 @@ CLOSED = (Status.OK.value, Status.DEAD_CENTRE.value, Status.BRANCH_JUMP.value)
 
 def rccc_axes(case: RcccCase, theta1: np.ndarray, theta2: np.ndarray) -> tuple[np.ndarray, ...]:
     """The world axes ``z2``, ``z3`` ``(n, 3)`` and ``z4`` ``(3,)`` at the input angles ``theta1`` and joint
-    2's angles ``theta2`` ``(n,)``: the rows ``Z(theta_i) X(alpha_i)`` of ``docs/conventions.md``, "RCCC"
-    (the table's frames ``{2} = Z(theta1) X(alpha12)``, ``{3} = {2} Z(theta2) X(alpha23)``; ``z4`` the
-    ground's ``Rx(-alpha41) z``)."""
+    2's angles ``theta2`` ``(n,)`` (NaN where NaN): the rows ``Z(theta_i) X(alpha_i)`` of
+    ``docs/conventions.md``, "RCCC".  ``Z(theta) X(alpha)`` turns ``z`` to ``(sin alpha sin theta, -sin alpha
+    cos theta, cos alpha)``, so ``z3 = F2 (sin alpha23 sin theta2, -sin alpha23 cos theta2, cos alpha23)`` in
+    frame ``F2 = Z(theta1) X(alpha12)`` of columns ``x2, y2, z2``; ``z4 = Rx(-alpha41) z``."""
     alpha = case.geometry.alpha
-
-    def turn(theta: np.ndarray, twist: float) -> Rotation:  # Z(theta) X(twist), one per row
-        return Rotation.from_euler("ZX", np.stack([theta, np.full_like(theta, twist)], 1))
-
-    link1 = turn(np.asarray(theta1, dtype=float), alpha[0])
-    z = np.array([0.0, 0.0, 1.0])
-    z3 = (link1 * turn(np.asarray(theta2, dtype=float), alpha[1])).apply(z)
-    return link1.apply(z), z3, Rotation.from_euler("X", -alpha[3]).apply(z)
+    c1, s1, ca, sa = np.cos(theta1), np.sin(theta1), np.cos(alpha[0]), np.sin(alpha[0])
+    x2 = np.stack([c1, s1, np.zeros_like(c1)], 1)
+    y2 = np.stack([-s1 * ca, c1 * ca, np.full_like(c1, sa)], 1)
+    z2 = np.stack([sa * s1, -sa * c1, np.full_like(c1, ca)], 1)
+    local = (np.sin(alpha[1]) * np.sin(theta2), -np.sin(alpha[1]) * np.cos(theta2), np.cos(alpha[1]))
+    z3 = local[0][:, None] * x2 + local[1][:, None] * y2 + local[2] * z2
+    return z2, z3, np.array([0.0, np.sin(alpha[3]), np.cos(alpha[3])])
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
