@@ -181,6 +181,11 @@ LOOP_REACTIONS_ROUNDING = 1e-14
 #: the closure's rounding reaches the reactions times 1/c^3 there (as NEAR_EDGE_VS_CLOSED_FORM's kinematics;
 #: measured 3.7e-12 at c = 0.069, error x c^3 = 1.2e-15 of the peak).
 LOOP_EDGE_ROUNDING = 5e-15
+#: The RSSR's and RCCC's in-house engine (the loop engine on their preset tables) against their closed form
+#: at an ``assembly_limit`` row (|t| ~ 1e-6, 1e-9 deg inside an edge of assembly), each pose value relative
+#: to itself (and absolute, for a transmission near 0): both stop at a closure residual up to LIMIT_CLOSURE
+#: (1e-9), where the pose moves by ~r/|t|; measured 1.05e-6 (RCCC s4 = 1.9e5 at |t| = 4e-6), 6e-11 (RSSR t4).
+PRESET_AT_ASSEMBLY_LIMIT = 1e-5
 #: The compiled loop engine (core/kernel/loop_engine.py) against the numpy solver, relative to each column's
 #: peak: the same algorithm per position from the same stations, both closed to the rounding level; only the
 #: order of sums and, on a fine grid, the kernel's start estimates differ (measured <= 1.1e-14 on the

@@ -16,6 +16,10 @@ form (the axis ``z3`` on the two cones about ``z2`` and ``z4``, :func:`spherical
 the slides at 0, and the generic dual-number Newton (:func:`~dualmech.core.closure.solve_closure`)
 finds the slides and polishes the angles.  Rates by the generic screw sums, reactions by the
 generic Newton-Euler least squares with each cylinder's zero axial force and moment as rows.
+
+The in-house engine is the loop engine on the RCCC's preset table (:mod:`dualmech.models.loop.preset_engine`),
+started from :func:`spherical_estimate` and :func:`estimate`; the pipeline here (:func:`analyze_rccc`) is
+the forward dynamics' analysis (:mod:`dualmech.models.linkages.forward_dynamics`) and the tests' oracle.
 """
 
 from __future__ import annotations
@@ -221,7 +225,3 @@ def to_table(an: RcccAnalysis) -> LinkageTable:
     return LinkageTable("dualmech", an.case.name, cols, status,
                         {"iterations": an.iterations, "messages": messages, "branch": an.case.branch})
 
-
-def solve_rccc(case: RcccCase) -> LinkageTable:
-    """The in-house engine's table of an RCCC case (:func:`analyze_rccc`, :func:`to_table`)."""
-    return to_table(analyze_rccc(case))

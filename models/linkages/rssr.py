@@ -18,6 +18,11 @@ zero-spin gauge, as the slider crank's rod (``docs/conventions.md``, "RSSR").  T
 estimate of the output angle is the plane-free closed form ``A cos phi + B sin phi = C`` of
 the output pin's circle meeting the sphere about ``P2`` (:func:`closed_form_phi`); it also
 decides ``no_assembly`` (``|C| > sqrt(A^2 + B^2)``) and the branch.
+
+The in-house engine is the loop engine on the RSSR's preset table (:mod:`dualmech.models.loop.preset_engine`),
+started from :func:`closed_form_phi` and :func:`estimate` and read back by these columns and status rules
+(:func:`status_words`); the pipeline here (:func:`analyze_rssr`) is the forward dynamics' analysis
+(:mod:`dualmech.models.linkages.forward_dynamics`) and the tests' oracle.
 """
 
 from __future__ import annotations
@@ -292,9 +297,3 @@ def no_assembly_messages(theta_deg: np.ndarray, status: np.ndarray, why: str) ->
     ``(n,)`` (``theta_deg`` ``(n,)``), or ``[]``."""
     ranges = no_assembly_ranges(theta_deg, is_status(status, Status.NO_ASSEMBLY))
     return [f"no_assembly: {why} at crank angles {format_angle_ranges(ranges)} deg"] if ranges else []
-
-
-
-def solve_rssr(case: RssrCase) -> LinkageTable:
-    """The in-house engine's table of an RSSR case (:func:`analyze_rssr`, :func:`to_table`)."""
-    return to_table(analyze_rssr(case))

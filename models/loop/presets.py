@@ -15,8 +15,8 @@ The RSSR (``docs/conventions.md``, "RSSR") is R, S, S, R with the output axis's 
 ball 3 (origin ``P3``, x toward ``Q4``) turned by pi about z and moved by ``a3``.  The RCCC (``"RCCC"``) is
 its own table, R, C, C, C, with the link frames as body frames.  Each output torque (the ground's moment on
 the output link about the last axis ``z4``) is minus joint 4's effort (on the ground, from the output link).
-The RSSR's and RCCC's tables keep their mechanisms' status rules (their transmissions, applied to a judge's
-table by ``validation/judges/presets/readback.py``), not the loop table's closure condition: ``limits``
+The RSSR's and RCCC's tables keep their mechanisms' status rules (their transmissions, applied to every
+engine's table by ``models/linkages/readback.py``), not the loop table's closure condition: ``limits``
 false.
 """
 
@@ -147,10 +147,10 @@ def rssr_table(case: RssrCase) -> LoopMechanism:
                          limits=False)
 
 
-def rssr_start(case: RssrCase) -> LoopState:
-    """The RSSR's closed-form pose at its first crank angle, on its branch
+def rssr_start(case: RssrCase, at: int = 0) -> LoopState:
+    """The RSSR's closed-form pose at its crank angle number ``at`` (0-based), on its branch
     (:func:`dualmech.models.linkages.rssr.closed_form_phi`)."""
-    theta = np.radians(case.motion.angles_deg[:1])
+    theta = np.radians(case.motion.angles_deg[at:at + 1])
     return rssr.estimate(case.geometry, theta, rssr.closed_form_phi(case.geometry, theta, case.branch)[0])
 
 
@@ -163,10 +163,10 @@ def rccc_table(case: RcccCase) -> LoopMechanism:
                          (_output_load(case.output_torque),), case.gravity, limits=False)
 
 
-def rccc_start(case: RcccCase) -> LoopState:
-    """The RCCC's spherical estimate at its first crank angle, on its branch
+def rccc_start(case: RcccCase, at: int = 0) -> LoopState:
+    """The RCCC's spherical estimate at its crank angle number ``at`` (0-based), on its branch
     (:func:`dualmech.models.linkages.rccc.spherical_estimate`)."""
-    theta = np.radians(case.motion.angles_deg[:1])
+    theta = np.radians(case.motion.angles_deg[at:at + 1])
     return rccc.estimate(case.geometry, theta, rccc.spherical_estimate(case.geometry, theta, case.branch)[0])
 
 
@@ -178,6 +178,12 @@ def loop_table_of(case: Any) -> LoopMechanism:
         return case
     table, start = {RssrCase: (rssr_table, rssr_start), RcccCase: (rccc_table, rccc_start)}[type(case)]
     return started(table(case), start(case))
+
+
+def rows(mechanism: LoopMechanism, k: int, stop: int | None = None) -> LoopMechanism:
+    """``mechanism`` driven at its positions ``k`` to ``stop`` (0-based, ``stop`` exclusive; ``None``: to the
+    last): a run of an RSSR's or RCCC's engine from row ``k`` (:mod:`dualmech.models.linkages.restarts`)."""
+    return replace(mechanism, drive=replace(mechanism.drive, positions=mechanism.drive.positions[k:stop]))
 
 
 def started(mechanism: LoopMechanism, state: LoopState) -> LoopMechanism:

@@ -11,7 +11,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage
-from dualmech.models.loop.presets import rccc_table, rssr_table
+from dualmech.models.loop.engine import analyze_loop
+from dualmech.models.loop.presets import rccc_start, rccc_table, rssr_start, rssr_table
 from dualmech.validation.compare.tables import relative_differences
 from dualmech.validation.engines import solve_linkage as solve_linkage_by
 from dualmech.validation.matrix.tolerances import group_tolerances
@@ -19,22 +20,25 @@ from dualmech.validation.tolerances import SIM_STROKE
 from tests.tolerances import LINKAGE_DYNAMICS_RESIDUAL, S4_VS_CLOSED_FORM, SERVO_LAG
 
 table_of = {"rssr": rssr_table, "rccc": rccc_table}
+start_of = {"rssr": rssr_start, "rccc": rccc_start}
 
 
 @pytest.mark.parametrize("kind", ["rssr", "rccc"])
 def test_linkage_meta(kind: str) -> None:
     """``theta1_deg`` the case's angles; ``branch`` the case's; ``residual`` bounds the loop gap of the
-    table's own pose (the RSSR: ``|P3 - P2| - a2``) and is round-off; ``iterations`` per row: none for the
-    RSSR, whose start is its exact closed form, one for the RCCC, whose spherical start is corrected once on
-    the bundled case; ``messages`` name the no_assembly rows, if any."""
+    table's own pose (the RSSR: ``|P3 - P2| - a2``) and is round-off; ``iterations`` per row: the loop
+    engine's on the preset table run once from the mechanism's own start at the first row (the bundled cases
+    have no gap), at least one Newton step where it closes; ``messages`` name the no_assembly rows, if any."""
     case = linkage_case(kind)
     table = solve_linkage(kind)
     assert_allclose(table["theta1_deg"], case.motion.angles_deg, rtol=0, atol=1e-12)
     assert table.meta["branch"] == case.branch
     assembled = table.status != "no_assembly"
     assert np.nanmax(table["residual"][assembled]) <= S4_VS_CLOSED_FORM
-    iterations = table.meta["iterations"]  # the RSSR starts at its closed form: no Newton step is needed
-    assert iterations.shape == (len(table),) and np.all(iterations[assembled] == (0 if kind == "rssr" else 1))
+    # one run of the loop engine from the first row (no gap): its iteration counts, row by row
+    run = analyze_loop(table_of[kind](case), start_of[kind](case))
+    np.testing.assert_array_equal(table.meta["iterations"], run.iterations)
+    assert table.meta["iterations"][assembled].min() >= 1
     assert bool(table.meta["messages"]) == (not assembled.all())
     if kind == "rssr":
         assert np.all(_rssr_gap(case, table)[assembled] <= table["residual"][assembled] + S4_VS_CLOSED_FORM)

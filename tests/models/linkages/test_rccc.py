@@ -1,6 +1,7 @@
-"""The in-house RCCC (Yang 1971): the dual-number Newton finds the slides from the spherical estimate, rates
-match finite differences, the reactions balance power, statuses are honest (its judges:
-``tests/validation/judges/presets/test_rccc_judges.py``)."""
+"""The closed-form RCCC pipeline (Yang 1971; the forward dynamics' analysis and the oracle of the in-house
+engine, ``tests/models/loop/test_preset_engine.py``): the dual-number Newton finds the slides from the
+spherical estimate, rates match finite differences, the reactions balance power, statuses are honest (its
+judges: ``tests/validation/judges/presets/test_rccc_judges.py``)."""
 
 from __future__ import annotations
 

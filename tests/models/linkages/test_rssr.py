@@ -1,5 +1,7 @@
-"""The in-house RSSR: Newton closes the loop from a poor estimate, rates match finite differences, the
-reactions balance power and the Newton-Euler equations, both load modes agree, statuses are honest."""
+"""The closed-form RSSR pipeline (the forward dynamics' analysis and the oracle of the in-house engine,
+``tests/models/loop/test_preset_engine.py``): Newton closes the loop from a poor estimate, rates match
+finite differences, the reactions balance power and the Newton-Euler equations, both load modes agree,
+statuses are honest."""
 
 from __future__ import annotations
 

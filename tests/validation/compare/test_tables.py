@@ -9,9 +9,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dualmech.models.linkages import rssr as rssr_module
 from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
 from dualmech.models.linkages.rssr import SPEC as RSSR_SPEC
+from dualmech.models.loop import preset_engine as rssr_module
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.matrix.tolerances import group_tolerances
 from dualmech.validation.tolerances import (

@@ -6,7 +6,8 @@ The case becomes its table (:func:`~dualmech.models.loop.presets.rssr_table`,
 start a crude pose of the judge's own on the case's branch (:mod:`.starts`: the cut joint's angle at a grid
 point of a scan next to the wanted root, the other joints aimed from it; the reach of the case's geometry),
 so nothing of the in-house solver enters the judge.  The generated judge closes the loop from there by its
-own continuation, restarted past gaps (:mod:`.run`); its columns are read back as the mechanism's
-(:mod:`.readback`).  :mod:`.engines` holds the registered engines (Pinocchio, rigid MuJoCo, Exudyn, the
-MuJoCo simulation).
+own continuation, restarted past gaps (:mod:`.run`, by the runs every engine of these kinds shares:
+:mod:`dualmech.models.linkages.restarts`); its columns are read back as the mechanism's
+(:mod:`dualmech.models.linkages.readback`, as the in-house engine's are).  :mod:`.engines` holds the
+registered engines (Pinocchio, rigid MuJoCo, Exudyn, the MuJoCo simulation).
 """

@@ -1,13 +1,10 @@
 """A generated judge run over an RSSR or RCCC case: crude starts probed, runs restarted past gaps.
 
-**Gaps and restarts** (:func:`judge_case`): rows where the case's geometry does not reach (the coupler
-misses the output crank's circle, the cones about ``z2`` and ``z4`` miss:
+**Gaps and restarts** (:func:`judge_case`): the driver every engine of the RSSR and RCCC shares
+(:func:`~dualmech.models.linkages.restarts.run_past_gaps`, with the reach of the case's geometry:
 :func:`~dualmech.validation.judges.presets.starts.rssr_reach`,
-:func:`~dualmech.validation.judges.presets.starts.rccc_reach`,
-:func:`~dualmech.models.linkages.rssr.assembles`) are ``no_assembly``; the judge runs from the first row
-that reaches, and again, from a crude start there, from every later row that reaches but that no run has
-answered on the branch (past a gap, where continuity is lost; next to an assembly limit, where the
-continuation may cross to the other branch).
+:func:`~dualmech.validation.judges.presets.starts.rccc_reach`); a judge's run at a row starts from a crude
+start of its own there, never from the in-house engine's estimate.
 
 **Probes** (:func:`crude_start`): a crude start is tried on its row alone.  A judge that solves each pose on
 its own (Pinocchio, rigid MuJoCo) is its own probe; a judge that integrates through its rows (Exudyn) has no
@@ -21,21 +18,20 @@ from typing import Callable
 
 import numpy as np
 
-from dualmech.core.status import Status, is_status
+from dualmech.core.status import is_status
 from dualmech.models.linkages import rccc, rssr
 from dualmech.models.linkages.rccc_case import RcccCase
+from dualmech.models.linkages.readback import rccc_columns, rssr_columns
+from dualmech.models.linkages.restarts import ACCEPTED, Run, run_past_gaps
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.presets import rccc_table, rssr_table
 from dualmech.models.tables import LinkageTable, TableSpec
 from dualmech.validation.judges.presets import starts
-from dualmech.validation.judges.presets.readback import rccc_columns, rssr_columns
 
 #: Starts (:func:`~dualmech.validation.judges.presets.starts.scan_starts`) tried at a row before the judge's
 #: run from there is taken as it is.
 MAX_CRUDE_STARTS = 4
-#: The mechanism's words of a row answered on the case's branch: no restart there.
-ACCEPTED = (Status.OK.value, Status.DEAD_CENTRE.value, Status.ASSEMBLY_LIMIT.value)
 
 Judge = Callable[[LoopMechanism], LinkageTable]
 
@@ -47,43 +43,25 @@ def judge_case(case: RssrCase | RcccCase, engine: str, judge: Judge, probe: Judg
     which tries the crude starts (``None``: ``judge`` itself); ``not_given``: the mechanism's columns the
     judge does not give (the Exudyn judge's ``dynamics_residual``: it has no least squares).
 
-    At a row to start from, each crude start (:data:`MAX_CRUDE_STARTS` at most) is tried on that row alone
-    until one answers on the branch; the judge then runs from there to the last row, and its answers are
-    taken where no run answered on the branch before.  With none on the branch the row keeps the first
-    start's answer and the next row is tried (so a judge that fails everywhere costs a few solves a row).
-    ``meta``: ``restarts``, the rows a run started from, and ``iterations`` per row (of the run that
-    answered it) where the judge counts them.
+    At a row to start from (:func:`~dualmech.models.linkages.restarts.run_past_gaps`), each crude start
+    (:data:`MAX_CRUDE_STARTS` at most) is tried on that row alone until one answers on the branch; the judge
+    then runs from there to the last row, and its answers are taken where no run answered on the branch
+    before.  With none on the branch the row keeps the first start's answer and the next row is tried (so a
+    judge that fails everywhere costs a few solves a row).  ``meta``: ``restarts``, the rows a run started
+    from, and ``iterations`` per row (of the run that answered it) where the judge counts them.
     """
     table, reach, columns_of, spec, _, _ = kind_parts(case)
     mechanism, theta1 = table(case), np.radians(case.motion.angles_deg)
-    n = theta1.shape[0]
-    cols = {c: np.full(n, np.nan) for c in spec.columns}
-    cols["theta1_deg"] = np.degrees(theta1)
-    status = np.full(n, Status.NOT_CONVERGED.value, dtype=object)
-    reaches = rssr.assembles(reach(case, theta1))
-    status[~reaches] = Status.NO_ASSEMBLY.value
-    iterations, restarts, counted = np.zeros(n, dtype=int), [], False
 
-    def take(run: LinkageTable, rows: np.ndarray, k: int) -> None:
-        nonlocal counted
-        for c in spec.columns:
-            cols[c][rows] = run[c][rows - k]
-        status[rows] = run.status[rows - k]
-        if "iterations" in run.meta:
-            iterations[rows], counted = np.asarray(run.meta["iterations"])[rows - k], True
-
-    for k in range(n):
-        if not reaches[k] or is_status(status[k:k + 1], *ACCEPTED)[0]:
-            continue
+    def run_from(k: int) -> Run:
         good, accepted, first = crude_start(case, mechanism, k, probe or judge, probe is not None)
         if not accepted:
-            take(first, np.array([k]), k)
-            continue
-        restarts.append(k)
-        take(columns_of(case, judge(starts.with_start(mechanism, good, k)), not_given), k + np.flatnonzero(
-            ~is_status(status[k:], *ACCEPTED) & reaches[k:]), k)
-    meta = {"iterations": iterations} if counted else {}
-    return LinkageTable(engine, case.name, cols, status, {**meta, "restarts": np.array(restarts, dtype=int)})
+            return Run(first, started=False)
+        return Run(columns_of(case, judge(starts.with_start(mechanism, good, k)), not_given))
+
+    rows = run_past_gaps(np.degrees(theta1), rssr.assembles(reach(case, theta1)), spec, run_from)
+    meta = {"iterations": rows.iterations} if rows.counted else {}
+    return LinkageTable(engine, case.name, rows.columns, rows.status, {**meta, "restarts": rows.restarts})
 
 
 def kind_parts(case: RssrCase | RcccCase

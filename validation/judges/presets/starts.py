@@ -17,8 +17,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from dualmech.models.linkages.rccc_case import RcccCase
+from dualmech.models.linkages.readback import rccc_axes
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.loop.description import LoopMechanism
+from dualmech.models.loop.presets import rows
 
 #: Values of the scanned cut angle in a start (10 deg apart).
 SCAN_POINTS = 36
@@ -73,16 +75,6 @@ def rssr_start_angles(case: RssrCase, theta1: float) -> list[float]:
     phi = 2.0 * np.pi * np.arange(SCAN_POINTS) / SCAN_POINTS
     p3 = g.foot + g.a3 * np.stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)], 1) @ g.ground_rotation().T
     return [np.pi - phi for phi in scan_starts(np.sum((p3 - p2) ** 2, axis=1) - g.a2**2, case.branch)]
-
-
-def rccc_axes(case: RcccCase, theta1: np.ndarray, theta2: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The world axes ``z2``, ``z3`` ``(n, 3)`` and ``z4`` ``(3,)`` at the input angles ``theta1`` and joint
-    2's angles ``theta2`` ``(n,)``: rows ``Z(theta_i) X(alpha_i)`` of ``docs/conventions.md``, "RCCC"."""
-    alpha = case.geometry.alpha
-    link1 = _rz(theta1) @ _rx(alpha[0])
-    z2 = link1[..., 2]
-    z3 = (link1 @ _rz(theta2) @ _rx(alpha[1]))[..., 2]
-    return z2, z3, _rx(-alpha[3])[:, 2]
 
 
 def rccc_start_angles(case: RcccCase, theta1: float) -> list[float]:
@@ -169,6 +161,5 @@ def rccc_reach(case: RcccCase, theta1: np.ndarray) -> np.ndarray:
 def with_start(mechanism: LoopMechanism, starts: tuple, k: int = 0, stop: int | None = None) -> LoopMechanism:
     """``mechanism`` driven at its positions ``k`` to ``stop`` (exclusive; ``None``: the last), every joint
     started at ``starts`` (one tuple per joint, as :func:`rssr_start` and :func:`rccc_start` give them)."""
-    drive = replace(mechanism.drive, positions=mechanism.drive.positions[k:stop])
-    return replace(mechanism, drive=drive, joints=tuple(replace(j, start=s) for j, s in
-                                                        zip(mechanism.joints, starts)))
+    return replace(rows(mechanism, k, stop), joints=tuple(replace(j, start=s) for j, s in
+                                                          zip(mechanism.joints, starts)))

@@ -21,9 +21,10 @@ import pytest
 from numpy.testing import assert_array_equal
 
 from dualmech.core.status import Status
-from dualmech.models.linkages import rccc, read_linkage, rssr
+from dualmech.models.linkages import rccc, read_linkage, readback, rssr
 from dualmech.models.linkages.rccc_case import rccc_from_dict
 from dualmech.models.linkages.rssr_case import rssr_from_dict
+from dualmech.models.loop import preset_engine
 from dualmech.validation.compare.tables import worst
 from dualmech.validation.engines import get_engine
 from tests.linkage_cases import bundled, random_rccc, random_rssr
@@ -35,7 +36,7 @@ pytest.importorskip("mujoco")
 from dualmech.models.loop.presets import rssr_table  # noqa: E402
 from dualmech.validation.judges.mujoco_loop.table import solve_table as mujoco_loop  # noqa: E402
 from dualmech.validation.judges.pinocchio_loop.table import solve_table as pinocchio_loop  # noqa: E402
-from dualmech.validation.judges.presets import readback, run, starts  # noqa: E402
+from dualmech.validation.judges.presets import run, starts  # noqa: E402
 
 #: How far (rad) the patched in-house start functions put their answer: a wrong start, not a nudge.
 GARBAGE = 1.0
@@ -57,9 +58,7 @@ def _rccc(branch: int | None = None, seed: int | None = None, step: float = 10.0
 
 
 def _in_house(kind: str, case):
-    if kind == "rssr":
-        return rssr.to_table(rssr.analyze_rssr(case))
-    return rccc.to_table(rccc.analyze_rccc(case))
+    return preset_engine.solve_rssr(case) if kind == "rssr" else preset_engine.solve_rccc(case)
 
 
 def _spec(kind: str):

@@ -1,11 +1,14 @@
-"""A generated judge's loop table of an RSSR or RCCC case read back as the mechanism's own table.
+"""A loop table's answer on an RSSR or RCCC case read back as the mechanism's own table.
 
-The judge's coordinates, rates, efforts and joint wrenches are moved to the columns, reference points and
-signs of ``docs/conventions.md`` ("RSSR", "RCCC"), the transmissions computed from its own pose, and the
-status words given by the mechanism's rules (:func:`~dualmech.models.linkages.rssr.status_words` on the
-judge's closure, transmissions and residual).  A column the judge does not give (``not_given``: the
-simulation's ``dynamics_residual``; every rate and reaction of a closure alone, a crude start's probe) is
-NaN at every row and claimed by no word.
+Every engine of the RSSR and the RCCC solves the case's preset joint table
+(:func:`~dualmech.models.loop.presets.rssr_table`, :func:`~dualmech.models.loop.presets.rccc_table`): the
+in-house loop engine (:mod:`dualmech.models.loop.preset_engine`) and the generated judges
+(:mod:`dualmech.validation.judges.presets`).  The engine's coordinates, rates, efforts and joint wrenches
+are moved to the columns, reference points and signs of ``docs/conventions.md`` ("RSSR", "RCCC"), the
+transmissions computed from its own pose, and the status words given by the mechanism's rules
+(:func:`~dualmech.models.linkages.rssr.status_words` on the engine's closure, transmissions and residual).
+A column the engine does not give (``not_given``: the simulation's ``dynamics_residual``; every rate and
+reaction of a closure alone, a crude start's probe) is NaN at every row and claimed by no word.
 """
 
 from __future__ import annotations
@@ -17,10 +20,25 @@ from dualmech.models.linkages import rccc, rssr
 from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.tables import LinkageTable, TableSpec
-from dualmech.validation.judges.presets.starts import rccc_axes
 
-#: The judge's words of a closed pose (the mechanism's rules then name it).
+#: The engine's words of a closed pose (the mechanism's rules then name it).
 CLOSED = (Status.OK.value, Status.DEAD_CENTRE.value, Status.BRANCH_JUMP.value)
+
+
+def rccc_axes(case: RcccCase, theta1: np.ndarray, theta2: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The world axes ``z2``, ``z3`` ``(n, 3)`` and ``z4`` ``(3,)`` at the input angles ``theta1`` and joint
+    2's angles ``theta2`` ``(n,)`` (NaN where NaN): the rows ``Z(theta_i) X(alpha_i)`` of
+    ``docs/conventions.md``, "RCCC".  ``Z(theta) X(alpha)`` turns ``z`` to ``(sin alpha sin theta, -sin alpha
+    cos theta, cos alpha)``, so ``z3 = F2 (sin alpha23 sin theta2, -sin alpha23 cos theta2, cos alpha23)`` in
+    frame ``F2 = Z(theta1) X(alpha12)`` of columns ``x2, y2, z2``; ``z4 = Rx(-alpha41) z``."""
+    alpha = case.geometry.alpha
+    c1, s1, ca, sa = np.cos(theta1), np.sin(theta1), np.cos(alpha[0]), np.sin(alpha[0])
+    x2 = np.stack([c1, s1, np.zeros_like(c1)], 1)
+    y2 = np.stack([-s1 * ca, c1 * ca, np.full_like(c1, sa)], 1)
+    z2 = np.stack([sa * s1, -sa * c1, np.full_like(c1, ca)], 1)
+    local = (np.sin(alpha[1]) * np.sin(theta2), -np.sin(alpha[1]) * np.cos(theta2), np.cos(alpha[1]))
+    z3 = local[0][:, None] * x2 + local[1][:, None] * y2 + local[2] * z2
+    return z2, z3, np.array([0.0, np.sin(alpha[3]), np.cos(alpha[3])])
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:
@@ -30,8 +48,8 @@ def _wrap(angle: np.ndarray) -> np.ndarray:
 
 def _status(judged: LinkageTable, t1: np.ndarray, t4: np.ndarray, branch: int, torque_mode: bool
             ) -> np.ndarray:
-    """The mechanism's status words from the judge's own closure (:data:`CLOSED`) and transmissions;
-    ``no_assembly`` where the judge's closure stalled."""
+    """The mechanism's status words from the engine's own closure (:data:`CLOSED`) and transmissions;
+    ``no_assembly`` where the engine's closure stalled."""
     converged = is_status(judged.status, *CLOSED)
     status = rssr.status_words(converged, t1, t4, branch, torque_mode, judged["residual"])
     status[is_status(judged.status, Status.NO_ASSEMBLY)] = Status.NO_ASSEMBLY.value
@@ -39,7 +57,7 @@ def _status(judged: LinkageTable, t1: np.ndarray, t4: np.ndarray, branch: int, t
 
 
 def rssr_columns(case: RssrCase, judged: LinkageTable, not_given: tuple[str, ...] = ()) -> LinkageTable:
-    """The RSSR table (:data:`~dualmech.models.linkages.rssr.SPEC`) of a generated judge's loop table
+    """The RSSR table (:data:`~dualmech.models.linkages.rssr.SPEC`) of an engine's loop table
     ``judged`` of :func:`~dualmech.models.loop.presets.rssr_table` (``docs/conventions.md``, "RSSR"):
     ``phi4 = pi - theta4``; joint 4's wrench is on the ground from the output crank, about ``Q4``."""
     g = case.geometry
@@ -66,7 +84,7 @@ def rssr_columns(case: RssrCase, judged: LinkageTable, not_given: tuple[str, ...
 
 
 def rccc_columns(case: RcccCase, judged: LinkageTable, not_given: tuple[str, ...] = ()) -> LinkageTable:
-    """The RCCC table (:data:`~dualmech.models.linkages.rccc.SPEC`) of a generated judge's loop table
+    """The RCCC table (:data:`~dualmech.models.linkages.rccc.SPEC`) of an engine's loop table
     ``judged`` of :func:`~dualmech.models.loop.presets.rccc_table` (``docs/conventions.md``, "RCCC"): joints
     2 and 3's moments moved from their joint points (frames ``{2}``, ``{3}``) to the body origins ``s_i``
     further along ``z_i``; joint 4's wrench is on the ground from the output link, about ``G``, ``s4``
