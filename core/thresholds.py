@@ -58,7 +58,9 @@ LOCK_CORRECTION = Tolerance(
 LOCK_ROWS = 3
 #: A pose is regular (off a lock or limit) when the smallest singular value of its square closure Jacobian
 #: is at least this fraction of the largest; a walk through a lock starts and ends on regular poses.
-REGULAR_POSE = Tolerance(1e-8, "eight orders above rounding: the sign of the determinant is then certain")
+REGULAR_POSE = Tolerance(
+    1e-5, "at a lock or limit the closure's root is double: a pose closed there to a residual r is ~sqrt(r) "
+    "off it (Pinocchio's 1e-13: its ratio ~3e-7); above 1e-5 the determinant's sign and tangent are sure")
 #: Universal-joint lock, every engine: with a universal joint at the slider, a closure_condition |u·k4| at
 #: or above this makes a row ``joint_lock`` (pose and rates given, reactions not).
 JOINT_LOCK_CONDITION = Tolerance(

@@ -7,7 +7,9 @@ own pose (``models/loop/condition.py``):
 * ``turning``: 1e-6 a2 inside a turning point of the drive (-60 deg): ``assembly_limit`` there (pose and
   condition given, no rates or reactions), ``no_assembly`` past it;
 * ``touching``: the reach touches 1e-6 a2 short of the rod's normal pose at 0 deg, where the drive moves on:
-  ``joint_lock`` there (no value), ``ok`` on both sides;
+  ``joint_lock`` there (no value), ``ok`` on both sides; ``touching-exactly``: it reaches it (the two
+  assembly branches cross at 0 deg, where the engines used to disagree), and every engine goes on along
+  the curve it came on, through the crossing, to the other closed-form branch;
 * ``universal``: a universal joint at the slider locks at 180 deg (the rod along the slider line); the
   closure Jacobian's determinant changes sign there, and every engine follows its branch on through it
   (``joint_lock`` at the lock, ``ok`` after, where each used to say ``branch_jump``).
@@ -28,6 +30,7 @@ from dualmech.models.loop.table import solve_loop_table
 from dualmech.validation.compare.tables import judge_checks
 from tests.models.loop.test_condition import TOUCHING_A4, TURNING_A4, _slider_crank
 from tests.models.loop.test_engine import LOCK_A4, LOCK_TWIST
+from tests.validation.test_engine_statuses import A1, A2
 
 JUDGES = {"pinocchio": ("pinocchio", "dualmech.validation.judges.pinocchio_loop.table"),
           "mujoco": ("mujoco", "dualmech.validation.judges.mujoco_loop.table"),
@@ -38,6 +41,8 @@ TABLES = {
                 ["ok"] * 4 + ["assembly_limit", "no_assembly"]),
     "touching": ((TOUCHING_A4, {"start": -20.0, "stop": 21.0, "step": 5.0}, False, 270.0),
                  ["ok"] * 4 + ["joint_lock"] + ["ok"] * 4),
+    "touching-exactly": ((A2 - A1, {"start": -20.0, "stop": 21.0, "step": 5.0}, False, 270.0),
+                         ["ok"] * 4 + ["joint_lock"] + ["ok"] * 4),
     "universal": ((LOCK_A4, {"start": 170.0, "stop": 191.0, "step": 5.0}, True, LOCK_TWIST),
                   ["ok"] * 2 + ["joint_lock"] + ["ok"] * 2),
 }
@@ -51,7 +56,7 @@ def table(request):
 
 
 #: The tables a judge cannot pass (module docstring).
-CANNOT = {("exudyn", "turning"), ("exudyn", "universal")}
+CANNOT = {("exudyn", "turning"), ("exudyn", "universal"), ("exudyn", "touching-exactly")}
 
 
 @pytest.mark.parametrize("judge", list(JUDGES))

@@ -1,16 +1,17 @@
 """The Pinocchio judge's continuation along the drive: the branch followed, through joint locks.
 
-The loop is closed position by position, forward then backward from the start, each from the last good pose
-moved by the tangent (an Euler predictor along the drive: :func:`_predict`). The branch is the sign of
-:func:`~.closure.branch`: it changes through a singular pose, so a pose with another sign than the branch's is
-``branch_jump`` and not continued from, unless the loop passed a *joint lock* there (``docs/conventions.md``,
-"Loop tables"): where the drive still moves the loop through a singular pose, the determinant changes sign
-on the curve followed. The judge tells a lock by its own walk (:func:`cross_lock`): the drive walked from
-the last good regular pose to the row in ``LOCK_SUBSTEPS`` steps a row, each closed from the secant through
-the two poses before it, smooth when no closure corrects its secant by more than ``LOCK_CORRECTION`` of the
-step before it (``core/thresholds.py``); a smooth walk that ends on a regular pose of the other sign turns
-the branch. A row at the lock itself (a singular pose) is closed on no branch: ``ok`` once the walk past it
-succeeds (the limit rule then names it), else ``branch_jump``. Nothing of the in-house engine is used.
+The loop is closed position by position, forward then backward from the start, each from the last good
+regular pose moved by the tangent (an Euler predictor along the drive: :func:`_predict`; a singular pose's
+tangent is not its curve's). The branch is the sign of :func:`~.closure.branch`: it changes through a
+singular pose, so a pose with another sign than the branch's is ``branch_jump`` and not continued from,
+unless the loop passed a *joint lock* there (``docs/conventions.md``, "Loop tables"): where the drive still
+moves the loop through a singular pose, the determinant changes sign on the curve followed. The judge tells
+a lock by its own walk (:func:`cross_lock`): the drive walked from the last good regular pose to the row in
+``LOCK_SUBSTEPS`` steps a row, each closed from the secant through the two poses before it, smooth when no
+closure corrects its secant by more than ``LOCK_CORRECTION`` of the step before it (``core/thresholds.py``);
+a smooth walk that ends on a regular pose of the other sign turns the branch. A row at the lock itself (a
+singular pose) is closed on no branch: ``ok`` once the walk past it succeeds (the limit rule then names it),
+else ``branch_jump``. Nothing of the in-house engine is used.
 """
 
 from __future__ import annotations
@@ -95,13 +96,13 @@ def close_loop(lm: LoopModel) -> Closure:
         return Closure(qs, status, residual, iterations)
     sign = branch(lm, q)
     for order in (range(at + 1, n), range(at - 1, -1, -1)):
-        last, steady, singular = at, at, []  # steady: the last good regular row, where a walk starts
+        steady, singular = at, []  # the last good regular row: predicted from, and a walk starts there
         for i in order:
-            guess = _predict(lm, qs[last], values[i] - values[last])
+            guess = _predict(lm, qs[steady], values[i] - values[steady])
             qs[i], status[i], residual[i], iterations[i] = close_at(lm, guess, values[i])
             if status[i] != Status.OK.value or branch(lm, qs[i]) == sign:
-                if status[i] == Status.OK.value:
-                    last, steady = i, i if regular(lm, qs[i]) else steady
+                if status[i] == Status.OK.value and regular(lm, qs[i]):  # a singular pose's tangent is
+                    steady = i                                          # not its curve's: not predicted from
                 continue
             status[i] = Status.BRANCH_JUMP.value
             if not regular(lm, qs[i]):  # at the lock itself, or at an edge: closed on no branch yet
@@ -114,5 +115,5 @@ def close_loop(lm: LoopModel) -> Closure:
                 continue
             qs[i], residual[i], iterations[i] = walk
             status[[k for k in singular if min(i, steady) < k < max(i, steady)]] = Status.OK.value
-            status[i], sign, last, steady = Status.OK.value, -sign, i, i
+            status[i], sign, steady = Status.OK.value, -sign, i
     return Closure(qs, status, residual, iterations)
