@@ -198,8 +198,10 @@ KERNEL_VS_NUMPY_LOOP = 1e-12
 REUSED_FACTORS = 1e-13
 #: The compiled square Newton-Euler solve along the chain (core/kernel/wrench_chain_nb.py) against the
 #: Householder QR of the whole system, the unknowns relative to their peak and the transmission relative to
-#: itself: two factorizations of one system, each backward stable (measured 1.3e-14 for the unknowns, 1.1e-14
-#: for the transmission, on the 7R, RSCR, RSRC and RCCC).
+#: itself, each over the condition's gain 1/|t| near a dead centre: two factorizations of one system, each
+#: backward stable (measured 1.3e-14 for the unknowns, 1.1e-14 for the transmission, on the 7R, RSCR, RSRC
+#: and RCCC; 6.6e-15 and 1.2e-15 on the tables with an S-S link, the RSSR and the slider crank's, with the
+#: link's mass on its axis or off it).
 CHAIN_VS_QR = 1e-13
 #: The compiled transposed LU solve (core/kernel/linalg_nb.py) against numpy's solve, relative to the
 #: solution's peak, on well-conditioned random matrices up to 9x9 (measured 7.4e-15).
