@@ -26,7 +26,7 @@ from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.models.angle_ranges import format_angle_ranges, no_assembly_ranges
 from dualmech.models.case import Case, load_case, with_loads
 from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage, table_spec
-from dualmech.models.linkages.forward_dynamics import simulate as simulate_linkage
+from dualmech.models.loop.preset_dynamics import simulate as simulate_linkage
 from dualmech.models.slider_crank import analysis as slider_crank
 from dualmech.models.slider_crank import dynamics_coefficients as dc
 from dualmech.models.slider_crank import forward_dynamics as fd

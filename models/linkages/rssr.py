@@ -118,8 +118,10 @@ def closed_form_phi(geom: RssrGeometry, theta1: np.ndarray, branch: int) -> tupl
     return np.arctan2(b, a) - branch * np.arccos(np.clip(rho, -1.0, 1.0)), rho
 
 
-def _frame_x(u: np.ndarray) -> np.ndarray:
-    """A rotation ``(n, 3, 3)`` whose x axis is the unit vector ``u`` ``(n, 3)``."""
+def frame_x(u: np.ndarray) -> np.ndarray:
+    """A rotation ``(n, 3, 3)`` whose x axis is the unit vector ``u`` ``(n, 3)``: the coupler frame of
+    :func:`estimate` (``docs/conventions.md``, "RSSR": y and z any completion; this one).  Its y is
+    ``ref x u`` normalized, ``ref`` the world x where ``|u_z| > 0.9``, else the world z."""
     ref = np.where(np.abs(u[:, 2:3]) > 0.9, np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]))
     v = np.cross(ref, u)
     v /= np.linalg.norm(v, axis=1, keepdims=True)
@@ -137,7 +139,7 @@ def estimate(geom: RssrGeometry, theta1: np.ndarray, phi: np.ndarray) -> LoopSta
     The rotations close exactly; the coupler length closes only if ``phi`` is a solution.
     """
     p2, p3 = crank_pin(geom, theta1), output_pin(geom, phi)
-    coupler = _frame_x((p3 - p2) / np.linalg.norm(p3 - p2, axis=1, keepdims=True))
+    coupler = frame_x((p3 - p2) / np.linalg.norm(p3 - p2, axis=1, keepdims=True))
     theta4 = math.pi - phi
     ball2 = np.swapaxes(_rz(theta1), 1, 2) @ coupler
     ball3 = np.swapaxes(coupler, 1, 2) @ geom.ground_rotation() @ _rz(-theta4)

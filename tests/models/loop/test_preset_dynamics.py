@@ -1,4 +1,5 @@
-"""Forward dynamics of the RSSR and the RCCC from the in-house inverse dynamics (generalized inertia).
+"""Forward dynamics of the RSSR and the RCCC from the in-house inverse dynamics (generalized inertia), the
+loop engine on their preset tables (``models/loop/preset_dynamics.py``).
 
 Each check is shown failing on a deliberate fault: a wrong sign of ``C`` breaks the energy of free
 motion, a wrong sign of the output ratio the work-energy balance and the virtual work of the output
@@ -18,18 +19,9 @@ from numpy.testing import assert_allclose
 from dualmech.core.motion import CrankState
 from dualmech.core.thresholds import Tolerance
 from dualmech.models.linkages import forward_dynamics, linkage_case, read_linkage, solve_linkage, table_spec
-from dualmech.models.linkages.forward_dynamics import (
-    POINTS,
-    Coefficients,
-    coefficients,
-    drive_load,
-    energy,
-    inverse_case,
-    loads,
-    mechanism,
-    simulate,
-)
+from dualmech.models.linkages.forward_dynamics import POINTS, Coefficients, drive_load, inverse_case, loads
 from dualmech.models.linkages.rssr_case import RssrCase
+from dualmech.models.loop.preset_dynamics import at_states, simulate
 
 KINDS = ("rssr", "rccc")
 #: Free motion (no torques, 1 s): peak-to-peak total energy over the peak kinetic energy.
@@ -45,20 +37,20 @@ WORK_ENERGY = Tolerance(
 #: relative to its peak.
 INERTIA_FINITE_DIFFERENCE = Tolerance(
     1e-8, "truncation ~h^2 (measured 3.4e-6 at h = 1e-3, 3.4e-8 at 1e-4) plus rounding of the closed poses "
-    "~1e-15/h; measured 1.1e-10 (RSSR), 3.6e-10 (RCCC) at h = 1e-5")
+    "~1e-15/h; measured 1.6e-10 (RSSR), 3.1e-10 (RCCC) at h = 1e-5")
 #: Generalized inertia against twice the kinetic energy at unit input rate, relative to its peak.
 INERTIA_KINETIC = Tolerance(
     1e-12, "the same rates summed in two ways (Newton-Euler least squares, kinetic energy): round-off; "
-    "measured 3.0e-14 (RSSR), 1.8e-14 (RCCC)")
+    "measured 1.8e-13 (RSSR), 2.0e-14 (RCCC)")
 #: C against half the derivative of the interpolated I, relative to max |C|.
 HALF_DERIVATIVE = Tolerance(
     1e-9, "derivative of the degree-7 spline at 0.5 deg (error ~h^7) of a table rounded to ~1e-14; "
-    "measured 4.2e-12 (RSSR), 1.5e-12 (RCCC)")
+    "measured 8.1e-12 (RSSR), 2.7e-12 (RCCC)")
 #: The coefficient table's spline at the midpoints of its grid against direct solves there, relative to each
 #: coefficient's peak.
 SPLINE_MIDPOINTS = Tolerance(
-    1e-12, "a degree-7 spline on 0.5 deg (error ~h^8) down to the table's rounding; measured 9.4e-14 (RSSR), "
-    "7.6e-14 (RCCC); a cubic one misses by 7.1e-9, 8.3e-8")
+    1e-12, "a degree-7 spline on 0.5 deg (error ~h^8) down to the table's rounding; measured 3.4e-13 (RSSR), "
+    "6.5e-14 (RCCC); a cubic one misses by 7.1e-9, 8.3e-8")
 #: The table along a simulated motion against the case solved at each simulated state, relative to the peak of
 #: each column's unit group (the closure and dynamics residuals absolutely: they are ratios).
 SIMULATED_VS_SOLVED = Tolerance(
@@ -66,7 +58,17 @@ SIMULATED_VS_SOLVED = Tolerance(
     "5.7e-14 absolute (RSSR branch -1, phi4_ddot), the peaks O(1) to O(100)")
 #: Q with the output torque T minus Q without it, against -T G, relative to |T| max |G|.
 OUTPUT_VIRTUAL_WORK = Tolerance(
-    1e-11, "an identity of the linear inverse dynamics: round-off; measured 1.0e-14 (RSSR), 7.1e-15 (RCCC)")
+    1e-11, "an identity of the linear inverse dynamics: round-off; measured 3.2e-15 (RSSR), 1.5e-15 (RCCC)")
+
+
+def coefficients(case, points: int = POINTS) -> Coefficients:
+    """The coefficient table of ``case`` by the loop engine on its preset table."""
+    return forward_dynamics.coefficients(case, at_states, points)
+
+
+def energy(case, theta: np.ndarray, theta_dot: np.ndarray) -> np.ndarray:
+    """Kinetic plus potential energy at the input states, by the loop engine on the preset table."""
+    return forward_dynamics.energy(case, at_states, theta, theta_dot)
 
 
 @pytest.fixture(scope="module", params=KINDS)
@@ -160,7 +162,7 @@ def finite_difference_inertia(case, theta: np.ndarray, h: float = 1e-5) -> np.nd
     is a gauge (``docs/conventions.md``, "RSSR"), so its ``w`` is taken normal to the axis."""
     zero = np.zeros(2 * theta.size)
     poses = CrankState(np.concatenate([theta + h, theta - h]), zero, zero, zero, zero, zero)
-    an = mechanism(case).analyze(inverse_case(case), poses)
+    an = at_states(inverse_case(case), poses)
     n, total = theta.size, np.zeros(theta.size)
     for k, (body, m) in enumerate(zip(case.bodies, an.motions)):
         mid = 0.5 * (m.rotation[:n] + m.rotation[n:])
