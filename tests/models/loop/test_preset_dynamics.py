@@ -22,6 +22,7 @@ from dualmech.models.linkages import forward_dynamics, linkage_case, read_linkag
 from dualmech.models.linkages.forward_dynamics import POINTS, Coefficients, drive_load, inverse_case, loads
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.loop.preset_dynamics import at_states, simulate
+from tests.linkage_oracles import analyze_rccc, analyze_rssr, rccc_to_table, rssr_to_table
 
 KINDS = ("rssr", "rccc")
 #: Free motion (no torques, 1 s): peak-to-peak total energy over the peak kinetic energy.
@@ -266,3 +267,56 @@ def test_the_simulated_table_is_the_solved_one_at_each_simulated_state(kind: str
         group = [g for g in spec.columns if spec.unit_group(g) == spec.unit_group(c)]
         scale = 1.0 if c.endswith("residual") else max(np.abs(solved[g]).max() for g in group)
         assert_allclose(sim.table[c], solved[c], rtol=0, atol=SIMULATED_VS_SOLVED.value * scale, err_msg=c)
+
+
+#: The analysis at given input states against the closed-form oracle there, relative to each quantity's peak.
+STATES_VS_ORACLE = Tolerance(
+    1e-12, "the same pose, rates and reactions by two engines (the loop engine by continuation, the "
+    "closed-form pipeline row by row): round-off; measured 6.2e-15 (RSSR, the output crank's centre of "
+    "mass velocity), 5.2e-15 (RCCC, j1_fy)")
+
+
+def _oracle(case, crank: CrankState):
+    """The closed-form pipeline's analysis at ``crank`` (``tests/linkage_oracles.py``): its table, output
+    rate and motions."""
+    if isinstance(case, RssrCase):
+        an = analyze_rssr(case, crank=crank)
+        return rssr_to_table(an), an.phi_dot, an.motions
+    an = analyze_rccc(case, crank=crank)
+    return rccc_to_table(an), -an.q_dot[:, 4], an.motions
+
+
+def _states_vs_oracle(kind: str) -> dict[str, float]:
+    """Worst difference of :func:`at_states` from the oracle at 40 states over three turns in random order
+    (random rates and accelerations), per motion field, the output rate and the table's columns, each over
+    its peak in the oracle (the residuals absolutely)."""
+    case = inverse_case(linkage_case(kind))
+    rng = np.random.default_rng(7)
+    theta = rng.permutation(np.linspace(-2 * np.pi, 4 * np.pi, 40))
+    zero = np.zeros_like(theta)
+    crank = CrankState(theta, zero, rng.uniform(-20, 20, 40), zero, rng.uniform(-300, 300, 40), zero)
+    ours = at_states(case, crank)
+    table, rate, motions = _oracle(case, crank)
+    worst = {"output_rate": float(np.abs(ours.output_rate - rate).max() / np.abs(rate).max())}
+    for k, (m, o) in enumerate(zip(ours.motions, motions)):
+        for f in ("rotation", "origin", "com", "com_vel", "com_acc", "omega", "omega_dot"):
+            ref = getattr(o, f)
+            worst[f"link{k + 1}.{f}"] = float(np.abs(getattr(m, f) - ref).max() / max(np.abs(ref).max(), 1.0))
+    spec = table_spec(kind, case)
+    for c in spec.columns:
+        group = [g for g in spec.columns if spec.unit_group(g) == spec.unit_group(c)]
+        scale = 1.0 if c.endswith("residual") else max(np.abs(table[g]).max() for g in group)
+        worst[c] = float(np.abs(ours.table[c] - table[c]).max() / scale)
+    assert list(ours.table.status) == list(table.status) == ["ok"] * 40
+    assert ours.table.meta["branch"] == table.meta["branch"] and ours.table.meta["messages"] == []
+    return worst
+
+
+def test_the_analysis_at_given_states_is_the_closed_form_ones(kind: str) -> None:
+    """Oracle: the closed-form pipeline at the same input states, every link's motion in the mechanism's own
+    body frames (``docs/conventions.md``, "RSSR", "RCCC": the RSSR's output crank frame at ``Q4``, x toward
+    ``P3``; its coupler's completed as its estimate completes it), the output rate and every column.  Seen
+    failing on deliberate faults in ``models/loop/preset_dynamics.py`` (the report of the change says
+    which)."""
+    worst = _states_vs_oracle(kind)
+    assert max(worst.values()) <= STATES_VS_ORACLE.value, {k: v for k, v in worst.items() if v > 1e-13}
