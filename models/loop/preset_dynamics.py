@@ -25,6 +25,7 @@ import numpy as np
 
 from dualmech.core.motion import CrankState
 from dualmech.core.reactions import BodyMotion
+from dualmech.core.status import Status
 from dualmech.models.linkages import forward_dynamics, rssr
 from dualmech.models.linkages.forward_dynamics import POINTS, LinkageSimulation, StatesAnalysis
 from dualmech.models.linkages.rccc_case import RcccCase
@@ -83,12 +84,13 @@ def at_states(case: RssrCase | RcccCase, crank: CrankState) -> StatesAnalysis:
     theta0 = float(np.radians(case.motion.angles_deg[0]))
     grid = theta0 + np.linspace(0.0, 2 * np.pi, POINTS)[:-1]
     theta = theta0 + np.mod(crank.theta - theta0, 2 * np.pi)
-    reaches = rssr.assembles(preset.reach(case, np.concatenate([grid, theta])))
+    angles = np.sort(np.concatenate([grid, theta]))
+    reaches = rssr.assembles(preset.reach(case, angles))
     if not reaches.all():
-        missed = np.degrees(np.concatenate([grid, theta])[~reaches])
-        raise ValueError(f"simulate: {case.name!r} does not turn fully (statuses ['no_assembly'] at crank "
-                         f"angles {missed.min():.6g}..{missed.max():.6g} deg: {preset.why}); the forward "
-                         "dynamics of a linkage needs an input that does")
+        words = np.where(reaches, Status.OK.value, Status.NO_ASSEMBLY.value)
+        gaps = rssr.no_assembly_messages(np.degrees(angles), words, preset.why)[0]
+        raise ValueError(f"simulate: {case.name!r} does not turn fully ({gaps}); the forward dynamics of a "
+                         "linkage needs an input that does")
     an, rows = analyze_samples(preset.table(case), preset.start(case, 0), grid, 0, theta, crank.theta_dot,
                                crank.theta_ddot)
     loop = answer(an, preset.length(case))
