@@ -211,7 +211,7 @@ def simulate(case: Any, duration: float, **options: Any) -> Any:
         As :func:`solve` takes it: a slider crank
         (:func:`dualmech.models.slider_crank.forward_dynamics.simulate`,
         :class:`~dualmech.models.simulation.Simulation`), an RSSR, RCCC
-        (:func:`dualmech.models.linkages.forward_dynamics.simulate`) or loop table
+        (:func:`dualmech.models.loop.preset_dynamics.simulate`) or loop table
         (:func:`dualmech.models.loop.forward_dynamics.simulate`), by its kind
         (:data:`~dualmech.models.kinds.KIND_HOMES`).
     duration : float

@@ -26,7 +26,7 @@ from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.models.angle_ranges import format_angle_ranges, no_assembly_ranges
 from dualmech.models.case import Case, load_case, with_loads
 from dualmech.models.linkages import linkage_case, rccc, rssr, solve_linkage, table_spec
-from dualmech.models.linkages.forward_dynamics import simulate as simulate_linkage
+from dualmech.models.loop.preset_dynamics import simulate as simulate_linkage
 from dualmech.models.slider_crank import analysis as slider_crank
 from dualmech.models.slider_crank import dynamics_coefficients as dc
 from dualmech.models.slider_crank import forward_dynamics as fd
@@ -78,7 +78,7 @@ FORWARD = "tests/models/slider_crank/test_forward_dynamics.py::"
 IFTOMM = "tests/models/slider_crank/test_iftomm.py::"
 ALONG = FORWARD + "test_outputs_along_the_trajectory_are_the_solvers_at_the_simulated_states"
 INFO = HERE + "test_simulation_info_is_what_ran"
-LINKAGE_SIM = "tests/models/linkages/test_forward_dynamics.py::"
+LINKAGE_SIM = "tests/models/loop/test_preset_dynamics.py::"
 LINKAGE_OUTPUTS = "tests/validation/test_linkage_outputs.py::"
 LINKAGE_META = LINKAGE_OUTPUTS + "test_linkage_meta"
 LINKAGE_RESIDUALS = LINKAGE_OUTPUTS + "test_linkage_residuals_of_every_rigid_engine"

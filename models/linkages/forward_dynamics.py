@@ -11,7 +11,9 @@ give the generalized inertia :math:`I` about the input axis, the velocity coeffi
 :math:`C = \\tfrac12 I'` and the load term :math:`Q` (gravity and the output torque), batched over a
 0.5 deg grid of a full turn (:data:`POINTS`), with the output link's rate per unit input rate
 :math:`r` (the output torque's work).  One function serves every mechanism: :func:`coefficients`
-takes the mechanism's analysis at given input states (:data:`MECHANISMS`).  Under a drive torque
+takes the mechanism's analysis at given input states (:data:`Analyze`: the loop engine on the RSSR's and
+RCCC's preset tables, :mod:`dualmech.models.loop.preset_dynamics`, which this module does not import).
+Under a drive torque
 :math:`\\tau^A` (a number, an expression in ``t, psi, psidot`` or a function) and a viscous input
 bearing :math:`c_1` the motion is
 
@@ -20,7 +22,7 @@ bearing :math:`c_1` the motion is
 integrated by ``scipy``'s ``solve_ivp`` on a periodic spline of the coefficients
 (:data:`SPLINE_DEGREE`), by every kind's integrator, budget and input checks
 (:mod:`dualmech.models.integration`), together with the drive's and the output torque's work and the energy
-dissipated.  Along the result the in-house analysis gives the pose, rates, reactions and
+dissipated.  Along the result the same analysis gives the pose, rates, reactions and
 energies (``docs/conventions.md``, "Linkages", simulate).
 A linkage whose input does not turn fully is refused.
 """
@@ -37,7 +39,7 @@ import numpy as np
 from scipy.interpolate import BSpline, make_interp_spline
 
 from dualmech.core.motion import CrankState
-from dualmech.core.reactions import kinetic_energy
+from dualmech.core.reactions import BodyMotion, kinetic_energy
 from dualmech.core.status import Status
 from dualmech.core.table import write_csv
 from dualmech.models.expressions import LoadFunction
@@ -53,8 +55,6 @@ from dualmech.models.integration import (  # every kind's integrator, budget and
     checked_settings,
     integrate,
 )
-from dualmech.models.linkages import rccc, rssr
-from dualmech.models.linkages.rccc_case import RcccCase
 from dualmech.models.linkages.rssr_case import RssrCase
 from dualmech.models.simulation_summary import simulation_summary
 from dualmech.models.tables import LinkageTable
@@ -62,7 +62,7 @@ from dualmech.models.tables import LinkageTable
 #: Input angles of the coefficient table over a turn: a 0.5 deg grid.
 POINTS = 721
 #: Degree of the periodic interpolating spline of the table (error ~h^8): at 0.5 deg it misses the
-#: coefficients by <= 9.4e-14 of the largest (RSSR), 7.6e-14 (RCCC), the table's own rounding, where a
+#: coefficients by <= 3.4e-13 of the largest (RSSR), 6.5e-14 (RCCC), the table's own rounding, where a
 #: cubic one misses by 7.1e-9 and 8.3e-8 (measured at the midpoints against direct solves).
 SPLINE_DEGREE = 7
 #: Names of a load expression that mean the slider crank's slider; a linkage's drive torque may not use them.
@@ -70,47 +70,20 @@ SLIDER_NAMES = ("s4", "s4dot")
 
 
 @dataclass(frozen=True)
-class Mechanism:
-    """How the forward dynamics reads one linkage: ``analyze(case, crank)`` the in-house analysis at given
-    input states (``.status``, ``.reactions``, ``.motions``), ``output_rate(analysis)`` the output link's
-    rate about its axis ``(n,)`` rad/s, ``table(analysis)`` its result table."""
+class StatesAnalysis:
+    """The in-house answer of a linkage at given input states ``(n,)``: ``table`` the mechanism's result
+    table there (its ``drive_torque`` the drive torque, its ``status`` the mechanism's words),
+    ``output_rate`` the output link's rate about its axis ``(n,)`` rad/s, ``motions`` the three links'
+    motions in the mechanism's own body frames (``docs/conventions.md``, "RSSR", "RCCC")."""
 
-    analyze: Callable[[Any, CrankState], Any]
-    output_rate: Callable[[Any], np.ndarray]
-    table: Callable[[Any], LinkageTable]
-
-
-@dataclass(frozen=True)
-class _GivenStates:
-    """Stands for an RCCC case's ``motion``: :func:`~dualmech.models.linkages.rccc.analyze_rccc` reads its
-    input states from ``case.motion.state``, and takes no ``crank`` as the RSSR's does."""
-
-    crank: CrankState
-
-    def state(self, axial_shift: float, angles_deg: np.ndarray | None = None) -> CrankState:
-        return self.crank
+    table: LinkageTable
+    output_rate: np.ndarray
+    motions: tuple[BodyMotion, ...]
 
 
-def _rccc_at(case: RcccCase, crank: CrankState) -> rccc.RcccAnalysis:
-    return rccc.analyze_rccc(replace(case, motion=_GivenStates(crank)))
-
-
-#: Each linkage's :class:`Mechanism`, by ``[mechanism] kind``.  The RCCC's output link turns at
-#: ``-theta4_dot`` about ``z4`` (``theta4`` is the ground's angle relative to it).
-MECHANISMS = {
-    "rssr": Mechanism(lambda case, crank: rssr.analyze_rssr(case, crank=crank), lambda an: an.phi_dot,
-                      rssr.to_table),
-    "rccc": Mechanism(_rccc_at, lambda an: -an.q_dot[:, 4], rccc.to_table),
-}
-
-
-def mechanism(case: Any) -> Mechanism:
-    """The :class:`Mechanism` of a checked linkage case (``ValueError`` for anything else)."""
-    kinds = {RssrCase: "rssr", RcccCase: "rccc"}
-    if type(case) not in kinds:
-        raise ValueError(f"forward dynamics: a {type(case).__name__} is not simulated here (an RSSR or RCCC "
-                         "case is; a loop table by dualmech.models.loop.forward_dynamics)")
-    return MECHANISMS[kinds[type(case)]]
+#: The in-house analysis of a linkage case at given input states (:class:`~dualmech.core.motion.CrankState`;
+#: its ``s`` and rates are not read): :func:`dualmech.models.loop.preset_dynamics.at_states`.
+Analyze = Callable[[Any, CrankState], StatesAnalysis]
 
 
 def loads(case: Any) -> tuple[float, float]:
@@ -153,25 +126,25 @@ class Coefficients:
                                   bc_type="periodic" if self.periodic else None)
 
 
-def coefficients(case: Any, points: int = POINTS, analyze: Mechanism | None = None) -> Coefficients:
+def coefficients(case: Any, analyze: Analyze, points: int = POINTS) -> Coefficients:
     """:class:`Coefficients` of ``case`` at ``points`` input angles over a turn, from three inverse-dynamics
-    solves each by ``analyze`` (default: the case's :class:`Mechanism`) of :func:`inverse_case`.
+    solves each by ``analyze`` of :func:`inverse_case`.
 
     Raises ``ValueError`` if the linkage does not assemble (or reaches an edge of assembly) somewhere on
     the turn: its input cannot turn fully."""
-    mech = mechanism(case) if analyze is None else analyze
     theta = np.linspace(0.0, 2 * np.pi, points)
     n = points
     rates = np.concatenate([np.zeros(n), np.ones(n), np.zeros(n)])
     accels = np.concatenate([np.zeros(n), np.zeros(n), np.ones(n)])
     zero = np.zeros(3 * n)
     with np.errstate(all="ignore"):  # rows off the turn are refused below
-        an = mech.analyze(inverse_case(case), CrankState(np.tile(theta, 3), zero, rates, zero, accels, zero))
-    if not (an.status == Status.OK.value).all():
-        raise ValueError(f"simulate: {case.name!r} does not turn fully (statuses {sorted(set(an.status))} on "
-                         "the turn); the forward dynamics of a linkage needs an input that does")
-    torque = an.reactions.moment["j1"][:, 2].reshape(3, n).copy()
-    ratio = mech.output_rate(an)[n:2 * n].copy()
+        an = analyze(inverse_case(case), CrankState(np.tile(theta, 3), zero, rates, zero, accels, zero))
+    if not (an.table.status == Status.OK.value).all():
+        words = sorted(set(an.table.status))
+        raise ValueError(f"simulate: {case.name!r} does not turn fully (statuses {words} on the turn); the "
+                         "forward dynamics of a linkage needs an input that does")
+    torque = an.table["drive_torque"].reshape(3, n).copy()
+    ratio = an.output_rate[n:2 * n].copy()
     torque[:, -1], ratio[-1] = torque[:, 0], ratio[0]  # 2 pi is 0: the same pose, equal to rounding
     return Coefficients(theta, torque[2] - torque[0], torque[1] - torque[0], torque[0], ratio)
 
@@ -179,7 +152,7 @@ def coefficients(case: Any, points: int = POINTS, analyze: Mechanism | None = No
 def interpolation_error(c: Coefficients) -> float:
     """A bound on the spline's largest error over the largest ``|coefficient|``: how far the spline on every
     other angle misses the skipped ones (the full table's error is smaller, by ``2^(k+1)`` down to the
-    table's rounding, ~1e-14).  Measured 9e-14 (RSSR), 3e-12 (RCCC) on the bundled cases."""
+    table's rounding, ~1e-14).  Measured 2.5e-13 (RSSR), 3.2e-12 (RCCC) on the bundled cases."""
     data = c.stacked()
     scale = np.maximum(np.abs(data).max(axis=0), np.finfo(float).tiny)
     return float((np.abs(c.spline(2)(c.theta[1::2]) - data[1::2]) / scale).max())
@@ -221,12 +194,13 @@ def drive_load(torque: float | str | LoadFunction | None, default: float) -> Loa
     return load
 
 
-def simulate(case: Any, duration: float, torque: float | str | LoadFunction | None = None,
+def simulate(case: Any, analyze: Analyze, duration: float, torque: float | str | LoadFunction | None = None,
              psi0: float | None = None, psidot0: float | None = None, damping: float = 0.0,
              samples: int = 1001, method: str = "DOP853", rtol: float = 1e-12, atol: float = 1e-12,
              coeffs: Coefficients | None = None, max_evaluations: int = MAX_EVALUATIONS,
              time_limit: float = TIME_LIMIT, progress: Progress | None = None) -> "LinkageSimulation":
-    """Integrate the input's equation of motion of a linkage case from ``t = 0`` to ``duration`` s.
+    """Integrate the input's equation of motion of a linkage case from ``t = 0`` to ``duration`` s, its
+    coefficients and the table along the motion by ``analyze`` (:data:`Analyze`).
 
     ``torque``: the drive torque about ``+z`` on the input link (default: an RSSR case's ``drive_torque``,
     else 0; :func:`drive_load`); the output torque is the case's (:func:`loads`).  ``psi0`` (rad),
@@ -245,20 +219,19 @@ def simulate(case: Any, duration: float, torque: float | str | LoadFunction | No
     duration, damping, _, rtol, atol, _ = checked_settings(duration, damping, 0.0, rtol, atol, 1e-12,
                                                              samples, method)
     budget = Budget(max_evaluations, time_limit)
-    mechanism(case)  # a kind without forward dynamics: one line, before any of its keys is read
     default, output_torque = loads(case)
     tau = drive_load(torque, default)
     psi0 = float(np.radians(case.motion.angles_deg[0])) if psi0 is None else check_number("psi0", psi0,
                                                                                           CRANK_ANGLE)
     psidot0 = case.motion.speed if psidot0 is None else check_number("psidot0", psidot0, CRANK_SPEED)
-    c = coefficients(case) if coeffs is None else coeffs
+    c = coefficients(case, analyze) if coeffs is None else coeffs
     rhs = EquationOfMotion(c.spline(), tau, output_torque, damping)
     sol = integrate(rhs, budget, np.array([psi0, psidot0, 0.0, 0.0, 0.0]),
                      np.linspace(0.0, duration, int(samples)), method, rtol, atol, progress)
     info = {"method": method, "rtol": rtol, "atol": atol, "nfev": int(sol.nfev), "coefficients": "table",
             "table_size": c.theta.shape[0], "interpolation_error": interpolation_error(c),
             "message": sol.message}
-    return trajectory(case, rhs, sol.t, sol.y, info)
+    return trajectory(case, analyze, rhs, sol.t, sol.y, info)
 
 
 @dataclass(frozen=True)
@@ -315,7 +288,7 @@ SIMULATION_COLUMNS: tuple[str, ...] = (
 )
 
 
-def energies(case: Any, an: Any) -> tuple[np.ndarray, np.ndarray]:
+def energies(case: Any, an: StatesAnalysis) -> tuple[np.ndarray, np.ndarray]:
     """Kinetic :math:`\\sum \\tfrac12 m v_G^2 + \\tfrac12\\omega\\cdot I_G\\omega` and potential
     :math:`-\\sum m g\\cdot G` energy of the three links of an analysis ``an``, each ``(n,)``."""
     kinetic = sum(kinetic_energy(b, m) for b, m in zip(case.bodies, an.motions))
@@ -323,25 +296,24 @@ def energies(case: Any, an: Any) -> tuple[np.ndarray, np.ndarray]:
     return kinetic, potential
 
 
-def energy(case: Any, theta: np.ndarray, theta_dot: np.ndarray) -> np.ndarray:
+def energy(case: Any, analyze: Analyze, theta: np.ndarray, theta_dot: np.ndarray) -> np.ndarray:
     """Kinetic plus potential energy of the links at the input states ``(n,)`` (:func:`energies`)."""
     zero = np.zeros_like(theta)
-    an = mechanism(case).analyze(inverse_case(case), CrankState(theta, zero, theta_dot, zero, zero, zero))
+    an = analyze(inverse_case(case), CrankState(theta, zero, theta_dot, zero, zero, zero))
     return sum(energies(case, an))
 
 
-def trajectory(case: Any, rhs: EquationOfMotion, t: np.ndarray, y: np.ndarray,
+def trajectory(case: Any, analyze: Analyze, rhs: EquationOfMotion, t: np.ndarray, y: np.ndarray,
                info: dict) -> LinkageSimulation:
     """The in-house pose, rates, reactions and energies along an integrated motion ``y`` ``(5, n)``."""
     psi, w = y[0], y[1]
     acc = np.array([rhs(ti, yi)[1] for ti, yi in zip(t, y.T)])
     torque = np.array([rhs.torque(ti, p, v, math.nan, math.nan) for ti, p, v in zip(t, psi, w)])
     zero = np.zeros_like(psi)
-    mech = mechanism(case)
-    an = mech.analyze(inverse_case(case), CrankState(psi, zero, w, zero, acc, zero))
+    an = analyze(inverse_case(case), CrankState(psi, zero, w, zero, acc, zero))
     kinetic, potential = energies(case, an)
     return LinkageSimulation(case, t, psi, w, acc, torque, rhs.output_torque, kinetic, potential, y[2], y[3],
-                             y[4], mech.table(an), info)
+                             y[4], an.table, info)
 
 
 def linkage_summary(sim: LinkageSimulation) -> str:

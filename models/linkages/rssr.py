@@ -1,4 +1,4 @@
-"""The RSSR spatial four-bar by the dual-number method: link-joint table, closure, rates, reactions.
+"""The RSSR spatial four-bar: its table's columns, status rules and own start estimate.
 
 ::
 
@@ -10,35 +10,23 @@
 
     * prescribed input   ? unknown (the output angle is phi4 = pi - theta4)
 
-The loop is closed by the generic Newton with the screws of the table and its DFP fallback
-(:func:`~dualmech.core.closure.solve_closure`), the rates by the generic screw sums
-(:func:`~dualmech.core.rates.solve_rates`), the reactions by the generic Newton-Euler least
-squares of :mod:`dualmech.models.linkages.dynamics`.  The coupler's spin is fixed by the
-zero-spin gauge, as the slider crank's rod (``docs/conventions.md``, "RSSR").  The start
-estimate of the output angle is the plane-free closed form ``A cos phi + B sin phi = C`` of
-the output pin's circle meeting the sphere about ``P2`` (:func:`closed_form_phi`); it also
-decides ``no_assembly`` (``|C| > sqrt(A^2 + B^2)``) and the branch.
-
-The in-house engine is the loop engine on the RSSR's preset table (:mod:`dualmech.models.loop.preset_engine`),
-started from :func:`closed_form_phi` and :func:`estimate` and read back by these columns and status rules
-(:func:`status_words`); the pipeline here (:func:`analyze_rssr`) is the forward dynamics' analysis
-(:mod:`dualmech.models.linkages.forward_dynamics`) and the tests' oracle.
+The in-house engine is the loop engine on the RSSR's preset table (:mod:`dualmech.models.loop.preset_engine`;
+its forward dynamics :mod:`dualmech.models.loop.preset_dynamics`), started from :func:`closed_form_phi` and
+:func:`estimate` and read back by these columns and status rules (:func:`status_words`).  The coupler's spin
+is fixed by the zero-spin gauge, as the slider crank's rod (``docs/conventions.md``, "RSSR").  The start
+estimate of the output angle is the plane-free closed form ``A cos phi + B sin phi = C`` of the output pin's
+circle meeting the sphere about ``P2`` (:func:`closed_form_phi`); it also decides ``no_assembly``
+(``|C| > sqrt(A^2 + B^2)``) and the branch.  (The closed-form pipeline on this table, closure, rates and
+Newton-Euler reactions position by position, is the tests' oracle: ``tests/linkage_oracles.py``.)
 """
-
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from dualmech.core.closure import ClosureStatus, solve_closure
-from dualmech.core.dual import origin
-from dualmech.core.loop import Loop, LoopState, Row, evaluate, inp, par, unk
-from dualmech.core.motion import CrankState
-from dualmech.core.rates import solve_rates
-from dualmech.core.reactions import BodyMotion, body_motion
-from dualmech.core.status import Status, is_status, settle
+from dualmech.core.loop import LoopState
+from dualmech.core.status import Status, is_status
 from dualmech.core.thresholds import (
     ASSEMBLY_LIMIT_CONDITION,
     ASSEMBLY_REACH,
@@ -46,28 +34,14 @@ from dualmech.core.thresholds import (
     Tolerance,
 )
 from dualmech.models.angle_ranges import format_angle_ranges, no_assembly_ranges
-from dualmech.models.linkages.dynamics import GivenLoad, Joint, JointReactions, solve_joint_reactions
-from dualmech.models.linkages.rssr_case import RssrCase, RssrGeometry
-from dualmech.models.tables import LinkageTable, TableSpec
-
-LOOP = Loop(
-    rows=(
-        Row("joint1", theta=inp("theta1"), s=par("s1"), a=par("a1")),
-        Row("joint2", spherical=True, a=par("a2")),
-        Row("joint3", spherical=True, a=par("a3")),
-        Row("joint4", theta=unk("theta4"), s=par("s4"), alpha=par("alpha4"), a=par("a4")),
-    ),
-    spin_gauges=(1,),
-    length_scale="a2",
-)
+from dualmech.models.linkages.rssr_case import RssrGeometry
+from dualmech.models.tables import TableSpec
 
 #: Closure residual accepted at the assembly limit (``|t4|`` in the band): there the loop's Jacobian is
 #: singular, and a closure error of ~eps/|t| is the rounding of the pose, not a failure.
 LIMIT_CLOSURE = Tolerance(
     1e-9, "the RCCC's slides close to ~1e-16/|t|: measured 2.7e-11 at |t| = 4e-6 (1e-9 deg from the edge), "
     "3.8e-12 at 4e-5; the pose there is given to that accuracy")
-#: Joint names of the reaction columns, in loop order (``j1`` ... ``j4``).
-JOINTS = ("j1", "j2", "j3", "j4")
 #: Output columns of an RSSR result table, in order (``docs/conventions.md``, "RSSR").
 COLUMNS: tuple[str, ...] = (
     "theta1_deg", "phi4_deg", "phi4_dot", "phi4_ddot",
@@ -80,13 +54,6 @@ REACTIONS: tuple[str, ...] = COLUMNS[4:24] + ("dynamics_residual",)
 POSE: tuple[str, ...] = ("phi4_deg", "transmission_out")
 RATES: tuple[str, ...] = ("phi4_dot", "phi4_ddot", "transmission_in")
 SPEC = TableSpec(COLUMNS, POSE, RATES, REACTIONS)
-
-
-def loop_values(geom: RssrGeometry, theta1: np.ndarray) -> dict[str, np.ndarray]:
-    """Inputs and parameters of :data:`LOOP` at the crank angles ``theta1`` ``(n,)`` (rad)."""
-    full = np.ones_like(theta1)
-    return {"theta1": theta1, "s1": geom.s1 * full, "a1": geom.a1 * full, "a2": geom.a2 * full,
-            "a3": geom.a3 * full, "s4": -geom.h * full, "alpha4": geom.alpha4 * full, "a4": geom.a4 * full}
 
 
 def crank_pin(geom: RssrGeometry, theta1: np.ndarray) -> np.ndarray:
@@ -118,8 +85,10 @@ def closed_form_phi(geom: RssrGeometry, theta1: np.ndarray, branch: int) -> tupl
     return np.arctan2(b, a) - branch * np.arccos(np.clip(rho, -1.0, 1.0)), rho
 
 
-def _frame_x(u: np.ndarray) -> np.ndarray:
-    """A rotation ``(n, 3, 3)`` whose x axis is the unit vector ``u`` ``(n, 3)``."""
+def frame_x(u: np.ndarray) -> np.ndarray:
+    """A rotation ``(n, 3, 3)`` whose x axis is the unit vector ``u`` ``(n, 3)``: the coupler frame of
+    :func:`estimate` (``docs/conventions.md``, "RSSR": y and z any completion; this one).  Its y is
+    ``ref x u`` normalized, ``ref`` the world x where ``|u_z| > 0.9``, else the world z."""
     ref = np.where(np.abs(u[:, 2:3]) > 0.9, np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]))
     v = np.cross(ref, u)
     v /= np.linalg.norm(v, axis=1, keepdims=True)
@@ -137,61 +106,11 @@ def estimate(geom: RssrGeometry, theta1: np.ndarray, phi: np.ndarray) -> LoopSta
     The rotations close exactly; the coupler length closes only if ``phi`` is a solution.
     """
     p2, p3 = crank_pin(geom, theta1), output_pin(geom, phi)
-    coupler = _frame_x((p3 - p2) / np.linalg.norm(p3 - p2, axis=1, keepdims=True))
+    coupler = frame_x((p3 - p2) / np.linalg.norm(p3 - p2, axis=1, keepdims=True))
     theta4 = math.pi - phi
     ball2 = np.swapaxes(_rz(theta1), 1, 2) @ coupler
     ball3 = np.swapaxes(coupler, 1, 2) @ geom.ground_rotation() @ _rz(-theta4)
     return LoopState(theta4[:, None].copy(), np.stack([ball2, ball3], axis=1))
-
-
-@dataclass(frozen=True)
-class RssrAnalysis:
-    """The in-house answer at the ``n`` crank positions of a case.
-
-    ``phi``, ``phi_dot``, ``phi_ddot`` the output angle (rad) and its rates; ``t1``, ``t4`` the
-    input and output transmissions; ``status`` words; ``residual`` closure residual;
-    ``iterations`` closure iterations; ``reactions`` per joint; ``motions`` of the three links.
-    """
-
-    case: RssrCase
-    crank: CrankState
-    phi: np.ndarray
-    phi_dot: np.ndarray
-    phi_ddot: np.ndarray
-    t1: np.ndarray
-    t4: np.ndarray
-    status: np.ndarray
-    residual: np.ndarray
-    iterations: np.ndarray
-    reactions: JointReactions
-    motions: tuple[BodyMotion, BodyMotion, BodyMotion]
-
-
-def close(loop: Loop, values: dict[str, np.ndarray], guess: LoopState, reach: np.ndarray
-          ) -> tuple[LoopState, np.ndarray, np.ndarray, np.ndarray]:
-    """Close ``loop`` from ``guess`` at the positions where ``reach`` ``(n,)`` says it assembles
-    (:func:`~dualmech.core.closure.solve_closure`; the others keep ``guess``, ``not_converged`` codes, NaN
-    residual: their status is ``no_assembly`` by geometry).  Returns state, closure status codes,
-    residual, iterations."""
-    n = reach.shape[0]
-    codes = np.full(n, ClosureStatus.NOT_CONVERGED, dtype=np.int8)
-    residual, iterations = np.full(n, np.nan), np.zeros(n, dtype=int)
-    idx = np.flatnonzero(reach)
-    if idx.size == 0:
-        return guess, codes, residual, iterations
-    res = solve_closure(loop, {k: v[idx] for k, v in values.items()}, guess.take(idx))
-    codes[idx], residual[idx], iterations[idx] = res.status, res.residual, res.iterations
-    return guess.put(idx, res.state), codes, residual, iterations
-
-
-def _transmissions(geom: RssrGeometry, chain, s1: float) -> tuple[np.ndarray, ...]:
-    """``P2``, ``P3``, ``u`` and the transmissions ``t1 = z·((P2 - (0,0,s1)) x u)/a1`` and
-    ``t4 = k4·((P3 - Q4) x u)/a3``, ``(n, 3)`` / ``(n,)``."""
-    p2, p3 = origin(chain.frames[0]), origin(chain.frames[1])
-    u = (p3 - p2) / geom.a2
-    t1 = np.cross(p2 - np.array([0.0, 0.0, s1]), u)[:, 2] / geom.a1
-    t4 = np.cross(p3 - geom.foot, u) @ geom.k4 / geom.a3
-    return p2, p3, u, t1, t4
 
 
 def assembles(rho: np.ndarray) -> np.ndarray:
@@ -213,83 +132,6 @@ def status_words(converged: np.ndarray, t1: np.ndarray, t4: np.ndarray, branch: 
     status[(np.sign(t4) != branch) & ~at_limit] = Status.BRANCH_JUMP.value
     status[~converged & ~(at_limit & (residual <= LIMIT_CLOSURE.value))] = Status.NOT_CONVERGED.value
     return status
-
-
-def analyze_rssr(case: RssrCase, phi_guess: np.ndarray | None = None,
-                 crank: CrankState | None = None) -> RssrAnalysis:
-    """Displacement, velocity, acceleration and inverse dynamics at every position of ``case``.
-
-    ``phi_guess`` ``(n,)`` replaces the closed-form start estimate of the output angle (tests
-    use it to show that Newton, not the estimate, closes the loop); ``crank`` replaces the case's
-    crank states (e.g. those of a simulation; ``s`` and its rates are not read).
-    """
-    geom = case.geometry
-    crank = case.motion.state(geom.s1) if crank is None else crank
-    theta1 = crank.theta
-    phi0, rho = closed_form_phi(geom, theta1, case.branch)
-    guess = estimate(geom, theta1, phi0 if phi_guess is None else phi_guess)
-    state, codes, residual, iterations = close(LOOP, loop_values(geom, theta1), guess, assembles(rho))
-    chain = evaluate(LOOP, loop_values(geom, theta1), state)
-    rates = solve_rates(chain, LOOP, {"theta1": crank.theta_dot}, {"theta1": crank.theta_ddot})
-    p2, p3, _, t1, t4 = _transmissions(geom, chain, geom.s1)
-    n = theta1.shape[0]
-    hub = np.tile([0.0, 0.0, geom.s1], (n, 1))
-    flip = np.diag([-1.0, -1.0, 1.0])  # output frame: x toward P3, the table's frame {4} has x toward Q4
-    frames = ((chain.frames[0].re, hub), (chain.frames[1].re, p2), (chain.frames[2].re @ flip, origin(
-        chain.frames[2])))
-    motions = tuple(body_motion(b, r, o, rates.link_twist[i], rates.link_accel[i])
-                    for i, (b, (r, o)) in enumerate(zip(case.bodies, frames)))
-    reactions = rssr_reactions(case, motions, p2, p3, n)
-    status = status_words(codes == ClosureStatus.OK, t1, t4, case.branch, case.mode == "torque", residual)
-    status[~assembles(rho)] = Status.NO_ASSEMBLY.value
-    phi = np.mod(math.pi - state.scalars[:, 0] + math.pi, 2 * math.pi) - math.pi
-    return RssrAnalysis(case, crank, phi, -rates.q_dot[:, 0], -rates.q_ddot[:, 0], t1, t4, status,
-                        residual, iterations, reactions, motions)
-
-
-def rssr_reactions(case: RssrCase, motions: tuple[BodyMotion, ...], p2: np.ndarray, p3: np.ndarray,
-                   n: int) -> JointReactions:
-    """The four joints' reactions (``docs/conventions.md``, "RSSR"): ``j1`` ground on the input crank
-    at ``(0, 0, s1)``, ``j2`` input crank on coupler at ``P2``, ``j3`` coupler on output crank at
-    ``P3``, ``j4`` ground on output crank at ``Q4``; the given load is ``j1``'s moment about z
-    or ``j4``'s about ``k4``."""
-    geom = case.geometry
-    hub = np.tile([0.0, 0.0, geom.s1], (n, 1))
-    foot = np.tile(geom.foot, (n, 1))
-    joints = (Joint("j1", 0, -1, hub, True), Joint("j2", 1, 0, p2, False), Joint("j3", 2, 1, p3, False),
-              Joint("j4", 2, -1, foot, True))
-    if case.mode == "torque":
-        given = GivenLoad(0, np.tile([0.0, 0.0, 1.0], (n, 1)), np.full(n, case.drive_torque))
-    else:
-        given = GivenLoad(3, np.tile(geom.k4, (n, 1)), np.full(n, case.output_torque))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return solve_joint_reactions(case.bodies, motions, joints, case.gravity, (given,),
-                                     np.full(n, geom.a2))
-
-
-def to_table(an: RssrAnalysis) -> LinkageTable:
-    """The result table of ``an`` (:data:`COLUMNS`), settled: columns a row's status does not give are NaN."""
-    r, geom = an.reactions, an.case.geometry
-    cols = {"theta1_deg": np.degrees(an.crank.theta), "phi4_deg": np.degrees(an.phi),
-            "phi4_dot": an.phi_dot, "phi4_ddot": an.phi_ddot}
-    for j in JOINTS:
-        for k, axis in enumerate("xyz"):
-            cols[f"{j}_f{axis}"] = r.force[j][:, k]
-        if j in ("j1", "j4"):
-            for k, axis in enumerate("xyz"):
-                cols[f"{j}_m{axis}"] = r.moment[j][:, k]
-    # j1's moment is reported about O (as the slider crank's): move it from the hub (0, 0, s1)
-    hub = np.array([0.0, 0.0, geom.s1])
-    m1 = r.moment["j1"] + np.cross(hub, r.force["j1"])
-    cols.update({"j1_mx": m1[:, 0], "j1_my": m1[:, 1], "j1_mz": m1[:, 2]})
-    cols.update({"drive_torque": r.moment["j1"][:, 2], "output_torque": r.moment["j4"] @ geom.k4,
-                 "transmission_in": an.t1, "transmission_out": an.t4, "residual": an.residual,
-                 "dynamics_residual": r.residual})
-    cols = {c: np.array(cols[c], dtype=float) for c in COLUMNS}
-    status = settle(cols, an.status, REACTIONS, pose=POSE, rates=RATES)
-    messages = no_assembly_messages(cols["theta1_deg"], status, "the coupler cannot reach the output crank")
-    return LinkageTable("dualmech", an.case.name, cols, status,
-                        {"iterations": an.iterations, "messages": messages, "branch": an.case.branch})
 
 
 def no_assembly_messages(theta_deg: np.ndarray, status: np.ndarray, why: str) -> list[str]:

@@ -42,7 +42,7 @@ import numpy as np
 
 from dualmech.core.loop import LoopState
 from dualmech.core.loop_reactions import link_frames
-from dualmech.core.reactions import body_motion, kinetic_energy
+from dualmech.core.reactions import BodyMotion, body_motion, kinetic_energy
 from dualmech.core.status import Status
 from dualmech.core.table import write_csv
 from dualmech.models.expressions import LoadFunction
@@ -118,6 +118,20 @@ def analyze_states(mechanism: LoopMechanism, start: LoopState, theta: np.ndarray
     continuation from ``start``, a pose at ``theta[at]``."""
     at_states = replace(mechanism, drive=replace(mechanism.drive, positions=theta))
     return analyze_loop(at_states, start, at, drive=drive_state(at_states, theta, theta_dot, theta_ddot))
+
+
+def analyze_samples(mechanism: LoopMechanism, start: LoopState, grid: np.ndarray, at: int, theta: np.ndarray,
+                    theta_dot: np.ndarray, theta_ddot: np.ndarray) -> tuple[LoopAnalysis, np.ndarray]:
+    """:func:`analyze_states` at drive states ``(n,)`` each in any order, merged with the drive angles
+    ``grid`` (at rest; ``start`` a pose at ``grid[at]``) and sorted, so that consecutive angles stay close
+    whatever the states: the analysis and each state's row in it ``(n,)``."""
+    angles = np.concatenate([grid, theta])
+    order = np.argsort(angles, kind="stable")
+    inverse = np.argsort(order)
+    pad = np.zeros(grid.shape[0])
+    an = analyze_states(mechanism, start, angles[order], np.concatenate([pad, theta_dot])[order],
+                        np.concatenate([pad, theta_ddot])[order], int(inverse[at]))
+    return an, inverse[grid.shape[0]:]
 
 
 def drive_effort(an: LoopAnalysis, unit: dict[str, np.ndarray]) -> np.ndarray:
@@ -331,13 +345,19 @@ SIMULATION_COLUMNS: tuple[str, ...] = (
 def energies(an: LoopAnalysis) -> tuple[np.ndarray, np.ndarray]:
     """Kinetic :math:`\\sum \\tfrac12 m v_G^2 + \\tfrac12\\omega\\cdot I_G\\omega` and potential
     :math:`-\\sum m g\\cdot G` energy of the moving links of ``an``, each ``(n,)``."""
-    frames = link_frames(an.chain, an.loop, an.drive.values)
     mech = an.mechanism
-    motions = [body_motion(body, *frames[r], an.rates.link_twist[r], an.rates.link_accel[r])
-               for r, body in enumerate(mech.bodies)]
+    motions = link_motions(an)
     kinetic = sum(kinetic_energy(b, m) for b, m in zip(mech.bodies, motions))
     potential = -sum(b.mass * m.com @ mech.gravity for b, m in zip(mech.bodies, motions))
     return kinetic, potential
+
+
+def link_motions(an: LoopAnalysis) -> list[BodyMotion]:
+    """The motion of each moving link's body of ``an`` in its link frame
+    (:func:`~dualmech.core.loop_reactions.link_frames`), ``(n,)`` positions each."""
+    frames = link_frames(an.chain, an.loop, an.drive.values)
+    return [body_motion(body, *frames[r], an.rates.link_twist[r], an.rates.link_accel[r])
+            for r, body in enumerate(an.mechanism.bodies)]
 
 
 def trajectory(mechanism: LoopMechanism, rhs: EquationOfMotion, t: np.ndarray, y: np.ndarray, info: dict,
@@ -355,16 +375,11 @@ def trajectory(mechanism: LoopMechanism, rhs: EquationOfMotion, t: np.ndarray, y
     pose, theta0 = start_pose(free, start)
     if info.get("drive_range") is None:  # a turn's grid and the angles taken into it
         grid, at = theta0 + np.linspace(0.0, 2 * np.pi, POINTS)[:-1], 0
-        angles = np.concatenate([grid, theta0 + np.mod(psi - theta0, 2 * np.pi)])
+        angles = theta0 + np.mod(psi - theta0, 2 * np.pi)
     else:
         grid, at = range_grid(theta0, *info["drive_range"])
-        angles = np.concatenate([grid, psi])
-    order = np.argsort(angles, kind="stable")
-    inverse = np.argsort(order)
-    pad = np.zeros(grid.shape[0])
-    an = analyze_states(free, pose, angles[order], np.concatenate([pad, w])[order],
-                        np.concatenate([pad, acc])[order], int(inverse[at]))
-    rows = inverse[grid.shape[0]:]  # each sample's row in the sorted analysis
+        angles = psi
+    an, rows = analyze_samples(free, pose, grid, at, angles, w, acc)
     kinetic, potential = (e[rows] for e in energies(an))
     cols = {k: v[rows] for k, v in analysis_columns(an).items()}
     cols[variable(*free.driven_coordinate)] = psi

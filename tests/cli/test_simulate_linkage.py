@@ -16,6 +16,7 @@ from dualmech.cli import main
 from dualmech.models.kinds import KIND_HOMES, SLIDER_CRANK
 from dualmech.models.linkages import CASES, linkage_case, rccc, rssr
 from dualmech.models.linkages import forward_dynamics as lfd
+from dualmech.models.loop import preset_dynamics
 from dualmech.models.simulation import SIMULATION_COLUMNS
 
 TABLE_COLUMNS = {"rssr": rssr.COLUMNS, "rccc": rccc.COLUMNS}
@@ -37,7 +38,7 @@ def test_simulate_writes_the_linkage_motion(kind: str, tmp_path: Path) -> None:
     header, values, status = _read(out.read_text())
     assert header == [*lfd.SIMULATION_COLUMNS, *TABLE_COLUMNS[kind][1:], "status"]
     assert values.shape == (11, len(header) - 1) and status == ["ok"] * 11
-    direct = lfd.simulate(linkage_case(kind), 0.2, torque=TORQUE, damping=0.01,
+    direct = preset_dynamics.simulate(linkage_case(kind), 0.2, torque=TORQUE, damping=0.01,
                           psi0=np.radians(30.0), psidot0=5.0, samples=11)
     for k, name in enumerate(header[:-1]):  # repr() round-trips floats exactly
         assert_allclose(values[:, k], direct.columns()[name], rtol=0, atol=0, err_msg=name)

@@ -11,9 +11,11 @@ from dualmech.core.closure import ClosureStatus, solve_closure
 from dualmech.core.continuation import branch_sign, continue_closure, interpolate, search_assembly
 from dualmech.core.loop import LoopState, closure_residual, evaluate, rodrigues
 from dualmech.models.linkages import read_linkage
-from dualmech.models.linkages.rssr import LOOP, closed_form_phi, estimate, loop_values
+from dualmech.models.linkages.rssr import closed_form_phi, estimate
 from dualmech.models.linkages.rssr_case import rssr_from_dict
 from dualmech.models.slider_crank.loop import LOOP as SLIDER_CRANK
+from tests.linkage_oracles import RSSR_LOOP as LOOP
+from tests.linkage_oracles import rssr_loop_values as loop_values
 from tests.tolerances import LOOP_CLOSURE, LOOP_VS_OWN_ENGINE
 
 GEOMETRY = rssr_from_dict(read_linkage("rssr")).geometry

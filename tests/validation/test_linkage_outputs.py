@@ -17,6 +17,7 @@ from dualmech.validation.compare.tables import relative_differences
 from dualmech.validation.engines import solve_linkage as solve_linkage_by
 from dualmech.validation.matrix.tolerances import group_tolerances
 from dualmech.validation.tolerances import SIM_STROKE
+from tests.linkage_oracles import analyze_rccc
 from tests.tolerances import LINKAGE_DYNAMICS_RESIDUAL, S4_VS_CLOSED_FORM, SERVO_LAG
 
 table_of = {"rssr": rssr_table, "rccc": rccc_table}
@@ -95,7 +96,7 @@ def _fastest(kind: str, case, mechanism, reference) -> float:
     if kind == "rssr":
         return max(1.0, float(np.max(np.abs(reference["phi4_dot"]))) / speed)
     size = max(abs(v) for j in mechanism.joints for v in (j.a, j.s))
-    q_dot = np.abs(rccc.analyze_rccc(case).q_dot) / speed
+    q_dot = np.abs(analyze_rccc(case).q_dot) / speed
     return max(1.0, float(q_dot[:, 0::2].max()), float(q_dot[:, 1::2].max()) / size)
 
 

@@ -17,9 +17,11 @@ from dualmech.core.loop import LoopState
 from dualmech.core.status import Status
 from dualmech.models.inputs import CaseError
 from dualmech.models.linkages import read_linkage, solve_linkage
-from dualmech.models.linkages.rccc import SPEC, analyze_rccc, estimate, spherical_estimate, to_table
+from dualmech.models.linkages.rccc import SPEC, estimate, spherical_estimate
 from dualmech.models.linkages.rccc_case import RcccCase, rccc_from_dict
 from tests.linkage_cases import random_rccc
+from tests.linkage_oracles import analyze_rccc
+from tests.linkage_oracles import rccc_to_table as to_table
 from tests.tolerances import (
     LINKAGE_CLOSED_FORM,
     LINKAGE_FINITE_DIFFERENCE,

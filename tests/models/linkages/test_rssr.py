@@ -14,11 +14,12 @@ from numpy.testing import assert_allclose
 from scipy.optimize import brentq
 
 from dualmech.core.status import Status
-from dualmech.models.linkages import dynamics as dynamics_module
-from dualmech.models.linkages import rssr as rssr_module
-from dualmech.models.linkages.rssr import analyze_rssr, closed_form_phi, crank_pin, output_pin, to_table
+from dualmech.models.linkages.rssr import closed_form_phi, crank_pin, output_pin
 from dualmech.models.linkages.rssr_case import RssrCase, rssr_from_dict
+from tests import linkage_oracles, linkage_reactions
 from tests.linkage_cases import bundled, random_rssr
+from tests.linkage_oracles import analyze_rssr
+from tests.linkage_oracles import rssr_to_table as to_table
 from tests.tolerances import (
     LINKAGE_CLOSED_FORM,
     LINKAGE_DYNAMICS_RESIDUAL,
@@ -91,8 +92,8 @@ def test_the_power_check_sees_a_fault(monkeypatch: pytest.MonkeyPatch) -> None:
     """Deliberate fault: the reactions computed without gravity; the power balance must fail."""
     rng = np.random.default_rng(5)
     case = rssr_from_dict(random_rssr(rng))
-    real = dynamics_module.solve_joint_reactions
-    monkeypatch.setattr(rssr_module, "solve_joint_reactions",
+    real = linkage_reactions.solve_joint_reactions
+    monkeypatch.setattr(linkage_oracles, "solve_joint_reactions",
                         lambda b, m, j, g, given, length: real(b, m, j, 0 * g, given, length))
     assert np.abs(power_residual(analyze_rssr(case))).max() > 1e3 * LINKAGE_POWER_BALANCE.value
 

@@ -17,9 +17,9 @@ from numpy.testing import assert_allclose
 
 from dualmech.core.thresholds import Tolerance
 from dualmech.models.case import load_case
-from dualmech.models.linkages import forward_dynamics as linkage_fd
 from dualmech.models.linkages import linkage_case
 from dualmech.models.loop import forward_dynamics as fd
+from dualmech.models.loop import preset_dynamics
 from dualmech.models.loop.description import Drive, Joint, LoopMechanism
 from dualmech.models.loop.presets import loop_table_of, slider_crank_start, slider_crank_table
 from dualmech.models.slider_crank import forward_dynamics as slider_crank_fd
@@ -88,7 +88,7 @@ def test_linkage_presets_move_as_their_own_forward_dynamics(kind: str) -> None:
     """The RSSR (RCCC) case by its own forward dynamics and as its loop table, started on the case's branch
     (:func:`~dualmech.models.loop.presets.loop_table_of`): the same motion."""
     case = linkage_case(kind)
-    own = linkage_fd.simulate(case, 0.5, torque="0.5*sin(t)", damping=0.01, samples=101)
+    own = preset_dynamics.simulate(case, 0.5, torque="0.5*sin(t)", damping=0.01, samples=101)
     loop = fd.simulate(loop_table_of(case), 0.5, torque="0.5*sin(t)", damping=0.01, samples=101)
     for name in ("psi", "psi_dot", "psi_ddot", "kinetic", "potential", "work_drive", "dissipated"):
         assert _relative(getattr(own, name), getattr(loop, name)) < SAME_MOTION.value, name

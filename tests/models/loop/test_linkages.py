@@ -6,13 +6,12 @@ import numpy as np
 import pytest
 
 from dualmech.models.linkages import read_linkage
-from dualmech.models.linkages.rccc import analyze_rccc
 from dualmech.models.linkages.rccc_case import rccc_from_dict
-from dualmech.models.linkages.rssr import analyze_rssr
 from dualmech.models.linkages.rssr_case import rssr_from_dict
 from dualmech.models.loop.engine import analyze_loop
 from dualmech.models.loop.presets import rccc_start, rccc_table, rssr_start, rssr_table
 from dualmech.models.loop.table_format import loop_from_dict
+from tests.linkage_oracles import analyze_rccc, analyze_rssr
 from tests.tolerances import LOOP_VS_OWN_ENGINE
 
 

@@ -1,5 +1,5 @@
 """The in-house engine of the RSSR and the RCCC (the loop engine on their preset tables, restarted past gaps,
-read back) against the closed-form oracle (``models/linkages/rssr.py``, ``rccc.py``: the closed-form start,
+read back) against the closed-form oracle (``tests/linkage_oracles.py``: the closed-form start,
 Newton at every row alone, Newton-Euler by SVD least squares): every column and status word, row by row,
 on both branches, both RSSR load modes, cases with no-assembly gaps, and rows 1e-9 deg from an edge of
 assembly and at a dead centre."""
@@ -18,6 +18,7 @@ from dualmech.models.linkages.rccc_case import RcccCase, rccc_from_dict
 from dualmech.models.linkages.rssr_case import RssrCase, rssr_from_dict
 from dualmech.models.loop.preset_engine import solve_rccc, solve_rssr
 from dualmech.models.tables import LinkageTable
+from tests import linkage_oracles
 from tests.linkage_cases import bundled, random_rccc, random_rssr
 from tests.models.linkages.test_rssr import _at_dead_centre
 from tests.models.linkages.test_rssr import _edge as _rssr_edge
@@ -64,8 +65,8 @@ CASES = {
 def _closed_form(case: RssrCase | RcccCase) -> LinkageTable:
     """The oracle: the closed-form pipeline's table (kept in ``models/linkages/`` for forward dynamics)."""
     if isinstance(case, RssrCase):
-        return rssr.to_table(rssr.analyze_rssr(case))
-    return rccc.to_table(rccc.analyze_rccc(case))
+        return linkage_oracles.rssr_to_table(linkage_oracles.analyze_rssr(case))
+    return linkage_oracles.rccc_to_table(linkage_oracles.analyze_rccc(case))
 
 
 def _in_house(case: RssrCase | RcccCase) -> LinkageTable:

@@ -11,12 +11,14 @@ from numpy.testing import assert_array_equal
 
 from dualmech.core.reactions import momentum_rate
 from dualmech.core.status import Status
-from dualmech.models.linkages import dynamics as dynamics_module
-from dualmech.models.linkages.rssr import SPEC, analyze_rssr, to_table
+from dualmech.models.linkages.rssr import SPEC
 from dualmech.models.linkages.rssr_case import RssrCase, rssr_from_dict
 from dualmech.validation.compare.tables import worst
 from dualmech.validation.engines import get_engine
+from tests import linkage_reactions
 from tests.linkage_cases import bundled, random_rssr
+from tests.linkage_oracles import analyze_rssr
+from tests.linkage_oracles import rssr_to_table as to_table
 from tests.tolerances import LINKAGE_JUDGE_KINEMATICS, LINKAGE_JUDGE_REACTIONS
 
 pytest.importorskip("pinocchio")
@@ -77,7 +79,7 @@ def test_a_dropped_gyroscopic_term_is_seen(judge: str, monkeypatch: pytest.Monke
         return full - Dual(np.zeros_like(gyro), gyro)
 
     case = rssr_from_dict(random_rssr(np.random.default_rng(22), "output", step=10.0))
-    monkeypatch.setattr(dynamics_module, "momentum_rate", without_gyroscopic)
+    monkeypatch.setattr(linkage_reactions, "momentum_rate", without_gyroscopic)
     verdict = _verdict(case, _judges()[judge])
     assert max(verdict.values()) > 100.0
     assert all(verdict[c] <= 1.0 for c in SPEC.kinematics)

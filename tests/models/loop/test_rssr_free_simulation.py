@@ -1,6 +1,6 @@
 """MuJoCo's free simulation of the RSSR (the model of the simulated judge generated from its joint table,
 ``validation/judges/mujoco_loop/``, with the drive's servo off and a drive torque applied) follows the
-in-house forward dynamics (``models/linkages/forward_dynamics.py``), and the check sees a dropped velocity
+in-house forward dynamics (``models/loop/preset_dynamics.py``), and the check sees a dropped velocity
 term."""
 
 from __future__ import annotations
@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from dualmech.models.linkages import linkage_case
-from dualmech.models.linkages.forward_dynamics import Coefficients, coefficients, simulate
+from dualmech.models.linkages import forward_dynamics, linkage_case
+from dualmech.models.linkages.forward_dynamics import Coefficients
+from dualmech.models.loop.preset_dynamics import at_states, simulate
 from tests.tolerances import LINKAGE_SIM_FREE_ANGLE, LINKAGE_SIM_FREE_RATE
 
 mujoco = pytest.importorskip("mujoco")
@@ -81,6 +82,6 @@ def test_mujoco_free_simulation_follows_the_in_house_forward_dynamics(mujoco_run
 
 def test_the_check_sees_a_dropped_velocity_term(mujoco_run) -> None:
     """Deliberate fault: the forward dynamics without the C(theta) theta_dot^2 term."""
-    c = coefficients(linkage_case("rssr"))
+    c = forward_dynamics.coefficients(linkage_case("rssr"), at_states)
     angle, rate = _errors(mujoco_run, replace(c, velocity=np.zeros_like(c.velocity)))
     assert angle > 10 * LINKAGE_SIM_FREE_ANGLE.value or rate > 10 * LINKAGE_SIM_FREE_RATE.value

@@ -1,4 +1,6 @@
-"""Inverse dynamics of any single loop: every joint's reaction by batched least squares.
+"""Inverse dynamics of any single loop: every joint's reaction by batched least squares (the RSSR's and
+RCCC's closed-form oracles', ``tests/linkage_oracles.py``; the product's inverse dynamics is
+:mod:`dualmech.core.loop_reactions`).
 
 Each moving body ``b`` obeys D'Alembert's principle with dual momentum (thesis eq. 59-64, in
 world axes, moments about the world origin O; :mod:`dualmech.core.reactions`):
