@@ -105,9 +105,11 @@ class CaseFileText:
         self._texts = {e: json_text(v) for e, v in kept.items()}
 
     def add(self, entry: dict) -> str:
-        """Take ``entry`` (its engine's, replacing any earlier one); return the file's text."""
+        """Take ``entry`` (its engine's, replacing any earlier one); return the file's text.  Encoded before
+        it is taken: a Ctrl-C during the encoding leaves the entries and their texts in step."""
+        text = json_text(entry)
+        self._texts[entry["engine"]] = text
         self.entries[entry["engine"]] = entry
-        self._texts[entry["engine"]] = json_text(entry)
         body = ", ".join(f"{json.dumps(k)}: {self._texts[k]}" for k in self._engines if k in self.entries)
         return f'{self._head}, "engines": {{{body}}}}}'
 
@@ -344,16 +346,19 @@ def _run_locked(matrix: Matrix, outdir: Path, jobs: int, resume: bool, scheduler
         listed.add(cid)
 
     leftovers: list[dict] = []
+    storing: list[dict] = []  # the entry being stored, where a Ctrl-C may land
     stream = execute(run_task, calls, jobs, scheduler, leftovers, here=lambda c: runs_here(c[2], c[3], c[1]),
                      label=lambda c: f"{c[0]} {c[2]}")
     try:
         for n_done, entry in enumerate(stream, start=1):
+            storing.append(entry)
             store(entry)
+            storing.clear()
             if progress is not None:
                 progress(n_done, len(calls), f"{entry['case']} {entry['engine']}")
-    finally:  # interrupted or not: every task that finished is stored
+    finally:  # interrupted or not: every task that finished is stored, the one being stored again
         stream.close()
-        for entry in leftovers:
+        for entry in storing + leftovers:
             store(entry)
 
     seconds = time.perf_counter() - start
