@@ -103,13 +103,20 @@ def least_squares(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.einsum("nkm,nm->nk", np.linalg.pinv(a), b)
 
 
-def _newton_step(chain, loop: Loop) -> np.ndarray:
-    """Newton step: screws times step = minus the closure error (eq. 11, 23a), with the spin gauge."""
+def closure_system(chain, loop: Loop) -> tuple[np.ndarray, np.ndarray]:
+    """The linearized closure at ``chain``: the unknowns' screws ``(n, 6 + g, k)`` and the closure error
+    ``(n, 6 + g)`` (eq. 11, 23a), each with the spin gauge's rows (their error zero)."""
     jac = screw_jacobian(chain, loop)
     err = closure_error(chain, loop)
     if loop.spin_gauges:
         jac = np.concatenate([jac, gauge_block(chain, loop)], axis=1)
         err = np.concatenate([err, np.zeros((err.shape[0], len(loop.spin_gauges)), err.dtype)], axis=1)
+    return jac, err
+
+
+def _newton_step(chain, loop: Loop) -> np.ndarray:
+    """Newton step: screws times step = minus the closure error (eq. 11, 23a), with the spin gauge."""
+    jac, err = closure_system(chain, loop)
     return least_squares(jac, -err)
 
 

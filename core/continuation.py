@@ -34,13 +34,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dualmech.core.closure import ClosureResult, ClosureStatus, gauge_block, refine, solve_closure
+from dualmech.core.closure import (
+    ClosureResult,
+    ClosureStatus,
+    closure_system,
+    gauge_block,
+    refine,
+    solve_closure,
+)
 from dualmech.core.dual import vee
 from dualmech.core.loop import (
     Loop,
     LoopState,
     Var,
-    closure_error,
     closure_residual,
     evaluate,
     rodrigues,
@@ -298,11 +304,7 @@ def close_min_norm(loop: Loop, inputs: dict[str, np.ndarray],
     run along it, the minimum-norm step does not.  Returns the poses and their closure residuals."""
     state = guess
     for _ in range(MIN_NORM_STEPS):
-        chain = evaluate(loop, inputs, state)
-        jac, err = screw_jacobian(chain, loop), closure_error(chain, loop)
-        if loop.spin_gauges:
-            jac = np.concatenate([jac, gauge_block(chain, loop)], axis=1)
-            err = np.concatenate([err, np.zeros((err.shape[0], len(loop.spin_gauges)))], axis=1)
+        jac, err = closure_system(evaluate(loop, inputs, state), loop)
         step = -np.einsum("nkm,nm->nk", np.linalg.pinv(jac, rcond=MIN_NORM_RCOND), err)
         state = state.retract(step, loop)
     return state, closure_residual(evaluate(loop, inputs, state), loop)

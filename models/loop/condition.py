@@ -183,14 +183,12 @@ def drive_condition(mechanism: LoopMechanism, pose: dict[str, np.ndarray]) -> np
     docstring, "Joint locks"): the prescribed coordinates' unit twists, each times its rate per unit rate of
     the drive (a C joint's slide: the axial law's :math:`ds/d\\theta`)."""
     twists, points = coordinate_twists(mechanism, pose)
-    prescribed = set(mechanism.prescribed)
+    prescribed = mechanism.prescribed
     solved = [twist for key, twist in twists.items() if key not in prescribed]
-    driven = variable(*mechanism.driven_coordinate)
-    rates = drive_state(mechanism, np.asarray(pose[driven], dtype=float),
-                        np.ones_like(np.asarray(pose[driven], dtype=float)),
-                        np.zeros_like(np.asarray(pose[driven], dtype=float))).rates
-    cols = _columns([twists[key] for key in mechanism.prescribed] + solved, points)
-    drive = sum(rates[variable(*key)][:, None] * cols[:, :, i] for i, key in enumerate(mechanism.prescribed))
+    x = np.asarray(pose[variable(*mechanism.driven_coordinate)], dtype=float)
+    rates = drive_state(mechanism, x, np.ones_like(x), np.zeros_like(x)).rates
+    cols = _columns([twists[key] for key in prescribed] + solved, points)
+    drive = sum(rates[variable(*key)][:, None] * cols[:, :, i] for i, key in enumerate(prescribed))
     return _condition(np.concatenate([cols[:, :, len(prescribed):], drive[:, :, None]], axis=2))
 
 
