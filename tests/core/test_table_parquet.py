@@ -136,3 +136,11 @@ def test_close_waits_for_a_write_in_progress(tmp_path) -> None:
     closer.join()
     assert order == ["write", "close"]
     _assert_same_bits(read_parquet(tmp_path / "t.parquet"), rows, np.array(["ok"] * 10, dtype=object))
+
+
+def test_status_codes_are_the_words_places_and_refuse_another_word() -> None:
+    words = np.array(["ok", "no_assembly", "ok", STATUSES[-1]], dtype=object)
+    assert status_codes(words).tolist() == [STATUSES.index(w) for w in words]
+    assert status_codes(np.array(["ok", "ok"])).dtype == np.int8  # numpy's own strings too
+    with pytest.raises(ValueError, match="'garbage' is not a status word"):
+        status_codes(np.array(["ok", "garbage"], dtype=object))

@@ -1,9 +1,9 @@
 """The closure condition of a loop table's pose (``models/loop/condition.py``) and its assembly-limit rule.
 
-Oracles: the in-house engine's own chain (``core/loop.py``: its elementary screws and joint points, a forward
-kinematics apart from the condition's), the slider crank's closed form (its edge of assembly, where the rod is
-normal to the slider line, thesis eq. 3.12's square root vanishing), and the invariance of a scale-free
-measure to the unit of length.
+Oracles: numpy's singular values (LAPACK) for the eigenvalue solver, the in-house engine's own chain
+(``core/loop.py``: its elementary screws and joint points, a forward kinematics apart from the condition's),
+the slider crank's closed form (its edge of assembly, where the rod is normal to the slider line, thesis
+eq. 3.12's square root vanishing), and the invariance of a scale-free measure to the unit of length.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from dualmech.core.status import Status
 from dualmech.core.thresholds import LOOP_LIMIT_CONDITION, LOOP_LOCK_CONDITION
 from dualmech.models.linkages import linkage_case, read_linkage
 from dualmech.models.loop.columns import limit_words, loop_spec
-from dualmech.models.loop.condition import closure_condition, drive_condition
+from dualmech.models.loop.condition import _condition_rows, closure_condition, drive_condition
 from dualmech.models.loop.engine import analyze_loop
 from dualmech.models.loop.presets import loop_table_of, slider_crank_start, slider_crank_table, started
 from dualmech.models.loop.table import analysis_columns, solve_loop_table
@@ -183,3 +183,24 @@ def test_a_touching_edge_is_a_joint_lock_and_gives_no_value() -> None:
     ok = np.array([0, 1, 3, 4])
     s4 = exact_slider_motion(case, np.radians(table["theta1_deg"]))[0]
     assert_allclose(table["s4"][ok], s4[ok], rtol=0, atol=1e-9 * A2)
+
+
+@pytest.mark.parametrize("m", [6, 7, 8])
+def test_the_eigenvalue_solver_gives_numpys_singular_value_ratio(m: int) -> None:
+    """Random columns (seeded), some rows scaled by 1e3 or 1e-3, some with two columns nearly the same
+    (c ~ 1e-9): the ratio of the extreme singular values.  The Gram matrix squares them: ``c^2`` is found
+    to a few ulps of 1, so ``c`` to ``~eps / c^2`` relative (bound: 50 eps / c^2, 2e-10 at the band's 1e-3)
+    and to ``~sqrt(eps)`` absolute near 0 (bound 5e-8, far below the band)."""
+    rng = np.random.default_rng(m)
+    jac = rng.normal(size=(3000, m, 6))
+    jac[::3, 1] = jac[::3, 0] * (1.0 + 1e-9 * rng.normal(size=(1000, 6)))
+    jac[1::5] *= 1e3
+    jac[2::7] *= 1e-3
+    sv = np.linalg.svd(jac, compute_uv=False)
+    exact = sv[:, 5] / sv[:, 0]
+    mine = _condition_rows(jac)
+    assert_allclose(mine, exact, rtol=0, atol=5e-8)
+    wide = exact > 1e-3
+    assert wide.sum() > 1000
+    bound = 50 * np.finfo(float).eps / exact[wide] ** 2 * exact[wide]
+    assert (np.abs(mine[wide] - exact[wide]) <= bound).all()
