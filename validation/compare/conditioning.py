@@ -32,6 +32,18 @@ constants and their evidence in :mod:`dualmech.validation.tolerances`):
   sizes ``a`` and ``L``); the reactions pass through a second such solve (the rod's inertia, of lever
   ``L``, balanced through the crank, of lever ``a``) and carry ``~eps A^2``.  Allowances ``K eps A`` and
   ``K' eps A^2``, capped: beyond the cap a judge has too few digits to judge and its check fails.
+
+A table of any kind with a ``closure_condition`` (a loop table, the RSSR, the RCCC) has one law of its own:
+
+* **Closure condition** (every compared column).  Its engines close the loop to a relative length
+  ``delta``; where the closure's normalized Jacobian has the condition ``c`` (beside an assembly limit or
+  a joint lock), the pose moves by ``~delta / c``, the rates, solved with that Jacobian at that pose, by
+  ``~delta / c^2``, the accelerations and the reactions (linear in them) by ``~delta / c^3``: the
+  allowance is ``delta / c^k``, ``k`` the column's order (1 pose, 2 rates, 3 accelerations and reactions),
+  ``c`` the smaller of the two engines' ``closure_condition``, at least ``sqrt(delta)`` for the pose (a
+  fold's double root) and the band's ``LOOP_LIMIT_CONDITION`` for the others (rows below it give no
+  rates).  So it adds ``delta`` at ``c = 1``, and at most ``3e-7`` (pose), ``1e-7`` (rates), ``1e-4``
+  (accelerations, reactions) at the band.
 """
 
 from __future__ import annotations
@@ -41,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
+from dualmech.core.thresholds import LOOP_LIMIT_CONDITION
 from dualmech.models.case import Case
 from dualmech.validation.tolerances import (
     ASPECT_KINEMATICS,
@@ -53,6 +66,7 @@ from dualmech.validation.tolerances import (
 
 #: The allowances' names, as a check's detail names the ones that were needed.
 EDGE, DEAD_CENTRE, ASPECT = "edge of assembly", "beside a dead centre", "aspect ratio"
+CLOSURE = "closure condition"
 #: The words a check whose tolerance was widened by a row's conditioning carries in its detail.
 CONDITIONED = "conditioned"
 _EPS = float(np.finfo(float).eps)
@@ -88,6 +102,17 @@ def edge_allowance(reference: ResultTable, judge: ResultTable, rod_length: float
         c = np.fmin(np.abs(reference["closure_condition"]), np.abs(judge["closure_condition"]))
     low = np.sqrt(np.maximum(np.square(c) - 4.0 * CLOSURE_PRECISION.value, 0.0))
     return np.where(np.isfinite(c), 2.0 * rod_length * edge_error(low), 0.0)
+
+
+def closure_allowance(order: int, reference: object, judge: object) -> np.ndarray:
+    """``delta / c^order`` per row (module docstring, "Closure condition"), shape ``(n,)``, in units of ``r``;
+    ``reference``, ``judge``: tables with a ``closure_condition`` column; 0 where a ``c`` is not given."""
+    delta = CLOSURE_PRECISION.value
+    with np.errstate(invalid="ignore"):
+        c = np.fmin(np.abs(reference["closure_condition"]), np.abs(judge["closure_condition"]))
+        floor = np.sqrt(delta) if order == 1 else LOOP_LIMIT_CONDITION.value
+        allowance = delta / np.maximum(c, floor) ** order
+    return np.where(np.isfinite(c), allowance, 0.0)
 
 
 def transmission_error(engine: str) -> float:

@@ -28,8 +28,12 @@ in degrees, or a loop table's driven coordinate), which every message names.
 Tolerances are the slider crank's defaults per judge and group (``kinematics``, ``reactions``) of
 :data:`~dualmech.validation.matrix.tolerances.DEFAULT_TOLERANCES`: Pinocchio ``PINOCCHIO_*``, MuJoCo
 ``MUJOCO_RIGID_*``, the simulation ``MATRIX_SIM_KINEMATICS`` and ``SIM_REACTIONS``.  The linkages have no
-condition factor: the RSSR, RCCC and loop-table cases are judged as given, dead centres flagged by their
-words.
+condition factor (dead centres are flagged by their words), but a row's tolerance grows with its closure
+condition ``c`` (a loop table's, the RSSR's, the RCCC's ``closure_condition``) by the law of
+:func:`~dualmech.validation.compare.conditioning.closure_allowance`: ``tol + delta / c^k``, ``k`` the
+column's order (:func:`closure_order`), where rounding amplified by the closure's conditioning beside an
+assembly limit or a joint lock leaves a correct judge over ``tol`` (a slider crank table swept at 1 deg
+through a joint lock: accelerations 3.7e-8 of the peak apart, allowed ``1e-4`` at most, at the band).
 """
 
 from __future__ import annotations
@@ -39,8 +43,10 @@ import numpy as np
 from dualmech.core.status import ASSEMBLED, RATES_GIVEN, Status, is_status
 from dualmech.models.kinds import case_from_data, kind_of
 from dualmech.models.linkages import table_spec
+from dualmech.models.loop.columns import CONDITION
 from dualmech.models.tables import LinkageTable, TableSpec
 from dualmech.validation.compare.checks import first_line
+from dualmech.validation.compare.conditioning import CLOSURE, closure_allowance, within
 from dualmech.validation.compare.differences import column_notes, worst_row
 from dualmech.validation.compare.pairs import case_pairs, column_group, looser
 from dualmech.validation.compare.results import ENGINE, STATUS, VERDICTS, Check
@@ -220,19 +226,39 @@ def status_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spe
                  int(usable.sum()), int(unassembled.sum()), n_bad, n_bad == 0, "; ".join(notes))
 
 
+def closure_order(column: str, spec: TableSpec) -> int:
+    """The order ``k`` of ``column`` in the closure-condition law
+    (:func:`~dualmech.validation.compare.conditioning.closure_allowance`): 1 a pose column, 2 a rate, 3 an
+    acceleration or a reaction."""
+    if column in spec.pose:
+        return 1
+    if column in spec.rates and not column.endswith("_ddot"):
+        return 2
+    return 3
+
+
 def column_check(case_id: str, reference: LinkageTable, judge: LinkageTable, spec: TableSpec, column: str,
                  rel: np.ndarray, tol: ResolvedTolerance, scale: float) -> Check:
-    """One column's check: some row compared, none given by one engine only, ``max r_i <= tol``; its
-    ``worst_theta_deg`` is the key's value (``spec.key``) at the worst row."""
+    """One column's check: some row compared, none given by one engine only, ``max r_i <= tol_i``; its
+    ``worst_theta_deg`` is the key's value (``spec.key``) at the worst row.  A table with a
+    ``closure_condition`` has the row's tolerance ``tol + a_i`` (module docstring): ``max_rel`` is then the
+    row's difference scaled to ``tol`` (``r_i tol / tol_i``), and the detail names the law where it was
+    needed."""
     theta = reference[spec.key]
     infinite, finite = np.isinf(rel), np.isfinite(rel)
+    max_abs = float(np.max(rel[finite])) * scale if finite.any() else float("nan")
+    laws = ""
+    if tol.value > 0 and CONDITION in spec.pose:
+        allowance = {CLOSURE: closure_allowance(closure_order(column, spec), reference, judge)}
+        rel, needed, phrase = within(rel, finite, tol.value, 1.0, allowance)
+        laws = f"{phrase} {_at(spec, theta[needed])}" if phrase else ""
     max_rel, at = worst_row(rel, finite, theta)
     one_sided = f"given by one engine only {_at(spec, theta[infinite])}" if infinite.any() else None
-    notes = column_notes(bool(finite.any()), one_sided, max_rel, tol, _at(spec, np.array([at])))
+    notes = ([laws] if laws else []) + column_notes(bool(finite.any()), one_sided, max_rel, tol,
+                                                    _at(spec, np.array([at])))
     assembled = is_status(reference.status, *ASSEMBLED) & is_status(judge.status, *ASSEMBLED)
     n_excluded = int((assembled & np.isnan(rel)).sum())
     passed = bool(finite.any()) and not infinite.any() and max_rel <= tol.value
-    max_abs = max_rel * scale if finite.any() else float("nan")
     return Check(case_id, judge.engine, column, max_abs, max_rel, at, tol, scale, int(finite.sum()),
                  n_excluded, int(infinite.sum()), passed, "; ".join(notes))
 

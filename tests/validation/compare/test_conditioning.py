@@ -13,6 +13,7 @@ from dataclasses import replace
 import mpmath as mp
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 
 from dualmech.core.table import REACTION_COLUMNS, ResultTable
 from dualmech.models.case import Case, case_from_dict, load_case
@@ -24,6 +25,7 @@ from dualmech.validation.compare.conditioning import (
     EDGE,
     Conditioning,
     allowances,
+    closure_allowance,
     edge_error,
     transmission_error,
 )
@@ -333,3 +335,20 @@ def test_a_fault_just_beyond_the_widened_tolerance_is_caught_at_the_edge(column,
     results[cid]["pinocchio"] = _faulty(judge, column, np.nan_to_num(size), np.isfinite(size))
     failed = [c for c in compare_run(matrix, results).failures() if c.quantity == column]
     assert failed and failed[0].engine == "pinocchio", (law, [c.detail for c in failed])
+
+
+def test_the_closure_condition_law_is_delta_over_c_to_the_columns_order() -> None:
+    """``delta / c^k`` of the smaller ``c`` of the two tables; the pose's floored at ``sqrt(delta)`` (a fold's
+    double root), the rates' and the rest's at the band (1e-3, where rows stop giving rates); the one given
+    where the other is not, 0 where neither is."""
+    delta = CLOSURE_PRECISION.value
+    reference = {"closure_condition": np.array([1.0, 1e-2, 1e-2, 1e-5, 0.0, np.nan, np.nan])}
+    judge = {"closure_condition": np.array([0.5, 2e-2, 5e-3, 1e-5, 0.0, 0.3, np.nan])}
+    c = np.array([0.5, 1e-2, 5e-3, 1e-5, 0.0, 0.3])
+    assert_allclose(closure_allowance(1, reference, judge)[:6], delta / np.maximum(c, np.sqrt(delta)),
+                    rtol=1e-15, atol=0)
+    for k in (2, 3):
+        assert_allclose(closure_allowance(k, reference, judge)[:6], delta / np.maximum(c, 1e-3) ** k,
+                        rtol=1e-15, atol=0)
+    assert closure_allowance(3, reference, judge)[6] == 0.0
+    assert closure_allowance(3, reference, judge).max() == pytest.approx(1e-4)  # at the band: its largest

@@ -1,6 +1,7 @@
 """The linkages' gate (``dualmech validate linkages``): the bundled RSSR and RCCC pass against every judge at
 the slider crank's tolerances; deliberate faults of a judge, of the in-house engine and of a status word
-fail it, naming what failed."""
+fail it, naming what failed; beside a joint lock a row's tolerance grows by the closure-condition law and no
+more."""
 
 from __future__ import annotations
 
@@ -12,6 +13,9 @@ import pytest
 from dualmech.models.linkages.rccc import SPEC as RCCC_SPEC
 from dualmech.models.linkages.rssr import SPEC as RSSR_SPEC
 from dualmech.models.loop import preset_engine as rssr_module
+from dualmech.models.tables import LinkageTable
+from dualmech.validation.compare.conditioning import CONDITIONED, closure_allowance
+from dualmech.validation.compare.tables import closure_order, judge_checks, unit_scales
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.matrix.tolerances import group_tolerances
 from dualmech.validation.tolerances import (
@@ -150,3 +154,47 @@ def test_a_pair_of_judges_compares_the_columns_both_give() -> None:
                              else np.full_like(v, np.nan) for c, v in table.columns.items()})
     checks, _ = judge_checks("rssr", first, replace(table, engine="exudyn"), RSSR_SPEC)
     assert [c.quantity for c in checks] == ["status", *few] and all(c.passed for c in checks)
+
+
+@pytest.fixture(scope="module")
+def near_lock():
+    """The slider crank's table swept at 1 deg through a joint lock 1e-6 a2 short of touching (0 deg: c
+    from 4e-3 beside it to 0.5 at 180 deg), solved in-house, and its spec."""
+    from dualmech.models.loop.columns import loop_spec
+    from dualmech.models.loop.table import solve_loop_table
+    from tests.models.loop.test_condition import TOUCHING_A4, _slider_crank
+
+    _, mechanism = _slider_crank(TOUCHING_A4, {"start": -20.0, "stop": 200.0, "step": 1.0})
+    return solve_loop_table(mechanism), loop_spec(mechanism)
+
+
+def _shifted(reference: LinkageTable, spec, column: str, rows: np.ndarray, rel: np.ndarray) -> LinkageTable:
+    """A judge's table: the reference's, with ``column`` moved by ``rel`` of its unit group's scale at
+    ``rows``."""
+    scale = unit_scales(reference, reference, spec, (column,))[spec.unit_group(column)]
+    columns = {c: v.copy() for c, v in reference.columns.items()}
+    columns[column][rows] += rel * scale
+    return LinkageTable("pinocchio", reference.case, columns, reference.status.copy(), {})
+
+
+@pytest.mark.parametrize("column", ["s4", "s4_dot", "s4_ddot", "joint4_fx"])
+def test_the_closure_condition_law_allows_rounding_beside_a_lock_and_no_more(near_lock, column: str) -> None:
+    """A judge off by its tolerance and half its row's allowance beside the lock passes, the check naming the
+    law; off by its tolerance and twice the allowance there, or by 1.5 times the tolerance where ``c`` is
+    near 1, it fails.  Beside the lock the law gives the rates and accelerations far more than the
+    tolerance, the pose a fraction of it."""
+    reference, spec = near_lock
+    tol = group_tolerances("pinocchio")["kinematics" if column in spec.kinematics else "reactions"].value
+    given = np.flatnonzero(np.isfinite(reference[column]))
+    c = reference["closure_condition"]
+    near, ordinary = given[np.argmin(c[given])], given[np.argmax(c[given])]
+    assert c[near] < 5e-3 and c[ordinary] > 0.5
+    allowance = closure_allowance(closure_order(column, spec), reference, reference)
+    assert allowance[near] > (10 * tol if column != "s4" else 0.1 * tol) and allowance[ordinary] < 1e-2 * tol
+    cases = {(near, tol + 0.5 * allowance[near]): True, (near, tol + 2.0 * allowance[near]): False,
+             (ordinary, 1.5 * tol): False}
+    for (row, rel), passes in cases.items():
+        judge = _shifted(reference, spec, column, np.array([row]), np.array([rel]))
+        check = next(c for c in judge_checks("near-lock", reference, judge, spec)[0] if c.quantity == column)
+        assert check.passed is passes, (row, rel, check.detail)
+        assert (CONDITIONED in check.detail) is passes

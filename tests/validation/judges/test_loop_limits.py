@@ -14,7 +14,11 @@ own pose (``models/loop/condition.py``):
   peak, over its 1e-10);
 * ``universal``: a universal joint at the slider locks at 180 deg (the rod along the slider line); the
   closure Jacobian's determinant changes sign there, and every engine follows its branch on through it
-  (``joint_lock`` at the lock, ``ok`` after, where each used to say ``branch_jump``).
+  (``joint_lock`` at the lock, ``ok`` after, where each used to say ``branch_jump``);
+* ``touching-1deg``, ``universal-1deg``: the same locks swept at 1 deg, whose rows beside the lock (``c`` down
+  to 4e-3) carry the judges' closure precision, amplified, to 3.7e-8 of the peak (accelerations): over the
+  ordinary tolerance, within the closure-condition law (``validation/compare/conditioning.py``), which the
+  gate applies.
 
 The gate compares every column on the rows both give (the condition with the pose).  The Exudyn judge
 integrates its rows in time, and its runs' Newton iteration fails where the constraints are singular and
@@ -47,6 +51,10 @@ TABLES = {
                          ["ok"] * 3 + ["joint_lock"] + ["ok"] * 3),
     "universal": ((LOCK_A4, {"start": 170.0, "stop": 191.0, "step": 5.0}, True, LOCK_TWIST),
                   ["ok"] * 2 + ["joint_lock"] + ["ok"] * 2),
+    "touching-1deg": ((TOUCHING_A4, {"start": -20.0, "stop": 20.5, "step": 1.0}, False, 270.0),
+                      ["ok"] * 20 + ["joint_lock"] + ["ok"] * 20),
+    "universal-1deg": ((LOCK_A4, {"start": 160.0, "stop": 200.5, "step": 1.0}, True, LOCK_TWIST),
+                       ["ok"] * 20 + ["joint_lock"] + ["ok"] * 20),
 }
 
 
@@ -59,6 +67,9 @@ def table(request):
 
 #: The tables a judge cannot pass (module docstring).
 CANNOT = {("exudyn", "turning"), ("exudyn", "universal"), ("exudyn", "touching-exactly")}
+#: Not run: the Exudyn judge fails ``universal-1deg`` as it fails ``universal`` (above), after a minute of
+#: integrating.
+NOT_RUN = {("exudyn", "universal-1deg")}
 
 
 @pytest.mark.parametrize("judge", list(JUDGES))
@@ -66,6 +77,8 @@ def test_every_judge_names_limits_and_locks_and_agrees(table, judge: str, reques
     library, module = JUDGES[judge]
     pytest.importorskip(library)
     name, mechanism, reference, words = table
+    if (judge, name) in NOT_RUN:
+        pytest.skip("the Exudyn judge fails this table as it fails universal's 5-degree sweep")
     if (judge, name) in CANNOT:
         request.applymarker(pytest.mark.xfail(strict=True, reason="integrates through a singular pose"))
     mine = pytest.importorskip(module).solve_table(mechanism)
