@@ -35,9 +35,10 @@ LONG_MATRIX = ('name = "m"\nbase = "thesis/ideal"\nengines = ["dualmech", "mujoc
                '[[sweep]]\nname = "a4"\ngrid = { "geometry.slider_offset" = ['
                + ", ".join(f"{10 + i}.0" for i in range(40)) + "] }\n")
 #: Seconds the program below may take to reach the moment it is killed at (imports, spawned workers, and a
-#: cold compile of the kernel first if its cache is stale: ~165-175 s on the 2-core machine), as
-#: tests/cli/test_interrupts.py allows a command to start working.
-START_S = 240.0
+#: cold compile of the kernel first if its cache is stale: ~165-175 s on the 2-core machine with a core to
+#: itself, over 240 s once while a full ``-n 2`` run kept the other core busy: "no worker was started").
+#: A bound on a hang, not a measured speed: these tests time what follows the moment, not the start.
+START_S = 900.0
 
 
 def _group(pgid: int) -> list[int]:
