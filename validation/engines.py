@@ -58,7 +58,9 @@ def engines_for(kind: str) -> tuple[str, ...]:
 #: progress)``, which returns the summary (:mod:`dualmech.validation.solve_output`).
 STREAMED: dict[str, tuple[str, str]] = {
     SLIDER_CRANK: ("dualmech.validation.solve_output:is_long",
-                   "dualmech.validation.solve_output:stream_solve")}
+                   "dualmech.validation.solve_output:stream_solve"),
+    "loop": ("dualmech.validation.solve_output:is_long_loop",
+             "dualmech.validation.solve_output:stream_loop_solve")}
 #: Why the simulation (or the Exudyn judge) does not solve a case of a kind it is registered for (its
 #: one-line refusal).
 SIM_REFUSALS: dict[str, str] = {

@@ -21,17 +21,21 @@ import numpy as np
 
 from dualmech.core.files import replacing
 from dualmech.core.status import STATUSES
-from dualmech.core.table import ColumnTable, ParquetWriter, write_parquet
+from dualmech.core.table import ColumnTable, ParquetWriter, status_codes, write_parquet
 from dualmech.models.case import Case
 from dualmech.models.plausibility import masses_line
+from dualmech.models.tables import LinkageTable
 from dualmech.models.units import column_unit
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
+    from dualmech.models.loop.description import LoopMechanism
     from dualmech.models.slider_crank.kernel import Chunk
     from dualmech.validation.progress import ProgressCallback
 
 #: Cases longer than this stream to their file (one chunk of the kernel each).
 STREAM_POSITIONS = 100_000
+#: Positions of a loop table's chunk (:func:`stream_loop_solve`): ~2.8 kB each while it is analysed.
+LOOP_CHUNK = 65_536
 #: Output formats by file suffix.
 FORMATS = (".csv", ".parquet")
 
@@ -177,3 +181,57 @@ def stream_solve(case: Case, path: str | Path, progress: ProgressCallback | None
     theta = np.asarray(case.motion.angles_deg, dtype=float)
     ranges = row_ranges(theta, np.concatenate(tally.no_assembly))
     return tally.text(case, no_assembly_message(ranges))
+
+
+def is_long_loop(mechanism: "LoopMechanism") -> bool:
+    """Whether loop table ``mechanism`` has more than :data:`STREAM_POSITIONS` drive positions (``solve -o``
+    streams it)."""
+    return np.asarray(mechanism.drive.positions).size > STREAM_POSITIONS
+
+
+def stream_loop_solve(mechanism: "LoopMechanism", path: str | Path,
+                      progress: ProgressCallback | None = None) -> str:
+    """Solve loop table ``mechanism`` with the in-house engine chunk by chunk into ``path``
+    (:func:`~dualmech.models.loop.chunks.iter_tables`, :data:`LOOP_CHUNK` positions each; each chunk
+    written on a writer thread while the next is analysed, :func:`_pipelined`); return the summary, as
+    ``solve`` gives it of the whole table (:func:`dualmech.models.linkages.summary`: from the status words
+    and closure residuals kept on the way, 9 bytes a position); ``progress(positions written, positions,
+    "")`` after each chunk.  Written beside ``path`` and renamed onto it once whole, as
+    :func:`stream_solve`."""
+    from dualmech.models.linkages import summary
+    from dualmech.models.loop.chunks import iter_tables
+    from dualmech.models.loop.columns import loop_spec
+    from dualmech.models.loop.table import ENGINE, gap_messages
+
+    spec = loop_spec(mechanism)
+    n = np.asarray(mechanism.drive.positions).size
+    parquet = output_format(path) == ".parquet"
+    held = _hold_old_file(Path(path))
+    codes, residual = np.empty(n, dtype=np.int8), np.empty(n)
+    written = [0]
+    try:
+        with replacing(path) as (tmp, fd):
+            out = ParquetWriter(tmp, spec.columns) if parquet else os.fdopen(os.dup(fd), "w")
+
+            def sink(k: int, table: "LinkageTable") -> None:
+                rows = slice(written[0], written[0] + len(table))
+                codes[rows], residual[rows] = status_codes(table.status), table.columns["residual"]
+                if parquet:
+                    out.write(table.columns, codes[rows])
+                else:
+                    text = table.to_csv()
+                    out.write(text if k == 0 else text.split("\n", 1)[1])
+                written[0] += len(table)
+                if progress is not None:
+                    progress(written[0], n, "")
+
+            with out:
+                _pipelined(iter_tables(mechanism, LOOP_CHUNK), sink)
+    finally:
+        _let_go(held)
+    key = np.degrees(mechanism.drive.positions) if mechanism.drive.coordinate == "theta" \
+        else np.asarray(mechanism.drive.positions)
+    words = np.asarray(STATUSES, dtype=object)[codes]
+    table = LinkageTable(ENGINE, mechanism.name, {spec.key: key, "residual": residual}, words, {})
+    table.meta["messages"] = gap_messages(table, spec)
+    return summary(table)

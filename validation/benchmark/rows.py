@@ -16,8 +16,10 @@ seeded random cases (the thesis example with random offset, twist and axial shif
   the closed form's own time on the 1° grid, is not the machine's limit.
 * **dualmech loop kernel** -- the generic loop engine compiled (:mod:`dualmech.core.kernel.loop_engine`)
   on the slider crank's joint table (:func:`dualmech.models.loop.presets.slider_crank_table`): some of the
-  cases, and one long case (a tenth of the Parquet row's positions), through ``analyze_loop``; and that
-  case's table (``loop_table``: the closure condition, the status rule) into Parquet, as ``solve`` does.
+  cases, and one long case (a tenth of the Parquet row's positions), through ``analyze_loop``; and
+  ``dualmech solve`` of such a table of as many positions as the slider crank's Parquet row into Parquet
+  (:func:`dualmech.validation.solve_output.stream_loop_solve`: chunk by chunk, the table's every column
+  with the closure condition and the status rule), as ``solve -o`` does.
 * **Pinocchio, MuJoCo, Exudyn** -- best-effort drivers: the model built once per case outside the
   timing (Pinocchio: :func:`~dualmech.validation.judges.pinocchio_slider_crank.engine.solve` with a prebuilt
   model; MuJoCo rigid: the per-position loop of
@@ -51,7 +53,7 @@ import numpy as np
 
 from dualmech.models.case import Case, load_case
 from dualmech.models.slider_crank.kernel import _pool, case_arrays, solve_cases, threads
-from dualmech.validation.solve_output import stream_solve, write_table
+from dualmech.validation.solve_output import stream_loop_solve, stream_solve
 
 #: Crank-state fields in the kernel's order.
 CRANK_FIELDS = ("theta", "s", "theta_dot", "s_dot", "theta_ddot", "s_ddot")
@@ -263,18 +265,20 @@ def _inside(module: ModuleType, like: Callable, run: Callable[[], None]) -> Call
     return timed_run
 
 
-def time_loop_kernel(cases: list[Case], positions: int, repeats: int, parquet: bool) -> list[Timing]:
+def time_loop_kernel(cases: list[Case], positions: int, repeats: int, big: int) -> list[Timing]:
     """The generic loop engine, compiled (:func:`dualmech.models.loop.engine.analyze_loop`), on the slider
-    crank as a joint table: ``cases`` one call each, and one case of ``positions`` crank angles (and, with
-    ``parquet``, its table into Parquet); each start pose from the slider crank kernel's ``S4`` at the first
-    angle (outside the timing)."""
+    crank as a joint table: ``cases`` one call each, and one case of ``positions`` crank angles; with ``big``,
+    ``dualmech solve`` of one such table of ``big`` angles into Parquet (streamed in chunks,
+    :func:`~dualmech.validation.solve_output.stream_loop_solve`, as the slider crank's row).  Each start
+    pose from the slider crank kernel's ``S4`` at the first angle (outside the timing)."""
     from dualmech.models.loop.engine import analyze_loop
     from dualmech.models.loop.presets import slider_crank_start, slider_crank_table, started
-    from dualmech.models.loop.table import solve_loop_table
 
-    long = random_cases(1, step_deg=360.0 / positions, seed=2)
+    groups = {"cases": cases, "long": random_cases(1, step_deg=360.0 / positions, seed=2)}
+    if big:
+        groups["big"] = random_cases(1, step_deg=360.0 / big, seed=2)
     prepared, one_angle = {}, {"motion.angles_deg": {"start": 0.0, "stop": 1.0, "step": 1.0}}
-    for label, group in (("cases", cases), ("long", long)):
+    for label, group in groups.items():
         first = [c.with_values(one_angle) for c in group]
         prepared[label] = [(slider_crank_table(c), slider_crank_start(c, t["S4"][0]))
                            for c, t in zip(group, solve_cases(first))]
@@ -282,15 +286,17 @@ def time_loop_kernel(cases: list[Case], positions: int, repeats: int, parquet: b
     def run(label: str) -> Callable[[], object]:
         return lambda: [analyze_loop(mech, start) for mech, start in prepared[label]]
 
-    n = len(long[0].motion.angles_deg)
+    n = len(groups["long"][0].motion.angles_deg)
     rows = [measure(f"dualmech loop kernel, the slider crank as a joint table ({len(cases)} cases)",
                     _positions(cases), run("cases"), repeats),
             measure(f"dualmech loop kernel, one case ({n:,} positions)", n, run("long"), repeats)]
-    table = started(*prepared["long"][0])
+    if not big:
+        return rows
+    table, m = started(*prepared["big"][0]), len(groups["big"][0].motion.angles_deg)
+    label = f"dualmech solve, the slider crank as a joint table into Parquet ({m:,} positions)"
     with tempfile.TemporaryDirectory() as tmp:
-        return rows + ([measure(f"dualmech solve, that case's joint table into Parquet ({n:,} positions)", n,
-                                lambda: write_table(solve_loop_table(table), Path(tmp) / "out.parquet"),
-                                repeats)] if parquet else [])
+        out = Path(tmp) / "out.parquet"
+        return rows + [measure(label, m, lambda: stream_loop_solve(table, out), repeats)]
 
 
 def time_solve_parquet(positions: int, repeats: int) -> Timing:
@@ -371,7 +377,7 @@ def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000,
     if big:
         rows.append(time_solve_parquet(big, repeats))
     if loop_cases:
-        rows += time_loop_kernel(bench[:loop_cases], max(big // 10, 360), repeats, bool(big))
+        rows += time_loop_kernel(bench[:loop_cases], max(big // 10, 360), repeats, big)
     judges = bench[:judge_cases]
     timers = ((time_pinocchio, judges), (time_mujoco, judges), (time_exudyn, judges[:exudyn_cases]))
     for timer, chosen in timers:
