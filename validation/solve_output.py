@@ -28,6 +28,7 @@ from dualmech.models.tables import LinkageTable
 from dualmech.models.units import column_unit
 
 if TYPE_CHECKING:  # the kernel (numba) is imported when a case is solved, not with the command line
+    from dualmech.models.loop.chunks import Chunk as LoopChunk
     from dualmech.models.loop.description import LoopMechanism
     from dualmech.models.slider_crank.kernel import Chunk
     from dualmech.validation.progress import ProgressCallback
@@ -163,7 +164,7 @@ def stream_solve(case: Case, path: str | Path, progress: ProgressCallback | None
         with replacing(path) as (tmp, fd):
             out = ParquetWriter(tmp) if parquet else os.fdopen(os.dup(fd), "w")
 
-            def sink(k: int, chunk: Chunk) -> None:
+            def sink(k: int, chunk: LoopChunk) -> None:
                 tally.add(chunk.columns, chunk.status)
                 if parquet:
                     out.write(chunk.columns, chunk.status)
@@ -192,14 +193,15 @@ def is_long_loop(mechanism: "LoopMechanism") -> bool:
 def stream_loop_solve(mechanism: "LoopMechanism", path: str | Path,
                       progress: ProgressCallback | None = None) -> str:
     """Solve loop table ``mechanism`` with the in-house engine chunk by chunk into ``path``
-    (:func:`~dualmech.models.loop.chunks.iter_tables`, :data:`LOOP_CHUNK` positions each; each chunk
-    written on a writer thread while the next is analysed, :func:`_pipelined`); return the summary, as
+    (:func:`~dualmech.models.loop.chunks.iter_analyses`, :data:`LOOP_CHUNK` positions each; each chunk's
+    table made and written on a writer thread while the next is analysed, :func:`_pipelined`: the table's
+    numpy work on one core beside the kernel on every core); return the summary, as
     ``solve`` gives it of the whole table (:func:`dualmech.models.linkages.summary`: from the status words
     and closure residuals kept on the way, 9 bytes a position); ``progress(positions written, positions,
     "")`` after each chunk.  Written beside ``path`` and renamed onto it once whole, as
     :func:`stream_solve`."""
     from dualmech.models.linkages import summary
-    from dualmech.models.loop.chunks import iter_tables
+    from dualmech.models.loop.chunks import chunk_table, iter_analyses
     from dualmech.models.loop.columns import loop_spec
     from dualmech.models.loop.table import ENGINE, gap_messages
 
@@ -213,7 +215,8 @@ def stream_loop_solve(mechanism: "LoopMechanism", path: str | Path,
         with replacing(path) as (tmp, fd):
             out = ParquetWriter(tmp, spec.columns) if parquet else os.fdopen(os.dup(fd), "w")
 
-            def sink(k: int, table: "LinkageTable") -> None:
+            def sink(k: int, chunk: LoopChunk) -> None:
+                table = chunk_table(chunk)
                 rows = slice(written[0], written[0] + len(table))
                 codes[rows], residual[rows] = status_codes(table.status), table.columns["residual"]
                 if parquet:
@@ -226,7 +229,7 @@ def stream_loop_solve(mechanism: "LoopMechanism", path: str | Path,
                     progress(written[0], n, "")
 
             with out:
-                _pipelined(iter_tables(mechanism, LOOP_CHUNK), sink)
+                _pipelined(iter_analyses(mechanism, LOOP_CHUNK), sink)
     finally:
         _let_go(held)
     key = np.degrees(mechanism.drive.positions) if mechanism.drive.coordinate == "theta" \

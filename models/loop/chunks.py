@@ -16,7 +16,7 @@ gap in their own order (``docs/conventions.md``, "Past a gap": continuity with t
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Iterator
+from typing import Iterator, NamedTuple
 
 import numpy as np
 
@@ -30,29 +30,53 @@ from dualmech.models.loop.translate import drive_state, to_loop
 from dualmech.models.tables import LinkageTable
 
 
-def iter_tables(mechanism: LoopMechanism, size: int) -> Iterator[LinkageTable]:
-    """The in-house tables of ``mechanism``'s drive positions, ``size`` at a time (the first chunk reaches
-    past the start's position), in order (module docstring)."""
+class Chunk(NamedTuple):
+    """One chunk's analysis and how many of its first rows are not the chunk's (the pose it started from)."""
+
+    analysis: LoopAnalysis
+    skip: int
+
+
+def iter_analyses(mechanism: LoopMechanism, size: int) -> Iterator[Chunk]:
+    """The in-house analyses of ``mechanism``'s drive positions, ``size`` at a time (the first chunk reaches
+    past the start's position), in order (module docstring); :func:`chunk_table` makes each a table."""
     check_mobility(mechanism)
     positions = np.asarray(mechanism.drive.positions, dtype=float)
     n = positions.size
     pose, at = find_start(mechanism, to_loop(mechanism), drive_state(mechanism))
     end = min(n, max(size, at + 1))
     an = analyze_loop(_over(mechanism, positions[:end]), pose, at)
-    yield analysis_table(an)
+    yield Chunk(an, 0)
     last = _last_on_branch(an, 0)
     while end < n:
         rows = np.arange(end, min(n, end + size))
         if last is None:  # no row closed on the branch yet: each chunk from the start pose, as found
             an = analyze_loop(_over(mechanism, positions[rows]))
-            yield analysis_table(an)
+            yield Chunk(an, 0)
             last = _last_on_branch(an, 0)
         else:
             value, state = last
             an = analyze_loop(_over(mechanism, np.concatenate([[value], positions[rows]])), state, 0)
-            yield _without_first(analysis_table(an))
+            yield Chunk(an, 1)
             last = _last_on_branch(an, 1) or last
         end = rows[-1] + 1
+
+
+def chunk_table(chunk: Chunk) -> LinkageTable:
+    """The in-house table of a chunk's own rows (:func:`~dualmech.models.loop.table.analysis_table`); its
+    meta's per-row arrays cut to them, its messages (of the chunk's gaps) left out."""
+    table = analysis_table(chunk.analysis)
+    if not chunk.skip:
+        return table
+    rows = slice(chunk.skip, None)
+    meta = {k: v[rows] if isinstance(v, np.ndarray) else v for k, v in table.meta.items() if k != "messages"}
+    return LinkageTable(table.engine, table.case, {c: v[rows] for c, v in table.columns.items()},
+                        table.status[rows], meta)
+
+
+def iter_tables(mechanism: LoopMechanism, size: int) -> Iterator[LinkageTable]:
+    """The tables of :func:`iter_analyses`, in order."""
+    return (chunk_table(chunk) for chunk in iter_analyses(mechanism, size))
 
 
 def _over(mechanism: LoopMechanism, positions: np.ndarray) -> LoopMechanism:
@@ -68,11 +92,3 @@ def _last_on_branch(an: LoopAnalysis, first: int) -> tuple[float, LoopState] | N
         if regular(an, int(i)):
             return float(an.mechanism.drive.positions[i]), an.state.take(slice(int(i), int(i) + 1))
     return None
-
-
-def _without_first(table: LinkageTable) -> LinkageTable:
-    """``table`` without its first row (the pose a chunk started from); its meta's per-row arrays too, its
-    messages (of the chunk's gaps) left out."""
-    meta = {k: v[1:] if isinstance(v, np.ndarray) else v for k, v in table.meta.items() if k != "messages"}
-    return LinkageTable(table.engine, table.case, {c: v[1:] for c, v in table.columns.items()},
-                        table.status[1:], meta)

@@ -29,8 +29,8 @@ seeded random cases (the thesis example with random offset, twist and axial shif
   slow the total.  The Exudyn judge (:func:`time_exudyn`) has nothing to prebuild: its systems are
   built inside its runs; it runs on fewer cases (``exudyn_cases``), ~20 s each.
 * **the main job** -- ``dualmech validate`` of the default matrix with its report, as a user runs it: a
-  fresh process into a fresh folder each time (:func:`time_main_job`), its wall time and the CPU time of
-  the process and its workers.
+  fresh process into a fresh folder each time (:func:`~dualmech.validation.benchmark.main_job.time_main_job`),
+  its wall time and the CPU time of the process and its workers.
 """
 
 from __future__ import annotations
@@ -38,10 +38,7 @@ from __future__ import annotations
 import contextlib
 import datetime
 import platform
-import resource
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -53,6 +50,7 @@ import numpy as np
 
 from dualmech.models.case import Case, load_case
 from dualmech.models.slider_crank.kernel import _pool, case_arrays, solve_cases, threads
+from dualmech.validation.benchmark.main_job import time_main_job
 from dualmech.validation.solve_output import stream_loop_solve, stream_solve
 
 #: Crank-state fields in the kernel's order.
@@ -265,85 +263,47 @@ def _inside(module: ModuleType, like: Callable, run: Callable[[], None]) -> Call
     return timed_run
 
 
-def time_loop_kernel(cases: list[Case], positions: int, repeats: int, big: int) -> list[Timing]:
-    """The generic loop engine, compiled (:func:`dualmech.models.loop.engine.analyze_loop`), on the slider
-    crank as a joint table: ``cases`` one call each, and one case of ``positions`` crank angles; with ``big``,
-    ``dualmech solve`` of one such table of ``big`` angles into Parquet (streamed in chunks,
-    :func:`~dualmech.validation.solve_output.stream_loop_solve`, as the slider crank's row).  Each start
-    pose from the slider crank kernel's ``S4`` at the first angle (outside the timing)."""
-    from dualmech.models.loop.engine import analyze_loop
-    from dualmech.models.loop.presets import slider_crank_start, slider_crank_table, started
+def as_joint_table(cases: list[Case]) -> list[tuple]:
+    """Each case as the slider crank's joint table with its start pose (the kernel's ``S4`` at the first
+    angle), for :func:`~dualmech.models.loop.engine.analyze_loop`."""
+    from dualmech.models.loop.presets import slider_crank_start, slider_crank_table
 
-    groups = {"cases": cases, "long": random_cases(1, step_deg=360.0 / positions, seed=2)}
-    if big:
-        groups["big"] = random_cases(1, step_deg=360.0 / big, seed=2)
-    prepared, one_angle = {}, {"motion.angles_deg": {"start": 0.0, "stop": 1.0, "step": 1.0}}
-    for label, group in groups.items():
-        first = [c.with_values(one_angle) for c in group]
-        prepared[label] = [(slider_crank_table(c), slider_crank_start(c, t["S4"][0]))
-                           for c, t in zip(group, solve_cases(first))]
+    first = solve_cases([c.with_values({"motion.angles_deg": {"start": 0.0, "stop": 1.0, "step": 1.0}})
+                         for c in cases])
+    return [(slider_crank_table(c), slider_crank_start(c, t["S4"][0])) for c, t in zip(cases, first)]
+
+
+def time_loop_kernel(cases: list[Case], positions: int, repeats: int) -> list[Timing]:
+    """The generic loop engine, compiled (:func:`dualmech.models.loop.engine.analyze_loop`), on the slider
+    crank as a joint table (:func:`as_joint_table`, outside the timing): ``cases`` one call each, and one case
+    of ``positions`` crank angles."""
+    from dualmech.models.loop.engine import analyze_loop
+
+    long = random_cases(1, step_deg=360.0 / positions, seed=2)
+    prepared = {"cases": as_joint_table(cases), "long": as_joint_table(long)}
 
     def run(label: str) -> Callable[[], object]:
         return lambda: [analyze_loop(mech, start) for mech, start in prepared[label]]
 
-    n = len(groups["long"][0].motion.angles_deg)
-    rows = [measure(f"dualmech loop kernel, the slider crank as a joint table ({len(cases)} cases)",
+    n = len(long[0].motion.angles_deg)
+    return [measure(f"dualmech loop kernel, the slider crank as a joint table ({len(cases)} cases)",
                     _positions(cases), run("cases"), repeats),
             measure(f"dualmech loop kernel, one case ({n:,} positions)", n, run("long"), repeats)]
-    if not big:
-        return rows
-    table, m = started(*prepared["big"][0]), len(groups["big"][0].motion.angles_deg)
-    label = f"dualmech solve, the slider crank as a joint table into Parquet ({m:,} positions)"
+
+
+def time_solve_parquet(positions: int, repeats: int, joint_table: bool = False) -> Timing:
+    """``dualmech solve`` of one case of ``positions`` crank angles into Parquet, streamed chunk by chunk
+    (start-up excluded); ``joint_table``: the case as the slider crank's joint table (:func:`as_joint_table`,
+    outside the timing; :func:`~dualmech.validation.solve_output.stream_loop_solve`)."""
+    from dualmech.models.loop.presets import started
+
+    case = random_cases(1, step_deg=360.0 / positions, seed=2)[0]
+    n, table = len(case.motion.angles_deg), started(*as_joint_table([case])[0]) if joint_table else None
+    what = "the slider crank as a joint table" if joint_table else "one case"
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out.parquet"
-        return rows + [measure(label, m, lambda: stream_loop_solve(table, out), repeats)]
-
-
-def time_solve_parquet(positions: int, repeats: int) -> Timing:
-    """``dualmech solve`` of one case of ``positions`` crank angles into Parquet (start-up excluded)."""
-    case = random_cases(1, step_deg=360.0 / positions, seed=2)[0]
-    n = len(case.motion.angles_deg)
-    with tempfile.TemporaryDirectory() as tmp:
-        return measure(f"dualmech solve, one case into Parquet ({n:,} positions)", n,
-                       lambda: stream_solve(case, Path(tmp) / "out.parquet"), repeats)
-
-
-@dataclass(frozen=True)
-class MainJobTiming:
-    """Wall and CPU seconds (the process and its workers) of each timed run of the main job."""
-
-    walls: tuple[float, ...]
-    cpus: tuple[float, ...]
-
-    def lines(self) -> list[str]:
-        """The Markdown table of the runs: median, fastest and slowest."""
-        w, c = self.walls, self.cpus
-        return ["| main job | runs | wall s, median | wall s, min-max | CPU s, median |",
-                "|---|---:|---:|---:|---:|",
-                f"| `dualmech validate` (thesis-1991, 4 engines, report) | {len(w)} | "
-                f"{statistics.median(w):.2f} | {min(w):.2f}-{max(w):.2f} | {statistics.median(c):.2f} |"]
-
-
-def time_main_job(runs: int) -> MainJobTiming:
-    """``dualmech validate`` of the default matrix ``runs`` times after a warm-up run, each in a fresh process
-    into a fresh folder; a run that does not PASS is a one-line ``RuntimeError`` (a failing job's time is
-    no figure)."""
-    walls, cpus = [], []
-    with tempfile.TemporaryDirectory(prefix="dualmech-main-job-") as tmp:
-        for i in range(runs + 1):
-            before = resource.getrusage(resource.RUSAGE_CHILDREN)
-            start = time.perf_counter()
-            proc = subprocess.run([sys.executable, "-m", "dualmech.cli", "validate", "-o", f"{tmp}/run{i}"],
-                                  capture_output=True, text=True, stdin=subprocess.DEVNULL)
-            wall = time.perf_counter() - start
-            after = resource.getrusage(resource.RUSAGE_CHILDREN)
-            if proc.returncode != 0:
-                last = (proc.stderr.strip() or proc.stdout.strip()).splitlines()[-1:] or [""]
-                raise RuntimeError(f"main job: dualmech validate exited {proc.returncode}: {last[0]}")
-            if i:
-                walls.append(wall)
-                cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
-    return MainJobTiming(tuple(walls), tuple(cpus))
+        solve = (lambda: stream_loop_solve(table, out)) if joint_table else (lambda: stream_solve(case, out))
+        return measure(f"dualmech solve, {what} into Parquet ({n:,} positions)", n, solve, repeats)
 
 
 def performance_page(table: str, command: str) -> str:
@@ -377,7 +337,8 @@ def run_benchmark(cases: int = 1000, judge_cases: int = 5, big: int = 2_000_000,
     if big:
         rows.append(time_solve_parquet(big, repeats))
     if loop_cases:
-        rows += time_loop_kernel(bench[:loop_cases], max(big // 10, 360), repeats, big)
+        rows += time_loop_kernel(bench[:loop_cases], max(big // 10, 360), repeats)
+        rows += [time_solve_parquet(big, repeats, joint_table=True)] if big else []
     judges = bench[:judge_cases]
     timers = ((time_pinocchio, judges), (time_mujoco, judges), (time_exudyn, judges[:exudyn_cases]))
     for timer, chosen in timers:
