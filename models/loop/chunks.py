@@ -50,7 +50,7 @@ def iter_analyses(mechanism: LoopMechanism, size: int) -> Iterator[Chunk]:
     last = _last_on_branch(an, 0)
     while end < n:
         rows = np.arange(end, min(n, end + size))
-        if last is None:  # no row closed on the branch yet: each chunk from the start pose, as found
+        if last is None:  # no row on the branch with a regular pose yet: a start of its own (searched)
             an = analyze_loop(_over(mechanism, positions[rows]))
             yield Chunk(an, 0)
             last = _last_on_branch(an, 0)
