@@ -21,7 +21,7 @@ import numpy as np
 
 from dualmech.core.files import replacing
 from dualmech.core.status import STATUSES
-from dualmech.core.table import ColumnTable, ParquetWriter, status_codes, write_parquet
+from dualmech.core.table import NUMERIC_COLUMNS, ColumnTable, ParquetWriter, status_codes, write_parquet
 from dualmech.models.case import Case
 from dualmech.models.plausibility import masses_line
 from dualmech.models.tables import LinkageTable
@@ -156,29 +156,14 @@ def stream_solve(case: Case, path: str | Path, progress: ProgressCallback | None
     from dualmech.models.angle_ranges import no_assembly_message, row_ranges
     from dualmech.models.slider_crank.kernel import CHUNK_POSITIONS, iter_chunks, to_table
 
-    parquet = output_format(path) == ".parquet"
-    held = _hold_old_file(Path(path))
     tally = _Tally()
-    written = [0]
-    try:
-        with replacing(path) as (tmp, fd):
-            out = ParquetWriter(tmp) if parquet else os.fdopen(os.dup(fd), "w")
 
-            def sink(k: int, chunk: LoopChunk) -> None:
-                tally.add(chunk.columns, chunk.status)
-                if parquet:
-                    out.write(chunk.columns, chunk.status)
-                else:
-                    text = to_table(case, chunk).to_csv()
-                    out.write(text if k == 0 else text.split("\n", 1)[1])
-                written[0] += chunk.status.size
-                if progress is not None:
-                    progress(written[0], len(case.motion.angles_deg), "")
+    def rows(chunk: Chunk) -> tuple[dict[str, np.ndarray], np.ndarray, Callable[[], str]]:
+        tally.add(chunk.columns, chunk.status)
+        return chunk.columns, chunk.status, lambda: to_table(case, chunk).to_csv()
 
-            with out:
-                _pipelined(iter_chunks(case, CHUNK_POSITIONS, buffers=3, ahead=1), sink)
-    finally:
-        _let_go(held)
+    _stream_into(path, NUMERIC_COLUMNS, iter_chunks(case, CHUNK_POSITIONS, buffers=3, ahead=1), rows,
+                 len(case.motion.angles_deg), progress)
     theta = np.asarray(case.motion.angles_deg, dtype=float)
     ranges = row_ranges(theta, np.concatenate(tally.no_assembly))
     return tally.text(case, no_assembly_message(ranges))
@@ -202,39 +187,55 @@ def stream_loop_solve(mechanism: "LoopMechanism", path: str | Path,
     :func:`stream_solve`."""
     from dualmech.models.linkages import summary
     from dualmech.models.loop.chunks import chunk_table, iter_analyses
-    from dualmech.models.loop.columns import loop_spec
+    from dualmech.models.loop.columns import key_values, loop_spec
     from dualmech.models.loop.table import ENGINE, gap_messages
 
     spec = loop_spec(mechanism)
     n = np.asarray(mechanism.drive.positions).size
+    codes, residual, written = np.empty(n, dtype=np.int8), np.empty(n), [0]
+
+    def rows(chunk: LoopChunk) -> tuple[dict[str, np.ndarray], np.ndarray, Callable[[], str]]:
+        table = chunk_table(chunk)
+        kept = slice(written[0], written[0] + len(table))
+        codes[kept], residual[kept] = status_codes(table.status), table.columns["residual"]
+        written[0] += len(table)
+        return table.columns, codes[kept], table.to_csv
+
+    _stream_into(path, spec.columns, iter_analyses(mechanism, LOOP_CHUNK), rows, n, progress)
+    words = np.asarray(STATUSES, dtype=object)[codes]
+    table = LinkageTable(ENGINE, mechanism.name, {spec.key: key_values(mechanism), "residual": residual},
+                         words, {})
+    table.meta["messages"] = gap_messages(table, spec)
+    return summary(table)
+
+
+def _stream_into(path: str | Path, names: tuple[str, ...], chunks: Iterable, rows: Callable,
+                 total: int, progress: ProgressCallback | None) -> None:
+    """Write ``chunks`` (of ``total`` positions) into ``path`` as they come, each on a writer thread while the
+    next is computed (:func:`_pipelined`): ``rows(chunk)`` gives its columns (``names`` of them go to
+    Parquet), its status codes and a function of its CSV text (the header dropped after the first chunk);
+    ``progress(positions written, total, "")`` after each.  Written beside ``path`` and renamed onto it
+    once whole and fsynced (:func:`~dualmech.core.files.replacing`): an error, a full disk or Ctrl-C leaves
+    the old file as it was and no partial one."""
     parquet = output_format(path) == ".parquet"
     held = _hold_old_file(Path(path))
-    codes, residual = np.empty(n, dtype=np.int8), np.empty(n)
     written = [0]
     try:
         with replacing(path) as (tmp, fd):
-            out = ParquetWriter(tmp, spec.columns) if parquet else os.fdopen(os.dup(fd), "w")
+            out = ParquetWriter(tmp, names) if parquet else os.fdopen(os.dup(fd), "w")
 
-            def sink(k: int, chunk: LoopChunk) -> None:
-                table = chunk_table(chunk)
-                rows = slice(written[0], written[0] + len(table))
-                codes[rows], residual[rows] = status_codes(table.status), table.columns["residual"]
+            def sink(k: int, chunk: object) -> None:
+                columns, codes, csv = rows(chunk)
                 if parquet:
-                    out.write(table.columns, codes[rows])
+                    out.write(columns, codes)
                 else:
-                    text = table.to_csv()
+                    text = csv()
                     out.write(text if k == 0 else text.split("\n", 1)[1])
-                written[0] += len(table)
+                written[0] += codes.size
                 if progress is not None:
-                    progress(written[0], n, "")
+                    progress(written[0], total, "")
 
             with out:
-                _pipelined(iter_analyses(mechanism, LOOP_CHUNK), sink)
+                _pipelined(chunks, sink)
     finally:
         _let_go(held)
-    key = np.degrees(mechanism.drive.positions) if mechanism.drive.coordinate == "theta" \
-        else np.asarray(mechanism.drive.positions)
-    words = np.asarray(STATUSES, dtype=object)[codes]
-    table = LinkageTable(ENGINE, mechanism.name, {spec.key: key, "residual": residual}, words, {})
-    table.meta["messages"] = gap_messages(table, spec)
-    return summary(table)

@@ -70,6 +70,12 @@ def key_column(mechanism: LoopMechanism) -> str:
     return f"theta{d.joint + 1}_deg" if d.coordinate == "theta" else f"s{d.joint + 1}"
 
 
+def key_values(mechanism: LoopMechanism) -> np.ndarray:
+    """The key column's values ``(n,)`` (:func:`key_column`): the drive's positions, an angle's in degrees."""
+    d = mechanism.drive
+    return np.degrees(d.positions) if d.coordinate == "theta" else np.asarray(d.positions, dtype=float)
+
+
 def column_names(mechanism: LoopMechanism) -> list[str]:
     """The compared columns of ``mechanism``'s table in order (module docstring), without the key and the
     residuals: coordinates with their rates, efforts, joint wrenches."""
@@ -146,10 +152,8 @@ def loop_table(engine: str, mechanism: LoopMechanism, columns: dict[str, np.ndar
         simulation has no least-squares ``dynamics_residual``; a closure alone gives no rates or reactions).
     """
     spec = loop_spec(mechanism)
-    d = mechanism.drive
-    key = np.degrees(d.positions) if d.coordinate == "theta" else d.positions
     condition, status = limit_words(mechanism, columns, status)
-    columns = {**columns, spec.key: key, CONDITION: condition}
+    columns = {**columns, spec.key: key_values(mechanism), CONDITION: condition}
     cols = {c: np.array(columns[c], dtype=float) for c in spec.columns}
     reactions = tuple(c for c in spec.reactions if c not in not_given)
     rates = tuple(c for c in spec.rates if c not in not_given)
