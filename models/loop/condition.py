@@ -152,15 +152,47 @@ def freedom_twists(mechanism: LoopMechanism, pose: dict[str, np.ndarray]
 
 def _columns(twists: list[Twist], points: np.ndarray) -> np.ndarray:
     """The columns :math:`\\bar J_{:,k} = (\\omega_k, v_{O,k} / L)` ``(n, m, 6)`` of ``twists`` (module
-    docstring: ``O`` the centroid of ``points``, ``L`` their RMS distance from it)."""
-    centre = points.mean(axis=1)
-    spread = np.sqrt(np.mean(np.sum((points - centre[:, None]) ** 2, axis=2), axis=1))
-    length = np.where(spread > 0.0, spread, 1.0)[:, None, None]
+    docstring: ``O`` the centroid of ``points``, ``L`` their RMS distance from it; :func:`_columns_rows`)."""
     axes = np.stack([axis for axis, _ in twists], axis=1)
-    slide = np.array([point is None for _, point in twists])[None, :, None]
-    anchors = np.stack([centre if point is None else point for _, point in twists], axis=1)
-    moments = np.cross(anchors - centre[:, None], axes) / length
-    return np.concatenate([np.where(slide, 0.0, axes), np.where(slide, axes, moments)], axis=2)
+    anchors = np.stack([axis if point is None else point for axis, point in twists], axis=1)
+    slide = np.array([point is None for _, point in twists])
+    return _columns_rows(np.ascontiguousarray(axes, dtype=float), np.ascontiguousarray(anchors, dtype=float),
+                         slide, np.ascontiguousarray(points, dtype=float))
+
+
+@njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp"})
+def _columns_rows(axes: np.ndarray, anchors: np.ndarray, slide: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """:func:`_columns` per row, compiled: ``axes``, ``anchors`` ``(n, m, 3)`` (a turn's point; a slide's is
+    not read), ``slide`` ``(m,)`` bool, ``points`` ``(n, J, 3)``.  ``L`` is 1 where the points do not spread
+    (or are not finite: the row's columns are then not finite either)."""
+    n, m, joints = axes.shape[0], axes.shape[1], points.shape[1]
+    out = np.empty((n, m, 6))
+    centre = np.empty(3)
+    for i in range(n):
+        for c in range(3):
+            total = 0.0
+            for j in range(joints):
+                total += points[i, j, c]
+            centre[c] = total / joints
+        spread = 0.0
+        for j in range(joints):
+            for c in range(3):
+                spread += (points[i, j, c] - centre[c]) ** 2
+        spread = np.sqrt(spread / joints)
+        length = spread if spread > 0.0 else 1.0
+        for k in range(m):
+            a = axes[i, k]
+            if slide[k]:
+                for c in range(3):
+                    out[i, k, c], out[i, k, 3 + c] = 0.0, a[c]
+                continue
+            p = anchors[i, k]
+            r0, r1, r2 = p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]
+            out[i, k, 0], out[i, k, 1], out[i, k, 2] = a[0], a[1], a[2]
+            out[i, k, 3] = (r1 * a[2] - r2 * a[1]) / length
+            out[i, k, 4] = (r2 * a[0] - r0 * a[2]) / length
+            out[i, k, 5] = (r0 * a[1] - r1 * a[0]) / length
+    return out
 
 
 def _condition(jac: np.ndarray) -> np.ndarray:
