@@ -1,5 +1,6 @@
-"""The kernel's worker threads: one pool per process, as many threads as CPUs it may run on; and the
-scratch that finished calls give back for the next.
+"""The kernel's worker threads: one pool per process, as many threads as CPUs it may run on; a second
+pool of as many for compiled work beside the kernel's; and the scratch that finished calls give back for
+the next.
 
 The compiled kernels release the GIL (``nogil``), so blocks of positions submitted to this pool run in
 parallel; every engine on the kernel shares it.  A block's scratch (arrays the kernel writes before it reads
@@ -52,5 +53,19 @@ def kernel_pool() -> ThreadPoolExecutor:
     return ThreadPoolExecutor(max_workers=threads(), thread_name_prefix="dualmech-kernel")
 
 
-# a forked child (a process pool's worker) inherits the pool object but not its threads: start afresh
-os.register_at_fork(after_in_child=kernel_pool.cache_clear)
+@lru_cache(maxsize=1)
+def side_pool() -> ThreadPoolExecutor:
+    """Threads for compiled work on finished answers (a loop table's closure condition), apart from the
+    kernel's: a table made on a writer thread while the kernel analyses the next chunk (``solve -o``)
+    would otherwise wait until the kernel's queued blocks are done, one core idle meanwhile; apart, the
+    two share the cores."""
+    return ThreadPoolExecutor(max_workers=threads(), thread_name_prefix="dualmech-side")
+
+
+def _forget_pools() -> None:
+    kernel_pool.cache_clear()
+    side_pool.cache_clear()
+
+
+# a forked child (a process pool's worker) inherits the pool objects but not their threads: start afresh
+os.register_at_fork(after_in_child=_forget_pools)

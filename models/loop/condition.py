@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.pool import kernel_pool, threads
+from dualmech.core.kernel.pool import side_pool, threads
 from dualmech.models.loop.description import LoopMechanism
 from dualmech.models.loop.translate import drive_state, variable
 
@@ -200,8 +200,8 @@ def _condition(jac: np.ndarray) -> np.ndarray:
     finite."""
     good = np.isfinite(jac).all(axis=(1, 2))
     out = np.full(jac.shape[0], np.nan)
-    blocks = np.array_split(jac if good.all() else jac[good], threads())  # the kernel's threads: nogil
-    out[good] = np.concatenate(list(kernel_pool().map(_condition_rows, blocks)))
+    blocks = np.array_split(jac if good.all() else jac[good], threads())  # beside the kernel's: nogil
+    out[good] = np.concatenate(list(side_pool().map(_condition_rows, blocks)))
     return out
 
 

@@ -1,5 +1,6 @@
 """The kernel's spare scratch (:func:`dualmech.core.kernel.pool.take_scratch`, ``give_scratch``): a set given
-back is taken again, never by two takers, and only so many kinds are kept."""
+back is taken again, never by two takers, and only so many kinds are kept; the side pool runs beside the
+kernel's."""
 
 from __future__ import annotations
 
@@ -36,3 +37,19 @@ def test_only_so_many_kinds_and_sets_are_kept() -> None:
     assert pool.take_scratch(pool.SCRATCH_KINDS, lambda: "new") == pool.SCRATCH_KINDS
     pool.give_scratch("many", range(pool.SCRATCH_SETS + 5))
     assert len(pool._SPARE["many"]) == pool.SCRATCH_SETS
+
+
+def test_side_work_runs_while_every_kernel_thread_is_busy() -> None:
+    """A table's compiled work (``side_pool``) does not queue behind the kernel's blocks: with every kernel
+    thread held, it still runs, on threads of its own."""
+    import threading
+
+    release = threading.Event()
+    held = [pool.kernel_pool().submit(release.wait, 30) for _ in range(pool.threads())]
+    try:
+        side = pool.side_pool().submit(lambda: threading.current_thread().name)
+        assert side.result(timeout=10).startswith("dualmech-side")
+        assert not any(block.done() for block in held)
+    finally:
+        release.set()
+    assert all(block.result(timeout=10) for block in held)
