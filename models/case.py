@@ -26,7 +26,14 @@ from typing import Any
 import numpy as np
 
 from dualmech.core.motion import CrankMotion, CrankState
-from dualmech.models.case_format import KNOWN_UNITS, case_numbers, check_top_keys, deep_copy, parse_tables
+from dualmech.models.case_format import (
+    KNOWN_UNITS,
+    case_numbers,
+    check_kind,
+    check_top_keys,
+    deep_copy,
+    parse_tables,
+)
 from dualmech.models.inputs import MAX_CASE_NAME, CaseError, show
 from dualmech.models.mechanism import Bodies, Geometry, Joints, Loads
 from dualmech.models.toml_input import read_toml
@@ -160,6 +167,7 @@ def case_from_dict(data: dict) -> Case:
     """
     if not isinstance(data, dict):
         raise CaseError(f"case: expected a table, got {show(data)}")
+    check_kind(data)
     check_top_keys(data)
     if "name" not in data:
         raise CaseError("name: required key missing")
@@ -181,8 +189,9 @@ def preset_path(name: str) -> Path:
     names = preset_names()
     matches = [n for n in names if n == name or n.split("/", 1)[1] == name]
     if len(matches) != 1:
-        raise CaseError(f"case: {show(name)} is neither a file nor a bundled preset (presets: "
-                        f"{', '.join(names)})")
+        raise CaseError(f"case: {show(name)} is neither a file nor a bundled slider crank (presets: "
+                        f"{', '.join(names)}; another kind's bundled case, of dualmech cases, is read by "
+                        "dualmech.solve and the other verbs)")
     group, stem = matches[0].split("/", 1)
     return Path(str(resources.files("dualmech.models") / "cases" / group / f"{stem}.toml"))
 

@@ -148,15 +148,23 @@ def _simulation_steps(sim: dict) -> int | None:
     return int(SIMULATION_STEPS.check("simulation.steps_per_degree", value))
 
 
-def _slider_crank(kind: Any) -> None:
-    """Refuse a ``[mechanism] kind`` other than the slider crank's (the other linkages have their own case
-    format: ``docs/conventions.md``, "Linkages")."""
+def check_kind(data: dict) -> None:
+    """Refuse a ``[mechanism]`` that is not a table or names a kind other than the slider crank's (the other
+    kinds have their own case format, read by every verb: ``docs/conventions.md``, "Linkages", "Loop
+    tables"), in one line; before any other key is checked, since another kind's keys are not unknown
+    keys here."""
+    mechanism = data.get("mechanism", {})
+    if not isinstance(mechanism, dict):
+        raise CaseError(f"mechanism: expected a table such as [mechanism] kind = {SLIDER_CRANK!r}, "
+                        f"got {show(mechanism)}")
+    kind = mechanism.get("kind", SLIDER_CRANK)
     if not isinstance(kind, str):
         raise CaseError(f"mechanism.kind: expected a string, one of {', '.join(KINDS)}; "
                         f"got {show(kind)}")
     if kind in LINKAGE_KINDS:
-        raise CaseError(f"mechanism.kind: {show(kind)} is read by dualmech solve or "
-                        f"dualmech.models.linkages, not as a slider crank (valid here: {SLIDER_CRANK})")
+        raise CaseError(f"mechanism.kind: {show(kind)} is read by dualmech solve, simulate, validate and "
+                        "tolerance (in Python: dualmech.solve and the other verbs, by file or bundled name), "
+                        f"not by the slider crank's reader (valid here: {SLIDER_CRANK})")
     if kind != SLIDER_CRANK:
         raise CaseError(f"mechanism.kind: {show(kind)} is not a known mechanism (valid: "
                         f"{', '.join(KINDS)})")
@@ -248,11 +256,7 @@ def case_numbers(data: dict,
 def parse_tables(data: dict) -> dict[str, Any]:
     """The validated parts of a case table (the fields of :class:`~dualmech.models.case.Case`), or a one-line
     :class:`CaseError`."""
-    mechanism = data.get("mechanism", {})
-    if not isinstance(mechanism, dict):
-        raise CaseError(f"mechanism: expected a table such as [mechanism] kind = {SLIDER_CRANK!r}, "
-                        f"got {show(mechanism)}")
-    _slider_crank(mechanism.get("kind", SLIDER_CRANK))  # first: another kind's keys are not unknown keys here
+    check_kind(data)
     _check_keys(data)
     geom, motion, bodies, loads = case_numbers(data)
     _check_proportions(geom, motion)

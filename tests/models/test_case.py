@@ -91,6 +91,27 @@ def test_bad_input_is_one_line_naming_key_and_value(edit, words):
         assert w in msg, (w, msg)
 
 
+@pytest.mark.parametrize("source, words", [
+    # another kind's file: its kind is named before its keys (a loop table's top-level gravity) are
+    ("rscr.toml", ["mechanism.kind: 'loop'", "dualmech.solve", "valid here: slider-crank"]),
+    ("rssr.toml", ["mechanism.kind: 'rssr'", "dualmech.solve"]),
+    # another kind's bundled name
+    ("rscr", ["'rscr'", "bundled slider crank", "thesis/ideal", "dualmech cases", "dualmech.solve"]),
+])
+def test_load_case_names_the_reader_of_another_kind(source, words):
+    """``load_case`` reads slider cranks; another kind's file or bundled name gets one line naming the
+    verbs that read it, not an unknown key of its own format."""
+    from dualmech.models.catalogue import bundled_case_path
+
+    file = source.endswith(".toml")
+    with pytest.raises(CaseError) as err:
+        load_case(bundled_case_path(source[:-5]) if file else source)
+    msg = str(err.value)
+    assert "\n" not in msg and "unknown" not in msg, msg
+    for w in words:
+        assert w in msg, (w, msg)
+
+
 def test_explicit_body_overrides():
     data = _base()
     data["bodies"]["crank"] = {"com": [-3.0, 0.0, 0.0]}
