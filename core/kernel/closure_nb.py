@@ -184,8 +184,10 @@ def newton_step(
     svd: np.ndarray,
     piv: np.ndarray,
     step: np.ndarray,
-) -> None:
-    """``step``: screws times step = minus the closure error, with the spin gauge (eq. 11, 23a).
+) -> bool:
+    """``step``: screws times step = minus the closure error, with the spin gauge (eq. 11, 23a); whether
+    ``sq``, ``piv`` then hold the LU factors of the screw matrix ``mat`` (:func:`~dualmech.core.kernel.
+    linalg_nb.least_squares`).
 
     The loop must have been evaluated at the current point (into ``frames``, ``lines``); the
     other arrays are the scratch of a :class:`Work` of the same names.
@@ -205,14 +207,14 @@ def newton_step(
         )
     rows = 6 + fl.gauges.size
     err[6:rows] = 0.0
-    least_squares(mat, err[:rows], step, sq, rhs, svd, piv)
+    return least_squares(mat, err[:rows], step, sq, rhs, svd, piv)
 
 
 @njit(**INLINE)
 def newton(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work) -> tuple[int, float]:
     """Newton with step halving from ``x`` (updated in place); returns (iterations, residual)
     (:func:`newton_held`, the loop not yet evaluated at ``x``)."""
-    iters, residual, _ = newton_held(fl, vals, x, tols, w, False)
+    iters, residual, _, _ = newton_held(fl, vals, x, tols, w, False)
     return iters, residual
 
 
@@ -227,10 +229,11 @@ def _same_point(x: np.ndarray, y: np.ndarray) -> bool:
 
 @njit(**INLINE)
 def newton_held(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols, w: Work,
-                held: bool) -> tuple[int, float, bool]:
+                held: bool) -> tuple[int, float, bool, float]:
     """Newton with step halving from ``x`` (updated in place); returns (iterations, residual, whether the
-    loop is left evaluated at ``x``).  ``held``: it is already (``w.frames``, ``w.lines``, for these
-    ``vals``), as after a Newton that stopped there.
+    loop is left evaluated at ``x``, the residual where the LU factors in ``w.sq``, ``w.piv`` were taken
+    if ``x`` is that point moved by their full Newton step, else inf).  ``held``: the loop is already
+    evaluated at ``x`` (``w.frames``, ``w.lines``, for these ``vals``), as after a Newton that stopped there.
 
     The per-position form of :func:`dualmech.core.closure._newton`: a step that increases
     the residual is halved (up to 6 times); Newton stops when closed, when a
@@ -248,6 +251,7 @@ def newton_held(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols
         copy(x, seen)
     step[:] = 0.0
     base_res, stalls, halvings, iters, residual, active = math.inf, 0, 0, 0, math.inf, True
+    factored = False  # the factors in w.sq, w.piv are the screw matrix's at base (LU served)
     for _ in range(tols.max_newton + 1):
         if held and _same_point(x, seen):
             res = closure_residual(frames, length_scale(fl, vals))
@@ -269,7 +273,7 @@ def newton_held(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols
         if (not improved and res <= tols.rounding) or stalls >= 3:
             active = False
             break
-        newton_step(fl, vals, frames, lines, mat, gauge, axes, err, sq, rhs, w.svd, w.piv, step)
+        factored = newton_step(fl, vals, frames, lines, mat, gauge, axes, err, sq, rhs, w.svd, w.piv, step)
         copy(x, base)
         base_res, halvings = res, 0
         retract(k0, x, step, 1.0, x)
@@ -277,4 +281,5 @@ def newton_held(fl: FlatLoop, vals: np.ndarray, x: np.ndarray, tols: ClosureTols
     if active and math.isfinite(base_res):
         copy(base, x)
         residual = base_res
-    return iters, residual, held and _same_point(x, seen)
+    stepped = factored and not active and halvings == 0  # x is base moved by the factors' full step
+    return iters, residual, held and _same_point(x, seen), base_res if stepped else math.inf

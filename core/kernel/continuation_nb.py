@@ -20,8 +20,14 @@ from numba import njit
 from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, newton, newton_held, residual_at
 from dualmech.core.kernel.dfp_nb import solve_closure_held
 from dualmech.core.kernel.dual_nb import INLINE, JIT, copy, tmul, trodrigues
-from dualmech.core.kernel.linalg_nb import determinant_sign
+from dualmech.core.kernel.linalg_nb import determinant_sign, lu_sign
 from dualmech.core.kernel.loop_nb import FlatLoop, length_scale, screw_matrix
+
+#: Closure residual (relative, as :func:`~dualmech.core.kernel.loop_nb.closure_residual`) at most, where a
+#: Newton step's LU factors serve the point it steps to (:func:`close_position`): four units of
+#: roundoff.  From such a point the step is of the rounding's size, so the screw matrix at its end differs
+#: from the factored one by rounding (times ``1/c`` near an assembly limit, as the pose itself does).
+FACTORED_RESIDUAL = 4 * 2.220446049250313e-16
 
 
 @njit(**JIT)
@@ -144,9 +150,18 @@ def close_position(
 ) -> tuple[int, int, float, int]:
     """Close one position from its estimate ``x`` (in place), refine a closed one to the rounding level
     (:func:`dualmech.core.closure.refine`: ``refine_tols`` close at 0) and read its branch sign: (status
-    code, iterations, residual, sign); the loop is left evaluated at ``x``."""
+    code, iterations, residual, sign); the loop is left evaluated at ``x``, and where the sign is not 0 the
+    LU factors of its screw matrix (dual rows over the length scale) are left in ``w.sq``, ``w.piv``.
+
+    Where the refine's last step began within :data:`FACTORED_RESIDUAL` of closure, its factors are
+    this point's to rounding (the step moved it by rounding): the sign is read from them, not from a
+    factorization of its own (:func:`_sign_held`), which would give the same sign but at a singular
+    pose, where the sign is rounding either way."""
     code, iters, res, held = solve_closure_held(fl, vals, x, tols, w)
+    factored_at = math.inf
     if code == OK:
-        more, res, held = newton_held(fl, vals, x, refine_tols, w, held)
+        more, res, held, factored_at = newton_held(fl, vals, x, refine_tols, w, held)
         iters += more
+    if held and factored_at <= FACTORED_RESIDUAL and w.mat.shape[0] == w.mat.shape[1]:
+        return code, iters, res, lu_sign(w.sq, w.piv)
     return code, iters, res, _sign_held(fl, vals, w) if held else branch_sign(fl, vals, x, w)

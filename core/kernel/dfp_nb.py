@@ -193,7 +193,7 @@ def solve_closure_held(
     stationary non-zero minimum, else ``NOT_CONVERGED``.
     """
     copy(x, w.guess)
-    iters, residual, held = newton_held(fl, vals, x, tols, w, False)
+    iters, residual, held, _ = newton_held(fl, vals, x, tols, w, False)
     if not residual > tols.rounding:  # NaN too, as the batched solver
         return OK, iters, residual, held
     run_a, run_b, polish = w.runs[0], w.runs[1], w.runs[2]

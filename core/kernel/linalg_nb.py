@@ -167,15 +167,18 @@ def least_squares(
     rhs: np.ndarray,
     svd: np.ndarray,
     piv: np.ndarray,
-) -> None:
+) -> bool:
     """``a x = b`` in the least-squares sense (thesis eq. 23a, :func:`dualmech.core.closure.least_squares`).
 
     ``a`` ``(m, k)``, ``m >= k``: square systems directly, otherwise the normal equations;
     LU with partial pivoting, the pseudo-inverse where a pivot is exactly zero
     (:func:`factorize`, :func:`solve_factored`).  ``sq`` ``(k, k)``, ``rhs`` ``(k,)``,
-    ``svd`` ``(3, k, k)``, ``piv`` ``(k,)`` int: scratch.
+    ``svd`` ``(3, k, k)``, ``piv`` ``(k,)`` int: scratch.  Returns whether LU served (:func:`factorize`): then
+    ``sq``, ``piv`` hold the LU factors of ``a`` (square) or of its normal matrix.
     """
-    solve_factored(a, b, out, sq, rhs, svd, piv, factorize(a, sq, svd, piv))
+    lu = factorize(a, sq, svd, piv)
+    solve_factored(a, b, out, sq, rhs, svd, piv, lu)
+    return lu
 
 
 @njit(**INLINE)
@@ -233,11 +236,18 @@ def determinant_sign(a: np.ndarray, sq: np.ndarray, piv: np.ndarray) -> int:
             sq[i, j] = a[i, j]
     if not _lu_factor(sq, piv):
         return 0
+    return lu_sign(sq, piv)
+
+
+@njit(**INLINE)
+def lu_sign(lu: np.ndarray, piv: np.ndarray) -> int:
+    """Sign of the determinant of a square matrix from its LU factors with partial pivoting (``lu``, ``piv``
+    of :func:`_lu_factor`, every pivot non-zero): the diagonal's signs and the row swaps."""
     sign = 1
-    for c in range(k):
+    for c in range(lu.shape[0]):
         if piv[c] != c:
             sign = -sign
-        if sq[c, c] < 0.0:
+        if lu[c, c] < 0.0:
             sign = -sign
     return sign
 

@@ -9,9 +9,11 @@ refined, its rates and its joint wrenches (:func:`~dualmech.core.kernel.loop_eng
 blocks of whole segments of positions on the kernel's threads (:mod:`~dualmech.core.kernel.pool`), then the
 positions that missed the branch closed again one after the other from their closed neighbour (the numpy
 solver's repair).  One difference from the numpy solver, for speed: within a segment a position's estimate
-is extrapolated from the two closed before it, where the numpy solver interpolates between the stations
-(:mod:`~dualmech.core.kernel.loop_engine_nb`), and the rates are solved with the LU factors of the branch
-sign's closure Jacobian; both refine to the rounding level, so the answers differ by rounding.  Every
+is extrapolated from the one closed before it (its rates and accelerations, second order), where the numpy
+solver interpolates between the stations (:mod:`~dualmech.core.kernel.loop_engine_nb`), and the branch sign
+and the rates use the LU factors of the refine's last step where it began closed to rounding
+(:func:`~dualmech.core.kernel.continuation_nb.close_position`); both refine to the rounding level, so the
+answers differ by rounding.  Every
 position's answer is the same whatever the blocks: it depends on the stations and its segment only.
 
 The table becomes data here: :func:`~dualmech.core.kernel.loop_nb.flatten` and a

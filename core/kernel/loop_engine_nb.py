@@ -6,10 +6,12 @@ rates and accelerations
 (:func:`~dualmech.core.kernel.rates_nb.solve_rates`) and the joint wrenches
 (:func:`~dualmech.core.kernel.wrenches_nb.joint_wrenches`), written to the position's rows of the
 outputs; the branch sign's LU factors serve the rates (one factorization of the closure Jacobian at the
-closed state).  The estimate (:func:`_estimate`): on a fine, even grid of the drive, the state
-extrapolated from the two positions before it in its :data:`SEGMENT` where both closed on the branch (a
-neighbour a step away is far nearer than a station: one or two Newton steps instead of three; an S-S link's
-spin, which the gauge leaves as estimated, follows the positions before); else, as the numpy solver's, the
+closed state).  The estimate (:func:`_estimate`): on a fine, even grid of the drive, the state of the
+position before it moved by its rates and accelerations, to second order in the drive
+(:func:`_second_order`), where the two positions before it in its :data:`SEGMENT` closed on the branch (a
+neighbour a step away is far nearer than a station: on a fine grid closed to the rounding already, where a
+station's interpolation takes three Newton steps; an S-S link's spin, which the gauge leaves as
+estimated, follows the positions before); else, as the numpy solver's, the
 state interpolated between the good stations around it, which is also tried where an extrapolated estimate
 does not close on the branch.  A segment's answers depend on its first position and the stations only, so
 every position's answer is the same whatever the blocks.  :mod:`dualmech.core.kernel.loop_engine` closes
@@ -18,13 +20,15 @@ the stations, drives the blocks and reads the outputs back as the numpy solver's
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, residual_at
+from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, residual_at, retract
 from dualmech.core.kernel.continuation_nb import close_position, interpolate, interpolated_guess
 from dualmech.core.kernel.dual_nb import INLINE, JIT
-from dualmech.core.kernel.loop_nb import FlatLoop, length_scale
+from dualmech.core.kernel.loop_nb import COLUMN, VALUE_INDEX, FlatLoop, length_scale
 from dualmech.core.kernel.rates_nb import solve_rates
 from dualmech.core.kernel.wrenches_nb import WrenchSpec, WrenchWork, joint_wrenches
 
@@ -32,7 +36,7 @@ from dualmech.core.kernel.wrenches_nb import WrenchSpec, WrenchWork, joint_wrenc
 CODE, ITERATIONS, SIGN = 0, 1, 2
 #: Columns of the real output: the closure residual, the Newton-Euler residual, the transmission.
 RESIDUAL, DYNAMICS_RESIDUAL, TRANSMISSION = 0, 1, 2
-#: Positions of a segment: a segment's third position on is estimated from the two before it
+#: Positions of a segment: a segment's third position on is estimated from the one before it
 #: (:func:`_estimate`); blocks are whole segments.  Long enough that the interpolated estimates of its first
 #: two positions cost little, short enough to spread a 360-position turn over two threads.
 SEGMENT = 60
@@ -73,9 +77,10 @@ def analyze_block(
     """
     vals = values[0]
     xs, ints, reals = out[0], out[5], out[6]
+    drive = _drive_value(fl)
     for i in range(lo, hi):
         x = xs[i]
-        extrapolated = _estimate(i, lo, fl.n_scalar, vals, good_pos, good_x, branch, xs, ints, x)
+        extrapolated = _estimate(i, lo, fl, drive, values, good_pos, good_x, branch, out, w.step, x)
         code, iters, res, sign = close_position(fl, tols, refine_tols, vals[i], x, w)
         if extrapolated and (code != OK or sign != branch):  # as the numpy solver, from the stations
             interpolated_guess(fl.n_scalar, i, good_pos, good_x, x)
@@ -106,23 +111,57 @@ def _steady(vals: np.ndarray, i: int) -> bool:
 
 
 @njit(**INLINE)
-def _estimate(i: int, lo: int, n_scalar: int, vals: np.ndarray, good_pos: np.ndarray, good_x: np.ndarray,
-              branch: int, xs: np.ndarray, ints: np.ndarray, out: np.ndarray) -> bool:
-    """Position ``i``'s start estimate into ``out`` (module docstring): the line through the states of
-    positions ``i - 2`` and ``i - 1`` (:func:`~dualmech.core.kernel.continuation_nb.interpolate` at ``t`` = 2)
-    where both are in ``i``'s segment, at or after the block's first position ``lo``, closed on the
-    ``branch``, the values move evenly (:func:`_steady`), and ``i`` lies between good stations at least
-    :data:`STATION_GAP` positions apart (nearer stations interpolate as well; a station is its own
-    estimate); else :func:`~dualmech.core.kernel.continuation_nb.interpolated_guess`.  Whether
-    extrapolated."""
+def _drive_value(fl: FlatLoop) -> int:
+    """The index in ``vals`` of the drive: the first input's (a C joint driven by its angle: the angle)."""
+    for j in range(fl.screws.shape[0]):
+        if fl.screws[j, COLUMN] < 0:
+            return fl.screws[j, VALUE_INDEX]
+    return -1
+
+
+@njit(**INLINE)
+def _estimate(i: int, lo: int, fl: FlatLoop, drive: int, values: tuple, good_pos: np.ndarray,
+              good_x: np.ndarray, branch: int, out: tuple, change: np.ndarray, x: np.ndarray) -> bool:
+    """Position ``i``'s start estimate into ``x`` (module docstring): from position ``i - 1``
+    (:func:`_second_order`) where positions ``i - 2`` and ``i - 1`` are in ``i``'s segment, at or after the
+    block's first position ``lo``, closed on the ``branch``, the values move evenly (:func:`_steady`), and
+    ``i`` lies between good stations at least :data:`STATION_GAP` positions apart (nearer stations
+    interpolate as well; a station is its own estimate); else
+    :func:`~dualmech.core.kernel.continuation_nb.interpolated_guess`.  Whether extrapolated.  ``change``
+    ``(K,)``: scratch."""
+    vals, ints = values[0], out[5]
     right = min(np.searchsorted(good_pos, i), good_pos.size - 1)
     gap = good_pos[right] - good_pos[max(right - 1, 0)]
     if (i % SEGMENT >= 2 and i - 2 >= lo and good_pos[right] != i and gap >= STATION_GAP
             and _on_branch(ints, i - 1, branch) and _on_branch(ints, i - 2, branch) and _steady(vals, i)):
-        interpolate(n_scalar, xs[i - 2], xs[i - 1], 2.0, out)
+        _second_order(i, fl, drive, values, out, change, x)
         return True
-    interpolated_guess(n_scalar, i, good_pos, good_x, out)
+    interpolated_guess(fl.n_scalar, i, good_pos, good_x, x)
     return False
+
+
+@njit(**INLINE)
+def _second_order(i: int, fl: FlatLoop, drive: int, values: tuple, out: tuple, change: np.ndarray,
+                  x: np.ndarray) -> None:
+    """The state at position ``i`` from position ``i - 1``'s, its rates and accelerations, to second order
+    in the drive's value ``d`` (the pose is a function of ``d`` alone): ``x' = q_dot / d_dot``,
+    ``x'' = (q_ddot - x' d_ddot) / d_dot^2``, the change ``h x' + h^2 x'' / 2`` for the drive's step ``h``,
+    applied by :func:`~dualmech.core.kernel.closure_nb.retract` (a ball's turn by the exponential map,
+    second order too: its ``omega x omega`` term included).  The error is of third order in ``h``: on a
+    fine grid below the closure's rounding, so that Newton takes no step.  Where the drive stands still
+    (``d_dot`` 0), the line through the states of positions ``i - 2`` and ``i - 1``
+    (:func:`~dualmech.core.kernel.continuation_nb.interpolate` at ``t`` = 2)."""
+    vals, vdot, vddot = values[0], values[1], values[2]
+    xs, q = out[0], out[1]
+    speed = vdot[i - 1, drive] if drive >= 0 else 0.0
+    if not (speed != 0.0 and math.isfinite(speed)):
+        interpolate(fl.n_scalar, xs[i - 2], xs[i - 1], 2.0, x)
+        return
+    h = (vals[i, drive] - vals[i - 1, drive]) / speed  # the time step at the drive's speed
+    bend = vddot[i - 1, drive] / speed
+    for k in range(change.size):
+        change[k] = h * (q[i - 1, 0, k] + 0.5 * h * (q[i - 1, 1, k] - q[i - 1, 0, k] * bend))
+    retract(fl.n_scalar, xs[i - 1], change, 1.0, x)
 
 
 @njit(**JIT)
