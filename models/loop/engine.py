@@ -191,10 +191,7 @@ def through_locks(an: LoopAnalysis, at: int, compiled: bool) -> LoopAnalysis:
     itself: its determinant's sign is rounding) is closed again (:func:`_at_lock`)."""
     n = an.status.shape[0]
     for step in (1, -1):
-        good = is_status(an.status, Status.OK, Status.DEAD_CENTRE)
-        end = at
-        while 0 <= end + step < n and good[end + step]:
-            end += step
+        end = _run_end(is_status(an.status, Status.OK, Status.DEAD_CENTRE), at, step)
         if not (0 <= end + step < n and an.status[end + step] == Status.BRANCH_JUMP.value):
             continue
         i = end
@@ -217,6 +214,14 @@ def through_locks(an: LoopAnalysis, at: int, compiled: bool) -> LoopAnalysis:
             an = _at_lock(an, i, j)
             break
     return an
+
+
+def _run_end(good: np.ndarray, at: int, step: int) -> int:
+    """The last position from ``at`` (included) in the direction ``step`` (1 or -1) before the first that
+    is not ``good`` ``(n,)``; ``at`` itself if the next one is not."""
+    ahead = good[at + 1:] if step == 1 else good[:at][::-1]
+    stops = np.flatnonzero(~ahead)
+    return at + step * (int(stops[0]) if stops.size else ahead.size)
 
 
 def _at_lock(an: LoopAnalysis, i: int, j: int) -> LoopAnalysis:

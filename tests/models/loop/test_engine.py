@@ -6,10 +6,12 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from dualmech.core.loop import closure_residual, evaluate
 from dualmech.models.case import load_case, preset_names, with_loads
-from dualmech.models.loop.engine import analyze_loop
+from dualmech.models.loop.engine import _run_end, analyze_loop
 from dualmech.models.loop.presets import slider_crank_start, slider_crank_table
 from dualmech.models.loop.table_format import loop_from_dict
 from dualmech.models.loop.translate import drive_state, to_loop
@@ -219,3 +221,15 @@ def test_the_branch_is_followed_through_a_universal_joints_lock(compiled: bool) 
     np.testing.assert_allclose(table["s4"][ok], s4[ok], rtol=0, atol=LOOP_VS_OWN_ENGINE * np.abs(s4).max())
     np.testing.assert_allclose(table["s4_dot"][ok], s4_dot[ok], rtol=0,
                                atol=LOOP_VS_OWN_ENGINE * np.abs(s4_dot).max())
+
+
+@given(good=st.lists(st.booleans(), min_size=1, max_size=12), data=st.data())
+def test_the_run_of_good_rows_ends_where_a_walk_would_stop(good: list[bool], data: st.DataObject) -> None:
+    """The lock test's search for the end of the rows closed on the branch (``_run_end``, whole-array) stops
+    where a walk row by row from ``at`` would: before the first row that is not good, or at either end."""
+    at = data.draw(st.integers(0, len(good) - 1))
+    for step in (1, -1):
+        end = at
+        while 0 <= end + step < len(good) and good[end + step]:
+            end += step
+        assert _run_end(np.array(good), at, step) == end
