@@ -23,11 +23,12 @@ from dualmech.core.kernel.dual_nb import INLINE, JIT, copy, tmul, trodrigues
 from dualmech.core.kernel.linalg_nb import determinant_sign, lu_sign
 from dualmech.core.kernel.loop_nb import FlatLoop, length_scale, screw_matrix
 
-#: Closure residual (relative, as :func:`~dualmech.core.kernel.loop_nb.closure_residual`) at most, where a
-#: Newton step's LU factors serve the point it steps to (:func:`close_position`): four units of
-#: roundoff.  From such a point the step is of the rounding's size, so the screw matrix at its end differs
-#: from the factored one by rounding (times ``1/c`` near an assembly limit, as the pose itself does).
-FACTORED_RESIDUAL = 4 * 2.220446049250313e-16
+#: The rounding level of the closure residual (relative, as
+#: :func:`~dualmech.core.kernel.loop_nb.closure_residual`): four units of roundoff.  A Newton step from a
+#: point closed within it is of the rounding's size: such a point is not refined, and the LU factors of
+#: such a step serve the point it steps to, whose screw matrix differs from the factored one by rounding
+#: (times ``1/c`` near an assembly limit, as the pose itself does) (:func:`close_position`).
+ROUNDING_RESIDUAL = 4 * 2.220446049250313e-16
 
 
 @njit(**JIT)
@@ -153,15 +154,16 @@ def close_position(
     code, iterations, residual, sign); the loop is left evaluated at ``x``, and where the sign is not 0 the
     LU factors of its screw matrix (dual rows over the length scale) are left in ``w.sq``, ``w.piv``.
 
-    Where the refine's last step began within :data:`FACTORED_RESIDUAL` of closure, its factors are
-    this point's to rounding (the step moved it by rounding): the sign is read from them, not from a
-    factorization of its own (:func:`_sign_held`), which would give the same sign but at a singular
-    pose, where the sign is rounding either way."""
+    A point closed within :data:`ROUNDING_RESIDUAL` (an estimate from a close neighbour on a fine grid,
+    often) is at the rounding level already and is not refined.  Where the refine's last step began within
+    it, its factors are this point's to rounding (the step moved it by rounding): the sign is read from
+    them, not from a factorization of its own (:func:`_sign_held`), which would give the same sign but at
+    a singular pose, where the sign is rounding either way."""
     code, iters, res, held = solve_closure_held(fl, vals, x, tols, w)
     factored_at = math.inf
-    if code == OK:
+    if code == OK and not (held and res <= ROUNDING_RESIDUAL):
         more, res, held, factored_at = newton_held(fl, vals, x, refine_tols, w, held)
         iters += more
-    if held and factored_at <= FACTORED_RESIDUAL and w.mat.shape[0] == w.mat.shape[1]:
+    if held and factored_at <= ROUNDING_RESIDUAL and w.mat.shape[0] == w.mat.shape[1]:
         return code, iters, res, lu_sign(w.sq, w.piv)
     return code, iters, res, _sign_held(fl, vals, w) if held else branch_sign(fl, vals, x, w)
