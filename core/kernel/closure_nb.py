@@ -170,6 +170,19 @@ def retract(n_scalar: int, x: np.ndarray, step: np.ndarray, scale: float, out: n
 
 
 @njit(**INLINE)
+def second_order_step(n_scalar: int, x: np.ndarray, q_dot: np.ndarray, q_ddot: np.ndarray, step: float,
+                      bend: float, change: np.ndarray, out: np.ndarray) -> None:
+    """``out`` = ``x`` moved ``step`` ahead in time to second order along a one-parameter motion: the change
+    ``step (q_dot + step (q_ddot - q_dot bend) / 2)`` in tangent coordinates (``bend`` the drive's
+    acceleration over its speed: the motion parameterized by the drive's value, ``x' = q_dot / d_dot``,
+    ``x'' = (q_ddot - x' d_ddot) / d_dot^2``), applied by :func:`retract` (a ball's turn by the exponential
+    map, second order too).  ``change`` ``(K,)``: scratch; ``out`` may be ``x``."""
+    for k in range(change.size):
+        change[k] = step * (q_dot[k] + 0.5 * step * (q_ddot[k] - q_dot[k] * bend))
+    retract(n_scalar, x, change, 1.0, out)
+
+
+@njit(**INLINE)
 def newton_step(
     fl: FlatLoop,
     vals: np.ndarray,

@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numba import njit
 
-from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, residual_at, retract
+from dualmech.core.kernel.closure_nb import OK, ClosureTols, Work, residual_at, second_order_step
 from dualmech.core.kernel.continuation_nb import close_position, interpolate, interpolated_guess
 from dualmech.core.kernel.dual_nb import INLINE, JIT
 from dualmech.core.kernel.loop_nb import COLUMN, VALUE_INDEX, FlatLoop, length_scale
@@ -144,11 +144,10 @@ def _estimate(i: int, lo: int, fl: FlatLoop, drive: int, values: tuple, good_pos
 def _second_order(i: int, fl: FlatLoop, drive: int, values: tuple, out: tuple, change: np.ndarray,
                   x: np.ndarray) -> None:
     """The state at position ``i`` from position ``i - 1``'s, its rates and accelerations, to second order
-    in the drive's value ``d`` (the pose is a function of ``d`` alone): ``x' = q_dot / d_dot``,
-    ``x'' = (q_ddot - x' d_ddot) / d_dot^2``, the change ``h x' + h^2 x'' / 2`` for the drive's step ``h``,
-    applied by :func:`~dualmech.core.kernel.closure_nb.retract` (a ball's turn by the exponential map,
-    second order too: its ``omega x omega`` term included).  The error is of third order in ``h``: on a
-    fine grid below the closure's rounding, so that Newton takes no step.  Where the drive stands still
+    in the drive's value (the pose is a function of it alone;
+    :func:`~dualmech.core.kernel.closure_nb.second_order_step`, over the time the drive takes at its speed).
+    The error is of third order in the step: on a fine grid below the closure's rounding, so that Newton
+    takes no step.  Where the drive stands still
     (``d_dot`` 0), the line through the states of positions ``i - 2`` and ``i - 1``
     (:func:`~dualmech.core.kernel.continuation_nb.interpolate` at ``t`` = 2)."""
     vals, vdot, vddot = values[0], values[1], values[2]
@@ -159,9 +158,7 @@ def _second_order(i: int, fl: FlatLoop, drive: int, values: tuple, out: tuple, c
         return
     h = (vals[i, drive] - vals[i - 1, drive]) / speed  # the time step at the drive's speed
     bend = vddot[i - 1, drive] / speed
-    for k in range(change.size):
-        change[k] = h * (q[i - 1, 0, k] + 0.5 * h * (q[i - 1, 1, k] - q[i - 1, 0, k] * bend))
-    retract(fl.n_scalar, xs[i - 1], change, 1.0, x)
+    second_order_step(fl.n_scalar, xs[i - 1], q[i - 1, 0], q[i - 1, 1], h, bend, change, x)
 
 
 @njit(**JIT)

@@ -156,8 +156,7 @@ def _columns(twists: list[Twist], points: np.ndarray) -> np.ndarray:
     axes = np.stack([axis for axis, _ in twists], axis=1)
     anchors = np.stack([axis if point is None else point for axis, point in twists], axis=1)
     slide = np.array([point is None for _, point in twists])
-    return _columns_rows(np.ascontiguousarray(axes, dtype=float), np.ascontiguousarray(anchors, dtype=float),
-                         slide, np.ascontiguousarray(points, dtype=float))
+    return _columns_rows(axes, anchors, slide, points)  # each stacked anew: C-contiguous
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract", "arcp"})

@@ -22,7 +22,16 @@ import numpy as np
 from numba import njit
 
 from dualmech.core.kernel import depends_on_kernel
-from dualmech.core.kernel.closure_nb import NO_ASSEMBLY, NOT_CONVERGED, OK, ClosureTols, Work, newton, retract
+from dualmech.core.kernel.closure_nb import (
+    NO_ASSEMBLY,
+    NOT_CONVERGED,
+    OK,
+    ClosureTols,
+    Work,
+    newton,
+    retract,
+    second_order_step,
+)
 from dualmech.core.kernel.dfp_nb import solve_closure
 from dualmech.core.kernel.dual_nb import ALLOC, INLINE, JIT, copy, tmul
 from dualmech.core.kernel.loop_nb import FlatLoop, closure_residual, evaluate, frame_origin, length_scale
@@ -233,10 +242,8 @@ def warm_start(
     x = sc.x[1]
     copy(sc.x[0], x)
     if step != 0.0 and bend == bend:
-        change = w.step  # scratch here: newton() starts by clearing it
-        for k in range(change.size):
-            change[k] = step * (w.q_dot[k] + 0.5 * step * (w.q_ddot[k] - w.q_dot[k] * bend))
-        retract(fl.n_scalar, x, change, 1.0, x)
+        # w.step: scratch here, newton() starts by clearing it
+        second_order_step(fl.n_scalar, x, w.q_dot, w.q_ddot, step, bend, w.step, x)
     elif step != 0.0:
         retract(fl.n_scalar, x, w.q_dot, step, x)
     set_values(rules.vidx, g, sc.vals)
