@@ -24,11 +24,13 @@ readable line.
 
 from __future__ import annotations
 
+import _thread
 import contextlib
 import functools
 import os
 import sys
 import tempfile
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -92,6 +94,11 @@ def write_traceback(err: BaseException, folder: Path | None) -> str:
 INTERNAL_VALUE_ERRORS: tuple[type[BaseException], ...] = (np.linalg.LinAlgError,)
 
 
+#: Seconds after a Ctrl-C that Python ignored (:func:`interrupts_where_python_ignores_them`) that it is
+#: raised again: long enough for the unraisable hook that saw it to return.
+REDELIVER_S = 0.01
+
+
 def one_line_errors(func: Callable) -> Callable:
     """Decorate a click command: bad input exits 2, lost workers 4, an unexpected error 70, an interrupt
     130, each with one line (the module's rules)."""
@@ -123,20 +130,28 @@ def one_line_errors(func: Callable) -> Callable:
 
 @contextlib.contextmanager
 def interrupts_where_python_ignores_them() -> Iterator[list[KeyboardInterrupt]]:
-    """Keep (in the list yielded) a Ctrl-C that lands where Python ignores exceptions, for the command to
-    end with it.
+    """Deliver again a Ctrl-C that lands where Python ignores exceptions, so that the command stops at
+    once; keep it (in the list yielded) for the command to end with, should it end first.
 
     A ``KeyboardInterrupt`` raised in a ``__del__`` or a weakref callback (the garbage collector runs them
     at any bytecode, e.g. while matplotlib draws) goes to :data:`sys.unraisablehook`, which prints
     "Exception ignored in ..." and a traceback; the command then ran on and exited 0 (seen in ``report``
-    on CI).  Other unraisable exceptions go to the previous hook as before.
+    on CI).  Told only at the command's end, a 10-minute tolerance study ran on for its 10 minutes
+    (seen on CI).  So the interrupt is raised again in the main thread (:func:`_thread.interrupt_main`)
+    :data:`REDELIVER_S` later, from a timer: raised from the hook itself, it would land in the hook (Python
+    checks for signals after each call) and be ignored again.  Other unraisable exceptions go to the
+    previous hook as before.
     """
     ignored: list[KeyboardInterrupt] = []
+    timers: list[threading.Timer] = []
     previous = sys.unraisablehook
 
     def keep(unraisable) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
             ignored.append(unraisable.exc_value)
+            timers.append(threading.Timer(REDELIVER_S, _thread.interrupt_main))
+            timers[-1].daemon = True
+            timers[-1].start()
         else:
             previous(unraisable)
 
@@ -145,6 +160,8 @@ def interrupts_where_python_ignores_them() -> Iterator[list[KeyboardInterrupt]]:
         yield ignored
     finally:
         sys.unraisablehook = previous
+        for timer in timers:  # the command ended first: it ends with the interrupt kept
+            timer.cancel()
 
 
 def on_interrupt(note: str) -> None:
