@@ -1,7 +1,8 @@
 """The Exudyn judge in the pipeline (issue 33): registered for every kind, run only where a matrix names it
 (``OPT_IN``), held to its own Richardson-derived tolerances by each kind's gate; the bundled matrices
 ``five-engines`` (the RSSR, the RCCC, two loop tables) and ``five-engines-slider-crank`` (the slider crank
-and its joint variants) pass, and a fault in the Exudyn judge's table of any kind fails them."""
+and its joint variants; here on a quarter turn, the whole turn in CI's own step) pass, and a fault in the
+Exudyn judge's table of any kind fails them."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ import dualmech
 from dualmech.models.linkages import linkage_case, read_linkage
 from dualmech.validation.engines import DEFAULT_ENGINES, ENGINES, solves
 from dualmech.validation.matrix import load_matrix, parse_matrix
+from dualmech.validation.matrix.parse import matrix_path
 from dualmech.validation.tolerances import EXUDYN_KINEMATICS, EXUDYN_REACTIONS
 from tests.engine_faults import fault_engine
 from tests.fuzz_harness import toml_text
@@ -45,11 +47,23 @@ def test_the_five_engine_matrix_passes_with_exudyn_at_its_own_tolerances(tmp_pat
     assert all(c.n_compared == rows[c.case] for c in checks if c.quantity != "engine")
 
 
-def test_the_five_engine_slider_crank_matrix_passes(tmp_path: Path) -> None:
-    run = dualmech.validate("five-engines-slider-crank", tmp_path / "run")
+#: The bundled slider crank matrix's line that the test below narrows to a quarter turn.
+SLIDER_CRANK_SET = 'set = { "simulation.steps_per_degree" = 32 }'
+
+
+def test_the_five_engine_slider_crank_matrix_passes_on_a_quarter_turn(tmp_path: Path) -> None:
+    """The bundled matrix, its crank angles narrowed to 0-90 degrees: the Exudyn judge takes 10-30 s a case
+    over the whole turn.  The whole turn is CI's step ``dualmech validate five-engines-slider-crank``."""
+    text = matrix_path("five-engines-slider-crank").read_text()
+    assert SLIDER_CRANK_SET in text
+    matrix = tmp_path / "five-engines-slider-crank.toml"
+    matrix.write_text(text.replace(SLIDER_CRANK_SET, SLIDER_CRANK_SET[:-1] + ', "motion.angles_deg" = '
+                                   '{ start = 0.0, stop = 90.0, step = 2.0 } }'))
+    run = dualmech.validate(matrix, tmp_path / "run")
     assert str(run.verdict) == "PASS", run.comparison.failures()
     checks = [c for c in run.comparison.checks if c.engine == "exudyn"]
     assert len({c.case for c in checks}) == 6  # three designs in both load modes
+    assert {(c.n_compared, c.n_excluded) for c in checks if c.quantity == "S4"} == {(45, 0)}  # 0, 2 .. 88 deg
     held = {c.tolerance.name for c in checks if c.quantity in ("S4", "j1_fx")}
     assert held == {"EXUDYN_KINEMATICS", "EXUDYN_REACTIONS"}
 
