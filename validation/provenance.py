@@ -10,6 +10,7 @@ dualmech code, so ``validate --resume`` recomputes whatever any of them changed.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import json
@@ -59,14 +60,31 @@ def key_versions(run: dict) -> dict[str, str]:
 
 
 def machine() -> dict:
-    """The computer a run happened on."""
+    """The computer a run happened on: ``host`` (its network name), ``platform`` (operating system,
+    release, architecture), ``processor`` (:func:`processor`), ``cpus`` (logical processors, all of them,
+    not only those this process may use) and ``python`` (its version)."""
     return {
         "host": platform.node(),
         "platform": platform.platform(),
-        "processor": platform.processor() or platform.machine(),
+        "processor": processor(),
         "cpus": os.cpu_count(),
         "python": platform.python_version(),
     }
+
+
+def processor() -> str:
+    """The processor's model name (Linux: ``/proc/cpuinfo``'s ``model name``, e.g. ``AMD EPYC``), else the
+    machine's architecture (``x86_64``, ``aarch64``).
+
+    Not :func:`platform.processor`: on Linux it runs ``uname -p`` (a process of its own, in every run),
+    which says ``unknown`` on most systems."""
+    with contextlib.suppress(OSError):
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                key, _, value = line.partition(":")
+                if key.strip() == "model name" and value.strip():
+                    return value.strip()
+    return platform.machine()
 
 
 def _source_root() -> Path:

@@ -24,6 +24,7 @@ from dualmech.validation.compare.tables import compared_columns, relative_differ
 from dualmech.validation.exit_codes import EXIT_PASS
 from dualmech.validation.matrix import load_matrix
 from dualmech.validation.matrix.tolerances import group_tolerances
+from dualmech.validation.provenance import machine
 from dualmech.validation.report.tables import table_specs
 from tests.engine_faults import fault_engine
 from tests.validation.runs import run_cases, table_figures
@@ -177,6 +178,9 @@ def test_dead_centres_tolerances_and_environment_are_the_runs(tmp_path,
     assert f"with {run['jobs']} job(s)" in environment
     for engine, target in run["registry"].items():
         assert f"{engine} = {_escaped(target)}" in environment
+    assert run["machine"] == machine()  # held to the system's tools in tests/validation/test_provenance.py
+    shown = "; ".join(f"{k}: {v}" for k, v in run["machine"].items())
+    assert f"- machine: {_escaped(shown)}" in environment
 
 
 def test_the_overlay_figure_is_every_engines_output_and_ratio(tmp_path) -> None:
