@@ -187,7 +187,17 @@ def test_ctrl_c_while_a_command_ends_its_pools_is_one_line_and_130(monkeypatch):
     assert res.exit_code == EXIT_INTERRUPTED and "interrupted" not in res.output
 
 
-def test_ctrl_c_where_python_ignores_exceptions_ends_the_command_at_once_with_130():
+@pytest.fixture
+def sigint_handled():
+    """SIGINT handled by Python's own handler, as at a terminal: a test run as a background job has it
+    ignored, and then nothing can deliver an interrupt again (:func:`_thread.interrupt_main` does
+    nothing)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_ctrl_c_where_python_ignores_exceptions_ends_the_command_at_once_with_130(sigint_handled):
     """A Ctrl-C landing in a ``__del__`` or a weakref callback (the garbage collector runs them anywhere)
     was "Exception ignored in ..." with a traceback, and the command ran on to exit 0 (``report`` on CI).
     Then it was told only at the command's end: a tolerance study of 3,907 chunks ran on (CI)."""
@@ -215,7 +225,8 @@ def test_ctrl_c_where_python_ignores_exceptions_ends_the_command_at_once_with_13
     assert len(steps) <= 1, f"the command ran on for {len(steps)} steps"
 
 
-def test_ctrl_c_where_python_ignores_exceptions_in_a_command_that_ends_first_is_told_once():
+def test_ctrl_c_where_python_ignores_exceptions_in_a_command_that_ends_first_is_told_once(
+        sigint_handled):
     """The command ends before the interrupt is raised again: it ends with the one kept, and the one
     scheduled is called off (not raised into whatever runs next)."""
     import click
