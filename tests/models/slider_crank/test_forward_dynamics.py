@@ -330,7 +330,7 @@ def test_hostile_expressions_fail_at_parse_time_in_one_line(text, words):
     assert "\n" not in msg and len(msg) < 300, msg
     for w in words:
         assert w in msg, (w, msg)
-    assert time.perf_counter() - start < 0.5
+    assert time.perf_counter() - start < 5.0  # a bound on a hang (9**9**9 runs for hours), not a speed test
 
 
 def test_expression_values_outside_the_reals_fail_with_the_state():
