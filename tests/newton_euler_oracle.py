@@ -34,7 +34,8 @@ def kinematics(case, theta: np.ndarray) -> dict[str, np.ndarray]:
     q = kd**2 - (d * d).sum(1) + a2**2
     qd = 2 * kd * kv - 2 * (d * v2).sum(1)
     qdd = 2 * kv**2 + 2 * kd * ka - 2 * (v2 * v2).sum(1) - 2 * (d * acc2).sum(1)
-    r = np.sqrt(q)
+    with np.errstate(invalid="ignore"):
+        r = np.sqrt(q)  # NaN where the rod cannot reach the slider line (q < 0): no assembly
     s4, s4d, s4dd = -kd + r, -kv + qd / (2 * r), -ka + qdd / (2 * r) - qd**2 / (4 * r**3)
     p3 = np.array([-a4, 0.0, 0.0]) - s4[:, None] * k
     v3, acc3 = -s4d[:, None] * k, -s4dd[:, None] * k

@@ -91,13 +91,17 @@ def _garbage_versions() -> dict[tuple[object, str], Callable]:
 
 @contextmanager
 def _garbage() -> Iterator[int]:
-    """Patch every reference to the in-house start functions (their modules and every loaded module that
-    imported them) with :func:`_garbage_versions`; yields how many references were patched."""
+    """Patch every reference to the in-house start functions (their modules and every loaded module of
+    dualmech or of the tests that imported them) with :func:`_garbage_versions`; yields how many references
+    were patched.  (Other libraries cannot import them; reading their modules' attributes woke mpmath's
+    deprecated ones, 176 warnings a run.)"""
     patched = 0
+    ours = [m for m in list(sys.modules.values())
+            if getattr(m, "__name__", "").partition(".")[0] in ("dualmech", "tests")]
     with pytest.MonkeyPatch.context() as mp:
         for (home, name), fake in _garbage_versions().items():
             real = getattr(home, name)
-            for module in list(sys.modules.values()):
+            for module in ours:
                 if getattr(module, name, None) is real:
                     mp.setattr(module, name, fake)
                     patched += 1
