@@ -95,11 +95,14 @@ def _columns(name: str, mine: np.ndarray, ref: np.ndarray, rows: np.ndarray,
 def _edge_gains(mine: LoopAnalysis, ref: LoopAnalysis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per row, how much the closure's conditioning widens the tolerance of positions, rates and
     accelerations: the two engines' poses are apart by up to their two closure residuals, which reach them
-    times 1/c, 1/c^2, 1/c^3 (c the closure Jacobian's smallest over largest singular value); at least
-    LOOP_EDGE_ROUNDING, as the loop engine's own tests.  (A random RRSRR, seed 34909, closes a row to
-    1.5e-13 in one engine and 8.2e-14 in the other, its floor of rounding: at c = 0.1 its rates are 1.3e-12
-    of their peak apart.)"""
-    sv = np.linalg.svd(closure_jacobian(ref.loop, ref.drive.values, ref.state), compute_uv=False)
+    times 1/c, 1/c^2, 1/c^3 (c the smallest over the largest singular value of the closure Jacobian with
+    its columns scaled to unit length: each unknown is compared to its own peak, so its unit must not count;
+    unscaled, a slide's column over the length scale made c ~0.01 at every row of the slider crank's table);
+    at least LOOP_EDGE_ROUNDING, as the loop engine's own tests.  (A random RRSRR, seed 34909, closes a row
+    to 1.5e-13 in one engine and 8.2e-14 in the other, its floor of rounding: at c = 0.1 its rates are
+    1.3e-12 of their peak apart.)"""
+    jac = closure_jacobian(ref.loop, ref.drive.values, ref.state)
+    sv = np.linalg.svd(jac / np.linalg.norm(jac, axis=-2, keepdims=True), compute_uv=False)
     c = sv[:, -1] / sv[:, 0]
     apart = np.maximum(LOOP_EDGE_ROUNDING, np.nan_to_num(mine.residual) + np.nan_to_num(ref.residual))
     return tuple(np.maximum(1.0, apart / KERNEL_VS_NUMPY_LOOP / c**k) for k in (1, 2, 3))
@@ -152,8 +155,6 @@ def assert_same(mine: LoopAnalysis, ref: LoopAnalysis) -> None:
                  np.stack([t.stacked() for t in getattr(ref.rates, what)], axis=1), closed, gain)
     w, r = mine.wrenches, ref.wrenches
     _columns("transmission", w.transmission, r.transmission, closed, accel)
-    # already relative to the equations' size: rounding noise (or the real misfit of a spinning link)
-    _close("dynamics residual", w.residual, r.residual, ok, 1.0, accel)
     # lengths: a point moves by its pose's error times the loop's extent, whatever its own coordinate (a
     # joint's point 0.037 from an axis, on a loop 0.4 long: 8.7e-14 apart at the row above)
     points, want = w.point.reshape(w.point.shape[0], -1), r.point.reshape(r.point.shape[0], -1)
@@ -163,6 +164,9 @@ def assert_same(mine: LoopAnalysis, ref: LoopAnalysis) -> None:
     # reactions: one least-squares solve per row, its rounding scaled by the largest unknown of a unit and
     # by 1/|t| near a dead centre
     gain = np.maximum(accel, LOOP_REACTIONS_ROUNDING / KERNEL_VS_NUMPY_LOOP / np.abs(r.transmission))
+    # the same solve's misfit, relative to the equations' size: rounding noise (or the real misfit of a
+    # spinning link), which grows as the reactions' beside a dead centre (7e-12 at |t| = 6.4e-6)
+    _close("dynamics residual", w.residual, r.residual, ok, 1.0, gain)
     peak = {"f": np.abs(r.force[ok]).max(initial=0.0), "m": np.abs(r.moment[ok]).max(initial=0.0)}
     for what in ("force", "moment"):
         for j in range(r.force.shape[1]):
