@@ -149,9 +149,10 @@ def interrupts_where_python_ignores_them() -> Iterator[list[KeyboardInterrupt]]:
     def keep(unraisable) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
             ignored.append(unraisable.exc_value)
-            timers.append(threading.Timer(REDELIVER_S, _thread.interrupt_main))
-            timers[-1].daemon = True
-            timers[-1].start()
+            timer = threading.Timer(REDELIVER_S, _thread.interrupt_main)
+            timer.daemon = True
+            timer.start()
+            timers.append(timer)
         else:
             previous(unraisable)
 

@@ -187,6 +187,14 @@ def test_ctrl_c_while_a_command_ends_its_pools_is_one_line_and_130(monkeypatch):
     assert res.exit_code == EXIT_INTERRUPTED and "interrupted" not in res.output
 
 
+class CtrlCWhileCollected:
+    """An object whose collection meets a Ctrl-C: its ``__del__`` raises what the SIGINT handler raises if
+    the signal arrives there."""
+
+    def __del__(self) -> None:
+        raise KeyboardInterrupt
+
+
 @pytest.fixture
 def sigint_handled():
     """SIGINT handled by Python's own handler, as at a terminal: a test run as a background job has it
@@ -205,16 +213,12 @@ def test_ctrl_c_where_python_ignores_exceptions_ends_the_command_at_once_with_13
 
     from dualmech.cli.errors import one_line_errors
 
-    class Collected:
-        def __del__(self):
-            raise KeyboardInterrupt  # what the SIGINT handler raises if the signal arrives here
-
     steps = []
 
     @click.command()
     @one_line_errors
     def cmd():
-        Collected()
+        CtrlCWhileCollected()
         for step in range(500):  # a long command's next steps: 5 s
             time.sleep(0.01)
             steps.append(step)
@@ -233,16 +237,11 @@ def test_ctrl_c_where_python_ignores_exceptions_in_a_command_that_ends_first_is_
 
     from dualmech.cli.errors import REDELIVER_S, one_line_errors
 
-    class Collected:
-        def __del__(self):
-            raise KeyboardInterrupt
-
     @click.command()
     @one_line_errors
     def cmd():
-        Collected()
+        CtrlCWhileCollected()
 
     res = CliRunner().invoke(cmd, [])
     assert res.exit_code == EXIT_INTERRUPTED and res.output == "dualmech: interrupted\n", res.output
     time.sleep(20 * REDELIVER_S)  # a KeyboardInterrupt raised here fails the test
-
